@@ -1,0 +1,64 @@
+"""Speech audio: any WAV in, 16 kHz mono float32 out.
+
+soundfile reads every PCM/float WAV flavour; soxr does the band-limited resampling
+(both are small wheels with no system dependency).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from blendvoca.io.atomic import atomic_write
+
+SAMPLE_RATE = 16000
+
+
+def resample_audio(samples: np.ndarray, rate_in: int, rate_out: int = SAMPLE_RATE) -> np.ndarray:
+    """Resample mono ``(N,)`` audio from ``rate_in`` to ``rate_out`` Hz (float32)."""
+    samples = np.asarray(samples, dtype=np.float32)
+    if samples.ndim != 1:
+        raise ValueError(f"resample_audio expects mono (N,) samples, got shape {samples.shape}")
+    if int(rate_in) == int(rate_out):
+        return samples
+    import soxr
+
+    return soxr.resample(samples, int(rate_in), int(rate_out), quality="HQ").astype(np.float32)
+
+
+def to_mono(samples: np.ndarray) -> np.ndarray:
+    """Average the channels of ``(N, C)`` audio; ``(N,)`` passes through."""
+    samples = np.asarray(samples, dtype=np.float32)
+    return samples.mean(axis=1) if samples.ndim == 2 else samples
+
+
+def read_wav(path) -> tuple[np.ndarray, int]:
+    """Samples ``(N,)`` or ``(N, C)`` float32 in [-1, 1] and the native rate."""
+    import soundfile
+
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"audio file not found: {path}")
+    try:
+        samples, rate = soundfile.read(str(path), dtype="float32", always_2d=False)
+    except RuntimeError as error:  # soundfile raises LibsndfileError(RuntimeError)
+        raise ValueError(f"{path}: not a readable audio file: {error}") from None
+    return samples, int(rate)
+
+
+def load_audio(path, rate: int = SAMPLE_RATE) -> np.ndarray:
+    """Any WAV file as mono float32 at ``rate`` Hz (16 kHz by default), ``(N,)``."""
+    samples, native = read_wav(path)
+    return resample_audio(to_mono(samples), native, rate)
+
+
+def write_wav(path, samples: np.ndarray, rate: int = SAMPLE_RATE) -> None:
+    """Write mono or ``(N, C)`` float audio in [-1, 1] as 16-bit PCM WAV, atomically."""
+    import soundfile
+
+    samples = np.asarray(samples, dtype=np.float32)
+    if not np.all(np.isfinite(samples)):
+        raise ValueError(f"{path}: audio contains NaN or infinite samples")
+    with atomic_write(path, "wb") as f:
+        soundfile.write(f, np.clip(samples, -1.0, 1.0), int(rate), subtype="PCM_16", format="WAV")
