@@ -20,7 +20,7 @@ def test_manifest_covers_every_mirrored_file(assets_dir):
 
 def test_resolve_finds_and_verifies(assets_dir):
     path = resolve("said-vae")
-    assert path == assets_dir / "said" / "vae.pth"
+    assert path.resolve() == (assets_dir / "said" / "vae.pth").resolve()
     assert len(assets.load_index_list("flame-head-idx")) == 4580
 
 
