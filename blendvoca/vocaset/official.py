@@ -1,0 +1,196 @@
+"""The official VOCASET download layout.
+
+::
+
+    templates/<subject>.ply
+    unposedcleaneddata/<subject>/sentenceNN/sentenceNN.NNNNNN.ply   (60 fps)
+    audio/<subject>/sentenceNN.wav
+
+Frame files are numbered (1-based in the real data); they are sorted by number
+and a gap in the numbering is reported. Frame PLYs may carry faces or be
+vertex-only; only the vertex block is read (``read_ply_sequence``).
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+
+from blendvoca.io.audio import read_wav, to_mono
+from blendvoca.io.mesh import MeshFormatError, read_ply, read_ply_sequence, read_ply_vertices
+from blendvoca.vocaset.checks import frame_gaps, wav_truncation
+from blendvoca.vocaset.corpus import VocasetCorpus
+from blendvoca.vocaset.errors import Problem, VocasetError
+
+_FRAME = re.compile(r"^(?P<sentence>.+)\.(?P<number>\d+)\.ply$")
+
+
+def _dirs(path: Path) -> list[str]:
+    return sorted(p.name for p in path.iterdir() if p.is_dir()) if path.is_dir() else []
+
+
+def frame_files(sentence_dir: Path) -> tuple[list[Path], np.ndarray]:
+    """The frame PLYs of one sentence folder sorted by frame number, and the numbers ``(T,) int64``."""
+    found = []
+    if sentence_dir.is_dir():
+        for p in sentence_dir.iterdir():
+            m = _FRAME.match(p.name)
+            if m:
+                found.append((int(m["number"]), p))
+    found.sort()
+    return [p for _, p in found], np.array([n for n, _ in found], dtype=np.int64)
+
+
+class OfficialVocaset(VocasetCorpus):
+    """Reader of the official layout (see module docstring)."""
+
+    layout = "official"
+
+    def __init__(self, root, **kwargs):
+        super().__init__(root, **kwargs)
+        mesh_root, audio_root, template_root = (self.root / "unposedcleaneddata", self.root / "audio",
+                                                self.root / "templates")
+        templates = {p.stem for p in template_root.glob("*.ply")} if template_root.is_dir() else set()
+        subjects = sorted(set(_dirs(mesh_root)) | set(_dirs(audio_root)) | templates)
+        self._subjects = subjects
+        self._frames: dict[tuple[str, str], tuple[list[Path], np.ndarray]] = {}
+        self._sentences: dict[str, list[str]] = {}
+        audio_names: dict[str, set[str]] = {}
+        for subject in subjects:
+            names = []
+            for sentence in _dirs(mesh_root / subject):
+                paths, numbers = frame_files(mesh_root / subject / sentence)
+                if not paths:
+                    continue
+                self._frames[subject, sentence] = (paths, numbers)
+                names.append(sentence)
+                gaps = frame_gaps(numbers)
+                if gaps:
+                    first = int(np.searchsorted(numbers, gaps[0]))
+                    self._record(Problem(subject, sentence, first, "missing_frame",
+                                         f"{mesh_root / subject / sentence}: frame files {gaps[:5]}"
+                                         f"{'...' if len(gaps) > 5 else ''} missing ({len(gaps)} in all)"))
+            self._sentences[subject] = names
+            audio_names[subject] = ({p.stem for p in (audio_root / subject).glob("*.wav")}
+                                    if (audio_root / subject).is_dir() else set())
+            if subject not in templates:
+                self._record(Problem(subject, None, None, "missing_template",
+                                     f"{template_root / (subject + '.ply')} not found"))
+        every = set().union(*self._sentences.values(), *audio_names.values()) if subjects else set()
+        for subject in subjects:
+            have = set(self._sentences[subject])
+            for sentence in sorted(have - audio_names[subject]):
+                self._record(Problem(subject, sentence, None, "missing_audio",
+                                     f"{audio_root / subject / (sentence + '.wav')} not found"))
+            for sentence in sorted(every - have):
+                why = ("audio present but no mesh frames" if sentence in audio_names[subject]
+                       else "present for other subjects")
+                self._record(Problem(subject, sentence, None, "missing_sentence",
+                                     f"{mesh_root / subject / sentence}: no frames ({why})"))
+        self._faces = None
+
+    @property
+    def subjects(self) -> list[str]:
+        return list(self._subjects)
+
+    def sentences(self, subject: str) -> list[str]:
+        """Sentences of ``subject`` that have mesh frames, sorted (``sentence01`` ...)."""
+        self._check_subject(subject)
+        return list(self._sentences[subject])
+
+    def frame_paths(self, subject: str, sentence: str) -> list[Path]:
+        """The PLY files of one sentence in frame order."""
+        self._check_subject(subject)
+        if (subject, sentence) not in self._frames:
+            self._fail("missing_sentence", subject, sentence,
+                       f"{self.root / 'unposedcleaneddata' / subject / sentence}: no frame files")
+        return list(self._frames[subject, sentence][0])
+
+    def num_frames(self, subject: str, sentence: str) -> int:
+        return len(self.frame_paths(subject, sentence))
+
+    def template(self, subject: str) -> np.ndarray:
+        """Neutral mesh of ``subject``, ``(V, 3) float64``."""
+        self._check_subject(subject)
+        path = self.root / "templates" / f"{subject}.ply"
+        if not path.is_file():
+            self._fail("missing_template", subject, None, f"{path} not found")
+        try:
+            V = read_ply_vertices(path)
+        except MeshFormatError as error:
+            self._fail("truncated" if "truncated" in str(error) else "unreadable", subject, None, str(error))
+        if V.shape != (self.num_vertices, 3):
+            self._fail("vertex_count", subject, None, f"{path}: {len(V)} vertices, expected {self.num_vertices}")
+        if not np.isfinite(V).all():
+            self._fail("nan", subject, None, f"{path}: NaN or infinite coordinates")
+        return V
+
+    @property
+    def faces(self) -> np.ndarray:
+        """Triangles ``(F, 3) int64`` of the shared topology, from the first readable template."""
+        if self._faces is None:
+            for subject in self._subjects:
+                path = self.root / "templates" / f"{subject}.ply"
+                try:
+                    V, F = read_ply(path)
+                except (OSError, MeshFormatError):
+                    continue
+                if len(F) and len(V) == self.num_vertices:
+                    self._faces = F
+                    break
+            else:
+                from blendvoca.assets import resolve
+
+                self._faces = read_ply(resolve("flame-sample"))[1]
+        return self._faces
+
+    def frames(self, subject: str, sentence: str) -> np.ndarray:
+        """Mesh sequence ``(T, V, 3) float64`` at 60 fps.
+
+        Raises
+        ------
+        VocasetError
+            Missing sentence or frame files, a truncated or unreadable frame, a
+            wrong vertex count, NaNs; naming subject, sentence and frame.
+        """
+        paths = self.frame_paths(subject, sentence)
+        for p in self.problems:
+            if (p.subject, p.sentence, p.kind) == (subject, sentence, "missing_frame"):
+                raise VocasetError(p)
+        try:
+            frames = read_ply_sequence(paths, num_vertices=self.num_vertices)
+        except (MeshFormatError, OSError):
+            self._locate_bad_frame(subject, sentence, paths)
+            raise  # not reached: _locate_bad_frame raises
+        return self._check_frames(subject, sentence, frames, str(paths[0].parent))
+
+    def _locate_bad_frame(self, subject: str, sentence: str, paths: list[Path]) -> None:
+        for t, path in enumerate(paths):
+            try:
+                V = read_ply_vertices(path)
+            except MeshFormatError as error:
+                kind = "truncated" if "truncated" in str(error) else "unreadable"
+                self._fail(kind, subject, sentence, str(error), frame=t)
+            except OSError as error:
+                self._fail("unreadable", subject, sentence, f"{path}: {error}", frame=t)
+            if len(V) != self.num_vertices:
+                self._fail("vertex_count", subject, sentence,
+                           f"{path}: {len(V)} vertices, expected {self.num_vertices}", frame=t)
+        self._fail("unreadable", subject, sentence, f"{paths[0].parent}: frames do not stack")
+
+    def audio(self, subject: str, sentence: str) -> tuple[np.ndarray, int]:
+        """Speech of one sentence at its native rate: ``(samples (N,) float32 mono, rate)``."""
+        self._check_subject(subject)
+        path = self.root / "audio" / subject / f"{sentence}.wav"
+        if not path.is_file():
+            self._fail("missing_audio", subject, sentence, f"{path} not found")
+        why = wav_truncation(path)
+        if why is not None:
+            self._fail("truncated", subject, sentence, f"{path}: {why}")
+        try:
+            samples, rate = read_wav(path)
+        except (ValueError, OSError) as error:
+            self._fail("unreadable", subject, sentence, str(error))
+        return to_mono(samples).astype(np.float32), rate

@@ -1,0 +1,194 @@
+"""The processed VOCASET layout that VOCA and FaceFormer use.
+
+::
+
+    data_verts.npy        (N, 5023, 3) every frame of every sentence, 60 fps (memory-mapped)
+    subj_seq_to_idx.pkl   {subject: {"sentenceNN": {frame (0-based int): row of data_verts}}}
+    raw_audio_fixed.pkl   {subject: {"sentenceNN": {"audio": (n,) int16 or float, "sample_rate": int}}}
+    templates.pkl         {subject: (5023, 3)}
+
+VOCA's pickles were written by Python 2, so they are read with
+``encoding="latin1"``. Integer sentence keys (some re-exports use them) are read
+as ``sentenceNN``. A truncated ``data_verts.npy`` is mapped as far as it goes:
+frames beyond the end are reported, the others still read.
+"""
+
+from __future__ import annotations
+
+import pickle
+from pathlib import Path
+
+import numpy as np
+
+from blendvoca.vocaset.checks import frame_gaps
+from blendvoca.vocaset.corpus import VocasetCorpus
+from blendvoca.vocaset.errors import Problem
+
+FILES = ("data_verts.npy", "subj_seq_to_idx.pkl", "raw_audio_fixed.pkl", "templates.pkl")
+
+
+def sentence_name(key) -> str:
+    """``"sentence07"`` for ``7``, ``"7"`` or ``"sentence07"``."""
+    if isinstance(key, (int, np.integer)) or (isinstance(key, str) and key.isdigit()):
+        return f"sentence{int(key):02d}"
+    return str(key)
+
+
+def open_rows(path) -> tuple[np.ndarray, int]:
+    """Memory-map a ``.npy`` file as far as its data goes.
+
+    Returns
+    -------
+    rows : ndarray (memmap)
+        The first ``available`` rows, shape ``(available, *shape[1:])``.
+    declared : int
+        The number of rows the header declares.
+    """
+    path = Path(path)
+    with open(path, "rb") as f:
+        version = np.lib.format.read_magic(f)
+        read_header = np.lib.format.read_array_header_1_0 if version == (1, 0) else np.lib.format.read_array_header_2_0
+        shape, fortran, dtype = read_header(f)
+        offset = f.tell()
+    if fortran:
+        raise ValueError(f"{path}: Fortran-ordered arrays are not supported; expected C order (N, V, 3)")
+    row_shape = tuple(shape[1:])
+    row_bytes = int(np.prod(row_shape, dtype=np.int64)) * dtype.itemsize
+    available = min(shape[0], (path.stat().st_size - offset) // max(row_bytes, 1))
+    if available == 0:
+        return np.zeros((0, *row_shape), dtype=dtype), shape[0]
+    rows = np.memmap(path, dtype=dtype, mode="r", offset=offset, shape=(available, *row_shape))
+    return rows, shape[0]
+
+
+def _load_pickle(path: Path):
+    with open(path, "rb") as f:
+        return pickle.load(f, encoding="latin1")
+
+
+class ProcessedVocaset(VocasetCorpus):
+    """Reader of the processed layout (see module docstring)."""
+
+    layout = "processed"
+
+    def __init__(self, root, **kwargs):
+        super().__init__(root, **kwargs)
+        missing = [name for name in FILES if not (self.root / name).is_file()]
+        if missing:
+            raise FileNotFoundError(f"{self.root}: processed VOCASET layout lacks {missing}; expected all of {list(FILES)}")
+        verts_path = self.root / "data_verts.npy"
+        self._rows, self._declared = open_rows(verts_path)
+        if self._rows.ndim == 2 and self._rows.shape[1] == 3 * self.num_vertices:
+            self._rows = self._rows.reshape(len(self._rows), self.num_vertices, 3)
+        index = _load_pickle(self.root / "subj_seq_to_idx.pkl")
+        self._audio = {s: {sentence_name(k): v for k, v in d.items()}
+                       for s, d in _load_pickle(self.root / "raw_audio_fixed.pkl").items()}
+        self._templates = _load_pickle(self.root / "templates.pkl")
+        self._index: dict[tuple[str, str], np.ndarray] = {}
+        self._sentences: dict[str, list[str]] = {}
+        subjects = sorted(set(index) | set(self._audio) | set(self._templates))
+        self._subjects = subjects
+        for subject in subjects:
+            names = []
+            for key, frames in sorted((index.get(subject) or {}).items(), key=lambda kv: sentence_name(kv[0])):
+                sentence = sentence_name(key)
+                if not frames:
+                    continue
+                numbers = np.array(sorted(frames), dtype=np.int64)
+                self._index[subject, sentence] = np.array([frames[n] for n in numbers], dtype=np.int64)
+                names.append(sentence)
+                gaps = frame_gaps(numbers)
+                if gaps or numbers[0] != 0:
+                    self._record(Problem(subject, sentence, int(gaps[0]) if gaps else 0, "missing_frame",
+                                         f"subj_seq_to_idx.pkl: frame keys {(gaps or list(range(numbers[0])))[:5]} missing"))
+            self._sentences[subject] = names
+            if subject not in self._templates:
+                self._record(Problem(subject, None, None, "missing_template", "templates.pkl has no entry"))
+        every = set().union(*self._sentences.values(), *(set(d) for d in self._audio.values())) if subjects else set()
+        for subject in subjects:
+            have = set(self._sentences[subject])
+            audio = set(self._audio.get(subject, {}))
+            for sentence in sorted(have - audio):
+                self._record(Problem(subject, sentence, None, "missing_audio", "raw_audio_fixed.pkl has no entry"))
+            for sentence in sorted(every - have):
+                why = "audio present but no frames" if sentence in audio else "present for other subjects"
+                self._record(Problem(subject, sentence, None, "missing_sentence",
+                                     f"subj_seq_to_idx.pkl has no frames ({why})"))
+        if self._declared > len(self._rows):
+            # Name the affected sentences now: this is found without reading any frame.
+            for (subject, sentence), rows in self._index.items():
+                beyond = np.flatnonzero(rows >= len(self._rows))
+                if len(beyond):
+                    self._record(Problem(subject, sentence, int(beyond[0]), "truncated",
+                                         f"{verts_path}: header declares {self._declared} frames, "
+                                         f"the file holds {len(self._rows)}"))
+
+    @property
+    def subjects(self) -> list[str]:
+        return list(self._subjects)
+
+    def sentences(self, subject: str) -> list[str]:
+        """Sentences of ``subject`` that have frames, sorted."""
+        self._check_subject(subject)
+        return list(self._sentences[subject])
+
+    def frame_rows(self, subject: str, sentence: str) -> np.ndarray:
+        """Rows of ``data_verts.npy`` holding the sentence's frames, ``(T,) int64`` in frame order."""
+        self._check_subject(subject)
+        if (subject, sentence) not in self._index:
+            self._fail("missing_sentence", subject, sentence, "subj_seq_to_idx.pkl has no frames")
+        return self._index[subject, sentence]
+
+    def num_frames(self, subject: str, sentence: str) -> int:
+        return len(self.frame_rows(subject, sentence))
+
+    def template(self, subject: str) -> np.ndarray:
+        """Neutral mesh of ``subject``, ``(V, 3) float64``."""
+        self._check_subject(subject)
+        if subject not in self._templates:
+            self._fail("missing_template", subject, None, "templates.pkl has no entry")
+        V = np.asarray(self._templates[subject], dtype=np.float64)
+        if V.shape != (self.num_vertices, 3):
+            self._fail("vertex_count", subject, None, f"templates.pkl: shape {V.shape}, expected ({self.num_vertices}, 3)")
+        if not np.isfinite(V).all():
+            self._fail("nan", subject, None, "templates.pkl: NaN or infinite coordinates")
+        return V
+
+    @property
+    def faces(self) -> np.ndarray:
+        """FLAME triangles ``(9976, 3) int64`` (the processed layout stores none: asset ``flame-sample``)."""
+        if getattr(self, "_faces", None) is None:
+            from blendvoca.assets import resolve
+            from blendvoca.io.mesh import read_ply
+
+            self._faces = read_ply(resolve("flame-sample"))[1]
+        return self._faces
+
+    def frames(self, subject: str, sentence: str) -> np.ndarray:
+        """Mesh sequence ``(T, V, 3) float64`` at 60 fps (see ``VocasetError`` for bad items)."""
+        rows = self.frame_rows(subject, sentence)
+        for p in self.problems:
+            if (p.subject, p.sentence) == (subject, sentence) and p.kind in ("missing_frame", "truncated"):
+                from blendvoca.vocaset.errors import VocasetError
+
+                raise VocasetError(p)
+        if rows.min() < 0:
+            self._fail("unreadable", subject, sentence, f"subj_seq_to_idx.pkl: negative row {rows.min()}")
+        frames = np.asarray(self._rows[rows], dtype=np.float64)
+        return self._check_frames(subject, sentence, frames, "data_verts.npy")
+
+    def audio(self, subject: str, sentence: str) -> tuple[np.ndarray, int]:
+        """Speech at its native rate: ``(samples (N,) float32 mono, rate)``; int16 is scaled by 1/32768."""
+        self._check_subject(subject)
+        entry = self._audio.get(subject, {}).get(sentence)
+        if entry is None:
+            self._fail("missing_audio", subject, sentence, "raw_audio_fixed.pkl has no entry")
+        try:
+            samples, rate = np.asarray(entry["audio"]), int(entry["sample_rate"])
+        except (KeyError, TypeError) as error:
+            self._fail("unreadable", subject, sentence, f"raw_audio_fixed.pkl: entry lacks 'audio'/'sample_rate' ({error})")
+        if np.issubdtype(samples.dtype, np.integer):
+            samples = samples.astype(np.float32) / float(np.iinfo(samples.dtype).max + 1)
+        if samples.ndim == 2:
+            samples = samples.mean(axis=1)
+        return samples.astype(np.float32), rate
