@@ -1,0 +1,48 @@
+"""Input validation shared by the fitting functions (private)."""
+
+from __future__ import annotations
+
+import numbers
+
+import numpy as np
+
+
+def as_float_array(value, name: str, ndim: int, where: str) -> np.ndarray:
+    """Return ``value`` as a finite float64 array with ``ndim`` dimensions.
+
+    Raises
+    ------
+    TypeError
+        If ``value`` is not numeric.
+    ValueError
+        If the number of dimensions is wrong or it holds NaN / inf.
+    """
+    try:
+        array = np.asarray(value)
+    except Exception as exc:  # pragma: no cover - numpy accepts nearly anything
+        raise TypeError(f"{where}: {name} must be array-like, got {type(value).__name__}") from exc
+    if array.dtype == object or not (
+        np.issubdtype(array.dtype, np.floating) or np.issubdtype(array.dtype, np.integer)
+    ):
+        raise TypeError(f"{where}: {name} must be a numeric array, got dtype {array.dtype}")
+    array = np.asarray(array, dtype=np.float64)
+    if array.ndim != ndim:
+        raise ValueError(
+            f"{where}: {name} must have {ndim} dimensions, got shape {array.shape}"
+        )
+    if not np.all(np.isfinite(array)):
+        bad = np.argwhere(~np.isfinite(array))[0]
+        raise ValueError(f"{where}: {name} holds a non-finite value at index {tuple(bad)}")
+    return array
+
+
+def check_delta(delta, where: str) -> float | None:
+    """Return the rate bound as a positive float, or None for no rate constraint."""
+    if delta is None:
+        return None
+    if isinstance(delta, (bool, np.bool_)) or not isinstance(delta, numbers.Real):
+        raise TypeError(f"{where}: delta must be a positive number or None, got {delta!r}")
+    delta = float(delta)
+    if not np.isfinite(delta) or delta <= 0.0:
+        raise ValueError(f"{where}: delta must be a positive finite number, got {delta}")
+    return delta

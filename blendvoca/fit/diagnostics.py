@@ -1,0 +1,74 @@
+"""Fit diagnostics: reconstruction errors and constraint activity."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .normal_equations import check_rig_and_frames
+
+
+def vertex_errors(neutral, deltas, frames, coeffs, *, vertex_subset=None):
+    """Return per-frame RMSE and maximum vertex error of a coefficient track.
+
+    Parameters
+    ----------
+    neutral : (V, 3) array_like
+    deltas : (K, V, 3) array_like
+    frames : (T, V, 3) array_like
+        Target meshes.
+    coeffs : (T, K) array_like
+        Fitted coefficients.
+    vertex_subset : (S,) array_like of int, optional
+        Measure on these vertices only.
+
+    Returns
+    -------
+    rmse : (T,) ndarray
+        ``sqrt(mean_v ||x_v - p_v||^2)`` per frame, in mesh units.
+    max_error : (T,) ndarray
+        ``max_v ||x_v - p_v||`` per frame, in mesh units.
+    """
+    neutral, deltas, frames = check_rig_and_frames(
+        neutral, deltas, frames, vertex_subset, "vertex_errors"
+    )
+    coeffs = np.asarray(coeffs, dtype=np.float64)
+    if coeffs.shape != (frames.shape[0], deltas.shape[0]):
+        raise ValueError(
+            f"vertex_errors: coeffs must be ({frames.shape[0]}, {deltas.shape[0]}), got {coeffs.shape}"
+        )
+    num_shapes = deltas.shape[0]
+    recon = (coeffs @ deltas.reshape(num_shapes, -1)).reshape(frames.shape) + neutral
+    dist_sq = np.sum((recon - frames) ** 2, axis=2)  # (T, V)
+    return np.sqrt(dist_sq.mean(axis=1)), np.sqrt(dist_sq.max(axis=1))
+
+
+def constraint_activity(coeffs, *, lower=0.0, upper=1.0, delta=0.1, tol=1e-6):
+    """Return, per blendshape, how often each constraint is active.
+
+    Parameters
+    ----------
+    coeffs : (T, K) array_like
+    lower, upper : float
+    delta : float or None
+    tol : float
+        A constraint counts as active within ``tol`` of its bound.
+
+    Returns
+    -------
+    dict
+        ``"lower"``, ``"upper"`` : (K,) fraction of frames at the bound;
+        ``"rate"`` : (K,) fraction of frame transitions with
+        ``|u_{t+1} - u_t| >= delta - tol`` (zeros when delta is None or T == 1).
+    """
+    coeffs = np.asarray(coeffs, dtype=np.float64)
+    if coeffs.ndim != 2 or coeffs.shape[0] == 0:
+        raise ValueError(f"constraint_activity: coeffs must be (T, K) with T >= 1, got {coeffs.shape}")
+    out = {
+        "lower": np.mean(coeffs <= lower + tol, axis=0),
+        "upper": np.mean(coeffs >= upper - tol, axis=0),
+    }
+    if delta is None or coeffs.shape[0] < 2:
+        out["rate"] = np.zeros(coeffs.shape[1])
+    else:
+        out["rate"] = np.mean(np.abs(np.diff(coeffs, axis=0)) >= delta - tol, axis=0)
+    return out

@@ -1,0 +1,60 @@
+"""Frame-by-frame (causal) fit: each frame's box QP given the previous frame's answer."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ._checks import as_float_array, check_delta
+from .banded_qp import solve_banded_qp
+
+
+def framewise_coefficients(gram, rhs, *, lower=0.0, upper=1.0, delta=0.1, warm_start=None) -> np.ndarray:
+    """Fit frames one after the other, each constrained to the previous frame.
+
+    Frame ``t`` solves ``min 1/2 u^T G u - c_t . u`` subject to
+    ``max(lower, u_{t-1} - delta) <= u <= min(upper, u_{t-1} + delta)``: the
+    streaming variant (no look-ahead) of the temporally constrained fit.  The
+    first frame is bounded by ``lower``/``upper`` only (or by ``warm_start``'s
+    first row +- delta when given, e.g. the last frame of a previous chunk).
+
+    Parameters
+    ----------
+    gram : (K, K) array_like
+    rhs : (T, K) array_like
+    lower, upper : float
+        Box bounds.
+    delta : float or None
+        Per-frame rate bound (None: independent per-frame box QPs).
+    warm_start : (1, K) or (K,) array_like, optional
+        The frame before the first one.
+
+    Returns
+    -------
+    (T, K) ndarray
+    """
+    where = "framewise_coefficients"
+    gram = as_float_array(gram, "gram", 2, where)
+    rhs = as_float_array(rhs, "rhs", 2, where)
+    delta = check_delta(delta, where)
+    lower = float(lower)
+    upper = float(upper)
+    num_frames, k = rhs.shape
+    out = np.empty((num_frames, k))
+    previous = None
+    if warm_start is not None:
+        previous = np.asarray(warm_start, dtype=np.float64).reshape(-1)
+        if previous.shape != (k,):
+            raise ValueError(f"{where}: warm_start must hold {k} coefficients, got {previous.shape}")
+    for t in range(num_frames):
+        lo = np.full((1, k), lower)
+        hi = np.full((1, k), upper)
+        if previous is not None and delta is not None:
+            lo = np.maximum(lo, previous - delta)
+            hi = np.minimum(hi, previous + delta)
+            # The previous frame may lie outside [lower, upper] when given by
+            # the caller; keep the box non-empty.
+            lo = np.minimum(lo, hi)
+        solution = solve_banded_qp(gram, rhs[t : t + 1], lower=lo, upper=hi, delta=None)
+        out[t] = solution.coeffs[0]
+        previous = out[t]
+    return out

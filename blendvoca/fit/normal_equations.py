@@ -1,0 +1,129 @@
+"""The fitting objective reduced to K x K: Gram matrix and per-frame right-hand sides.
+
+The objective ``sum_t ||B u_t - (p_t - n)||^2`` only ever needs ``G = B^T B``
+(K x K), ``c_t = B^T (p_t - n)`` and ``||p_t - n||^2``; these are the only
+products with the 3V-long vectors, done once per sentence, so no solver ever
+sees 3V.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ._checks import as_float_array
+
+
+@dataclass(frozen=True)
+class NormalEquations:
+    """The fitting objective in K x K form.
+
+    ``objective(u) = sum_t u_t^T G u_t - 2 c_t . u_t + r_t``.
+
+    Attributes
+    ----------
+    gram : (K, K) ndarray
+        ``B^T B`` over the fitted vertices.
+    rhs : (T, K) ndarray
+        ``c_t = B^T (p_t - n)``.
+    offset_sq : (T,) ndarray
+        ``r_t = ||p_t - n||^2``.
+    num_vertices : int
+        Number of fitted vertices (for RMSE).
+    """
+
+    gram: np.ndarray
+    rhs: np.ndarray
+    offset_sq: np.ndarray
+    num_vertices: int
+
+    def objective(self, coeffs: np.ndarray) -> float:
+        """Return ``sum_t ||B u_t - (p_t - n)||^2`` for ``coeffs (T, K)``."""
+        coeffs = np.asarray(coeffs, dtype=np.float64)
+        quad = np.einsum("tk,kl,tl->", coeffs, self.gram, coeffs)
+        return float(quad - 2.0 * np.sum(coeffs * self.rhs) + np.sum(self.offset_sq))
+
+
+def check_rig_and_frames(neutral, deltas, frames, vertex_subset=None, where="fit"):
+    """Validate and convert rig arrays and frames; apply the vertex subset.
+
+    Parameters
+    ----------
+    neutral : (V, 3) array_like
+    deltas : (K, V, 3) array_like
+    frames : (T, V, 3) array_like
+    vertex_subset : (S,) array_like of int, optional
+        Vertex indices to keep (e.g. the 4580-vertex FLAME head).
+
+    Returns
+    -------
+    neutral : (S, 3) ndarray
+    deltas : (K, S, 3) ndarray
+    frames : (T, S, 3) ndarray
+    """
+    neutral = as_float_array(neutral, "neutral", 2, where)
+    deltas = as_float_array(deltas, "deltas", 3, where)
+    frames = as_float_array(frames, "frames", 3, where)
+    num_vertices = neutral.shape[0]
+    if neutral.shape[1] != 3:
+        raise ValueError(f"{where}: neutral must be (V, 3), got shape {neutral.shape}")
+    if deltas.shape[1:] != neutral.shape:
+        raise ValueError(
+            f"{where}: deltas must be (K, {num_vertices}, 3) to match neutral, got {deltas.shape}"
+        )
+    if deltas.shape[0] == 0:
+        raise ValueError(f"{where}: deltas must hold at least one blendshape, got {deltas.shape}")
+    if frames.shape[1:] != neutral.shape:
+        raise ValueError(
+            f"{where}: frames must be (T, {num_vertices}, 3) to match neutral, got {frames.shape}"
+        )
+    if frames.shape[0] == 0:
+        raise ValueError(f"{where}: frames must hold at least one frame, got {frames.shape}")
+    if vertex_subset is not None:
+        subset = np.asarray(vertex_subset)
+        if subset.ndim != 1 or not np.issubdtype(subset.dtype, np.integer):
+            raise TypeError(
+                f"{where}: vertex_subset must be a 1-D integer array, got dtype "
+                f"{subset.dtype} and shape {subset.shape}"
+            )
+        if subset.size == 0 or subset.min() < 0 or subset.max() >= num_vertices:
+            raise ValueError(
+                f"{where}: vertex_subset must index 0..{num_vertices - 1}, got range "
+                f"[{subset.min() if subset.size else None}, {subset.max() if subset.size else None}]"
+            )
+        neutral, deltas, frames = neutral[subset], deltas[:, subset], frames[:, subset]
+    return neutral, deltas, frames
+
+
+def normal_equations(neutral, deltas, frames, *, vertex_subset=None) -> NormalEquations:
+    """Return the K x K normal equations of the per-sentence fitting objective.
+
+    Parameters
+    ----------
+    neutral : (V, 3) array_like
+        Rig neutral.
+    deltas : (K, V, 3) array_like
+        Blendshape offsets from the neutral.
+    frames : (T, V, 3) array_like
+        Mesh sequence to fit.
+    vertex_subset : (S,) array_like of int, optional
+        Fit on these vertices only.
+
+    Returns
+    -------
+    NormalEquations
+        ``gram (K, K)``, ``rhs (T, K)``, ``offset_sq (T,)``.
+    """
+    neutral, deltas, frames = check_rig_and_frames(
+        neutral, deltas, frames, vertex_subset, "normal_equations"
+    )
+    num_shapes = deltas.shape[0]
+    basis = deltas.reshape(num_shapes, -1)  # (K, 3S)
+    offsets = (frames - neutral[None]).reshape(frames.shape[0], -1)  # (T, 3S)
+    gram = basis @ basis.T
+    rhs = offsets @ basis.T
+    offset_sq = np.einsum("ij,ij->i", offsets, offsets)
+    return NormalEquations(
+        gram=0.5 * (gram + gram.T), rhs=rhs, offset_sq=offset_sq, num_vertices=neutral.shape[0]
+    )
