@@ -1,0 +1,185 @@
+"""Read a BlendVOCA build (or a plain SAiD-layout folder) as a benchmark dataset.
+
+Layout (docs/architecture.md)::
+
+    blendshape_coeffs/<subject>/sentenceNN.csv       ground truth, 60 fps
+    blendshape_coeffs/<subject>/sentenceNN-<k>.csv   optional extra samples
+    audio/<subject>/sentenceNN.wav
+    rigs/<subject>.npz                               blendvoca.rig.Rig (optional)
+    blendshapes_head/<subject>/<name>.obj            SAiD layout rig (fallback)
+    templates_head/<subject>.obj
+    splits.json                                      {"train": [...], "val": [...], "test": [...]}
+    manifest.json
+
+Without ``splits.json`` the standard VOCASET split is used; without ``rigs/`` the
+rig is built from the SAiD-layout OBJ files.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import json
+import re
+from os import PathLike
+from pathlib import Path
+
+import numpy as np
+
+_SENTENCE = re.compile(r"^(sentence\d+)\.csv$")
+_SAMPLE = re.compile(r"^(sentence\d+)-(\d+)\.csv$")
+
+
+class BlendVOCADataset:
+    """A BlendVOCA dataset folder. Create it with :func:`open_blendvoca`.
+
+    Attributes
+    ----------
+    root : Path
+    names : tuple of str
+        Coefficient column order (BlendVOCA's 32 names).
+    subjects : list of str
+    manifest_hash : str
+        sha256 of ``manifest.json`` (or, when absent, of the sorted file listing).
+    """
+
+    def __init__(self, root: Path):
+        from blendvoca.names import BLENDVOCA_NAMES
+
+        self.root = root
+        self.names = tuple(BLENDVOCA_NAMES)
+        coeff_dir = root / "blendshape_coeffs"
+        if not coeff_dir.is_dir():
+            raise ValueError(f"open_blendvoca: {root} has no blendshape_coeffs/ folder; not a BlendVOCA dataset")
+        self.subjects = sorted(p.name for p in coeff_dir.iterdir() if p.is_dir())
+        if not self.subjects:
+            raise ValueError(f"open_blendvoca: {coeff_dir} holds no subject folders")
+        self._splits = self._read_splits()
+        self.manifest_hash = self._hash_manifest()
+
+    def _read_splits(self) -> dict:
+        path = self.root / "splits.json"
+        if path.exists():
+            splits = json.loads(path.read_text())
+            if not isinstance(splits, dict):
+                raise ValueError(f"open_blendvoca: {path}: expected an object of split -> subjects")
+        else:
+            from blendvoca.vocaset import VOCASET_SPLITS
+
+            splits = VOCASET_SPLITS
+        return {name: [s for s in subjects if s in self.subjects] for name, subjects in splits.items()}
+
+    def _hash_manifest(self) -> str:
+        path = self.root / "manifest.json"
+        digest = hashlib.sha256()
+        if path.exists():
+            digest.update(path.read_bytes())
+        else:
+            for p in sorted(self.root.rglob("*")):
+                if p.is_file():
+                    digest.update(f"{p.relative_to(self.root).as_posix()}\t{p.stat().st_size}\n".encode())
+        return digest.hexdigest()
+
+    @property
+    def splits(self) -> dict:
+        """Split name -> list of subjects present in this folder."""
+        return {k: list(v) for k, v in self._splits.items()}
+
+    def split(self, name: str) -> list:
+        """Subjects of a split (``"train"``, ``"val"``, ``"test"``)."""
+        if name not in self._splits:
+            raise ValueError(f"BlendVOCADataset.split: unknown split {name!r}; expected one of {sorted(self._splits)}")
+        return list(self._splits[name])
+
+    def _subject_dir(self, subject: str) -> Path:
+        if subject not in self.subjects:
+            raise ValueError(f"BlendVOCADataset: unknown subject {subject!r} in {self.root}")
+        return self.root / "blendshape_coeffs" / subject
+
+    def sentences(self, subject: str) -> list:
+        """Sentence names (``sentenceNN``) with a ground-truth track, sorted."""
+        d = self._subject_dir(subject)
+        return sorted(m.group(1) for p in d.iterdir() if (m := _SENTENCE.match(p.name)))
+
+    def coeffs(self, subject: str, sentence: str) -> np.ndarray:
+        """Ground-truth track, (T, 32) float64 in ``names`` order, 60 fps."""
+        from blendvoca.io.coeffs import read_coeffs_csv
+
+        path = self._subject_dir(subject) / f"{sentence}.csv"
+        if not path.exists():
+            raise ValueError(f"BlendVOCADataset.coeffs: no track {path}")
+        coeffs, _ = read_coeffs_csv(path, names=self.names)
+        return np.asarray(coeffs, dtype=np.float64)
+
+    def samples(self, subject: str, sentence: str) -> np.ndarray:
+        """All stored tracks of a sentence: ``sentenceNN-<k>.csv`` in k order, or the
+        single ``sentenceNN.csv``; (S, T, 32) (tracks truncated to the shortest)."""
+        from blendvoca.io.coeffs import read_coeffs_csv
+
+        d = self._subject_dir(subject)
+        found = sorted(
+            (int(m.group(2)), p) for p in d.iterdir() if (m := _SAMPLE.match(p.name)) and m.group(1) == sentence
+        )
+        if not found:
+            return self.coeffs(subject, sentence)[None]
+        tracks = [np.asarray(read_coeffs_csv(p, names=self.names)[0], dtype=np.float64) for _, p in found]
+        t = min(len(x) for x in tracks)
+        return np.stack([x[:t] for x in tracks])
+
+    def audio(self, subject: str, sentence: str) -> tuple[np.ndarray, int]:
+        """Speech of a sentence: ((N,) float32 mono at 16 kHz, 16000)."""
+        from blendvoca.io.audio import load_audio
+
+        path = self.root / "audio" / subject / f"{sentence}.wav"
+        if not path.exists():
+            raise ValueError(f"BlendVOCADataset.audio: no audio {path}")
+        return np.asarray(load_audio(path, rate=16000), dtype=np.float32), 16000
+
+    def rig(self, subject: str):
+        """The speaker's rig (:class:`blendvoca.rig.Rig`), cached."""
+        return self._rig(subject)
+
+    @functools.cache  # noqa: B019 - one dataset object per run
+    def _rig(self, subject: str):
+        from blendvoca.rig import Rig
+
+        self._subject_dir(subject)
+        npz = self.root / "rigs" / f"{subject}.npz"
+        if npz.exists():
+            return Rig.load(npz)
+        return said_layout_rig(self.root, subject, self.names)
+
+    def __repr__(self) -> str:
+        return f"BlendVOCADataset({str(self.root)!r}, subjects={len(self.subjects)})"
+
+
+def said_layout_rig(root, subject: str, names):
+    """Rig from ``templates_head/<subject>.obj`` and ``blendshapes_head/<subject>/<name>.obj``."""
+    from blendvoca.rig import Rig
+
+    root = Path(root)
+    template = root / "templates_head" / f"{subject}.obj"
+    shape_dir = root / "blendshapes_head" / subject
+    if not template.exists() or not shape_dir.is_dir():
+        raise ValueError(
+            f"said_layout_rig: subject {subject!r} has neither rigs/{subject}.npz nor "
+            f"templates_head/{subject}.obj + blendshapes_head/{subject}/ in {root}"
+        )
+    return Rig.load_said_folder(shape_dir, names=tuple(names), neutral_path=template)
+
+
+def open_blendvoca(root: str | PathLike) -> BlendVOCADataset:
+    """Open a BlendVOCA build or SAiD-layout folder.
+
+    Parameters
+    ----------
+    root : path-like
+
+    Returns
+    -------
+    BlendVOCADataset
+    """
+    root = Path(root)
+    if not root.is_dir():
+        raise ValueError(f"open_blendvoca: {root} is not a directory")
+    return BlendVOCADataset(root)

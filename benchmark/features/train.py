@@ -1,0 +1,195 @@
+"""Train a BlendVOCA VAE feature extractor (the paper's recipe).
+
+Loss per batch (B windows of T frames x C coefficients, coefficients divided by
+their per-coefficient std ``coeffs_std.csv``):
+``0.5 * sum (x - x_hat)^2 / B + beta * KL + w_vel * 0.5 * sum (dx - dx_hat)^2 / B``
+where ``dx`` are frame differences and ``KL = 0.5 * mean_b sum_z (mu^2 + e^logvar - logvar - 1)``;
+beta follows a cyclical linear annealing schedule (10 cycles, ramp on the first half
+of each cycle); AdamW, constant learning rate after a linear warm-up over the first
+10 % of the steps, gradient clipping at 1, and an exponential moving average of
+the weights (decay 0.99, ramped up as ``(1 + step) / (10 + step)`` early on) that
+is what gets saved.
+
+``python -m benchmark.features.train --data DIR --out vae.pth [--steps N]``
+"""
+
+from __future__ import annotations
+
+import argparse
+import copy
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+import torch
+from tqdm import tqdm
+
+from benchmark.features.vae import CoeffsVAE
+from benchmark.metrics.windows import WINDOW
+
+
+def cyclical_beta(step: int, total_steps: int, n_cycles: int = 10, ratio: float = 0.5, stop: float = 1.0) -> float:
+    """KL weight of a step under cyclical linear annealing (Fu et al. 2019).
+
+    Each of ``n_cycles`` equal cycles ramps beta linearly from 0 to ``stop`` over
+    its first ``ratio`` fraction and holds ``stop`` for the rest.
+    """
+    if total_steps < 1 or n_cycles < 1 or not 0 < ratio <= 1:
+        raise ValueError(
+            f"cyclical_beta: expected total_steps >= 1, n_cycles >= 1, 0 < ratio <= 1, "
+            f"got {total_steps}, {n_cycles}, {ratio}"
+        )
+    period = total_steps / n_cycles
+    phase = (step % period) / period
+    return float(stop * min(1.0, phase / ratio))
+
+
+def warmup_lr_factor(step: int, warmup_steps: int) -> float:
+    """Learning-rate multiplier: linear warm-up then constant."""
+    if warmup_steps <= 0:
+        return 1.0
+    return float(min(1.0, step / warmup_steps))
+
+
+def ema_decay_at(step: int, decay: float = 0.99) -> float:
+    """EMA decay at an optimisation step: ``min(decay, (1 + step) / (10 + step))``,
+    so the average forgets the random initialisation early on (as diffusers' EMAModel)."""
+    return float(min(decay, (1 + step) / (10 + step)))
+
+
+def vae_losses(model: CoeffsVAE, coeffs: torch.Tensor, std: torch.Tensor, sample: bool = True):
+    """Reconstruction, KL and velocity losses of a batch.
+
+    Parameters
+    ----------
+    model : CoeffsVAE
+    coeffs : (B, T, C) tensor
+    std : (C,) tensor
+        Per-coefficient standard deviation (weights of the reconstruction).
+    sample : bool
+        Reparametrised sampling of the latent (training) or its mean.
+
+    Returns
+    -------
+    reconst, kl, velocity : scalar tensors
+    """
+    mean, log_var, _, recon = model(coeffs, sample=sample)
+    batch = coeffs.shape[0]
+    target = coeffs / std.view(1, 1, -1)
+    pred = recon / std.view(1, 1, -1)
+    reconst = 0.5 * ((target - pred) ** 2).sum() / batch
+    kl = 0.5 * (mean**2 + log_var.exp() - log_var - 1).sum(dim=1).mean()
+    velocity = 0.5 * ((torch.diff(target, dim=1) - torch.diff(pred, dim=1)) ** 2).sum() / batch
+    return reconst, kl, velocity
+
+
+def random_windows(tracks: Sequence[np.ndarray], count: int, rng: np.random.Generator, window: int = WINDOW) -> np.ndarray:
+    """``count`` windows at uniformly random (track, start), (count, window, C)."""
+    usable = [t for t in tracks if len(t) >= window]
+    if not usable:
+        raise ValueError(f"random_windows: no track has >= {window} frames")
+    which = rng.integers(len(usable), size=count)
+    out = []
+    for i in which:
+        start = rng.integers(len(usable[i]) - window + 1)
+        out.append(usable[i][start : start + window])
+    return np.stack(out).astype(np.float32)
+
+
+def train_vae(
+    tracks: Sequence[np.ndarray],
+    coeffs_std: np.ndarray,
+    *,
+    steps: int = 300,
+    batch_size: int = 8,
+    lr: float = 1e-4,
+    beta: float = 1.0,
+    weight_vel: float = 1.0,
+    ema_decay: float = 0.99,
+    warmup_fraction: float = 0.1,
+    n_cycles: int = 10,
+    seed: int = 0,
+    progress: bool = True,
+) -> CoeffsVAE:
+    """Train a VAE on random windows of coefficient tracks.
+
+    Parameters
+    ----------
+    tracks : sequence of (T_i, C) ndarrays
+        Training tracks (60 fps, columns in BlendVOCA order).
+    coeffs_std : (C,) ndarray
+    steps, batch_size, lr, beta, weight_vel, ema_decay, warmup_fraction, n_cycles, seed
+        See the module docstring.
+
+    Returns
+    -------
+    CoeffsVAE
+        The EMA weights, in eval mode.
+    """
+    coeffs_std = np.asarray(coeffs_std, dtype=np.float32).ravel()
+    channels = {t.shape[1] for t in tracks}
+    if channels != {len(coeffs_std)}:
+        raise ValueError(f"train_vae: tracks have {channels} channels, coeffs_std has {len(coeffs_std)}")
+    if np.any(coeffs_std <= 0):
+        raise ValueError("train_vae: coeffs_std must be positive")
+    torch.manual_seed(seed)
+    rng = np.random.default_rng(seed)
+    model = CoeffsVAE(channels=len(coeffs_std))
+    ema = copy.deepcopy(model)
+    optimizer = torch.optim.AdamW(model.parameters(), lr=lr)
+    warmup = int(warmup_fraction * steps)
+    scheduler = torch.optim.lr_scheduler.LambdaLR(optimizer, lambda s: warmup_lr_factor(s, warmup))
+    std = torch.as_tensor(coeffs_std)
+    model.train()
+    bar = tqdm(range(steps), disable=not progress, desc="VAE")
+    for step in bar:
+        batch = torch.as_tensor(random_windows(tracks, batch_size, rng))
+        reconst, kl, velocity = vae_losses(model, batch, std)
+        b = cyclical_beta(step, steps, n_cycles, stop=beta)
+        loss = reconst + b * kl + weight_vel * velocity
+        optimizer.zero_grad()
+        loss.backward()
+        torch.nn.utils.clip_grad_norm_(model.parameters(), 1.0)
+        optimizer.step()
+        scheduler.step()
+        with torch.no_grad():
+            decay = ema_decay_at(step, ema_decay)
+            for p_ema, p in zip(ema.parameters(), model.parameters()):
+                p_ema.mul_(decay).add_(p.detach(), alpha=1 - decay)
+            for b_ema, b_cur in zip(ema.buffers(), model.buffers()):
+                b_ema.copy_(b_cur)
+        bar.set_postfix(loss=f"{loss.item():.3g}", beta=f"{b:.2f}")
+    return ema.eval()
+
+
+def main(argv: Sequence[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description="Train the BlendVOCA VAE feature extractor")
+    parser.add_argument("--data", required=True, help="BlendVOCA build (or SAiD-layout folder)")
+    parser.add_argument("--out", required=True, help="output state_dict (.pth)")
+    parser.add_argument("--steps", type=int, default=300)
+    parser.add_argument("--batch-size", type=int, default=8)
+    parser.add_argument("--lr", type=float, default=1e-4)
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--coeffs-std", default=None, help="coeffs_std.csv (default: the asset coeffs-std)")
+    args = parser.parse_args(argv)
+
+    from benchmark.data import open_blendvoca
+    from blendvoca.io.coeffs import read_coeffs_csv
+
+    dataset = open_blendvoca(args.data)
+    tracks = [dataset.coeffs(s, n) for s in dataset.split("train") for n in dataset.sentences(s)]
+    if args.coeffs_std is None:
+        from blendvoca.assets import resolve
+
+        std_path = resolve("coeffs-std")
+    else:
+        std_path = args.coeffs_std
+    std, _ = read_coeffs_csv(std_path, names=dataset.names)
+    model = train_vae(tracks, std[0], steps=args.steps, batch_size=args.batch_size, lr=args.lr, seed=args.seed)
+    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
+    torch.save(model.state_dict(), args.out)
+    print(f"saved {args.out}")
+
+
+if __name__ == "__main__":
+    main()

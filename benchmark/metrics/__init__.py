@@ -1,0 +1,30 @@
+"""Benchmark metrics: pure functions over arrays.
+
+Latent-space (features from any extractor, e.g. the published VAE):
+:func:`frechet_distance`, :func:`frechet_distance_from_stats`, :func:`wind`,
+:func:`multimodality`; the window protocol :func:`cut_windows`.
+Vertex-space (through a speaker rig, mm): :mod:`benchmark.metrics.vertex`.
+"""
+
+from benchmark.metrics.frechet import feature_statistics, frechet_distance, frechet_distance_from_stats
+from benchmark.metrics.multimodality import multimodality, paired_samples
+from benchmark.metrics.regions import lip_vertices, lower_face_vertices, nose_tip_index, upper_face_vertices
+from benchmark.metrics.vertex import (
+    average_pairwise_distance,
+    lip_vertex_error,
+    mean_vertex_error,
+    motion_dynamics,
+    pairwise_distance_by_region,
+    rig_vertices,
+    upper_face_dynamics_deviation,
+)
+from benchmark.metrics.wind import gmm_components, transport_cost, wind, wind_from_gmms, wind_scores
+from benchmark.metrics.windows import Windows, cut_windows, slice_windows, window_starts
+
+__all__ = [
+    "Windows", "average_pairwise_distance", "cut_windows", "feature_statistics", "frechet_distance",
+    "frechet_distance_from_stats", "gmm_components", "lip_vertex_error", "lip_vertices",
+    "lower_face_vertices", "mean_vertex_error", "motion_dynamics", "multimodality", "nose_tip_index",
+    "paired_samples", "pairwise_distance_by_region", "rig_vertices", "slice_windows", "transport_cost", "upper_face_dynamics_deviation",
+    "upper_face_vertices", "wind", "wind_from_gmms", "wind_scores", "window_starts",
+]

@@ -1,0 +1,76 @@
+import json
+import shutil
+
+import numpy as np
+import pytest
+
+from benchmark.data import open_blendvoca
+from blendvoca.names import BLENDVOCA_NAMES
+
+
+def test_reads_build(fake_dataset_dir):
+    ds = open_blendvoca(fake_dataset_dir)
+    assert ds.subjects == ["FakeA", "FakeB", "FakeC"]
+    assert ds.split("test") == ["FakeC"] and ds.split("train") == ["FakeA"]
+    assert ds.sentences("FakeC") == ["sentence01", "sentence02", "sentence03"]
+    coeffs = ds.coeffs("FakeC", "sentence01")
+    assert coeffs.ndim == 2 and coeffs.shape[1] == 32 and 150 <= len(coeffs) < 200
+    samples, rate = ds.audio("FakeC", "sentence01")
+    assert rate == 16000 and samples.dtype == np.float32
+    assert abs(len(samples) / 16000 - len(coeffs) / 60) < 0.05
+    rig = ds.rig("FakeC")
+    assert rig.names == BLENDVOCA_NAMES and rig.neutral.shape == (5023, 3)
+    assert ds.rig("FakeC") is rig
+    assert ds.samples("FakeC", "sentence01").shape == (1, *coeffs.shape)
+    assert ds.names == BLENDVOCA_NAMES
+    assert len(ds.manifest_hash) == 64 and ds.manifest_hash == open_blendvoca(fake_dataset_dir).manifest_hash
+
+
+def test_said_layout_fallback(fake_dataset_dir, tmp_path):
+    import trimesh
+
+    from blendvoca.rig import Rig
+
+    root = tmp_path / "said"
+    shutil.copytree(fake_dataset_dir / "blendshape_coeffs", root / "blendshape_coeffs")
+    sphere = trimesh.creation.icosphere(subdivisions=1)
+    rng = np.random.default_rng(0)
+    rig = Rig(sphere.vertices, rng.normal(scale=0.01, size=(32, len(sphere.vertices), 3)), BLENDVOCA_NAMES, sphere.faces)
+    rig.save_said_folder(root / "blendshapes_head" / "FakeC")
+    (root / "templates_head").mkdir()
+    (root / "blendshapes_head" / "FakeC" / "Neutral.obj").rename(root / "templates_head" / "FakeC.obj")
+    ds = open_blendvoca(root)
+    np.testing.assert_allclose(ds.rig("FakeC").deltas, rig.deltas, atol=1e-6)
+    assert set(ds.splits) == {"train", "val", "test"}  # the VOCASET split (no such subjects here)
+    assert ds.split("test") == []
+    with pytest.raises(ValueError, match="neither rigs"):
+        ds.rig("FakeA")
+
+
+def test_samples_and_manifest_hash(fake_dataset_dir, tmp_path):
+    root = tmp_path / "copy"
+    shutil.copytree(fake_dataset_dir, root)
+    from blendvoca.io.coeffs import write_coeffs_csv
+
+    base = open_blendvoca(root).coeffs("FakeC", "sentence02")
+    for k in range(3):
+        write_coeffs_csv(root / "blendshape_coeffs" / "FakeC" / f"sentence02-{k}.csv", base * (k + 1) / 4, BLENDVOCA_NAMES)
+    ds = open_blendvoca(root)
+    s = ds.samples("FakeC", "sentence02")
+    assert s.shape == (3, *base.shape)
+    np.testing.assert_allclose(s[2], base * 0.75, atol=1e-6)
+    assert ds.sentences("FakeC") == ["sentence01", "sentence02", "sentence03"]
+    (root / "manifest.json").write_text(json.dumps({"changed": True}))
+    assert open_blendvoca(root).manifest_hash != ds.manifest_hash
+
+
+def test_errors(tmp_path, fake_dataset_dir):
+    with pytest.raises(ValueError, match="not a directory"):
+        open_blendvoca(tmp_path / "missing")
+    with pytest.raises(ValueError, match="blendshape_coeffs"):
+        open_blendvoca(tmp_path)
+    ds = open_blendvoca(fake_dataset_dir)
+    with pytest.raises(ValueError, match="unknown split"):
+        ds.split("dev")
+    with pytest.raises(ValueError, match="unknown subject"):
+        ds.coeffs("Nobody", "sentence01")

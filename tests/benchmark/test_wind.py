@@ -1,0 +1,61 @@
+import numpy as np
+import pytest
+
+from benchmark.metrics import (
+    frechet_distance_from_stats,
+    gmm_components,
+    transport_cost,
+    wind,
+    wind_from_gmms,
+    wind_scores,
+)
+
+
+def test_single_component_equals_frechet_distance():
+    rng = np.random.default_rng(0)
+    x = rng.normal(size=(300, 4))
+    y = rng.normal(size=(250, 4)) * 1.5 + 1.0
+    gx, gy = gmm_components(x, 1), gmm_components(y, 1)
+    expected = frechet_distance_from_stats(gx[1][0], gx[2][0], gy[1][0], gy[2][0])
+    assert wind_from_gmms(gx, gy) == pytest.approx(expected, rel=1e-9)
+    # and the fitted single Gaussian is the (biased) sample mean / covariance
+    mean, std = wind(x, y, n_components=1, repeats=3)
+    ref = frechet_distance_from_stats(x.mean(0), np.cov(x, rowvar=False, ddof=0), y.mean(0), np.cov(y, rowvar=False, ddof=0))
+    assert mean == pytest.approx(ref, rel=1e-4)
+    assert std == pytest.approx(0.0, abs=1e-9)
+
+
+def test_symmetric():
+    rng = np.random.default_rng(1)
+    x = np.concatenate([rng.normal(size=(100, 3)), rng.normal(size=(100, 3)) + 4])
+    y = rng.normal(size=(200, 3)) * 2
+    assert wind(x, y, 3, repeats=2, seed=5)[0] == pytest.approx(wind(y, x, 3, repeats=2, seed=5)[0], rel=1e-7)
+
+
+def test_transport_lp_known_answer():
+    cost = np.array([[0.0, 1.0], [1.0, 0.0]])
+    assert transport_cost(cost, [0.5, 0.5], [0.5, 0.5]) == pytest.approx(0.0, abs=1e-12)
+    assert transport_cost(cost, [1.0, 0.0], [0.25, 0.75]) == pytest.approx(0.75)
+    # uniform weights: optimal transport is an optimal assignment (Birkhoff), an
+    # independent reference through the Hungarian algorithm
+    from scipy.optimize import linear_sum_assignment
+
+    rng = np.random.default_rng(2)
+    c = rng.uniform(size=(6, 6))
+    rows, cols = linear_sum_assignment(c)
+    u = np.full(6, 1 / 6)
+    assert transport_cost(c, u, u) == pytest.approx(c[rows, cols].sum() / 6, rel=1e-9)
+
+
+def test_identical_mixtures_give_zero_and_repeats_count():
+    rng = np.random.default_rng(3)
+    x = np.concatenate([rng.normal(size=(150, 2)), rng.normal(size=(150, 2)) + 6])
+    assert wind(x, x, 2, repeats=2)[0] == pytest.approx(0.0, abs=1e-6)
+    assert len(wind_scores(x, x + 1, 2, repeats=4)) == 4
+
+
+def test_bad_input():
+    with pytest.raises(ValueError, match="repeats"):
+        wind(np.zeros((10, 2)), np.zeros((10, 2)), repeats=0)
+    with pytest.raises(ValueError, match="sum to 1"):
+        transport_cost(np.zeros((2, 2)), [0.5, 0.4], [0.5, 0.5])
