@@ -1,0 +1,1 @@
+"""Baseline methods for the BlendVOCA benchmark (SAiD, regression, mesh adapters)."""

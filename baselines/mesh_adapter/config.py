@@ -1,0 +1,89 @@
+"""The per-method YAML file that tells the mesh adapter where the vertex outputs are.
+
+Example (``voca.yaml``)::
+
+    name: VOCA                 # leaderboard label
+    vertices: outputs/voca     # relative to this file; <subject>/<sentence>.npy or <subject>/<sentence>/*.ply|obj
+    fps: 30                    # frame rate of the outputs (resampled to 60)
+    template: absolute         # absolute positions, or "offsets" from the speaker's neutral
+    delta: 0.1                 # rate bound of the QP per 60 fps frame
+    vertex_subset: null        # null (all vertices), "flame-head" (the 4580-vertex crop) or a list of indices
+    max_frame_mismatch: 6      # frames padded/cropped to match the ground-truth length
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+__all__ = ["TEMPLATE_MODES", "AdapterConfig", "adapter_config", "read_adapter_config"]
+
+TEMPLATE_MODES = ("absolute", "offsets")
+_KEYS = ("name", "vertices", "fps", "template", "delta", "vertex_subset", "max_frame_mismatch")
+
+
+@dataclass(frozen=True)
+class AdapterConfig:
+    """Validated adapter settings (see the module docstring for the fields)."""
+
+    name: str
+    vertices: str
+    fps: float = 60.0
+    template: str = "absolute"
+    delta: float | None = 0.1
+    vertex_subset: str | list | None = None
+    max_frame_mismatch: int = 6
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+def adapter_config(mapping: dict, *, base_dir=None, where: str = "mesh-adapter config") -> AdapterConfig:
+    """An :class:`AdapterConfig` from a plain mapping; ``vertices`` is resolved against ``base_dir``.
+
+    Raises
+    ------
+    ValueError
+        Unknown keys, missing ``vertices``, a non-positive fps, an unknown template mode.
+    """
+    if not isinstance(mapping, dict):
+        raise TypeError(f"{where}: expected a mapping of settings, got {type(mapping).__name__}")
+    unknown = sorted(set(mapping) - set(_KEYS))
+    if unknown:
+        raise ValueError(f"{where}: unknown key(s) {unknown}; expected some of {list(_KEYS)}")
+    if not mapping.get("vertices"):
+        raise ValueError(f"{where}: 'vertices' (folder of vertex outputs) is required")
+    vertices = Path(str(mapping["vertices"])).expanduser()
+    if base_dir is not None and not vertices.is_absolute():
+        vertices = Path(base_dir) / vertices
+    fps = mapping.get("fps", 60.0)
+    if isinstance(fps, bool) or not isinstance(fps, (int, float)) or fps <= 0:
+        raise ValueError(f"{where}: 'fps' must be a positive number (30 or 60), got {fps!r}")
+    template = mapping.get("template", "absolute")
+    if template not in TEMPLATE_MODES:
+        raise ValueError(f"{where}: 'template' must be one of {TEMPLATE_MODES}, got {template!r}")
+    subset = mapping.get("vertex_subset")
+    if subset is not None and subset != "flame-head" and not isinstance(subset, list):
+        raise ValueError(f"{where}: 'vertex_subset' must be null, 'flame-head' or a list of indices, got {subset!r}")
+    delta = mapping.get("delta", 0.1)
+    return AdapterConfig(
+        name=str(mapping.get("name") or vertices.name),
+        vertices=str(vertices.resolve()),
+        fps=float(fps),
+        template=template,
+        delta=None if delta is None else float(delta),
+        vertex_subset=subset,
+        max_frame_mismatch=int(mapping.get("max_frame_mismatch", 6)),
+    )
+
+
+def read_adapter_config(path) -> AdapterConfig:
+    """Read a YAML adapter file (``vertices`` relative to the file's folder)."""
+    import yaml
+
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"mesh-adapter config {path} does not exist")
+    with path.open() as handle:
+        mapping = yaml.safe_load(handle)
+    return adapter_config(mapping or {}, base_dir=path.parent, where=str(path))

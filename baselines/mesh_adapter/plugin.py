@@ -1,0 +1,94 @@
+"""The ``mesh-adapter`` method plug-in."""
+
+from __future__ import annotations
+
+import sys
+
+from baselines.reference.lookup import TrackLookupMethod, audio_key
+
+from .adapt import adapted_coefficients, resolve_vertex_subset
+from .config import adapter_config, read_adapter_config
+from .sequences import find_sequences, read_vertex_sequence
+
+__all__ = ["MeshAdapterMethod"]
+
+
+class MeshAdapterMethod(TrackLookupMethod):
+    """Coefficient tracks fitted to another method's vertex outputs.
+
+    ``train`` reads the outputs for every sentence of ``split`` (default test),
+    fits each with the speaker's rig (the QP of ``blendvoca.fit``) and indexes the
+    tracks by audio; ``generate`` returns them. The result is labelled with the
+    config's ``name``.
+
+    Parameters
+    ----------
+    config : str
+        Path of the YAML adapter file (see :mod:`baselines.mesh_adapter.config`).
+    split : str
+        Split whose sentences must all have outputs.
+    **settings
+        Inline settings instead of (or overriding) the file: ``vertices``,
+        ``fps``, ``template``, ``delta``, ``vertex_subset``, ``max_frame_mismatch``,
+        ``name``.
+    """
+
+    name = "mesh-adapter"
+    stochastic = False
+
+    def __init__(self, config: str | None = None, split: str = "test", adapter: dict | None = None, **settings):
+        super().__init__(config=config, split=split, **settings)
+        if adapter is not None:  # resolved settings, as saved with a trained method
+            self.adapter = adapter_config(adapter, where="mesh-adapter saved settings")
+        elif config is not None:
+            base = read_adapter_config(config).to_dict()
+            base.update(settings)
+            self.adapter = adapter_config(base, where=f"mesh-adapter config {config}")
+        elif settings:
+            self.adapter = adapter_config(settings, where="mesh-adapter settings")
+        else:
+            raise ValueError("mesh-adapter: expected config=PATH.yaml (--config config=PATH.yaml) or inline "
+                             "settings such as vertices=DIR, got neither")
+        self.label = self.adapter.name
+        self.max_frame_mismatch = self.adapter.max_frame_mismatch
+
+    def config(self) -> dict:
+        return {**super().config(), "adapter": self.adapter.to_dict()}
+
+    def train(self, dataset, *, seed, budget):
+        from blendvoca.names import BLENDVOCA_NAMES
+
+        outputs = find_sequences(self.adapter.vertices)
+        wanted = [(s, q) for s in dataset.split(self._config["split"]) for q in dataset.sentences(s)]
+        missing = [f"{s}/{q}" for s, q in wanted if (s, q) not in outputs]
+        if missing:
+            raise FileNotFoundError(
+                f"mesh-adapter ({self.adapter.name}): no vertex output for {len(missing)} of {len(wanted)} sentences in "
+                f"{self.adapter.vertices}, e.g. {missing[:3]}; expected <subject>/<sentence>.npy or "
+                f"<subject>/<sentence>/*.ply"
+            )
+        subset = resolve_vertex_subset(self.adapter.vertex_subset)
+        names = tuple(getattr(dataset, "names", None) or BLENDVOCA_NAMES)
+        rigs = {}
+        try:
+            from tqdm import tqdm
+
+            iterator = tqdm(wanted, desc=f"mesh-adapter ({self.adapter.name}): fit", unit="sentence", file=sys.stderr)
+        except ImportError:
+            iterator = wanted
+        tracks = {}
+        for subject, sentence in iterator:
+            if subject not in rigs:
+                rig = dataset.rig(subject)
+                rigs[subject] = rig.select(names) if tuple(rig.names) != names else rig
+            rig = rigs[subject]
+            path = outputs[(subject, sentence)]
+            try:
+                coeffs = adapted_coefficients(read_vertex_sequence(path), rig.neutral, rig.deltas,
+                                              fps=self.adapter.fps, template=self.adapter.template,
+                                              delta=self.adapter.delta, vertex_subset=subset)
+            except ValueError as exc:
+                raise ValueError(f"mesh-adapter ({self.adapter.name}): {subject}/{sentence} ({path}): {exc}") from exc
+            audio, _ = dataset.audio(subject, sentence)
+            tracks[(subject, audio_key(audio))] = (sentence, coeffs)
+        self._tracks = tracks

@@ -1,0 +1,37 @@
+"""``ground-truth``: returns the dataset's own coefficient tracks (upper reference)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .lookup import TrackLookupMethod, audio_key
+
+__all__ = ["GroundTruthMethod"]
+
+
+class GroundTruthMethod(TrackLookupMethod):
+    """Upper reference: the BlendVOCA coefficients of the very sentence being scored.
+
+    ``train`` indexes the sentences of ``split`` (default ``"test"``) by their
+    audio; ``generate`` returns the matching track, repeated over samples.
+
+    Parameters
+    ----------
+    split : str
+        Split whose sentences are indexed.
+    """
+
+    name = "ground-truth"
+    stochastic = False
+    reference = True
+
+    def __init__(self, split: str = "test"):
+        super().__init__(split=split)
+
+    def train(self, dataset, *, seed, budget):
+        tracks = {}
+        for subject in dataset.split(self._config["split"]):
+            for sentence in dataset.sentences(subject):
+                audio, _ = dataset.audio(subject, sentence)
+                tracks[(subject, audio_key(audio))] = (sentence, np.asarray(dataset.coeffs(subject, sentence), dtype=np.float64))
+        self._tracks = tracks

@@ -1,0 +1,127 @@
+"""The ``regression`` method plug-in."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from benchmark.methods.base import Budget, Method
+
+from .features import motion_rate_features
+
+__all__ = ["RegressionMethod"]
+
+
+class RegressionMethod(Method):
+    """Spectrogram -> CNN + GRU -> 32 coefficients, trained by least squares.
+
+    Re-implements the idea of end2end_AU_speech (Pham et al.) in PyTorch; trains on
+    the train split (validation split picks the best checkpoint) in minutes on CPU.
+
+    Parameters
+    ----------
+    steps : int
+        Default number of optimisation steps (a ``Budget.max_steps`` overrides it).
+    n_mels : int
+        Mel bands (multiple of 4).
+    channels, hidden : int
+        CNN channels and GRU hidden size.
+    batch, window : int
+        Windows per step and window length in 60 fps frames.
+    lr : float
+        Adam learning rate.
+    threads : int or None
+        ``torch.set_num_threads`` while training and generating.
+    """
+
+    name = "regression"
+    stochastic = False
+
+    def __init__(self, steps: int = 1200, n_mels: int = 40, channels: int = 64, hidden: int = 64,
+                 batch: int = 16, window: int = 60, lr: float = 2e-3, threads: int | None = 1):
+        super().__init__(steps=steps, n_mels=n_mels, channels=channels, hidden=hidden, batch=batch, window=window,
+                         lr=lr, threads=threads)
+        self.model = None
+        self.stats = None
+        self.history = None
+
+    def _features(self, audio, num_frames):
+        return motion_rate_features(np.asarray(audio, dtype=np.float32), num_frames, n_mels=self._config["n_mels"])
+
+    def _sentences(self, dataset, split):
+        feats, targets = [], []
+        for subject in dataset.split(split):
+            for sentence in dataset.sentences(subject):
+                coeffs = np.asarray(dataset.coeffs(subject, sentence), dtype=np.float32)
+                audio, _ = dataset.audio(subject, sentence)
+                feats.append(self._features(audio, coeffs.shape[0]))
+                targets.append(coeffs)
+        return feats, targets
+
+    def _threads(self):
+        import torch
+
+        if self._config["threads"]:
+            torch.set_num_threads(int(self._config["threads"]))
+
+    def train(self, dataset, *, seed: int, budget: Budget) -> None:
+        from .training import feature_statistics, trained_regressor
+
+        self._threads()
+        feats, targets = self._sentences(dataset, "train")
+        if not feats:
+            raise ValueError("regression: the dataset's train split has no sentences")
+        try:
+            val_feats, val_targets = self._sentences(dataset, "val")
+        except (KeyError, ValueError):
+            val_feats, val_targets = [], []
+        mean, std = feature_statistics(feats)
+        self.stats = (mean, std)
+        norm = lambda fs: [((f - mean) / std).astype(np.float32) for f in fs]
+        cfg = self._config
+        self.model, self.history = trained_regressor(
+            norm(feats), targets, val_features=norm(val_feats), val_targets=val_targets, seed=seed, budget=budget,
+            default_steps=cfg["steps"], batch=cfg["batch"], window=cfg["window"], lr=cfg["lr"],
+            model_kwargs={"channels": cfg["channels"], "hidden": cfg["hidden"]},
+        )
+
+    def generate(self, audio, subject, *, num_frames, samples=1, seed=0):
+        import torch
+
+        if self.model is None:
+            raise RuntimeError("regression: generate called before train/load")
+        self._threads()
+        mean, std = self.stats
+        x = (self._features(audio, int(num_frames)) - mean) / std
+        with torch.no_grad():
+            y = self.model(torch.from_numpy(x[None].astype(np.float32)))[0].double().numpy()
+        return np.repeat(y[None], int(samples), axis=0)
+
+    def save(self, directory) -> None:
+        import torch
+
+        super().save(directory)
+        directory = Path(directory)
+        torch.save(self.model.state_dict(), directory / "model.pt")
+        np.savez(directory / "feature_stats.npz", mean=self.stats[0], std=self.stats[1])
+        (directory / "history.json").write_text(json.dumps(self.history, indent=1) + "\n")
+
+    @classmethod
+    def load(cls, directory):
+        import torch
+
+        from .model import AudioToCoefficients
+
+        method = super().load(directory)
+        directory = Path(directory)
+        cfg = method._config
+        method.model = AudioToCoefficients(n_mels=cfg["n_mels"], channels=cfg["channels"], hidden=cfg["hidden"])
+        method.model.load_state_dict(torch.load(directory / "model.pt", weights_only=True))
+        method.model.eval()
+        with np.load(directory / "feature_stats.npz") as stats:
+            method.stats = (stats["mean"], stats["std"])
+        history = directory / "history.json"
+        method.history = json.loads(history.read_text()) if history.is_file() else None
+        return method

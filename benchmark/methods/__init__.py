@@ -1,0 +1,48 @@
+"""Method plug-ins: the contract (:class:`Method`, :class:`Budget`) and the registry.
+
+Built-in methods are registered lazily here, so importing this package imports no
+baseline (and no torch).
+"""
+
+from .base import Budget, Method
+from .registry import (
+    ENTRY_POINT_GROUP,
+    UnknownMethodError,
+    available_methods,
+    get_method,
+    register,
+    register_lazy,
+    unregister,
+)
+from .validate import MethodError, MethodOutputError, validated_tracks
+
+__all__ = [
+    "BUILTIN_METHODS",
+    "ENTRY_POINT_GROUP",
+    "Budget",
+    "Method",
+    "MethodError",
+    "MethodOutputError",
+    "UnknownMethodError",
+    "available_methods",
+    "get_method",
+    "register",
+    "register_lazy",
+    "unregister",
+    "validated_tracks",
+]
+
+#: Methods shipped with the project, as lazy ``"module:Class"`` targets.
+BUILTIN_METHODS = {
+    "ground-truth": "baselines.reference.ground_truth:GroundTruthMethod",
+    "mean": "baselines.reference.mean:MeanMethod",
+    "static": "baselines.reference.static:StaticMethod",
+    "random": "baselines.reference.random_walk:RandomWalkMethod",
+    "regression": "baselines.regression.plugin:RegressionMethod",
+    "mesh-adapter": "baselines.mesh_adapter.plugin:MeshAdapterMethod",
+    "said": "baselines.said.plugin:SAiDMethod",
+}
+
+for _name, _target in BUILTIN_METHODS.items():
+    register_lazy(_name, _target)
+del _name, _target

@@ -1,0 +1,169 @@
+"""The method contract every plug-in implements (see docs/architecture.md).
+
+A method turns 16 kHz mono speech into ``S`` tracks of the 32 BlendVOCA blendshape
+coefficients at 60 fps. It may be trained on the BlendVOCA train/val splits under a
+:class:`Budget`, and it can save and reload its trained state.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["CONFIG_FILE", "Budget", "Method"]
+
+#: File in which :meth:`Method.save` stores the constructor config.
+CONFIG_FILE = "method_config.json"
+
+
+@dataclass(frozen=True)
+class Budget:
+    """Limits on training: a number of optimisation steps and/or wall seconds.
+
+    Parameters
+    ----------
+    max_steps : int or None
+        Stop after this many optimisation steps; ``None`` means no step limit.
+    max_seconds : float or None
+        Stop once this many seconds of wall time have passed; ``None`` means no
+        time limit.
+    """
+
+    max_steps: int | None = None
+    max_seconds: float | None = None
+
+    def __post_init__(self):
+        if self.max_steps is not None:
+            if isinstance(self.max_steps, bool) or not isinstance(self.max_steps, (int, np.integer)):
+                raise TypeError(f"Budget.max_steps: expected an int or None, got {type(self.max_steps).__name__}")
+            if self.max_steps < 0:
+                raise ValueError(f"Budget.max_steps: expected >= 0, got {self.max_steps}")
+        if self.max_seconds is not None:
+            if not isinstance(self.max_seconds, (int, float, np.floating)) or isinstance(self.max_seconds, bool):
+                raise TypeError(
+                    f"Budget.max_seconds: expected a number or None, got {type(self.max_seconds).__name__}"
+                )
+            if not math.isfinite(self.max_seconds) or self.max_seconds < 0:
+                raise ValueError(f"Budget.max_seconds: expected a finite number >= 0, got {self.max_seconds}")
+
+    def steps(self, default: int) -> int:
+        """Number of steps to run: ``max_steps`` when set, else ``default``."""
+        return int(default if self.max_steps is None else self.max_steps)
+
+    def exhausted(self, step: int, started: float) -> bool:
+        """True once ``step`` steps have run or the time limit since ``started`` has passed.
+
+        Parameters
+        ----------
+        step : int
+            Steps completed so far.
+        started : float
+            ``time.perf_counter()`` value taken when training began.
+        """
+        if self.max_steps is not None and step >= self.max_steps:
+            return True
+        return bool(self.max_seconds is not None and time.perf_counter() - started >= self.max_seconds)
+
+    def to_dict(self) -> dict:
+        """JSON-serialisable form, as stored in result files."""
+        return asdict(self)
+
+
+class Method:
+    """Base class of a speech-to-blendshape method plug-in.
+
+    Subclasses set :attr:`name` and :attr:`stochastic` and implement
+    :meth:`generate`; trainable methods also implement :meth:`train`, and methods
+    with learned state override :meth:`save` / :meth:`load` (calling the base
+    versions so that the config travels with the state).
+
+    Parameters
+    ----------
+    **config
+        JSON-serialisable keyword arguments; stored unchanged and reported by
+        :meth:`config` into the result file.
+    """
+
+    #: Registry name, e.g. ``"said"``.
+    name: str = "method"
+    #: True: the benchmark asks for and scores S samples per sentence.
+    stochastic: bool = False
+    #: True for reference rows (ground truth, mean, static); the leaderboard shows
+    #: them but never ranks them among the methods.
+    reference: bool = False
+    #: Leaderboard row name; None means the registry name.
+    label: str | None = None
+
+    def __init__(self, **config):
+        try:
+            json.dumps(config)
+        except TypeError as exc:
+            raise TypeError(f"{type(self).__name__}: config must be JSON-serialisable, got {config!r}") from exc
+        self._config = dict(config)
+
+    def config(self) -> dict:
+        """The configuration that goes into the result file (JSON-serialisable)."""
+        return dict(self._config)
+
+    def train(self, dataset, *, seed: int, budget: Budget) -> None:
+        """Train on ``dataset.split("train")`` / ``("val")``; default: nothing to train.
+
+        Parameters
+        ----------
+        dataset : benchmark.data dataset
+            As returned by ``benchmark.data.open_blendvoca``.
+        seed : int
+            Seed for every random choice made while training.
+        budget : Budget
+            Step and/or time limit.
+        """
+        return
+
+    def generate(self, audio, subject, *, num_frames, samples=1, seed=0):
+        """Coefficient tracks for one utterance.
+
+        Parameters
+        ----------
+        audio : (N,) float32 ndarray
+            Mono speech at 16 kHz.
+        subject : str
+            Speaker id (its rig shapes the vertex metrics, not the coefficients).
+        num_frames : int
+            Number of 60 fps frames ``T`` to return.
+        samples : int
+            Number of samples ``S`` (1 for deterministic methods).
+        seed : int
+            Seed for stochastic sampling.
+
+        Returns
+        -------
+        (S, T, 32) ndarray
+            Values in [0, 1]; columns in ``blendvoca.names.BLENDVOCA_NAMES`` order.
+        """
+        raise NotImplementedError(f"{type(self).__name__}.generate is not implemented")
+
+    def save(self, directory) -> None:
+        """Write the config (and, in subclasses, the trained state) into ``directory``."""
+        directory = Path(directory)
+        directory.mkdir(parents=True, exist_ok=True)
+        payload = {"name": self.name, "class": f"{type(self).__module__}:{type(self).__qualname__}",
+                   "config": self.config()}
+        (directory / CONFIG_FILE).write_text(json.dumps(payload, indent=2, sort_keys=True) + "\n")
+
+    @classmethod
+    def load(cls, directory) -> Method:
+        """Rebuild a method from :meth:`save`'s output (config only in the base class)."""
+        path = Path(directory) / CONFIG_FILE
+        if not path.is_file():
+            raise FileNotFoundError(f"{cls.__name__}.load: expected {path} (written by save), not found")
+        payload = json.loads(path.read_text())
+        return cls(**payload.get("config", {}))
+
+    def __repr__(self) -> str:
+        args = ", ".join(f"{k}={v!r}" for k, v in sorted(self.config().items()))
+        return f"{type(self).__name__}({args})"

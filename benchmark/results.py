@@ -1,0 +1,261 @@
+"""Result files: one JSON per benchmark run, with its provenance.
+
+Schema (``schema_version`` 1)::
+
+    {
+      "schema_version": 1,
+      "method":   {"name", "label", "class", "stochastic", "reference", "config"},
+      "dataset":  {"manifest_hash", "path", "split", "num_sentences", "num_subjects"},
+      "protocol": {"samples", "seed", "budget", "clip", "n_clipped"},
+      "metrics":  {metric: {"mean", "std", "higher_is_better", "unit"}},
+      "provenance": {"date", "git_revision", "git_dirty", "python", "platform",
+                     "versions": {package: version}, "hardware": {...}},
+      "timings":  {"train_s", "load_s", "generate_s", "evaluate_s", "total_s"}
+    }
+
+Tables are only ever rendered from these files (``python -m leaderboard.build``).
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import importlib.metadata
+import json
+import math
+import os
+import platform
+import re
+import subprocess
+import tempfile
+from pathlib import Path
+
+__all__ = [
+    "METRIC_FIELDS",
+    "SCHEMA_VERSION",
+    "build_result",
+    "check_result",
+    "git_revision",
+    "hardware_info",
+    "package_versions",
+    "read_result",
+    "result_filename",
+    "write_result",
+]
+
+SCHEMA_VERSION = 1
+METRIC_FIELDS = ("mean", "std", "higher_is_better", "unit")
+_SECTIONS = ("method", "dataset", "protocol", "metrics", "provenance", "timings")
+
+#: Distributions whose versions are recorded when installed.
+VERSIONED_PACKAGES = (
+    "blendvoca", "numpy", "scipy", "torch", "transformers", "scikit-learn", "trimesh", "libigl",
+    "piqp", "clarabel", "osqp", "qpsolvers", "soundfile", "soxr", "pot",
+)
+
+
+def package_versions(packages=VERSIONED_PACKAGES) -> dict:
+    """``{distribution: version}`` for those of ``packages`` that are installed."""
+    versions = {}
+    for name in packages:
+        try:
+            versions[name] = importlib.metadata.version(name)
+        except importlib.metadata.PackageNotFoundError:
+            continue
+    if "blendvoca" not in versions:
+        try:  # running from a source checkout
+            import blendvoca
+
+            versions["blendvoca"] = getattr(blendvoca, "__version__", "unknown") + "+source"
+        except ImportError:
+            pass
+    return dict(sorted(versions.items()))
+
+
+def git_revision(directory=None) -> dict:
+    """``{"revision": sha or None, "dirty": bool or None}`` of the git checkout at ``directory``."""
+    directory = Path(directory) if directory is not None else Path(__file__).resolve().parent
+    try:
+        sha = subprocess.run(["git", "rev-parse", "HEAD"], cwd=directory, capture_output=True, text=True,
+                             timeout=10, check=False)
+        if sha.returncode != 0:
+            return {"revision": None, "dirty": None}
+        status = subprocess.run(["git", "status", "--porcelain"], cwd=directory,
+                                capture_output=True, text=True, timeout=30, check=False)
+        return {"revision": sha.stdout.strip(), "dirty": bool(status.stdout.strip())}
+    except (OSError, subprocess.SubprocessError):
+        return {"revision": None, "dirty": None}
+
+
+def _cpu_name() -> str:
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
+def hardware_info() -> dict:
+    """CPU model, usable cores, and the GPU when torch sees one."""
+    try:
+        cores = len(os.sched_getaffinity(0))
+    except AttributeError:
+        cores = os.cpu_count()
+    info = {"cpu": _cpu_name(), "cores": cores, "gpu": None}
+    try:
+        import torch
+
+        if torch.cuda.is_available():
+            info["gpu"] = torch.cuda.get_device_name(0)
+        info["torch_threads"] = torch.get_num_threads()
+    except ImportError:
+        pass
+    return info
+
+
+def _clean_metrics(metrics) -> dict:
+    if not isinstance(metrics, dict) or not metrics:
+        raise TypeError(f"result metrics: expected a non-empty dict of metric -> fields, got {metrics!r}")
+    out = {}
+    for name, fields in sorted(metrics.items()):
+        if not isinstance(fields, dict):
+            raise TypeError(f"result metric {name!r}: expected a dict with {METRIC_FIELDS}, got {fields!r}")
+        missing = [f for f in ("mean", "higher_is_better") if f not in fields]
+        if missing:
+            raise ValueError(f"result metric {name!r}: missing field(s) {missing}, got {sorted(fields)}")
+        mean = float(fields["mean"])
+        std = fields.get("std")
+        std = None if std is None else float(std)
+        if not math.isfinite(mean) or (std is not None and not math.isfinite(std)):
+            raise ValueError(f"result metric {name!r}: expected finite mean/std, got mean={mean}, std={std}")
+        hib = fields["higher_is_better"]
+        if hib is not None and not isinstance(hib, bool):
+            raise ValueError(f"result metric {name!r}: higher_is_better must be true, false or null, got {hib!r}")
+        extra = {k: v for k, v in fields.items() if k not in METRIC_FIELDS}
+        out[str(name)] = {"mean": mean, "std": std, "higher_is_better": hib, "unit": fields.get("unit") or "",
+                          **extra}
+    return out
+
+
+def build_result(*, method: dict, dataset: dict, protocol: dict, metrics: dict, timings: dict,
+                 provenance: dict | None = None) -> dict:
+    """Assemble and check a result record.
+
+    Parameters
+    ----------
+    method : dict
+        ``name``, ``label``, ``class``, ``stochastic``, ``reference``, ``config``.
+    dataset : dict
+        ``manifest_hash``, ``path``, ``split`` ...
+    protocol : dict
+        ``samples``, ``seed``, ``budget`` ...
+    metrics : dict
+        ``{metric: {"mean", "std", "higher_is_better", "unit"}}`` as returned by
+        ``benchmark.evaluate.evaluate_split``.
+    timings : dict
+        Seconds per stage.
+    provenance : dict, optional
+        Defaults to the current date, git revision, versions and hardware.
+
+    Returns
+    -------
+    dict
+        JSON-serialisable record that passes :func:`check_result`.
+    """
+    if provenance is None:
+        git = git_revision()
+        provenance = {
+            "date": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+            "git_revision": git["revision"],
+            "git_dirty": git["dirty"],
+            "python": platform.python_version(),
+            "platform": platform.platform(),
+            "versions": package_versions(),
+            "hardware": hardware_info(),
+        }
+    result = {
+        "schema_version": SCHEMA_VERSION,
+        "method": dict(method),
+        "dataset": dict(dataset),
+        "protocol": dict(protocol),
+        "metrics": _clean_metrics(metrics),
+        "provenance": dict(provenance),
+        "timings": {k: (None if v is None else round(float(v), 3)) for k, v in timings.items()},
+    }
+    result["method"].setdefault("label", result["method"].get("name"))
+    check_result(result)
+    return result
+
+
+def check_result(result, where: str = "result") -> dict:
+    """Raise ValueError (TypeError for non-objects) unless ``result`` follows the schema; returns it unchanged."""
+    if not isinstance(result, dict):
+        raise TypeError(f"{where}: expected a JSON object, got {type(result).__name__}")
+    if result.get("schema_version") != SCHEMA_VERSION:
+        raise ValueError(f"{where}: expected schema_version {SCHEMA_VERSION}, got {result.get('schema_version')!r}")
+    missing = [s for s in _SECTIONS if not isinstance(result.get(s), dict)]
+    if missing:
+        raise ValueError(f"{where}: missing or non-object section(s) {missing}")
+    for key in ("name", "config"):
+        if key not in result["method"]:
+            raise ValueError(f"{where}: method section lacks {key!r}")
+    if not result["dataset"].get("manifest_hash"):
+        raise ValueError(f"{where}: dataset section lacks 'manifest_hash'")
+    _clean_metrics(result["metrics"])
+    try:
+        json.dumps(result, allow_nan=False)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{where}: not JSON-serialisable ({exc})") from exc
+    return result
+
+
+def _slug(text: str) -> str:
+    return re.sub(r"[^a-z0-9._-]+", "-", str(text).lower()).strip("-") or "method"
+
+
+def result_filename(result: dict) -> str:
+    """``<label>__<manifest hash[:12]>__s<samples>__seed<seed>.json`` (one file per run setting)."""
+    label = _slug(result["method"].get("label") or result["method"]["name"])
+    manifest = _slug(result["dataset"]["manifest_hash"])[:12]
+    protocol = result["protocol"]
+    return f"{label}__{manifest}__s{protocol.get('samples')}__seed{protocol.get('seed')}.json"
+
+
+def write_result(result: dict, results_dir, filename: str | None = None) -> Path:
+    """Check ``result`` and write it atomically into ``results_dir``.
+
+    The JSON goes to a temporary file in the same directory and is moved into
+    place with ``os.replace``, so a crash never leaves a partial result file.
+
+    Returns
+    -------
+    Path
+        The written file.
+    """
+    check_result(result)
+    text = json.dumps(result, indent=2, sort_keys=True, allow_nan=False) + "\n"
+    results_dir = Path(results_dir)
+    results_dir.mkdir(parents=True, exist_ok=True)
+    path = results_dir / (filename or result_filename(result))
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=results_dir)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as handle:
+            handle.write(text)
+            handle.flush()
+            os.fsync(handle.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path
+
+
+def read_result(path) -> dict:
+    """Load and check one result file."""
+    path = Path(path)
+    try:
+        result = json.loads(path.read_text(encoding="utf-8"))
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{path}: not valid JSON ({exc})") from exc
+    return check_result(result, where=str(path))

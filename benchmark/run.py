@@ -1,0 +1,411 @@
+"""``python -m benchmark.run``: train or load a method, generate on the test split,
+score every metric and write one result JSON with its provenance.
+
+Each step is a function so that tests (and notebooks) can call or replace it;
+``main`` is a thin argparse shell over :func:`run_method`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import re
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from benchmark.methods import (
+    Budget,
+    MethodError,
+    MethodOutputError,
+    UnknownMethodError,
+    get_method,
+    validated_tracks,
+)
+from benchmark.methods.base import CONFIG_FILE
+from benchmark.results import build_result, write_result
+
+__all__ = [
+    "DEFAULT_RESULTS_DIR",
+    "default_data_root",
+    "generated_tracks",
+    "main",
+    "make_method",
+    "parse_budget",
+    "parse_config",
+    "prepared_method",
+    "run_method",
+    "sentence_seed",
+]
+
+#: Where results go unless ``--results`` says otherwise.
+DEFAULT_RESULTS_DIR = Path(__file__).resolve().parent.parent / "leaderboard" / "results"
+
+
+def parse_budget(text: str | None = None, *, max_steps: int | None = None,
+                 max_seconds: float | None = None) -> Budget:
+    """A :class:`Budget` from ``--budget`` text and/or explicit limits.
+
+    Accepted text: ``"500"`` or ``"500steps"`` (steps), ``"90s"``, ``"5m"``,
+    ``"1h"`` (time), or comma-separated ``"steps=500,seconds=300"``.
+    """
+    steps, seconds = max_steps, max_seconds
+    if text:
+        for part in str(text).replace(" ", "").split(","):
+            m = re.fullmatch(r"(?:steps=)?(\d+)(?:steps?)?", part)
+            if m:
+                steps = int(m.group(1))
+                continue
+            m = re.fullmatch(r"(?:seconds=)?(\d+(?:\.\d*)?)(s|sec|m|min|h)?", part)
+            if m and (m.group(2) or part.startswith("seconds=")):
+                factor = {"s": 1, "sec": 1, None: 1, "m": 60, "min": 60, "h": 3600}[m.group(2)]
+                seconds = float(m.group(1)) * factor
+                continue
+            raise ValueError(
+                f"--budget: expected e.g. '500' (steps), '300s', '5m' or 'steps=500,seconds=300', got {part!r}"
+            )
+    return Budget(max_steps=steps, max_seconds=seconds)
+
+
+def parse_config(pairs=(), *, preset: str | None = None) -> dict:
+    """Method config from ``KEY=VALUE`` strings (values parsed as JSON when they can be).
+
+    ``preset`` (``--preset``) is passed through as ``config["preset"]``.
+    """
+    config = {}
+    for pair in pairs or ():
+        key, sep, value = pair.partition("=")
+        if not sep or not key:
+            raise ValueError(f"--config: expected KEY=VALUE, got {pair!r}")
+        try:
+            config[key] = json.loads(value)
+        except json.JSONDecodeError:
+            config[key] = value
+    if preset is not None:
+        config["preset"] = preset
+    return config
+
+
+def make_method(name: str, config: dict | None = None):
+    """Instantiate the registered method ``name`` with ``config``.
+
+    Raises
+    ------
+    MethodError
+        The constructor raised (e.g. an unknown config key).
+    """
+    cls = get_method(name)
+    try:
+        return cls(**(config or {}))
+    except Exception as exc:
+        raise MethodError(f"method {name!r}: construction with config {config!r} failed: "
+                          f"{type(exc).__name__}: {exc}") from exc
+
+
+def prepared_method(name: str, config: dict, dataset, *, seed: int, budget: Budget, checkpoint=None):
+    """The method ready to generate: loaded from ``checkpoint`` when it holds one,
+    otherwise built and trained (and saved to ``checkpoint`` when given).
+
+    Returns
+    -------
+    method : Method
+    timings : dict
+        ``{"train_s": ..., "load_s": ...}`` (one of them None).
+    """
+    cls = get_method(name)
+    timings = {"train_s": None, "load_s": None}
+    if checkpoint is not None and Path(checkpoint).is_dir() and any(Path(checkpoint).iterdir()):
+        saved = Path(checkpoint) / CONFIG_FILE
+        if saved.is_file():
+            saved_name = json.loads(saved.read_text()).get("name")
+            if saved_name not in (None, name, getattr(cls, "name", None)):
+                raise MethodError(f"method {name!r}: checkpoint {checkpoint} holds method {saved_name!r}, not {name!r}")
+        start = time.perf_counter()
+        try:
+            method = cls.load(checkpoint)
+        except Exception as exc:
+            raise MethodError(f"method {name!r}: load from {checkpoint} failed: {type(exc).__name__}: {exc}") from exc
+        timings["load_s"] = time.perf_counter() - start
+        return method, timings
+    method = make_method(name, config)
+    start = time.perf_counter()
+    try:
+        method.train(dataset, seed=seed, budget=budget)
+    except Exception as exc:
+        raise MethodError(f"method {name!r}: train failed: {type(exc).__name__}: {exc}") from exc
+    timings["train_s"] = time.perf_counter() - start
+    if checkpoint is not None:
+        try:
+            method.save(checkpoint)
+        except Exception as exc:
+            raise MethodError(f"method {name!r}: save to {checkpoint} failed: {type(exc).__name__}: {exc}") from exc
+    return method, timings
+
+
+def sentence_seed(seed: int, index: int) -> int:
+    """Seed for the ``index``-th sentence of a run seeded with ``seed`` (independent streams)."""
+    return int(np.random.SeedSequence([int(seed), int(index)]).generate_state(1)[0] & 0x7FFFFFFF)
+
+
+def generated_tracks(method, dataset, *, split: str = "test", samples: int = 1, seed: int = 0,
+                     clip: bool = False, name: str | None = None, progress: bool = True):
+    """Ask ``method`` for every sentence of ``split`` and check each answer.
+
+    Parameters
+    ----------
+    method : Method
+    dataset : benchmark.data dataset
+    split : str
+    samples : int
+        Samples per sentence for stochastic methods; deterministic methods are
+        asked for one.
+    seed : int
+    clip : bool
+        Clip values outside [0, 1] instead of refusing them.
+
+    Returns
+    -------
+    generated : dict
+        ``{(subject, sentence): (S, T, 32) float64 ndarray}``, ``T`` = ground-truth frames.
+    n_clipped : int
+
+    Raises
+    ------
+    MethodError
+        ``generate`` raised (message names method, subject and sentence).
+    MethodOutputError
+        The output broke the contract (shape, frames, NaN, range).
+    """
+    name = name or getattr(method, "name", type(method).__name__)
+    num_samples = int(samples) if getattr(method, "stochastic", False) else 1
+    names = tuple(getattr(dataset, "names", ()) or ())
+    num_coeffs = len(names) if names else 32
+    items = [(subject, sentence) for subject in dataset.split(split) for sentence in dataset.sentences(subject)]
+    if not items:
+        raise ValueError(f"dataset split {split!r} has no sentences")
+    try:
+        from tqdm import tqdm
+        iterator = tqdm(items, desc=f"{name}: generate", unit="sentence", disable=not progress, file=sys.stderr)
+    except ImportError:
+        iterator = items
+    generated, n_clipped = {}, 0
+    for index, (subject, sentence) in enumerate(iterator):
+        audio, rate = dataset.audio(subject, sentence)
+        if rate != 16000:
+            raise ValueError(f"dataset audio for {subject}/{sentence}: expected 16000 Hz, got {rate}")
+        num_frames = int(np.asarray(dataset.coeffs(subject, sentence)).shape[0])
+        try:
+            output = method.generate(np.asarray(audio, dtype=np.float32), subject, num_frames=num_frames,
+                                     samples=num_samples, seed=sentence_seed(seed, index))
+        except Exception as exc:
+            raise MethodError(f"method {name!r}, subject {subject!r}, sentence {sentence!r}: generate failed: "
+                              f"{type(exc).__name__}: {exc}") from exc
+        tracks, clipped = validated_tracks(output, method=name, subject=subject, sentence=sentence,
+                                           num_frames=num_frames, samples=num_samples, num_coeffs=num_coeffs,
+                                           clip=clip)
+        generated[(subject, sentence)] = tracks
+        n_clipped += clipped
+    return generated, n_clipped
+
+
+def default_data_root(*, progress: bool = True) -> Path:
+    """The bundled-default BlendVOCA build, built first if it is not there yet.
+
+    ``$BLENDVOCA_DATA`` names an existing build and wins; otherwise the build of the
+    bundled synthetic corpus lives in ``<user cache>/blendvoca-default`` (see
+    ``blendvoca.assets.cache_dir``) and is made with ``blendvoca.build`` when its
+    ``manifest.json`` is missing (the build is resumable).
+    """
+    env = os.environ.get("BLENDVOCA_DATA")
+    if env:
+        return Path(env).expanduser()
+    from blendvoca.assets import cache_dir
+
+    root = Path(cache_dir()) / "blendvoca-default"
+    if not (root / "manifest.json").is_file():
+        from blendvoca.build.pipeline import build_dataset
+
+        print(f"building the bundled-default BlendVOCA into {root} (once)", file=sys.stderr)
+        summary = build_dataset(root, None, progress=progress)
+        if summary.failures:
+            raise RuntimeError(f"bundled-default build in {root} had {len(summary.failures)} failure(s), e.g. "
+                               f"{summary.failures[0]}")
+    return root
+
+
+def _open_default(root):
+    from benchmark.data import open_blendvoca
+
+    return open_blendvoca(root)
+
+
+def _evaluate_default(generated, dataset, split="test"):
+    from benchmark.evaluate import evaluate_split
+
+    return evaluate_split(generated, dataset, split=split)
+
+
+def run_method(
+    method_name: str,
+    data_root=None,
+    *,
+    samples: int = 10,
+    seed: int = 0,
+    budget: Budget | None = None,
+    results_dir=DEFAULT_RESULTS_DIR,
+    config: dict | None = None,
+    split: str = "test",
+    checkpoint=None,
+    clip: bool = False,
+    evaluate=None,
+    open_dataset=None,
+    progress: bool = True,
+) -> Path:
+    """Train or load ``method_name``, generate on ``split``, score it and write the result.
+
+    Parameters
+    ----------
+    method_name : str
+        Registered or installed method name.
+    data_root : path-like or None
+        BlendVOCA build; None uses :func:`default_data_root`.
+    samples : int
+        Samples per sentence for stochastic methods (deterministic ones give one).
+    seed : int
+        Training and sampling seed.
+    budget : Budget, optional
+        Training limits (default: none, the method's own defaults).
+    results_dir : path-like
+        Where the result JSON is written.
+    config : dict, optional
+        Method constructor kwargs.
+    checkpoint : path-like, optional
+        Load the trained method from here if it holds one, else train and save there.
+    clip : bool
+        Clip out-of-range coefficients instead of failing.
+    evaluate : callable, optional
+        ``evaluate(generated, dataset, split=...) -> {metric: {...}}``; default
+        ``benchmark.evaluate.evaluate_split``.
+    open_dataset : callable, optional
+        ``open_dataset(root) -> dataset``; default ``benchmark.data.open_blendvoca``.
+
+    Returns
+    -------
+    Path
+        The result file. Nothing is written when any step fails.
+    """
+    total_start = time.perf_counter()
+    budget = budget or Budget()
+    config = dict(config or {})
+    if int(samples) < 1:
+        raise ValueError(f"samples: expected >= 1, got {samples}")
+    evaluate = evaluate or _evaluate_default
+    open_dataset = open_dataset or _open_default
+    if data_root is None:
+        data_root = default_data_root(progress=progress)
+    dataset = open_dataset(data_root)
+
+    method, timings = prepared_method(method_name, config, dataset, seed=seed, budget=budget, checkpoint=checkpoint)
+    start = time.perf_counter()
+    generated, n_clipped = generated_tracks(method, dataset, split=split, samples=samples, seed=seed, clip=clip,
+                                            name=method_name, progress=progress)
+    timings["generate_s"] = time.perf_counter() - start
+    start = time.perf_counter()
+    metrics = evaluate(generated, dataset, split=split)
+    timings["evaluate_s"] = time.perf_counter() - start
+    timings["total_s"] = time.perf_counter() - total_start
+
+    try:
+        method_config = method.config()
+        json.dumps(method_config)
+    except Exception as exc:
+        raise MethodError(f"method {method_name!r}: config() must return a JSON-serialisable dict ({exc})") from exc
+    stochastic = bool(getattr(method, "stochastic", False))
+    cls = type(method)
+    result = build_result(
+        method={
+            "name": method_name,
+            "label": getattr(method, "label", None) or method_name,
+            "class": f"{cls.__module__}:{cls.__qualname__}",
+            "stochastic": stochastic,
+            "reference": bool(getattr(method, "reference", False)),
+            "config": method_config,
+        },
+        dataset={
+            "manifest_hash": str(dataset.manifest_hash),
+            "path": str(Path(data_root).resolve()) if isinstance(data_root, (str, os.PathLike)) else str(data_root),
+            "split": split,
+            "num_subjects": len({s for s, _ in generated}),
+            "num_sentences": len(generated),
+        },
+        protocol={
+            "samples": int(samples) if stochastic else 1,
+            "seed": int(seed),
+            "budget": budget.to_dict(),
+            "clip": bool(clip),
+            "n_clipped": int(n_clipped),
+            "checkpoint": None if checkpoint is None else str(checkpoint),
+        },
+        metrics=metrics,
+        timings=timings,
+    )
+    return write_result(result, results_dir)
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="python -m benchmark.run", description=__doc__.split("\n\n")[0])
+    p.add_argument("--method", required=False, help="registered or installed method name")
+    p.add_argument("--data", default=None, help="BlendVOCA build (default: the bundled-default build)")
+    p.add_argument("--samples", type=int, default=10, help="samples per sentence for stochastic methods")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--budget", default=None, help="training budget: '500' steps, '300s', 'steps=500,seconds=300'")
+    p.add_argument("--max-steps", type=int, default=None)
+    p.add_argument("--max-seconds", type=float, default=None)
+    p.add_argument("--results", default=str(DEFAULT_RESULTS_DIR), help="result directory")
+    p.add_argument("--preset", default=None, help="passed to the method config as preset=...")
+    p.add_argument("--config", action="append", default=[], metavar="KEY=VALUE",
+                   help="method config entry (repeatable; VALUE parsed as JSON when possible)")
+    p.add_argument("--split", default="test")
+    p.add_argument("--checkpoint", default=None, help="load the trained method from here, or train and save here")
+    p.add_argument("--clip", action="store_true", help="clip out-of-range coefficients instead of failing")
+    p.add_argument("--list", action="store_true", help="list the available methods and exit")
+    p.add_argument("--quiet", action="store_true", help="no progress bars")
+    return p
+
+
+def main(argv=None) -> int:
+    args = _parser().parse_args(argv)
+    if args.list:
+        from benchmark.methods import available_methods
+
+        print("\n".join(available_methods()))
+        return 0
+    if not args.method:
+        _parser().error("--method is required (or --list)")
+    try:
+        budget = parse_budget(args.budget, max_steps=args.max_steps, max_seconds=args.max_seconds)
+        config = parse_config(args.config, preset=args.preset)
+        path = run_method(args.method, args.data, samples=args.samples, seed=args.seed, budget=budget,
+                          results_dir=args.results, config=config, split=args.split, checkpoint=args.checkpoint,
+                          clip=args.clip, progress=not args.quiet)
+    except UnknownMethodError as exc:  # unknown method: the message lists close matches
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    except (MethodError, MethodOutputError) as exc:
+        print(f"error: the method misbehaved, no result written: {exc}", file=sys.stderr)
+        return 3
+    if not args.quiet:
+        result = json.loads(Path(path).read_text())
+        for metric, fields in result["metrics"].items():
+            arrow = {True: "↑", False: "↓"}.get(fields["higher_is_better"], " ")
+            std = "" if fields["std"] is None else f" ± {fields['std']:.4g}"
+            print(f"  {metric:<28} {arrow} {fields['mean']:.4g}{std} {fields['unit']}".rstrip(), file=sys.stderr)
+    print(path)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,96 @@
+"""Example BlendVOCA method: speech energy drives jawOpen (see docs/methods.md)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from benchmark.methods import Method
+
+__all__ = ["EnergyJawMethod", "energy_envelope"]
+
+FPS = 60
+RATE = 16000
+
+
+def energy_envelope(audio, num_frames: int, *, rate: int = RATE, fps: int = FPS) -> np.ndarray:
+    """RMS of the audio in windows centred on each 60 fps frame, scaled to [0, 1].
+
+    Parameters
+    ----------
+    audio : (N,) ndarray
+        Mono samples at ``rate``.
+    num_frames : int
+        Frames ``T`` at ``fps``.
+
+    Returns
+    -------
+    (T,) float64 ndarray
+        Divided by its maximum (zeros for silence).
+    """
+    audio = np.asarray(audio, dtype=np.float64)
+    hop = rate / fps
+    centres = (np.arange(num_frames) * hop).astype(int)
+    half = int(hop)
+    power = np.concatenate([[0.0], np.cumsum(audio ** 2)])
+    lo = np.clip(centres - half, 0, audio.size)
+    hi = np.clip(centres + half, 0, audio.size)
+    rms = np.sqrt((power[hi] - power[lo]) / np.maximum(hi - lo, 1))
+    peak = rms.max() if rms.size else 0.0
+    return rms / peak if peak > 0 else rms
+
+
+class EnergyJawMethod(Method):
+    """jawOpen = gain * energy envelope (+ smooth noise per sample); others at the train mean.
+
+    Parameters
+    ----------
+    noise : float
+        Standard deviation of the per-sample noise on jawOpen.
+    """
+
+    name = "example-energy"
+    stochastic = True
+
+    def __init__(self, noise: float = 0.02):
+        super().__init__(noise=noise)
+        self.gain = None
+        self.mean = None
+
+    def train(self, dataset, *, seed, budget):
+        jaw = list(dataset.names).index("jawOpen")
+        xs, ys, tracks = [], [], []
+        for subject in dataset.split("train"):
+            for sentence in dataset.sentences(subject):
+                coeffs = np.asarray(dataset.coeffs(subject, sentence))
+                audio, _ = dataset.audio(subject, sentence)
+                xs.append(energy_envelope(audio, coeffs.shape[0]))
+                ys.append(coeffs[:, jaw])
+                tracks.append(coeffs)
+        x, y = np.concatenate(xs), np.concatenate(ys)
+        self.gain = float(x @ y / max(x @ x, 1e-12))  # least squares through the origin
+        self.mean = np.concatenate(tracks).mean(axis=0)
+        self.jaw = jaw
+
+    def generate(self, audio, subject, *, num_frames, samples=1, seed=0):
+        rng = np.random.default_rng(seed)
+        out = np.repeat(np.tile(self.mean, (num_frames, 1))[None], samples, axis=0)
+        env = energy_envelope(audio, num_frames)
+        noise = rng.normal(0, self._config["noise"], size=(samples, num_frames + 8))
+        noise = np.stack([np.convolve(n, np.ones(9) / 9, mode="valid") for n in noise])
+        out[:, :, self.jaw] = self.gain * env[None] + noise
+        return np.clip(out, 0.0, 1.0)
+
+    def save(self, directory):
+        super().save(directory)
+        state = {"gain": self.gain, "mean": self.mean.tolist(), "jaw": self.jaw}
+        (Path(directory) / "energy.json").write_text(json.dumps(state))
+
+    @classmethod
+    def load(cls, directory):
+        method = super().load(directory)
+        state = json.loads((Path(directory) / "energy.json").read_text())
+        method.gain, method.mean, method.jaw = state["gain"], np.asarray(state["mean"]), state["jaw"]
+        return method

@@ -1,0 +1,1 @@
+"""Leaderboard tables rendered from stored result files (``python -m leaderboard.build``)."""

@@ -1,0 +1,53 @@
+"""``python -m leaderboard.build``: render every stored result into Markdown and LaTeX tables."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from .collect import load_results, tables_by_manifest
+from .render import latex_tables, markdown_tables
+
+__all__ = ["DEFAULT_OUT_DIR", "DEFAULT_RESULTS_DIR", "build_leaderboard", "main", "rendered_tables"]
+
+DEFAULT_RESULTS_DIR = Path(__file__).resolve().parent / "results"
+DEFAULT_OUT_DIR = Path(__file__).resolve().parent / "tables"
+
+
+def rendered_tables(results: list[dict]) -> dict[str, str]:
+    """``{"leaderboard.md": text, "leaderboard.tex": text}`` for a list of result records."""
+    tables = tables_by_manifest(results)
+    return {"leaderboard.md": markdown_tables(tables), "leaderboard.tex": latex_tables(tables)}
+
+
+def build_leaderboard(results_dir=DEFAULT_RESULTS_DIR, out_dir=DEFAULT_OUT_DIR) -> list[Path]:
+    """Read ``results_dir/*.json`` and write the rendered tables into ``out_dir``.
+
+    Returns
+    -------
+    list of Path
+        The written files.
+    """
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    written = []
+    for name, text in rendered_tables(load_results(results_dir)).items():
+        path = out_dir / name
+        path.write_text(text, encoding="utf-8")
+        written.append(path)
+    return written
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m leaderboard.build", description=__doc__)
+    parser.add_argument("--results", default=str(DEFAULT_RESULTS_DIR), help="directory of result JSON files")
+    parser.add_argument("--out", default=str(DEFAULT_OUT_DIR), help="directory for leaderboard.md / leaderboard.tex")
+    args = parser.parse_args(argv)
+    for path in build_leaderboard(args.results, args.out):
+        print(path)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,161 @@
+import numpy as np
+import pytest
+
+from baselines.mesh_adapter.adapt import adapted_coefficients
+from baselines.mesh_adapter.config import adapter_config, read_adapter_config
+from baselines.mesh_adapter.sequences import find_sequences, read_vertex_sequence
+from benchmark.methods import Budget, get_method
+from benchmark.run import generated_tracks
+from blendvoca.names import BLENDVOCA_NAMES
+from blendvoca.rig import Rig
+
+RATE = 16000
+V = 60
+
+
+class RigDataset:
+    """Two test speakers with random rigs and smooth coefficient tracks (|du| < 0.1)."""
+
+    def __init__(self, seed=0, n_sentences=2):
+        rng = np.random.default_rng(seed)
+        self.names = BLENDVOCA_NAMES
+        self.manifest_hash = "righash"
+        self._splits = {"train": [], "val": [], "test": ["S1", "S2"]}
+        self._rigs, self._data = {}, {}
+        faces = np.array([[0, 1, 2], [1, 2, 3]])
+        for subject in self._splits["test"]:
+            # 32 random shapes: a 60-vertex rig (180 equations) is well determined
+            all_names = self.names + ("browInnerUp",)
+            self._rigs[subject] = Rig(rng.normal(size=(V, 3)), 0.01 * rng.normal(size=(33, V, 3)), all_names, faces)
+            for i in range(n_sentences):
+                t = np.arange(int(rng.integers(100, 140)))[:, None]
+                freq = rng.uniform(0.005, 0.03, size=32)  # slope <= 0.4 * 2 pi * 0.03 < 0.1
+                coeffs = 0.5 + 0.4 * np.sin(2 * np.pi * freq * t + rng.uniform(0, 6, size=32))
+                audio = rng.normal(size=t.shape[0] * RATE // 60).astype(np.float32)
+                self._data[(subject, f"sentence{i + 1:02d}")] = (audio, coeffs)
+
+    def split(self, name):
+        return list(self._splits[name])
+
+    def sentences(self, subject):
+        return sorted(q for s, q in self._data if s == subject)
+
+    def coeffs(self, subject, sentence):
+        return self._data[(subject, sentence)][1].copy()
+
+    def audio(self, subject, sentence):
+        return self._data[(subject, sentence)][0].copy(), RATE
+
+    def rig(self, subject):
+        return self._rigs[subject]
+
+    def frames(self, subject, sentence):
+        rig = self._rigs[subject].select(self.names)
+        return rig.evaluate(self.coeffs(subject, sentence))
+
+
+@pytest.fixture(scope="module")
+def dataset():
+    return RigDataset()
+
+
+def _write_npy(dataset, root, step=1, offsets=False):
+    for subject in dataset.split("test"):
+        for sentence in dataset.sentences(subject):
+            frames = dataset.frames(subject, sentence)[::step]
+            if offsets:
+                frames = frames - dataset.rig(subject).neutral[None]
+            (root / subject).mkdir(parents=True, exist_ok=True)
+            np.save(root / subject / f"{sentence}.npy", frames)
+
+
+def test_adapter_recovers_known_coefficients_at_60fps(dataset, tmp_path):
+    _write_npy(dataset, tmp_path / "out")
+    (tmp_path / "m.yaml").write_text("name: Fake VOCA\nvertices: out\nfps: 60\n")
+    method = get_method("mesh-adapter")(config=str(tmp_path / "m.yaml"))
+    assert method.label == "Fake VOCA"
+    method.train(dataset, seed=0, budget=Budget())
+    generated, _ = generated_tracks(method, dataset, progress=False)
+    for (subject, sentence), tracks in generated.items():
+        np.testing.assert_allclose(tracks[0], dataset.coeffs(subject, sentence), atol=1e-5)
+
+
+def test_adapter_30fps_offsets_close_and_same_length(dataset, tmp_path):
+    _write_npy(dataset, tmp_path / "out", step=2, offsets=True)
+    method = get_method("mesh-adapter")(vertices=str(tmp_path / "out"), fps=30, template="offsets")
+    method.train(dataset, seed=0, budget=Budget())
+    generated, _ = generated_tracks(method, dataset, progress=False)
+    for key, tracks in generated.items():
+        truth = dataset.coeffs(*key)
+        assert tracks.shape == (1, truth.shape[0], 32)
+        # linear interpolation of a smooth signal; the last 60 fps frame of an even-length
+        # track lies past the last 30 fps frame and holds it
+        assert np.abs(tracks[0, :-1] - truth[:-1]).max() < 0.01
+        assert np.abs(tracks[0] - truth).max() < 0.1
+
+
+def test_adapter_reads_per_frame_mesh_folders(dataset, tmp_path):
+    from blendvoca.io.mesh import write_ply
+
+    frames = dataset.frames("S1", "sentence01")[:12]
+    folder = tmp_path / "S1" / "sentence01"
+    folder.mkdir(parents=True)
+    for i, f in enumerate(frames):  # unpadded numbers: natural sort must keep frame 10 after 9
+        write_ply(folder / f"frame{i + 1}.ply", f, dataset.rig("S1").faces)
+    assert list(find_sequences(tmp_path)) == [("S1", "sentence01")]
+    np.testing.assert_allclose(read_vertex_sequence(folder), frames, atol=1e-6)
+
+
+def test_adapter_save_load_round_trip(dataset, tmp_path):
+    _write_npy(dataset, tmp_path / "out")
+    method = get_method("mesh-adapter")(vertices=str(tmp_path / "out"))
+    method.train(dataset, seed=0, budget=Budget())
+    method.save(tmp_path / "ckpt")
+    loaded = get_method("mesh-adapter").load(tmp_path / "ckpt")
+    assert loaded.config() == method.config()
+    a, _ = generated_tracks(method, dataset, progress=False)
+    b, _ = generated_tracks(loaded, dataset, progress=False)
+    assert all(np.array_equal(a[k], b[k]) for k in a)
+
+
+def test_missing_outputs_named(dataset, tmp_path):
+    _write_npy(dataset, tmp_path / "out")
+    (tmp_path / "out" / "S2" / "sentence02.npy").unlink()
+    method = get_method("mesh-adapter")(vertices=str(tmp_path / "out"))
+    with pytest.raises(FileNotFoundError, match=r"1 of 4 sentences.*S2/sentence02"):
+        method.train(dataset, seed=0, budget=Budget())
+
+
+def test_wrong_topology_named(dataset, tmp_path):
+    (tmp_path / "out" / "S1").mkdir(parents=True)
+    for q in dataset.sentences("S1"):
+        np.save(tmp_path / "out" / "S1" / f"{q}.npy", np.zeros((10, V + 1, 3)))
+    with pytest.raises(ValueError, match=r"S1/sentence01.*\(T, 60, 3\)"):
+        method = get_method("mesh-adapter")(vertices=str(tmp_path / "out"), split="test")
+        dataset_one = RigDataset()
+        dataset_one._splits["test"] = ["S1"]
+        method.train(dataset_one, seed=0, budget=Budget())
+
+
+def test_config_validation(tmp_path):
+    with pytest.raises(ValueError, match="unknown key"):
+        adapter_config({"vertices": "x", "fsp": 30})
+    with pytest.raises(ValueError, match="'template' must be one of"):
+        adapter_config({"vertices": "x", "template": "relative"})
+    with pytest.raises(ValueError, match="'vertices'"):
+        adapter_config({"fps": 30})
+    with pytest.raises(ValueError, match="expected config=PATH.yaml"):
+        get_method("mesh-adapter")()
+    (tmp_path / "a.yaml").write_text("vertices: sub\nfps: 30\n")
+    cfg = read_adapter_config(tmp_path / "a.yaml")
+    assert cfg.vertices == str((tmp_path / "sub").resolve()) and cfg.fps == 30.0 and cfg.name == "sub"
+
+
+def test_adapted_coefficients_closed_form():
+    rng = np.random.default_rng(3)
+    neutral, deltas = rng.normal(size=(20, 3)), rng.normal(size=(4, 20, 3))
+    truth = np.clip(rng.uniform(size=(1, 4)).repeat(10, 0), 0, 1)
+    frames = neutral + np.einsum("tk,kvc->tvc", truth, deltas)
+    np.testing.assert_allclose(adapted_coefficients(frames, neutral, deltas), truth, atol=1e-6)
+    np.testing.assert_allclose(adapted_coefficients(frames - neutral, neutral, deltas, template="offsets"), truth,
+                               atol=1e-6)

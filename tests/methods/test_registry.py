@@ -1,0 +1,119 @@
+import numpy as np
+import pytest
+
+from benchmark.methods import (
+    BUILTIN_METHODS,
+    Budget,
+    Method,
+    UnknownMethodError,
+    available_methods,
+    get_method,
+    register,
+    register_lazy,
+    unregister,
+)
+
+
+class _Tiny(Method):
+    def generate(self, audio, subject, *, num_frames, samples=1, seed=0):
+        return np.zeros((samples, num_frames, 32))
+
+
+@pytest.fixture
+def cleanup():
+    names = []
+    yield names
+    for name in names:
+        unregister(name)
+
+
+def test_decorator_registers_and_sets_name(cleanup):
+    @register("tiny-decorated")
+    class Tiny(_Tiny):
+        pass
+
+    cleanup.append("tiny-decorated")
+    assert get_method("tiny-decorated") is Tiny
+    assert Tiny.name == "tiny-decorated"
+    assert "tiny-decorated" in available_methods()
+
+
+def test_duplicate_name_refused(cleanup):
+    register("tiny-dup")(type("A", (_Tiny,), {}))
+    cleanup.append("tiny-dup")
+    with pytest.raises(ValueError, match="already registered"):
+        register("tiny-dup")(type("B", (_Tiny,), {}))
+    with pytest.raises(ValueError, match="already registered"):
+        register_lazy("tiny-dup", "x.y:Z")
+
+
+def test_builtin_names_refuse_reregistration():
+    with pytest.raises(ValueError, match="already registered"):
+        register_lazy("mean", "somewhere:Else")
+
+
+def test_lazy_registration_imports_on_lookup(cleanup):
+    register_lazy("tiny-lazy", "tests.methods.test_registry:_Tiny")
+    cleanup.append("tiny-lazy")
+    assert get_method("tiny-lazy") is _Tiny
+
+
+def test_lazy_bad_target_reports_module(cleanup):
+    register_lazy("tiny-broken", "no_such_module_xyz:Cls")
+    cleanup.append("tiny-broken")
+    with pytest.raises(ImportError, match="no_such_module_xyz"):
+        get_method("tiny-broken")
+    with pytest.raises(ValueError, match="package.module:Class"):
+        register_lazy("tiny-bad-format", "no_colon")
+
+
+def test_unknown_name_lists_close_matches():
+    with pytest.raises(UnknownMethodError) as info:
+        get_method("regresion")
+    assert "did you mean 'regression'" in str(info.value)
+    assert isinstance(info.value, KeyError)
+
+
+def test_non_method_class_refused():
+    with pytest.raises(TypeError, match="must subclass"):
+        register("not-a-method")(type("Plain", (), {}))
+    with pytest.raises(ValueError, match="lower-case"):
+        register("Bad Name")
+
+
+def test_builtins_are_listed_and_importable():
+    names = available_methods()
+    for name in BUILTIN_METHODS:
+        assert name in names
+    for name in ("ground-truth", "mean", "static", "random"):
+        assert issubclass(get_method(name), Method)
+
+
+def test_budget_checks_and_exhaustion():
+    import time
+
+    assert Budget().steps(7) == 7
+    assert Budget(max_steps=3).steps(7) == 3
+    assert Budget(max_steps=2).exhausted(2, time.perf_counter())
+    assert not Budget(max_steps=2).exhausted(1, time.perf_counter())
+    assert Budget(max_seconds=0).exhausted(0, time.perf_counter())
+    with pytest.raises(ValueError, match="max_steps"):
+        Budget(max_steps=-1)
+    with pytest.raises(TypeError, match="max_seconds"):
+        Budget(max_seconds="5")
+
+
+def test_config_must_be_json():
+    with pytest.raises(TypeError, match="JSON"):
+        _Tiny(x=object())
+    m = _Tiny(a=1, b="x")
+    assert m.config() == {"a": 1, "b": "x"}
+
+
+def test_base_save_load_round_trip(tmp_path):
+    m = _Tiny(a=1, b=[1, 2])
+    m.save(tmp_path / "ckpt")
+    again = _Tiny.load(tmp_path / "ckpt")
+    assert again.config() == m.config()
+    with pytest.raises(FileNotFoundError, match="written by save"):
+        _Tiny.load(tmp_path / "nothing")

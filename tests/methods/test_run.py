@@ -1,0 +1,196 @@
+import json
+
+import numpy as np
+import pytest
+
+from benchmark.methods import (
+    Budget,
+    Method,
+    MethodError,
+    MethodOutputError,
+    register,
+    unregister,
+)
+from benchmark.run import (
+    generated_tracks,
+    main,
+    parse_budget,
+    parse_config,
+    run_method,
+    sentence_seed,
+)
+
+from .fakes import FakeDataset, fake_evaluate
+
+
+@pytest.fixture(scope="module")
+def dataset():
+    return FakeDataset(seed=0, n_sentences=2, seconds=1.0)
+
+
+def _run(name, dataset, tmp_path, **kw):
+    return run_method(name, "unused", samples=kw.pop("samples", 3), seed=kw.pop("seed", 0),
+                      results_dir=tmp_path / "results", evaluate=fake_evaluate,
+                      open_dataset=lambda root: dataset, progress=False, **kw)
+
+
+class _Broken(Method):
+    """Misbehaves as configured."""
+
+    stochastic = True
+
+    def __init__(self, mode="ok"):
+        super().__init__(mode=mode)
+
+    def train(self, dataset, *, seed, budget):
+        if self._config["mode"] == "train-raises":
+            raise RuntimeError("boom in train")
+
+    def generate(self, audio, subject, *, num_frames, samples=1, seed=0):
+        mode = self._config["mode"]
+        out = np.full((samples, num_frames, 32), 0.5)
+        if mode == "generate-raises":
+            raise ZeroDivisionError("boom in generate")
+        if mode == "nan":
+            out[0, -1, 0] = np.nan
+        if mode == "range":
+            out[0, 0, 0] = -0.2
+        if mode == "frames":
+            out = out[:, :-1]
+        if mode == "shape":
+            out = out[0]
+        return out
+
+
+@pytest.fixture(scope="module", autouse=True)
+def broken_registered():
+    register("test-broken")(_Broken)
+    yield
+    unregister("test-broken")
+
+
+@pytest.mark.parametrize(
+    "mode, error, pattern",
+    [
+        ("train-raises", MethodError, "train failed: RuntimeError: boom in train"),
+        ("generate-raises", MethodError, "subject 'D', sentence 'sentence01': generate failed: ZeroDivisionError"),
+        ("nan", MethodOutputError, "subject 'D', sentence 'sentence01'.*non-finite"),
+        ("range", MethodOutputError, r"outside \[0, 1\]"),
+        ("frames", MethodOutputError, "wrong frame count"),
+        ("shape", MethodOutputError, "2-d shape"),
+    ],
+)
+def test_misbehaving_plugin_caught_and_no_result_file(mode, error, pattern, dataset, tmp_path):
+    with pytest.raises(error, match=pattern):
+        _run("test-broken", dataset, tmp_path, config={"mode": mode})
+    assert not (tmp_path / "results").exists() or not any((tmp_path / "results").iterdir())
+
+
+def test_bad_config_reported(dataset, tmp_path):
+    with pytest.raises(MethodError, match="construction with config"):
+        _run("test-broken", dataset, tmp_path, config={"nope": 1})
+
+
+def test_cli_reports_misbehaviour_without_traceback(dataset, tmp_path, monkeypatch, capsys):
+    import benchmark.run as run_mod
+
+    monkeypatch.setattr(run_mod, "_open_default", lambda root: dataset)
+    monkeypatch.setattr(run_mod, "_evaluate_default", fake_evaluate)
+    rc = main(["--method", "test-broken", "--data", "x", "--config", "mode=nan", "--results",
+               str(tmp_path / "r"), "--quiet"])
+    assert rc == 3
+    assert "non-finite" in capsys.readouterr().err
+    assert not (tmp_path / "r").exists() or not any((tmp_path / "r").iterdir())
+    rc = main(["--method", "grund-truth", "--data", "x", "--quiet"])
+    assert rc == 2 and "ground-truth" in capsys.readouterr().err
+    rc = main(["--method", "test-broken", "--data", "x", "--results", str(tmp_path / "r"),
+               "--samples", "2", "--seed", "5"])
+    assert rc == 0
+    assert "coeff_mse" in capsys.readouterr().err  # the metric summary
+    (path,) = (tmp_path / "r").iterdir()
+    result = json.loads(path.read_text())
+    assert result["protocol"]["samples"] == 2 and result["protocol"]["seed"] == 5
+
+
+def test_result_file_contents(dataset, tmp_path):
+    path = _run("test-broken", dataset, tmp_path, samples=4, seed=3, budget=Budget(max_steps=5))
+    r = json.loads(path.read_text())
+    assert r["method"]["name"] == "test-broken" and r["method"]["stochastic"] is True
+    assert r["method"]["config"] == {"mode": "ok"}
+    assert r["dataset"]["manifest_hash"] == dataset.manifest_hash
+    assert r["dataset"]["num_sentences"] == 4 and r["dataset"]["num_subjects"] == 2
+    assert r["protocol"] == {"samples": 4, "seed": 3, "budget": {"max_steps": 5, "max_seconds": None},
+                             "clip": False, "n_clipped": 0, "checkpoint": None}
+    assert set(r["metrics"]) == {"coeff_mse", "sync"}
+    assert r["metrics"]["coeff_mse"]["higher_is_better"] is False
+    assert {"train_s", "generate_s", "evaluate_s", "total_s"} <= set(r["timings"])
+    assert {"versions", "hardware", "git_revision", "date"} <= set(r["provenance"])
+
+
+def test_deterministic_methods_get_one_sample(dataset):
+    from benchmark.methods import get_method
+
+    generated, _ = generated_tracks(get_method("static")(), dataset, samples=7, progress=False)
+    assert all(v.shape[0] == 1 for v in generated.values())
+    generated, _ = generated_tracks(get_method("random")(), dataset, samples=7, seed=1, progress=False)
+    assert all(v.shape[0] == 7 for v in generated.values())
+    again, _ = generated_tracks(get_method("random")(), dataset, samples=7, seed=1, progress=False)
+    assert all(np.array_equal(generated[k], again[k]) for k in generated)
+
+
+def test_checkpoint_train_then_load(dataset, tmp_path):
+    ckpt = tmp_path / "ckpt"
+    p1 = _run("mean", dataset, tmp_path, checkpoint=ckpt)
+    assert (ckpt / "mean.json").is_file()
+    r1 = json.loads(p1.read_text())
+    p2 = _run("mean", dataset, tmp_path, checkpoint=ckpt)
+    r2 = json.loads(p2.read_text())
+    assert r1["timings"]["load_s"] is None and r2["timings"]["train_s"] is None
+    assert r1["metrics"] == r2["metrics"]
+    with pytest.raises(MethodError, match="holds method 'mean', not 'static'"):
+        _run("static", dataset, tmp_path, checkpoint=ckpt)
+
+
+def test_parse_budget_and_config():
+    assert parse_budget("500") == Budget(max_steps=500)
+    assert parse_budget("90s") == Budget(max_seconds=90.0)
+    assert parse_budget("5m") == Budget(max_seconds=300.0)
+    assert parse_budget("steps=10,seconds=2.5") == Budget(max_steps=10, max_seconds=2.5)
+    assert parse_budget(None, max_steps=3) == Budget(max_steps=3)
+    with pytest.raises(ValueError, match="--budget"):
+        parse_budget("lots")
+    assert parse_config(["a=1", "b=x", "c=[1,2]"], preset="cpu-demo") == {
+        "a": 1, "b": "x", "c": [1, 2], "preset": "cpu-demo"}
+    with pytest.raises(ValueError, match="KEY=VALUE"):
+        parse_config(["novalue"])
+
+
+def test_sentence_seeds_distinct():
+    seeds = {sentence_seed(0, i) for i in range(100)} | {sentence_seed(1, i) for i in range(100)}
+    assert len(seeds) == 200
+
+
+def test_default_data_root_builds_once_into_the_cache(tmp_path, monkeypatch):
+    from benchmark.run import default_data_root
+    from blendvoca.build import pipeline
+
+    calls = []
+
+    class Summary:
+        failures = ()
+
+    def fake_build(out, vocaset, progress=True):
+        calls.append((out, vocaset))
+        (out / "manifest.json").parent.mkdir(parents=True, exist_ok=True)
+        (out / "manifest.json").write_text("{}")
+        return Summary()
+
+    monkeypatch.delenv("BLENDVOCA_DATA", raising=False)
+    monkeypatch.setenv("BLENDVOCA_CACHE", str(tmp_path / "cache"))
+    monkeypatch.setattr(pipeline, "build_dataset", fake_build)
+    root = default_data_root(progress=False)
+    assert root == tmp_path / "cache" / "blendvoca-default"
+    assert calls == [(root, None)]  # None: the bundled synthetic corpus
+    assert default_data_root(progress=False) == root and len(calls) == 1  # built once
+    monkeypatch.setenv("BLENDVOCA_DATA", str(tmp_path / "mine"))
+    assert default_data_root() == tmp_path / "mine"
