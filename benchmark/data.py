@@ -40,7 +40,8 @@ class BlendVOCADataset:
         Coefficient column order (BlendVOCA's 32 names).
     subjects : list of str
     manifest_hash : str
-        sha256 of ``manifest.json`` (or, when absent, of the sorted file listing).
+        sha256 of the data files listed in ``manifest.json`` with their sha256
+        (the build report excluded), or, with no manifest, of the sorted file listing.
     """
 
     def __init__(self, root: Path):
@@ -73,7 +74,16 @@ class BlendVOCADataset:
         path = self.root / "manifest.json"
         digest = hashlib.sha256()
         if path.exists():
-            digest.update(path.read_bytes())
+            # The data's identity is its data files: the build report, tool version
+            # and parameters do not change what a method is scored on, so results
+            # of builds that differ only in those land in one leaderboard table.
+            manifest = json.loads(path.read_text())
+            if isinstance(manifest, dict) and isinstance(manifest.get("files"), dict):
+                for name, sha in sorted(manifest["files"].items()):
+                    if not name.startswith("report/"):
+                        digest.update(f"{name}\t{sha}\n".encode())
+            else:  # not written by blendvoca.build: the whole file is its identity
+                digest.update(path.read_bytes())
         else:
             for p in sorted(self.root.rglob("*")):
                 if p.is_file():

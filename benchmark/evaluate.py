@@ -134,7 +134,9 @@ def _vertex_metrics(ground_truth, generated, rigs, names) -> dict:
             lve.append(vertex.lip_vertex_error(p, gt_v, lip))
             lve_sq.append(vertex.lip_vertex_error(p, gt_v, lip, squared=True))
             mve.append(vertex.mean_vertex_error(p, gt_v))
-            fdd.append(vertex.upper_face_dynamics_deviation(p, gt_v, neutral, upper))
+            # |FDD| per sequence: CodeTalker's signed mean lets too-lively and
+            # too-still sequences cancel, and a ranking needs "closer to 0 is better".
+            fdd.append(abs(vertex.upper_face_dynamics_deviation(p, gt_v, neutral, upper)))
         per_seq["lve"].append(np.mean(lve))
         per_seq["lve_squared"].append(np.mean(lve_sq))
         per_seq["mve"].append(np.mean(mve))

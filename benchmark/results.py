@@ -26,8 +26,9 @@ import os
 import platform
 import re
 import subprocess
-import tempfile
 from pathlib import Path
+
+from blendvoca.io.atomic import atomic_write
 
 __all__ = [
     "METRIC_FIELDS",
@@ -223,10 +224,8 @@ def result_filename(result: dict) -> str:
 
 
 def write_result(result: dict, results_dir, filename: str | None = None) -> Path:
-    """Check ``result`` and write it atomically into ``results_dir``.
-
-    The JSON goes to a temporary file in the same directory and is moved into
-    place with ``os.replace``, so a crash never leaves a partial result file.
+    """Check ``result`` and write it atomically into ``results_dir``
+    (`blendvoca.io.atomic.atomic_write`: a crash never leaves a partial result file).
 
     Returns
     -------
@@ -235,19 +234,9 @@ def write_result(result: dict, results_dir, filename: str | None = None) -> Path
     """
     check_result(result)
     text = json.dumps(result, indent=2, sort_keys=True, allow_nan=False) + "\n"
-    results_dir = Path(results_dir)
-    results_dir.mkdir(parents=True, exist_ok=True)
-    path = results_dir / (filename or result_filename(result))
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=results_dir)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as handle:
-            handle.write(text)
-            handle.flush()
-            os.fsync(handle.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    path = Path(results_dir) / (filename or result_filename(result))
+    with atomic_write(path, "w", encoding="utf-8") as handle:
+        handle.write(text)
     return path
 
 

@@ -110,4 +110,10 @@ def geometric_sync(activity, samples, rate: int = 16000, fps: float = 60.0, max_
     if activity.ndim != 1:
         raise ValueError(f"geometric_sync: expected activity (T,), got {activity.shape}")
     env = speech_envelope(samples, rate, fps, num_frames=len(activity))
-    return offset_from_scores(lagged_correlation(activity, env, max_lag), max_lag)
+    scores = lagged_correlation(activity, env, max_lag)
+    if np.all(np.isnan(scores)):
+        # A motionless mouth (or silent audio) correlates with nothing: zero
+        # confidence, and the offset is the worst one searched, so a method that
+        # does not move is never rewarded with a small mean offset.
+        return SyncEstimate(offset=max_lag, confidence=0.0, scores=np.zeros_like(scores))
+    return offset_from_scores(scores, max_lag)

@@ -64,6 +64,20 @@ def test_samples_and_manifest_hash(fake_dataset_dir, tmp_path):
     assert open_blendvoca(root).manifest_hash != ds.manifest_hash
 
 
+def test_manifest_hash_covers_data_files_not_the_report(fake_dataset_dir, tmp_path):
+    root = tmp_path / "copy"
+    shutil.copytree(fake_dataset_dir, root)
+
+    def hash_with(files):
+        (root / "manifest.json").write_text(json.dumps({"files": files, "version": "x"}))
+        return open_blendvoca(root).manifest_hash
+
+    data = {"blendshape_coeffs/FakeA/sentence01.csv": "aa", "audio/FakeA/sentence01.wav": "bb"}
+    base = hash_with(data)
+    assert hash_with({**data, "report/README.md": "cc"}) == base
+    assert hash_with({**data, "audio/FakeA/sentence01.wav": "bc"}) != base
+
+
 def test_errors(tmp_path, fake_dataset_dir):
     with pytest.raises(ValueError, match="not a directory"):
         open_blendvoca(tmp_path / "missing")

@@ -76,3 +76,9 @@ def test_recovers_shifts_on_synthetic_corpus(synthetic_corpus, monkeypatch, asse
     errors = np.abs(errors)
     assert errors.max() <= 1
     assert np.mean(errors == 0) >= 0.7
+
+
+def test_motionless_mouth_has_zero_confidence_and_the_worst_offset():
+    samples = np.random.default_rng(0).normal(size=16000).astype(np.float32)
+    estimate = geometric_sync(np.zeros(60), samples, max_lag=15)
+    assert estimate.confidence == 0.0 and estimate.offset == 15
