@@ -222,11 +222,10 @@ def default_data_root(*, progress: bool = True) -> Path:
     env = os.environ.get("BLENDVOCA_DATA")
     if env:
         return Path(env).expanduser()
-    from blendvoca.assets import cache_dir
+    from blendvoca.build.pipeline import build_dataset, default_output_dir
 
-    root = Path(cache_dir()) / "blendvoca-default"
+    root = default_output_dir()
     if not (root / "manifest.json").is_file():
-        from blendvoca.build.pipeline import build_dataset
 
         print(f"building the bundled-default BlendVOCA into {root} (once)", file=sys.stderr)
         summary = build_dataset(root, None, progress=progress)

@@ -1,4 +1,4 @@
-"""The BlendVOCA build: ``python -m blendvoca.build [--vocaset DIR] --out DIR``.
+"""The BlendVOCA build: ``python -m blendvoca.build [--vocaset DIR] [--out DIR]``.
 
 :func:`build_dataset` runs rig construction for every speaker and the
 coefficient fit for every sentence (in parallel, resumable, atomic writes) and
@@ -6,9 +6,9 @@ writes SAiD's layout plus ``rigs/``, ``splits.json``, ``manifest.json`` and
 ``report/``.  See ``docs/build.md``.
 """
 
-from .pipeline import BuildSummary, build_dataset
+from .pipeline import BuildSummary, build_dataset, default_output_dir
 from .report import coeffs_std
 from .sentence import lip_aperture, sentence_fit
 from .speaker import head_faces, speaker_rig
 
-__all__ = ["BuildSummary", "build_dataset", "coeffs_std", "head_faces", "lip_aperture", "sentence_fit", "speaker_rig"]
+__all__ = ["BuildSummary", "build_dataset", "default_output_dir", "coeffs_std", "head_faces", "lip_aperture", "sentence_fit", "speaker_rig"]

@@ -1,4 +1,4 @@
-"""``python -m blendvoca.build [--vocaset DIR] --out DIR [--workers N] [--shapes speech|all]``."""
+"""``python -m blendvoca.build [--vocaset DIR] [--out DIR] [--workers N] [--shapes speech|all]``."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import argparse
 import sys
 import time
 
-from blendvoca.build.pipeline import build_dataset
+from blendvoca.build.pipeline import build_dataset, default_output_dir
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -17,7 +17,9 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("--vocaset", default=None,
                         help="VOCASET root (official or processed layout); default: the bundled synthetic corpus")
-    parser.add_argument("--out", required=True, help="output folder")
+    parser.add_argument("--out", default=None,
+                        help="output folder (required with --vocaset; default for the bundled corpus: "
+                        "<user cache>/blendvoca-default, where the benchmark looks for it)")
     parser.add_argument("--workers", type=int, default=None, help="processes (default: all cores)")
     parser.add_argument("--shapes", choices=("speech", "all"), default="speech",
                         help="the 32 BlendVOCA shapes or all ARKit shapes")
@@ -25,6 +27,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--no-report", action="store_true", help="skip report/")
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
     args = parser.parse_args(argv)
+    if args.out is None:
+        if args.vocaset is not None:
+            parser.error("--out is required with --vocaset")
+        args.out = default_output_dir()
     start = time.perf_counter()
     try:
         summary = build_dataset(args.out, args.vocaset, workers=args.workers, shapes=args.shapes,

@@ -241,6 +241,17 @@ def _run(tasks, function, *, workers, initargs, desc, progress):
     return results
 
 
+def default_output_dir() -> Path:
+    """Where the bundled-default BlendVOCA is built: ``<user cache>/blendvoca-default``.
+
+    ``python -m blendvoca.build`` without ``--out`` writes here, and the benchmark
+    runner reads from here when it is given no ``--data``.
+    """
+    from blendvoca.assets import cache_dir
+
+    return cache_dir() / "blendvoca-default"
+
+
 def build_dataset(
     out,
     vocaset=None,
