@@ -1,0 +1,5 @@
+"""``python -m baselines.said`` is ``python -m baselines.said.generate``."""
+
+from baselines.said.generate import main
+
+main()

@@ -1,0 +1,61 @@
+"""The alignment bias of SAiD's cross-attention."""
+
+from __future__ import annotations
+
+import torch
+
+
+def alignment_bias(
+    num_queries: int,
+    num_keys: int,
+    *,
+    half_width: int = 1,
+    dtype: torch.dtype = torch.float32,
+    device: torch.device | str | None = None,
+) -> torch.Tensor:
+    """Return the additive attention bias that aligns coefficient frames with audio frames.
+
+    ``B[i, j] = 0`` where ``|i - j| <= half_width`` and ``-inf`` elsewhere, so that
+    ``softmax(Q K^T / sqrt(d) + B)`` lets coefficient frame ``i`` attend only to the
+    audio features of frames ``i - 1, i, i + 1`` (SAiD, ``half_width = 1``).
+
+    Parameters
+    ----------
+    num_queries : int
+        Number of coefficient frames ``T`` (rows).
+    num_keys : int
+        Number of audio feature frames ``T_a`` (columns).  It may differ from
+        ``num_queries``; the band is then cut by the rectangle.
+    half_width : int, default 1
+        Half width of the band.
+    dtype, device
+        Of the returned tensor.
+
+    Returns
+    -------
+    bias : (num_queries, num_keys) Tensor
+        ``0`` inside the band, ``-inf`` outside.
+
+    Raises
+    ------
+    ValueError
+        If a size is not positive, or if some query row would have no key inside the
+        band (``num_queries > num_keys + half_width``): such a row has a softmax over
+        nothing, which is NaN.
+    """
+    for name, value in (("num_queries", num_queries), ("num_keys", num_keys)):
+        if int(value) != value or value < 1:
+            raise ValueError(f"alignment_bias: expected {name} >= 1 (int), got {value!r}")
+    if int(half_width) != half_width or half_width < 0:
+        raise ValueError(f"alignment_bias: expected half_width >= 0 (int), got {half_width!r}")
+    if num_queries > num_keys + half_width:
+        raise ValueError(
+            f"alignment_bias: query frames {num_queries} exceed key frames {num_keys} + "
+            f"half_width {half_width}, so the last rows would attend to nothing; resample "
+            "the audio features to the coefficient frame count first"
+        )
+    i = torch.arange(num_queries, device=device)[:, None]
+    j = torch.arange(num_keys, device=device)[None, :]
+    inside = (i - j).abs() <= half_width
+    bias = torch.zeros((num_queries, num_keys), dtype=dtype, device=device)
+    return bias.masked_fill(~inside, float("-inf"))

@@ -1,0 +1,47 @@
+"""Exponential moving average of model weights."""
+
+from __future__ import annotations
+
+import copy
+
+import torch
+from torch import nn
+
+
+def ema_decay_at(step: int, max_decay: float) -> float:
+    """Return the EMA decay after ``step`` updates, ``min(max_decay, (1 + step) / (10 + step))``.
+
+    The warm-up keeps a short run's average from being dominated by the random
+    initialisation; long runs reach ``max_decay`` (SAiD: 0.9999).
+    """
+    return min(max_decay, (1.0 + step) / (10.0 + step))
+
+
+class EMA:
+    """A shadow copy of a model whose trainable weights track an exponential moving average.
+
+    The frozen speech encoder is shared with the live model, not copied.
+
+    Parameters
+    ----------
+    model : baselines.said.model.SAiDModel
+    max_decay : float, default 0.9999
+    """
+
+    def __init__(self, model: nn.Module, max_decay: float = 0.9999):
+        memo = {id(model.encoder): model.encoder} if hasattr(model, "encoder") else {}
+        self.model = copy.deepcopy(model, memo)
+        self.model.requires_grad_(False)
+        self.max_decay = float(max_decay)
+        self.steps = 0
+
+    @torch.no_grad()
+    def update(self, model: nn.Module) -> None:
+        """Move the shadow weights towards ``model``'s by one EMA step."""
+        decay = ema_decay_at(self.steps, self.max_decay)
+        live = dict(model.named_parameters())
+        for name, shadow in self.model.named_parameters():
+            if name.startswith("encoder."):
+                continue
+            shadow.lerp_(live[name].detach(), 1.0 - decay)
+        self.steps += 1

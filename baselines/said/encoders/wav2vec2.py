@@ -1,0 +1,101 @@
+"""wav2vec 2.0 speech encoder (transformers), features resampled to the coefficient frame rate."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import torch
+from torch import nn
+
+from baselines.said.encoders.interpolate import interpolate_features
+
+
+def _transformers():
+    try:
+        import transformers
+    except ImportError as exc:  # pragma: no cover - depends on the environment
+        raise ImportError("the wav2vec2 encoders need transformers: pip install transformers") from exc
+    return transformers
+
+
+def tiny_wav2vec2_config():
+    """Return a tiny ``Wav2Vec2Config`` (2 layers, hidden 32) for tests; same frame rate as the base model."""
+    t = _transformers()
+    return t.Wav2Vec2Config(
+        hidden_size=32,
+        num_hidden_layers=2,
+        num_attention_heads=2,
+        intermediate_size=64,
+        conv_dim=(16, 16, 16, 16, 16, 16, 16),
+        num_conv_pos_embeddings=16,
+        num_conv_pos_embedding_groups=4,
+        do_stable_layer_norm=False,
+        feat_extract_norm="group",
+    )
+
+
+def normalize_waveform(audio: torch.Tensor) -> torch.Tensor:
+    """Return each waveform with zero mean and unit variance (wav2vec 2.0's input normalisation).
+
+    Parameters
+    ----------
+    audio : (B, N) Tensor
+
+    Returns
+    -------
+    normalized : (B, N) Tensor
+    """
+    mean = audio.mean(dim=-1, keepdim=True)
+    var = audio.var(dim=-1, keepdim=True, unbiased=False)
+    return (audio - mean) / torch.sqrt(var + 1e-7)
+
+
+class Wav2Vec2Encoder(nn.Module):
+    """Frozen wav2vec 2.0 with a linear interpolation layer after its CNN.
+
+    The CNN features (~50 fps) are resampled to the requested frame count before the
+    transformer, as in SAiD and FaceFormer, so the output has exactly one feature per
+    coefficient frame.
+
+    Parameters
+    ----------
+    model : transformers.Wav2Vec2Model
+    """
+
+    def __init__(self, model):
+        super().__init__()
+        self.model = model
+        self.feature_dim = int(model.config.hidden_size)
+        self.sample_rate = 16000
+
+    @classmethod
+    def from_pretrained(cls, path: str | Path) -> Wav2Vec2Encoder:
+        """Load the weights from a local directory (``config.json`` + weights)."""
+        path = Path(path).expanduser()
+        if not (path / "config.json").is_file():
+            raise ValueError(
+                f"Wav2Vec2Encoder: expected a local wav2vec2 directory with config.json at {path}; "
+                "download e.g. facebook/wav2vec2-base-960h there first"
+            )
+        model = _transformers().Wav2Vec2Model.from_pretrained(str(path))
+        return cls(model)
+
+    @classmethod
+    def tiny(cls, seed: int = 0) -> Wav2Vec2Encoder:
+        """Return a tiny random-init encoder (deterministic in ``seed``), for tests."""
+        with torch.random.fork_rng():
+            torch.manual_seed(seed)
+            model = _transformers().Wav2Vec2Model(tiny_wav2vec2_config())
+        return cls(model)
+
+    def forward(self, audio: torch.Tensor, num_frames: int) -> torch.Tensor:
+        """Return features ``(B, num_frames, hidden_size)`` for 16 kHz audio ``(B, N)``."""
+        if audio.ndim != 2:
+            raise ValueError(f"Wav2Vec2Encoder: expected (B, N) audio, got shape {tuple(audio.shape)}")
+        if audio.shape[-1] < 400:
+            audio = torch.nn.functional.pad(audio, (0, 400 - audio.shape[-1]))
+        x = normalize_waveform(audio.float())
+        feats = self.model.feature_extractor(x).transpose(1, 2)  # (B, T_cnn, C)
+        feats = interpolate_features(feats, num_frames)
+        hidden, _ = self.model.feature_projection(feats)
+        return self.model.encoder(hidden).last_hidden_state

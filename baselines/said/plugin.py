@@ -1,0 +1,102 @@
+"""The ``said`` method of the benchmark (``python -m benchmark.run --method said``).
+
+Registered lazily by ``benchmark.methods`` as ``"baselines.said.plugin:SAiDMethod"``.
+Only this module imports the benchmark.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from baselines.said.pipeline import SAiD
+from baselines.said.train import train_said
+from benchmark.methods.base import Budget, Method
+
+CHECKPOINT_FILE = "said.pt"
+
+
+def dataset_pairs(dataset, split: str) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Return ``(coeffs (T, K), audio (N,) float32 16 kHz)`` for every sentence of a split.
+
+    Parameters
+    ----------
+    dataset : benchmark.data dataset
+    split : {"train", "val", "test"}
+    """
+    pairs = []
+    for subject in dataset.split(split):
+        for sentence in dataset.sentences(subject):
+            audio, rate = dataset.audio(subject, sentence)
+            if rate != 16000:
+                raise ValueError(f"SAiD: expected 16 kHz audio from the dataset, got {rate} Hz for {subject}/{sentence}")
+            pairs.append((np.asarray(dataset.coeffs(subject, sentence), dtype=np.float32), np.asarray(audio, dtype=np.float32)))
+    return pairs
+
+
+def mirror_for(names) -> np.ndarray:
+    """Return the mirror permutation of ``names`` (``blendvoca.names.mirror_permutation``)."""
+    from blendvoca.names import mirror_permutation
+
+    return np.asarray(mirror_permutation(tuple(names)), dtype=np.int64)
+
+
+class SAiDMethod(Method):
+    """SAiD: conditional diffusion over blendshape coefficients (stochastic).
+
+    Parameters
+    ----------
+    preset : {"cpu-demo", "paper"}, default "cpu-demo"
+    resolved : dict, optional
+        Ignored: the resolved config that :meth:`config` reports (so that the saved
+        config can be passed back to the constructor).
+    **overrides
+        Flat keys of :func:`baselines.said.presets.resolve_config` (``channels``,
+        ``num_steps``, ``sampler``, ``guidance``, ``encoder``, ``wav2vec2_path``, ``lr`` ...).
+    """
+
+    name = "said"
+    stochastic = True
+
+    def __init__(self, preset: str = "cpu-demo", resolved: dict | None = None, **overrides):
+        super().__init__(preset=preset, **overrides)
+        from blendvoca.names import BLENDVOCA_NAMES
+
+        self.said = SAiD.from_preset(BLENDVOCA_NAMES, preset, **overrides)
+
+    def config(self) -> dict:
+        """Constructor arguments plus the resolved nested config."""
+        return {**super().config(), "resolved": self.said.config}
+
+    def train(self, dataset, *, seed: int, budget: Budget) -> None:
+        """Train on the dataset's train split, select on its val split, within ``budget``."""
+        names = tuple(dataset.names)
+        if names != self.said.names:
+            raise ValueError(f"SAiDMethod.train: expected dataset columns {self.said.names}, got {names}")
+        val = dataset_pairs(dataset, "val") if dataset.split("val") else None
+        train_said(
+            self.said,
+            dataset_pairs(dataset, "train"),
+            val,
+            seed=seed,
+            max_steps=budget.max_steps,
+            max_seconds=budget.max_seconds,
+            mirror=mirror_for(names),
+        )
+
+    def generate(self, audio, subject, *, num_frames, samples=1, seed=0):
+        """Return ``(S, T, 32)`` coefficient tracks in [0, 1] sampled for ``audio`` (speaker-independent)."""
+        return self.said.generate(np.asarray(audio, dtype=np.float32), int(num_frames), samples=int(samples), seed=int(seed))
+
+    def save(self, directory) -> None:
+        """Write the config and the checkpoint ``said.pt`` into ``directory``."""
+        super().save(directory)
+        self.said.save(Path(directory) / CHECKPOINT_FILE)
+
+    @classmethod
+    def load(cls, directory) -> SAiDMethod:
+        """Rebuild from :meth:`save`'s output."""
+        method = super().load(directory)
+        method.said = SAiD.load(Path(directory) / CHECKPOINT_FILE)
+        return method

@@ -1,0 +1,134 @@
+"""Presets of SAiD (model, diffusion, sampling, training) and flat overrides of them.
+
+``cpu-demo`` (default) trains in minutes on 2 CPU cores with the log-mel encoder and
+no pretrained weights; ``paper`` follows the paper (wav2vec 2.0 from a local
+directory, 1000 diffusion steps, DDIM 1000, lr 1e-5, EMA 0.9999) and wants a GPU.
+"""
+
+from __future__ import annotations
+
+import copy
+import difflib
+import os
+
+DEFAULT_PRESET = "cpu-demo"
+
+PRESETS: dict[str, dict[str, dict]] = {
+    "cpu-demo": {
+        "model": {
+            "channels": 32,
+            "cond_dim": 32,
+            "heads": 4,
+            "dropout": 0.0,
+            "encoder": {"kind": "logmel", "n_mels": 80},
+            "adapter_layers": 2,
+            "adapter_kernel": 5,
+            "attention_half_width": 1,
+        },
+        "diffusion": {"num_train_steps": 1000, "schedule": "cosine", "normalization": "centered", "prediction": "v"},
+        "sampling": {"sampler": "ddim", "num_steps": 50, "eta": 0.0, "guidance": 2.0, "clip": True},
+        "training": {
+            "window": 60,
+            "batch_size": 16,
+            # 1e-5 is the paper's rate for a long GPU run; a few CPU minutes need more.
+            "lr": 1e-3,
+            "warmup_steps": 100,
+            "weight_decay": 1e-2,
+            "betas": [0.9, 0.999],
+            "ema_decay": 0.999,
+            "cond_drop_prob": 0.1,
+            "velocity_weight": 1.0,
+            "audio_shift_prob": 0.5,
+            "mirror_prob": 0.5,
+            "grad_clip": 1.0,
+            "max_steps": 20000,
+            "max_seconds": 300.0,
+            "val_every": 500,
+            # one thread: with other jobs on the 2 cores, two threads ran 9x slower here
+            "num_threads": 1,
+        },
+    },
+    "paper": {
+        "model": {
+            "channels": 256,
+            "cond_dim": 256,
+            "heads": 8,
+            "dropout": 0.1,
+            "encoder": {"kind": "wav2vec2", "path": "${BLENDVOCA_WAV2VEC2:-~/models/wav2vec2-base-960h}"},
+            "adapter_layers": 0,
+            "adapter_kernel": 5,
+            "attention_half_width": 1,
+        },
+        "diffusion": {"num_train_steps": 1000, "schedule": "cosine", "normalization": "unit-interval", "prediction": "epsilon"},
+        "sampling": {"sampler": "ddim", "num_steps": 1000, "eta": 0.0, "guidance": 2.0, "clip": True},
+        "training": {
+            "window": 120,
+            "batch_size": 8,
+            "lr": 1e-5,
+            "warmup_steps": 5000,
+            "weight_decay": 1e-2,
+            "betas": [0.9, 0.999],
+            "ema_decay": 0.9999,
+            "cond_drop_prob": 0.1,
+            "velocity_weight": 1.0,
+            "audio_shift_prob": 0.5,
+            "mirror_prob": 0.5,
+            "grad_clip": 1.0,
+            "max_steps": 50000,
+            "max_seconds": None,
+            "val_every": 1000,
+            "num_threads": None,
+        },
+    },
+}
+
+
+def _expand_path(value: str) -> str:
+    """Expand ``${VAR:-default}`` then ``~`` in a preset path."""
+    if value.startswith("${") and value.endswith("}") and ":-" in value:
+        var, default = value[2:-1].split(":-", 1)
+        value = os.environ.get(var, default)
+    return os.path.expanduser(value)
+
+
+def resolve_config(preset: str = DEFAULT_PRESET, **overrides) -> dict[str, dict]:
+    """Return the nested config of ``preset`` with flat ``overrides`` applied.
+
+    Parameters
+    ----------
+    preset : {"cpu-demo", "paper"}, default "cpu-demo"
+    **overrides
+        Any key of any section, e.g. ``channels=128``, ``num_steps=100``,
+        ``sampler="ddpm"``, ``lr=1e-4``; ``encoder`` may be a spec dict or a kind
+        string (``"logmel"``, ``"wav2vec2"``, ``"wav2vec2-tiny"``) and
+        ``wav2vec2_path`` sets the directory of the wav2vec2 encoder.
+
+    Returns
+    -------
+    config : dict
+        ``{"preset", "model", "diffusion", "sampling", "training"}``.
+    """
+    if preset not in PRESETS:
+        close = difflib.get_close_matches(str(preset), PRESETS, n=3)
+        raise ValueError(f"SAiD preset: expected one of {sorted(PRESETS)}, got {preset!r}" + (f" (did you mean {close}?)" if close else ""))
+    config = copy.deepcopy(PRESETS[preset])
+    overrides = dict(overrides)
+    path = overrides.pop("wav2vec2_path", None)
+    if isinstance(overrides.get("encoder"), str):
+        kind = overrides["encoder"]
+        overrides["encoder"] = {"kind": kind, "path": path} if kind == "wav2vec2" else {"kind": kind}
+    elif path is not None:
+        overrides.setdefault("encoder", {"kind": "wav2vec2", "path": path})
+    sections = {key: section for section, values in config.items() for key in values}
+    for key, value in overrides.items():
+        if key not in sections:
+            close = difflib.get_close_matches(key, sections, n=3)
+            raise ValueError(f"SAiD config: unknown key {key!r}" + (f" (did you mean {close}?)" if close else f"; known keys: {sorted(sections)}"))
+        config[sections[key]][key] = copy.deepcopy(value)
+    encoder = config["model"]["encoder"]
+    if encoder.get("kind") == "wav2vec2":
+        if not encoder.get("path"):
+            raise ValueError("SAiD config: the wav2vec2 encoder needs a local directory (wav2vec2_path=... or BLENDVOCA_WAV2VEC2)")
+        encoder["path"] = _expand_path(str(encoder["path"]))
+    config["preset"] = preset
+    return config

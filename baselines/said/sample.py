@@ -1,0 +1,91 @@
+"""The sampling loop: DDIM or DDPM over a noise-prediction callable, with optional editing."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import torch
+from tqdm.auto import tqdm
+
+from baselines.said.edit import masked_replace, noised_reference
+from baselines.said.samplers import SAMPLERS, ddim_step, ddpm_step
+from baselines.said.schedule import sampling_timesteps
+
+NoiseFn = Callable[[torch.Tensor, torch.Tensor], torch.Tensor]
+
+
+def sample_diffusion(
+    noise_fn: NoiseFn,
+    shape: tuple[int, int, int],
+    alphas_cumprod: torch.Tensor,
+    *,
+    sampler: str = "ddim",
+    num_steps: int = 50,
+    eta: float = 0.0,
+    clip: float | tuple | None = 1.0,
+    reference: torch.Tensor | None = None,
+    mask: torch.Tensor | None = None,
+    generator: torch.Generator | None = None,
+    progress: bool = False,
+) -> torch.Tensor:
+    """Return samples ``x0`` drawn by running the reverse chain from pure noise.
+
+    Parameters
+    ----------
+    noise_fn : callable ``(x_t (B, T, K), t (B,) int64) -> eps (B, T, K)``
+        The (guided) noise predictor.
+    shape : (B, T, K)
+    alphas_cumprod : (N,) Tensor
+        The training schedule; its dtype and device are used for the chain.
+    sampler : {"ddim", "ddpm"}, default "ddim"
+    num_steps : int, default 50
+        Steps of the chain, ``1 <= num_steps <= N``.
+    eta : float, default 0.0
+        DDIM stochasticity (ignored by DDPM).
+    clip : float, (lo, hi) pair of (K,) Tensors, or None; default 1.0
+        Clamp of the predicted ``x0`` at each step (see :func:`ddim_step`).
+    reference : (T, K) Tensor, optional
+        Editing: track in data space whose masked part is kept.  At every step the
+        kept part of the sample is replaced by the reference noised to that step; at
+        the end it equals the reference exactly.
+    mask : (T, K) Tensor, optional
+        1 = keep the reference, 0 = generate.  Required with ``reference``.
+    generator : torch.Generator, optional
+        Source of all randomness (initial noise, DDPM/DDIM noise, reference noising).
+    progress : bool, default False
+        Show a tqdm bar over the steps.
+
+    Returns
+    -------
+    x0 : (B, T, K) Tensor
+    """
+    if sampler not in SAMPLERS:
+        raise ValueError(f"sample_diffusion: expected sampler in {SAMPLERS}, got {sampler!r}")
+    if (reference is None) != (mask is None):
+        raise ValueError("sample_diffusion: expected both reference and mask, or neither")
+    batch = shape[0]
+    dtype, device = alphas_cumprod.dtype, alphas_cumprod.device
+    steps = sampling_timesteps(alphas_cumprod.shape[0], num_steps).tolist()
+    prevs = steps[1:] + [-1]
+    one = alphas_cumprod.new_ones(())
+
+    def randn():
+        return torch.randn(shape, generator=generator, dtype=dtype, device=device)
+
+    x = randn()
+    if reference is not None:
+        reference = reference.to(dtype=dtype, device=device)
+        mask = mask.to(dtype=dtype, device=device)
+        x = masked_replace(x, noised_reference(reference, steps[0], alphas_cumprod, batch=batch, generator=generator), mask)
+    for t, t_prev in tqdm(list(zip(steps, prevs)), desc=f"{sampler} sampling", disable=not progress):
+        tt = torch.full((batch,), t, dtype=torch.long, device=device)
+        eps = noise_fn(x, tt).to(dtype)
+        ab = alphas_cumprod[t]
+        ab_prev = alphas_cumprod[t_prev] if t_prev >= 0 else one
+        if sampler == "ddim":
+            x = ddim_step(x, eps, ab, ab_prev, eta=eta, noise=randn() if eta > 0 else None, clip=clip)
+        else:
+            x = ddpm_step(x, eps, ab, ab_prev, noise=randn(), clip=clip)
+        if reference is not None:
+            x = masked_replace(x, noised_reference(reference, t_prev, alphas_cumprod, batch=batch, generator=generator), mask)
+    return x

@@ -1,0 +1,234 @@
+"""Training SAiD: random augmented windows, L1 + velocity noise loss, AdamW, warm-up, EMA,
+model selection on the validation loss.
+
+Command line (needs a built BlendVOCA directory)::
+
+    python -m baselines.said.train --data DIR --out said.pt [--preset cpu-demo] [--max-seconds S]
+"""
+
+from __future__ import annotations
+
+import argparse
+import copy
+import math
+import time
+
+import numpy as np
+import torch
+from tqdm.auto import tqdm
+
+from baselines.said.augment import training_batch, validation_windows
+from baselines.said.ema import EMA
+from baselines.said.losses import said_loss
+from baselines.said.normalization import coefficient_normalization
+from baselines.said.parametrization import noise_from_output
+from baselines.said.pipeline import SAiD
+from baselines.said.schedule import add_noise, alphas_of
+from baselines.said.threads import torch_threads
+
+
+def _check_pairs(pairs, k: int, where: str):
+    out = []
+    for i, pair in enumerate(pairs):
+        if not isinstance(pair, (tuple, list)) or len(pair) != 2:
+            raise TypeError(f"{where}: expected (coeffs, audio) pairs, got {type(pair).__name__} at index {i}")
+        coeffs, audio = np.asarray(pair[0], dtype=np.float32), np.asarray(pair[1], dtype=np.float32)
+        if coeffs.ndim != 2 or coeffs.shape[1] != k or coeffs.shape[0] < 2:
+            raise ValueError(f"{where}: expected coeffs of shape (T>=2, {k}) at index {i}, got {coeffs.shape}")
+        if audio.ndim != 1:
+            raise ValueError(f"{where}: expected (N,) mono audio at index {i}, got {audio.shape}")
+        out.append((coeffs, audio))
+    return out
+
+
+def diffusion_loss(said: SAiD, coeffs: torch.Tensor, audio: torch.Tensor, *, generator: torch.Generator | None = None, cond_drop_prob: float = 0.0, velocity_weight: float = 1.0, model=None) -> torch.Tensor:
+    """Return SAiD's loss on one batch: noise at random timesteps, predict it, L1 + velocity.
+
+    Parameters
+    ----------
+    said : SAiD
+    coeffs : (B, W, K) Tensor
+        Coefficients in [0, 1].
+    audio : (B, N) Tensor
+        The matching 16 kHz audio windows.
+    generator : torch.Generator, optional
+        Source of timesteps, noise and condition dropping.
+    cond_drop_prob : float, default 0.0
+        Probability of replacing a window's audio condition by the null condition.
+    velocity_weight : float, default 1.0
+    model : SAiDModel, optional
+        Defaults to ``said.model`` (pass the EMA model to evaluate it).
+
+    Returns
+    -------
+    loss : () Tensor
+    """
+    model = said.model if model is None else model
+    b, w, _ = coeffs.shape
+    x0 = said.to_diffusion(coeffs)
+    # random draws on the CPU generator, so that a seed means the same on every device
+    device = coeffs.device
+    t = torch.randint(0, said.alphas_cumprod.shape[0], (b,), generator=generator).to(device)
+    noise = torch.randn(x0.shape, generator=generator).to(device)
+    x_t = add_noise(x0, noise, t, said.alphas_cumprod)
+    drop = (torch.rand(b, generator=generator) < cond_drop_prob).to(device) if cond_drop_prob > 0 else None
+    cond = model.condition(model.audio_features(audio, w), drop)
+    eps = noise_from_output(model(x_t, t, cond), x_t, alphas_of(t, said.alphas_cumprod), said.config["diffusion"].get("prediction", "epsilon"))
+    return said_loss(noise, eps, velocity_weight=velocity_weight)
+
+
+def train_said(
+    said: SAiD,
+    train_pairs,
+    val_pairs=None,
+    *,
+    seed: int = 0,
+    max_steps: int | None = None,
+    max_seconds: float | None = None,
+    mirror: np.ndarray | None = None,
+    progress: bool = True,
+) -> dict:
+    """Train ``said`` in place; at the end it holds the EMA weights with the best validation loss.
+
+    Parameters
+    ----------
+    said : SAiD
+    train_pairs : list of (coeffs (T_i, K) in [0, 1], audio (N_i,) float32 at 16 kHz)
+    val_pairs : list of pairs, optional
+        Model selection on the validation loss of the EMA weights (fixed windows,
+        timesteps and noise); without it the last EMA weights are kept.
+    seed : int, default 0
+    max_steps, max_seconds : optional
+        Stop at whichever comes first; default the config's training values.
+    mirror : (K,) int ndarray, optional
+        Mirror permutation of the columns for the swap augmentation; None disables it.
+    progress : bool, default True
+
+    Returns
+    -------
+    history : dict
+        ``train_loss`` (per step), ``val`` (``[step, loss]`` pairs), ``best_step``,
+        ``best_val_loss``, ``steps``, ``seconds``.  Also stored as ``said.history``.
+    """
+    cfg = said.config["training"]
+    k = len(said.names)
+    train_pairs = _check_pairs(train_pairs, k, "train_said train_pairs")
+    if not train_pairs:
+        raise ValueError("train_said: expected at least one training pair, got none")
+    val_pairs = _check_pairs(val_pairs or [], k, "train_said val_pairs")
+    max_steps = cfg["max_steps"] if max_steps is None else max_steps
+    max_seconds = cfg["max_seconds"] if max_seconds is None else max_seconds
+    if max_steps is None and max_seconds is None:
+        raise ValueError("train_said: expected max_steps or max_seconds, got neither")
+    max_steps = math.inf if max_steps is None else int(max_steps)
+    max_seconds = math.inf if max_seconds is None else float(max_seconds)
+
+    mean, scale = coefficient_normalization([c for c, _ in train_pairs], said.config["diffusion"].get("normalization", "unit-interval"))
+    with torch.no_grad():
+        said.model.coeff_mean.copy_(torch.from_numpy(mean))
+        said.model.coeff_scale.copy_(torch.from_numpy(scale))
+    torch.manual_seed(seed)
+    rng = np.random.default_rng(seed)
+    gen = torch.Generator().manual_seed(seed)
+    model = said.model
+    params = model.trainable_parameters()
+    opt = torch.optim.AdamW(params, lr=cfg["lr"], betas=tuple(cfg["betas"]), weight_decay=cfg["weight_decay"])
+    warmup = max(1, int(cfg["warmup_steps"]))
+    sched = torch.optim.lr_scheduler.LambdaLR(opt, lambda step: min(1.0, (step + 1) / warmup))
+    ema = EMA(model, cfg["ema_decay"])
+
+    val_batches = None
+    if val_pairs:
+        vc, va = validation_windows(val_pairs, cfg["window"])
+        vgen = torch.Generator().manual_seed(seed + 1)
+        val_batches = []
+        for i in range(0, len(vc), cfg["batch_size"]):
+            c = torch.from_numpy(vc[i : i + cfg["batch_size"]]).to(said.device)
+            a = torch.from_numpy(va[i : i + cfg["batch_size"]]).to(said.device)
+            val_batches.append((c, a, vgen.initial_seed() + i))
+
+    def val_loss() -> float:
+        ema.model.eval()
+        total, count = 0.0, 0
+        with torch.no_grad():
+            for c, a, s in val_batches:
+                g = torch.Generator().manual_seed(s)
+                total += float(diffusion_loss(said, c, a, generator=g, velocity_weight=cfg["velocity_weight"], model=ema.model)) * len(c)
+                count += len(c)
+        return total / count
+
+    history = {"train_loss": [], "val": [], "best_step": None, "best_val_loss": None}
+    best_state = None
+    start = time.perf_counter()
+    step = 0
+    bar = tqdm(total=None if math.isinf(max_steps) else max_steps, desc="SAiD training", disable=not progress)
+    with torch_threads(cfg.get("num_threads")):
+        while step < max_steps and time.perf_counter() - start < max_seconds:
+            model.train()
+            c, a = training_batch(
+                train_pairs, cfg["batch_size"], cfg["window"], rng,
+                mirror=mirror, mirror_prob=cfg["mirror_prob"], shift_prob=cfg["audio_shift_prob"],
+            )
+            loss = diffusion_loss(
+                said, torch.from_numpy(c).to(said.device), torch.from_numpy(a).to(said.device), generator=gen,
+                cond_drop_prob=cfg["cond_drop_prob"], velocity_weight=cfg["velocity_weight"],
+            )
+            opt.zero_grad(set_to_none=True)
+            loss.backward()
+            if cfg.get("grad_clip"):
+                torch.nn.utils.clip_grad_norm_(params, cfg["grad_clip"])
+            opt.step()
+            sched.step()
+            ema.update(model)
+            step += 1
+            history["train_loss"].append(loss.item())
+            bar.update(1)
+            bar.set_postfix(loss=f"{history['train_loss'][-1]:.4f}", refresh=False)
+            if val_batches and step % cfg["val_every"] == 0:
+                v = val_loss()
+                history["val"].append([step, v])
+                if history["best_val_loss"] is None or v < history["best_val_loss"]:
+                    history["best_val_loss"], history["best_step"] = v, step
+                    best_state = copy.deepcopy(ema.model.state_dict())
+        if val_batches and (not history["val"] or history["val"][-1][0] != step) and step > 0:
+            v = val_loss()
+            history["val"].append([step, v])
+            if history["best_val_loss"] is None or v < history["best_val_loss"]:
+                history["best_val_loss"], history["best_step"] = v, step
+                best_state = copy.deepcopy(ema.model.state_dict())
+    bar.close()
+    model.load_state_dict(best_state if best_state is not None else ema.model.state_dict())
+    model.eval()
+    history["steps"] = step
+    history["seconds"] = time.perf_counter() - start
+    said.history = history
+    return history
+
+
+def main(argv=None) -> None:
+    """Command line: train SAiD on a built BlendVOCA directory and write a checkpoint."""
+    p = argparse.ArgumentParser(prog="python -m baselines.said.train", description=__doc__.split("\n\n")[0])
+    p.add_argument("--data", required=True, help="BlendVOCA directory (python -m blendvoca.build --out DIR)")
+    p.add_argument("--out", required=True, help="checkpoint file to write (.pt)")
+    p.add_argument("--preset", default="cpu-demo", help="cpu-demo (default) or paper")
+    p.add_argument("--max-steps", type=int, default=None)
+    p.add_argument("--max-seconds", type=float, default=None)
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--wav2vec2-path", default=None, help="local wav2vec2 directory (paper preset)")
+    args = p.parse_args(argv)
+    from baselines.said.plugin import dataset_pairs, mirror_for
+    from benchmark.data import open_blendvoca
+
+    dataset = open_blendvoca(args.data)
+    overrides = {"wav2vec2_path": args.wav2vec2_path} if args.wav2vec2_path else {}
+    said = SAiD.from_preset(tuple(dataset.names), args.preset, **overrides)
+    history = train_said(
+        said, dataset_pairs(dataset, "train"), dataset_pairs(dataset, "val"),
+        seed=args.seed, max_steps=args.max_steps, max_seconds=args.max_seconds, mirror=mirror_for(dataset.names),
+    )
+    said.save(args.out)
+    print(f"wrote {args.out}: {history['steps']} steps in {history['seconds']:.0f} s, best validation loss {history['best_val_loss']}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,63 @@
+import numpy as np
+import pytest
+
+from blendvoca.names import BLENDVOCA_NAMES
+
+TINY = {"channels": 16, "cond_dim": 16, "heads": 2, "window": 30, "batch_size": 4, "num_steps": 3, "val_every": 2, "num_threads": 1}
+
+
+class FakeDataset:
+    """The parts of benchmark.data's dataset that the plugin uses, over random arrays."""
+
+    names = BLENDVOCA_NAMES
+
+    def __init__(self):
+        rng = np.random.default_rng(0)
+        self._splits = {"train": ["s0", "s1"], "val": ["s2"], "test": ["s3"]}
+        self._data = {
+            (s, f"sentence0{i}"): (rng.random((40 + 5 * i, 32)), rng.standard_normal((40 + 5 * i) * 16000 // 60).astype(np.float32) * 0.1)
+            for subjects in self._splits.values() for s in subjects for i in (1, 2)
+        }
+
+    def split(self, name):
+        return self._splits[name]
+
+    def sentences(self, subject):
+        return sorted(sent for s, sent in self._data if s == subject)
+
+    def coeffs(self, subject, sentence):
+        return self._data[subject, sentence][0]
+
+    def audio(self, subject, sentence):
+        return self._data[subject, sentence][1], 16000
+
+
+def test_said_is_registered():
+    from baselines.said.plugin import SAiDMethod
+    from benchmark.methods import get_method
+
+    assert get_method("said") is SAiDMethod
+    assert SAiDMethod.stochastic
+
+
+def test_plugin_train_generate_save_load(tmp_path):
+    from baselines.said.plugin import SAiDMethod
+    from benchmark.methods.base import Budget
+
+    method = SAiDMethod(**TINY)
+    method.train(FakeDataset(), seed=0, budget=Budget(max_steps=4))
+    assert method.said.history["steps"] == 4 and method.said.history["best_step"] in (2, 4)
+    audio = np.random.default_rng(1).standard_normal(16000).astype(np.float32) * 0.1
+    out = method.generate(audio, "s3", num_frames=61, samples=2, seed=5)
+    assert out.shape == (2, 61, 32) and out.min() >= 0 and out.max() <= 1
+    method.save(tmp_path)
+    back = SAiDMethod.load(tmp_path)
+    assert back.config() == method.config()
+    np.testing.assert_array_equal(back.generate(audio, "s3", num_frames=61, samples=2, seed=5), out)
+
+
+def test_plugin_rejects_unknown_option():
+    from baselines.said.plugin import SAiDMethod
+
+    with pytest.raises(ValueError, match="unknown key"):
+        SAiDMethod(widht=3)
