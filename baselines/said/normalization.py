@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-NORMALIZATIONS = ("unit-interval", "centered")
+NORMALIZATIONS = ("unit-interval", "centered", "standardized")
 
 
 def coefficient_normalization(tracks, kind: str = "centered") -> tuple[np.ndarray, np.ndarray]:
@@ -16,14 +16,20 @@ def coefficient_normalization(tracks, kind: str = "centered") -> tuple[np.ndarra
     tracks : list of (T_i, K) ndarray
         Training coefficient tracks (only their number of columns is used for
         ``unit-interval``).
-    kind : {"centered", "unit-interval"}, default "centered"
+    kind : {"centered", "unit-interval", "standardized"}, default "centered"
         ``unit-interval``: ``x = 2 u - 1`` for every column.  ``centered``:
         ``x = 2 (u - mean)`` with each column's mean over all training frames, so a
         short CPU run need not learn the large constant offsets of rarely active
         blendshapes.  The scale stays 1/2 for every column, which keeps the data
         range within ``[-2, 2]``: the x0 predicted at nearly pure noise (where
         ``x0 = (x_t - sqrt(1 - a) eps) / sqrt(a)`` amplifies every error) is clipped
-        to a range that the first sampling steps cannot blow up.
+        to a range that the first sampling steps cannot blow up.  ``standardized``:
+        ``x = (u - mean) / s`` with one scale ``s`` for all columns, the root mean
+        square of the column standard deviations, so the data have unit variance
+        overall, as the noise schedule assumes (BlendVOCA's coefficients vary by about
+        0.04, so with scale 1/2 the data would be invisible under the noise of all but
+        the last few percent of timesteps); the relative weights of the columns are
+        kept.
 
     Returns
     -------
@@ -34,10 +40,15 @@ def coefficient_normalization(tracks, kind: str = "centered") -> tuple[np.ndarra
     k = np.asarray(tracks[0]).shape[-1]
     if kind == "unit-interval":
         return np.full(k, 0.5), np.full(k, 0.5)
-    if kind != "centered":
+    if kind not in NORMALIZATIONS:
         raise ValueError(f"coefficient_normalization: expected kind in {NORMALIZATIONS}, got {kind!r}")
     frames = np.concatenate([np.asarray(t, dtype=np.float64).reshape(-1, k) for t in tracks])
-    return frames.mean(axis=0), np.full(k, 0.5)
+    mean = frames.mean(axis=0)
+    if kind == "centered":
+        return mean, np.full(k, 0.5)
+    # one scale for all columns: the root mean square of the column standard deviations
+    rms = float(np.sqrt(np.mean(frames.var(axis=0))))
+    return mean, np.full(k, rms if rms > 1e-6 else 0.5)
 
 
 def to_diffusion_space(coeffs: torch.Tensor, mean: torch.Tensor, scale: torch.Tensor) -> torch.Tensor:

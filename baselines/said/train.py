@@ -73,7 +73,17 @@ def diffusion_loss(said: SAiD, coeffs: torch.Tensor, audio: torch.Tensor, *, gen
     x_t = add_noise(x0, noise, t, said.alphas_cumprod)
     drop = (torch.rand(b, generator=generator) < cond_drop_prob).to(device) if cond_drop_prob > 0 else None
     cond = model.condition(model.audio_features(audio, w), drop)
-    eps = noise_from_output(model(x_t, t, cond), x_t, alphas_of(t, said.alphas_cumprod), said.config["diffusion"].get("prediction", "epsilon"))
+    prediction = said.config["diffusion"].get("prediction", "epsilon")
+    output = model(x_t, t, cond)
+    if said.config["training"].get("loss_space", "noise") == "v":
+        # L1 + velocity loss on the v target: the noise loss weighted by 1 / sqrt(alpha_bar),
+        # so that the nearly pure-noise steps, whose x0 prediction the first sampling
+        # steps use, are trained too (the plain noise loss gives them no gradient).
+        if prediction != "v":
+            raise ValueError(f"diffusion_loss: loss_space 'v' needs prediction 'v', got {prediction!r}")
+        a = alphas_of(t, said.alphas_cumprod).to(x0.dtype)[:, None, None]
+        return said_loss(a.sqrt() * noise - (1.0 - a).sqrt() * x0, output, velocity_weight=velocity_weight)
+    eps = noise_from_output(output, x_t, alphas_of(t, said.alphas_cumprod), prediction)
     return said_loss(noise, eps, velocity_weight=velocity_weight)
 
 

@@ -105,3 +105,28 @@ def test_train_rejects_bad_pairs():
         train_said(said, [(np.zeros((10, 3)), np.zeros(100, np.float32))], max_steps=1, progress=False)
     with pytest.raises(TypeError, match="pairs"):
         train_said(said, [np.zeros((10, 4))], max_steps=1, progress=False)
+
+
+def test_v_loss_space_is_l1_plus_velocity_on_the_v_target():
+    """loss_space='v': the loss equals said_loss on v = sqrt(a) eps - sqrt(1-a) x0 (and trains high noise)."""
+    from baselines.said.losses import said_loss
+    from baselines.said.schedule import add_noise, alphas_of
+
+    said = SAiD.from_preset(NAMES, prediction="v", loss_space="v", **TINY)
+    pairs = toy_pairs(4, 0)
+    c = torch.from_numpy(np.stack([p[0][:30] for p in pairs])).float()
+    a = torch.from_numpy(np.stack([p[1][:8000] for p in pairs]))
+    with torch.no_grad():
+        got = diffusion_loss(said, c, a, generator=torch.Generator().manual_seed(5))
+        g = torch.Generator().manual_seed(5)
+        x0 = said.to_diffusion(c)
+        t = torch.randint(0, said.alphas_cumprod.shape[0], (4,), generator=g)
+        noise = torch.randn(x0.shape, generator=g)
+        x_t = add_noise(x0, noise, t, said.alphas_cumprod)
+        m = said.model
+        out = m(x_t, t, m.condition(m.audio_features(a, 30)))
+        ab = alphas_of(t, said.alphas_cumprod)[:, None, None]
+        want = said_loss(ab.sqrt() * noise - (1 - ab).sqrt() * x0, out)
+    torch.testing.assert_close(got, want)
+    with pytest.raises(ValueError, match="loss_space"):
+        diffusion_loss(SAiD.from_preset(NAMES, prediction="epsilon", loss_space="v", **TINY), c, a)
