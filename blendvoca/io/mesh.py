@@ -244,6 +244,25 @@ def read_ply_sequence(paths: Sequence, *, num_vertices: int | None = None) -> np
     return out
 
 
+def ply_header(num_vertices: int, num_faces: int | None = None, *, binary: bool = True) -> bytes:
+    """The header `write_ply` writes: float32 x, y, z and, with ``num_faces``, triangles."""
+    header = ["ply", f"format {'binary_little_endian' if binary else 'ascii'} 1.0", f"element vertex {num_vertices}",
+              "property float x", "property float y", "property float z"]
+    if num_faces is not None:
+        header += [f"element face {num_faces}", "property list uchar int vertex_indices"]
+    header.append("end_header")
+    return ("\n".join(header) + "\n").encode("ascii")
+
+
+def ply_face_block(faces) -> bytes:
+    """The binary face records `write_ply` writes: a uchar 3 and three little-endian int32."""
+    F = np.asarray(faces, dtype=np.int64)
+    record = np.empty(len(F), dtype=[("n", "u1"), ("i", "<i4", 3)])
+    record["n"] = 3
+    record["i"] = F
+    return record.tobytes()
+
+
 def write_ply(path, vertices, faces=None, *, binary: bool = True) -> None:
     """Write a PLY file with float32 vertices and (optionally) int32 triangles.
 
@@ -253,20 +272,12 @@ def write_ply(path, vertices, faces=None, *, binary: bool = True) -> None:
     V = np.asarray(vertices, dtype=np.float64)
     _check_vertices(V, path)
     F = np.zeros((0, 3), np.int64) if faces is None else np.asarray(faces, dtype=np.int64)
-    header = ["ply", f"format {'binary_little_endian' if binary else 'ascii'} 1.0", f"element vertex {len(V)}",
-              "property float x", "property float y", "property float z"]
-    if faces is not None:
-        header += [f"element face {len(F)}", "property list uchar int vertex_indices"]
-    header.append("end_header")
     with atomic_write(path, "wb") as f:
-        f.write(("\n".join(header) + "\n").encode("ascii"))
+        f.write(ply_header(len(V), None if faces is None else len(F), binary=binary))
         if binary:
             f.write(V.astype("<f4").tobytes())
             if faces is not None:
-                record = np.empty(len(F), dtype=[("n", "u1"), ("i", "<i4", 3)])
-                record["n"] = 3
-                record["i"] = F
-                f.write(record.tobytes())
+                f.write(ply_face_block(F))
         else:
             lines = ["%.9g %.9g %.9g" % tuple(v) for v in V.astype(np.float32)]
             lines += ["3 %d %d %d" % tuple(t) for t in F]

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from blendvoca.io.audio import write_wav
-from blendvoca.io.mesh import write_ply
+from blendvoca.io.mesh import ply_face_block, ply_header, write_ply
 from blendvoca.vocaset.splits import NUM_VERTICES
 
 
@@ -25,21 +25,6 @@ def quantize_pcm16(samples: np.ndarray) -> np.ndarray:
     if samples.ndim != 1:
         raise ValueError(f"quantize_pcm16: expected mono (N,) samples, got shape {samples.shape}")
     return np.clip(np.round(samples * 32768.0), -32768, 32767).astype(np.int16)
-
-
-def _ply_parts(num_vertices: int, faces: np.ndarray | None) -> tuple[bytes, bytes]:
-    """Header and face block of a binary little-endian PLY with float32 x, y, z."""
-    lines = ["ply", "format binary_little_endian 1.0", f"element vertex {num_vertices}",
-             "property float x", "property float y", "property float z"]
-    block = b""
-    if faces is not None:
-        lines += [f"element face {len(faces)}", "property list uchar int vertex_indices"]
-        record = np.empty(len(faces), dtype=[("n", "u1"), ("i", "<i4", 3)])
-        record["n"] = 3
-        record["i"] = faces
-        block = record.tobytes()
-    lines.append("end_header")
-    return ("\n".join(lines) + "\n").encode("ascii"), block
 
 
 class OfficialWriter:
@@ -74,7 +59,8 @@ class OfficialWriter:
         # Thousands of small files: write them directly (same bytes as write_ply)
         # without write_ply's per-file fsync; corpus-level atomicity comes from
         # generating into a temporary folder.
-        header, face_block = _ply_parts(frames.shape[1], faces)
+        header = ply_header(frames.shape[1], None if faces is None else len(faces))
+        face_block = b"" if faces is None else ply_face_block(faces)
         for t, V in enumerate(frames, start=1):
             with open(folder / f"{sentence}.{t:06d}.ply", "wb") as f:
                 f.write(header + np.asarray(V, dtype="<f4").tobytes() + face_block)
