@@ -30,7 +30,8 @@ def output_files(out) -> list[str]:
 
 def manifest_dict(out, *, vocaset, corpus, params, records, failures, version) -> dict:
     """Return the manifest of the build in ``out`` as a JSON-ready dict."""
-    inputs = {"vocaset": {"root_name": Path(vocaset).name, "layout": getattr(corpus, "layout", "")},
+    inputs = {"vocaset": {"root_name": Path(vocaset).name, "path": str(Path(vocaset).resolve()),
+                          "layout": getattr(corpus, "layout", "")},
               "speakers": {}}
     assets = None
     for subject in corpus.subjects:
