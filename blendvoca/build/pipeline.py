@@ -373,6 +373,8 @@ def _write_summary_files(out, corpus, vocaset, subjects, params, summary, *, rep
                 tracks.append(coeffs)
     if tracks:
         write_coeffs_std(out / "coeffs_std.csv", coeffs_std(tracks), names)
+    from .said_residuals import write_blendshape_residuals
+    write_blendshape_residuals(out, subjects)
     with atomic_write(out / "splits.json", "w", encoding="utf-8") as f:
         f.write(json.dumps(corpus.splits, indent=2, sort_keys=True) + "\n")
     if report:
