@@ -144,13 +144,42 @@ class CrossAttention(nn.Module):
         """Return the head-split keys and values ``(B, heads, S, dim_head)`` of ``context (B, S, context_dim)``."""
         return self._split(self.to_k(context)), self._split(self.to_v(context))
 
-    def forward(self, x, context=None, allowed=None, kv=None):
-        """x: (B, T, query_dim); context: (B, S, context_dim) or None; allowed: (T, S) bool; kv: from :meth:`keys_values`."""
+    def forward(self, x, context=None, allowed=None, kv=None, band=None):
+        """x: (B, T, query_dim); context: (B, S, context_dim) or None; allowed: (T, S) bool; kv: from :meth:`keys_values`.
+
+        ``band = p`` (with ``S == T``): the keys are ``|i - j| <= p``, computed on the
+        band alone (same values as ``allowed`` = that band, in ``O(T p)``).
+        """
         q = self._split(self.to_q(x))
         k, v = kv if kv is not None else self.keys_values(x if context is None else context)
-        out = F.scaled_dot_product_attention(q, k, v, attn_mask=allowed)
+        if band is not None:
+            out = banded_attention(q, k, v, band)
+        else:
+            out = F.scaled_dot_product_attention(q, k, v, attn_mask=allowed)
         b, _, t, _ = out.shape
         return self.to_out(out.transpose(1, 2).reshape(b, t, self.heads * self.dim_head))
+
+
+def banded_attention(q: torch.Tensor, k: torch.Tensor, v: torch.Tensor, pad: int) -> torch.Tensor:
+    """``softmax(Q K^T / sqrt(d))V`` restricted to keys ``|i - j| <= pad`` (``S == T``).
+
+    Parameters
+    ----------
+    q, k, v : (B, H, T, d) Tensor
+    pad : int
+
+    Returns
+    -------
+    (B, H, T, d) Tensor
+    """
+    t, d = q.shape[2], q.shape[3]
+    width = 2 * pad + 1
+    k_win = F.pad(k, (0, 0, pad, pad)).unfold(2, width, 1)  # (B, H, T, d, width)
+    v_win = F.pad(v, (0, 0, pad, pad)).unfold(2, width, 1)
+    scores = torch.einsum("bhtd,bhtdw->bhtw", q, k_win) * d**-0.5
+    j = torch.arange(t, device=q.device)[:, None] + torch.arange(-pad, pad + 1, device=q.device)[None, :]
+    scores = scores.masked_fill(((j < 0) | (j >= t))[None, None], float("-inf"))
+    return torch.einsum("bhtw,bhtdw->bhtd", scores.softmax(dim=-1), v_win)
 
 
 class GEGLU(nn.Module):
@@ -193,8 +222,11 @@ class BasicTransformerBlock(nn.Module):
         """x: (B, T, dim), context: (B, S, context_dim) -> (B, T, dim)."""
         x = self.attn1(self.norm1(x)) + x
         num_keys = context.shape[1] if kv is None else kv[0].shape[2]
-        allowed = alignment_mask(x.shape[1], num_keys, pad=self.pad, device=x.device)
-        x = self.attn2(self.norm2(x), context, allowed, kv) + x
+        if num_keys == x.shape[1]:  # one audio feature per frame: the band |i - j| <= pad
+            x = self.attn2(self.norm2(x), context, None, kv, band=self.pad) + x
+        else:
+            allowed = alignment_mask(x.shape[1], num_keys, pad=self.pad, device=x.device)
+            x = self.attn2(self.norm2(x), context, allowed, kv) + x
         return self.ff(self.norm3(x)) + x
 
 

@@ -199,3 +199,15 @@ def test_published_key_set_and_shapes():
 @pytest.mark.parametrize("t,s", [(60, 60), (37, 60), (60, 37), (50, 149), (7, 3)])
 def test_alignment_mask_is_the_authors_band(t, s):
     assert torch.equal(alignment_mask(t, s), ~_authors_band(t, s))
+
+
+def test_context_of_another_length_uses_the_general_band():
+    state = _authors_state(seed=3)
+    model = SAID_UNet1D(tiny_config(), model_channels=WIDTH, num_head_channels=HEAD).eval()
+    model.load_state_dict(legacy_to_current(state))
+    torch.manual_seed(2)
+    x, t = torch.randn(2, 23, 32), torch.tensor([10, 600])
+    for frames in (23, 50, 11):
+        ctx = torch.randn(2, frames, 32)
+        with torch.no_grad():
+            torch.testing.assert_close(model(x, t, ctx), _unet(state, x, t, ctx, WIDTH // HEAD), rtol=1e-4, atol=1e-4)
