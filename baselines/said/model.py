@@ -295,8 +295,12 @@ class SAiDModel(nn.Module):
         """Return the null condition repeated to ``(batch, num_frames, cond_dim)``."""
         return self.null_cond.expand(batch, num_frames, -1)
 
-    def forward(self, x_t: torch.Tensor, timesteps: torch.Tensor, cond: torch.Tensor) -> torch.Tensor:
+    def context_cache(self, cond: torch.Tensor) -> dict | None:
+        """Cross-attention keys/values of ``cond`` for :meth:`forward` (``authors`` only; None otherwise)."""
+        return self.denoiser.context_cache(cond) if self.architecture == "authors" else None
+
+    def forward(self, x_t: torch.Tensor, timesteps: torch.Tensor, cond: torch.Tensor, caches: dict | None = None) -> torch.Tensor:
         """Return the network output ``(B, T, K)`` for ``x_t (B, T, K)``, ``timesteps (B,)``, ``cond (B, S, D)``."""
         if self.architecture == "authors":
-            return self.denoiser(x_t.transpose(1, 2), timesteps, cond).transpose(1, 2)
+            return self.denoiser(x_t.transpose(1, 2), timesteps, cond, caches).transpose(1, 2)
         return self.denoiser(x_t, timesteps, cond)
