@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-# At 512 px with the face framing, a FLAME mouth is about 150 px wide.
+# At 512 px with the face framing, a FLAME mouth is about 135 px wide.
 DEFAULT_SIZE = 512
 
 

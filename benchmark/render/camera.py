@@ -64,14 +64,15 @@ def project(vertices, pose, yfov: float, width: int, height: int):
     return xy, depth
 
 
-def face_box(vertices, depth_fraction: float = 0.3, up: float = 0.45, down: float = 0.6) -> tuple[np.ndarray, np.ndarray]:
+def face_box(vertices, depth_fraction: float = 0.3, up: float = 0.45, down: float = 0.75) -> tuple[np.ndarray, np.ndarray]:
     """The box of the face (brows to chin, cheek to cheek) of a head facing +z.
 
     The nose tip is the vertex nearest the viewer (largest z); the face is what lies
     within ``depth_fraction`` of the head's largest extent behind it, which leaves out
     the ears, the back of the head and the sides of the neck. Its width W (x range)
     sets the height: from ``down * W`` below the tip to ``up * W`` above it, which
-    keeps the neck and the scalp out of the picture on FLAME and ARKit heads.
+    keeps the scalp and most of the neck out of the picture and an open jaw in it on
+    FLAME and ARKit heads.
 
     Parameters
     ----------
