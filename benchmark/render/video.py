@@ -55,7 +55,7 @@ def write_video(path: str | PathLike, frames, fps: float, audio=None, rate: int 
         wav = Path(tmp) / "audio.wav"
         write_wav(wav, np.asarray(audio, dtype=np.float32), rate)
         cmd = [imageio_ffmpeg.get_ffmpeg_exe(), "-y", "-loglevel", "error", "-i", str(silent), "-i", str(wav),
-               "-c:v", "copy", "-c:a", "aac", "-shortest", str(path)]
+               "-c:v", "copy", "-c:a", "aac", str(path)]
         subprocess.run(cmd, check=True)
     return path
 
