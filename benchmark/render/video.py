@@ -35,6 +35,9 @@ def write_video(path: str | PathLike, frames, fps: float, audio=None, rate: int 
         raise ValueError(f"write_video: expected uint8 frames (T, H, W, 3), got {frames.dtype} {frames.shape}")
     if audio is not None:
         frames = match_audio_length(frames, fps, len(np.asarray(audio)), rate)
+    if frames.shape[1] % 2 or frames.shape[2] % 2:  # H.264 4:2:0 needs even sides: pad with white
+        frames = np.pad(frames, ((0, 0), (0, frames.shape[1] % 2), (0, frames.shape[2] % 2), (0, 0)),
+                        constant_values=255)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     height, width = frames.shape[1:3]
