@@ -56,8 +56,16 @@ def check_output_dir(out: Path, vocaset: Path) -> None:
 
 
 def is_build_folder(out: Path) -> bool:
-    """True when ``out`` holds the marker a build writes (``.buildstate/build.json``)."""
-    return (out / STATE_DIR / MARKER).is_file()
+    """True when ``out`` holds the marker a build writes (``.buildstate/build.json``), or is
+    a build from before the marker existed (``.buildstate/`` and a manifest by ``blendvoca.build``)."""
+    if (out / STATE_DIR / MARKER).is_file():
+        return True
+    if not (out / STATE_DIR).is_dir():
+        return False
+    try:
+        return json.loads((out / "manifest.json").read_text(encoding="utf-8")).get("tool") == "blendvoca.build"
+    except (OSError, ValueError, AttributeError):
+        return False
 
 
 def claim_output_dir(out: Path) -> None:
