@@ -87,7 +87,7 @@ def claim_output_dir(out: Path) -> None:
             )
     try:
         (out / STATE_DIR).mkdir(parents=True, exist_ok=True)
-        if not is_build_folder(out):
+        if not (out / STATE_DIR / MARKER).is_file():
             with atomic_write(out / STATE_DIR / MARKER, "w", encoding="utf-8") as f:
                 f.write(json.dumps({"tool": "blendvoca.build", "layout": 1}, sort_keys=True) + "\n")
     except OSError as error:

@@ -26,9 +26,8 @@ from pathlib import Path
 import numpy as np
 
 import blendvoca
-from blendvoca.io.atomic import atomic_write
-
 from blendvoca.errors import BlendVOCAError, OutputDirError
+from blendvoca.io.atomic import atomic_write
 
 from .hashing import array_digest, file_digest, stage_key
 from .outdir import (
@@ -113,7 +112,7 @@ def _guarded_init(*initargs):
     """
     try:
         _worker_init(*initargs)
-    except BaseException as error:  # noqa: BLE001 - reported to the parent by the tasks
+    except Exception as error:  # reported to the parent by the tasks
         _WORKER.clear()
         _WORKER["init_error"] = f"a worker process could not start: {_reason(error)}"
 
@@ -270,8 +269,6 @@ def _sentence_task(item):
 
 
 def _reason(error: BaseException) -> str:
-    from blendvoca.errors import BlendVOCAError
-
     if isinstance(error, BlendVOCAError):  # its message already says what and where
         return str(error)
     return f"{type(error).__name__}: {error}"

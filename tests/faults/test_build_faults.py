@@ -350,3 +350,28 @@ def test_success_is_exit_zero(copies, capsys):
 def test_build_errors_are_one_family():
     assert issubclass(OutputDirError, BlendVOCAError) and issubclass(BlendVOCAError, ValueError)
     assert issubclass(pipeline.BuildInputError, BlendVOCAError)
+
+
+def test_a_build_from_before_the_marker_is_still_accepted(copies):
+    corpus, out = copies
+    (out / ".buildstate" / "build.json").unlink()
+    assert build_dataset(out, corpus, workers=1, progress=False).ok
+    assert (out / ".buildstate" / "build.json").is_file()
+
+
+@pytest.mark.parametrize("files, fragment", [
+    (None, "no manifest.json"), ({"../../etc/passwd": "00"}, "not a relative path"),
+    ([1, 2], "expected an object"), ({"/abs": "00"}, "not a relative path"),
+])
+def test_open_blendvoca_refuses_a_folder_without_a_usable_manifest(copies, files, fragment):
+    from benchmark.data import open_blendvoca
+
+    _, out = copies
+    if files is None:
+        (out / "manifest.json").unlink()
+    else:
+        (out / "manifest.json").write_text(json.dumps({"files": files}))
+    with pytest.raises(ValueError, match=fragment) as caught:
+        open_blendvoca(out)
+    if files is None:
+        assert "python -m blendvoca.build --vocaset" in str(caught.value)
