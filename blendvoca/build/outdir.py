@@ -21,6 +21,7 @@ import contextlib
 import errno
 import json
 import os
+import time
 from pathlib import Path
 
 from blendvoca.errors import OutputDirError
@@ -107,8 +108,12 @@ def is_fatal_write_error(error: BaseException) -> bool:
 
 
 @contextlib.contextmanager
-def build_lock(out: Path):
+def build_lock(out: Path, wait: float = 3.0):
     """Hold ``<out>/.buildstate/lock`` for the duration; a second build on ``out`` is refused.
+
+    The lock is an ``flock``: the kernel drops it when the holder (and the worker
+    processes it forked) exit, however they end. A lock still held after ``wait``
+    seconds means another build is running.
 
     Raises
     ------
@@ -123,13 +128,18 @@ def build_lock(out: Path):
     except OSError as error:
         raise unwritable(error, out) from None
     try:
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            holder = os.pread(fd, 64, 0).decode("ascii", errors="replace").strip() or "unknown"
-            raise OutputDirError(
-                f"another build (pid {holder}) is writing to {out}; wait for it to finish, or use another --out"
-            ) from None
+        deadline = time.monotonic() + wait
+        while True:
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                break
+            except BlockingIOError:
+                # A killed build's worker processes may take a moment to exit (and drop the lock).
+                if time.monotonic() >= deadline:
+                    holder = os.pread(fd, 64, 0).decode("ascii", errors="replace").strip() or "unknown"
+                    raise OutputDirError(f"another build (pid {holder}) is writing to {out}; wait for it to "
+                                         "finish, or use another --out") from None
+                time.sleep(0.1)
         os.ftruncate(fd, 0)
         os.pwrite(fd, f"{os.getpid()}\n".encode("ascii"), 0)
         yield path

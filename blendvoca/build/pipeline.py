@@ -63,7 +63,9 @@ class BuildSummary:
     built, skipped : dict
         ``{"speakers": n, "sentences": n}`` redone / already up to date.
     failures : list of dict
-        ``{"subject", "sentence", "stage", "reason"}`` per failed item.
+        ``{"subject", "sentence", "stage", "reason"}`` per failed item; ``stage`` is
+        ``"rig"``, ``"fit"`` or ``"input"`` (a sentence the corpus lacks, or one
+        built before that is no longer in it).
     """
 
     out: Path

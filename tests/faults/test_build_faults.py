@@ -375,3 +375,24 @@ def test_open_blendvoca_refuses_a_folder_without_a_usable_manifest(copies, files
         open_blendvoca(out)
     if files is None:
         assert "python -m blendvoca.build --vocaset" in str(caught.value)
+
+
+def test_every_reader_problem_is_a_listed_failure(copies, capsys):
+    corpus, out = copies
+    a, b, c = _subjects(corpus)
+    frames = sorted((corpus / "unposedcleaneddata" / a / "sentence02").glob("*.ply"))
+    frames[4].write_bytes(frames[4].read_bytes()[:-100])  # truncated PLY
+    sorted((corpus / "unposedcleaneddata" / b / "sentence02").glob("*.ply"))[7].unlink()  # a gap in the frames
+    wav = corpus / "audio" / c / "sentence02.wav"
+    wav.write_bytes(wav.read_bytes()[:-1000])  # truncated WAV
+    code, err = build_cli(capsys, "--vocaset", corpus, "--out", out, "--workers", 1)
+    assert code == 1
+    failures = {(f["subject"], f["sentence"]): f["reason"] for f in _manifest(out)["failures"]}
+    assert set(failures) == {(a, "sentence02"), (b, "sentence02"), (c, "sentence02")}
+    assert "[truncated]" in failures[a, "sentence02"] and frames[4].name in failures[a, "sentence02"]
+    assert "[missing_frame]" in failures[b, "sentence02"]
+    assert "[truncated]" in failures[c, "sentence02"] and "sentence02.wav" in failures[c, "sentence02"]
+    for subject in (a, b, c):
+        assert not (out / "blendshape_coeffs" / subject / "sentence02.csv").exists()
+        assert (out / "blendshape_coeffs" / subject / "sentence01.csv").exists()
+    assert err.count("FAILED") == 3
