@@ -17,6 +17,12 @@ refused with the command that builds it (a hand-made SAiD-layout folder is liste
 once with ``python -m blendvoca.build.manifest DIR``). Without ``splits.json`` the
 standard VOCASET split is used; without ``rigs/`` the rig is built from the
 SAiD-layout OBJ files.
+
+Vertex-trained methods read the source mesh sequences through
+:meth:`BlendVOCADataset.vertices` and :meth:`BlendVOCADataset.template`: they come
+from the VOCASET corpus the build recorded in ``manifest.json`` (``inputs.vocaset.path``),
+or from the corpus passed as ``open_blendvoca(root, vocaset=DIR)`` or named by
+``$BLENDVOCA_VOCASET``.
 """
 
 from __future__ import annotations
@@ -48,11 +54,12 @@ class BlendVOCADataset:
         (the build report excluded), or, with no manifest, of the sorted file listing.
     """
 
-    def __init__(self, root: Path):
+    def __init__(self, root: Path, vocaset=None):
         from blendvoca.build.manifest import listed_files
         from blendvoca.names import BLENDVOCA_NAMES
 
         self.root = root
+        self._vocaset = None if vocaset is None else Path(vocaset).expanduser()
         self.names = tuple(BLENDVOCA_NAMES)
         self._listed = listed_files(root)  # the dataset is what manifest.json lists, nothing else
         coeff_dir = root / "blendshape_coeffs"
@@ -175,6 +182,77 @@ class BlendVOCADataset:
                              f"templates_head/{subject}.obj + blendshapes_head/{subject}/ listed in {self.root}/manifest.json")
         return said_layout_rig(self.root, subject, self.names)
 
+    def utterance(self, subject: str, sentence: str, split: str | None = None):
+        """The :class:`benchmark.methods.contract.Utterance` of a sentence (what ``generate`` receives)."""
+        from benchmark.methods.contract import AUDIO_RATE, Utterance
+
+        if split is None:
+            split = next((name for name, subjects in self._splits.items() if subject in subjects), "")
+        audio, rate = self.audio(subject, sentence)
+        if rate != AUDIO_RATE:
+            raise ValueError(f"BlendVOCADataset.utterance {subject}/{sentence}: expected {AUDIO_RATE} Hz audio, got {rate}")
+        num_frames = int(self.coeffs(subject, sentence).shape[0])
+        return Utterance(subject=subject, sentence=sentence, split=split, audio=audio, num_frames=num_frames)
+
+    def corpus_root(self) -> Path:
+        """The VOCASET corpus this build was made from.
+
+        In order: the ``vocaset`` given to :func:`open_blendvoca`, ``$BLENDVOCA_VOCASET``,
+        ``inputs.vocaset.path`` in ``manifest.json``.
+
+        Raises
+        ------
+        FileNotFoundError
+            None of them names an existing folder (the message says how to give one).
+        """
+        import os
+
+        candidates = []
+        if self._vocaset is not None:
+            candidates.append(("open_blendvoca(vocaset=...)", self._vocaset))
+        if os.environ.get("BLENDVOCA_VOCASET"):
+            candidates.append(("$BLENDVOCA_VOCASET", Path(os.environ["BLENDVOCA_VOCASET"]).expanduser()))
+        manifest = self.root / "manifest.json"
+        if manifest.is_file():
+            try:
+                recorded = json.loads(manifest.read_text()).get("inputs", {}).get("vocaset", {}).get("path")
+            except (ValueError, AttributeError):
+                recorded = None
+            if recorded:
+                candidates.append((f"{manifest} inputs.vocaset.path", Path(recorded)))
+        for _, path in candidates:
+            if path.is_dir():
+                return path
+        tried = "; ".join(f"{where}: {path} (not a folder)" for where, path in candidates) or "none recorded"
+        raise FileNotFoundError(
+            f"BlendVOCADataset {self.root}: the source VOCASET corpus is not reachable ({tried}); pass "
+            f"open_blendvoca(root, vocaset=DIR), benchmark.run --vocaset DIR or set BLENDVOCA_VOCASET"
+        )
+
+    @functools.cached_property
+    def corpus(self):
+        """The source corpus (:class:`blendvoca.vocaset.VocasetCorpus`), opened on first use."""
+        from blendvoca.vocaset import open_vocaset
+
+        return open_vocaset(self.corpus_root())
+
+    def vertices(self, subject: str, sentence: str) -> np.ndarray:
+        """Source mesh sequence of a sentence, ``(T, 5023, 3)`` float64 metres at 60 fps.
+
+        ``T`` equals the coefficient track's frame count (the build fits every frame).
+        """
+        self._subject_dir(subject)
+        return self.corpus.frames(subject, sentence)
+
+    def template(self, subject: str) -> np.ndarray:
+        """The speaker's neutral mesh on the source topology, ``(5023, 3)`` float64 metres."""
+        self._subject_dir(subject)
+        return self.corpus.template(subject)
+
+    def faces(self) -> np.ndarray:
+        """Triangles of the source topology, ``(F, 3)`` int64."""
+        return np.asarray(self.corpus.faces(), dtype=np.int64)
+
     def __repr__(self) -> str:
         return f"BlendVOCADataset({str(self.root)!r}, subjects={len(self.subjects)})"
 
@@ -194,12 +272,15 @@ def said_layout_rig(root, subject: str, names):
     return Rig.load_said_folder(shape_dir, names=tuple(names), neutral_path=template)
 
 
-def open_blendvoca(root: str | PathLike) -> BlendVOCADataset:
+def open_blendvoca(root: str | PathLike, *, vocaset: str | PathLike | None = None) -> BlendVOCADataset:
     """Open a BlendVOCA build or SAiD-layout folder (the files its ``manifest.json`` lists).
 
     Parameters
     ----------
     root : path-like
+    vocaset : path-like, optional
+        The source VOCASET corpus, for :meth:`BlendVOCADataset.vertices` (default:
+        ``$BLENDVOCA_VOCASET``, then the corpus recorded in ``manifest.json``).
 
     Returns
     -------
@@ -214,4 +295,4 @@ def open_blendvoca(root: str | PathLike) -> BlendVOCADataset:
     root = Path(root)
     if not root.is_dir():
         raise ValueError(f"open_blendvoca: {root} is not a directory")
-    return BlendVOCADataset(root)
+    return BlendVOCADataset(root, vocaset=vocaset)

@@ -18,10 +18,12 @@ from pathlib import Path
 import numpy as np
 
 from benchmark.methods import (
+    AUDIO_RATE,
     Budget,
     MethodError,
     MethodOutputError,
     UnknownMethodError,
+    Utterance,
     get_method,
     validated_tracks,
 )
@@ -194,12 +196,12 @@ def generated_tracks(method, dataset, *, split: str = "test", samples: int = 1, 
     generated, n_clipped = {}, 0
     for index, (subject, sentence) in enumerate(iterator):
         audio, rate = dataset.audio(subject, sentence)
-        if rate != 16000:
-            raise ValueError(f"dataset audio for {subject}/{sentence}: expected 16000 Hz, got {rate}")
+        if rate != AUDIO_RATE:
+            raise ValueError(f"dataset audio for {subject}/{sentence}: expected {AUDIO_RATE} Hz, got {rate}")
         num_frames = int(np.asarray(dataset.coeffs(subject, sentence)).shape[0])
+        utterance = Utterance(subject=subject, sentence=sentence, split=split, audio=audio, num_frames=num_frames)
         try:
-            output = method.generate(np.asarray(audio, dtype=np.float32), subject, num_frames=num_frames,
-                                     samples=num_samples, seed=sentence_seed(seed, index))
+            output = method.generate(utterance, samples=num_samples, seed=sentence_seed(seed, index))
         except Exception as exc:
             raise MethodError(f"method {name!r}, subject {subject!r}, sentence {sentence!r}: generate failed: "
                               f"{type(exc).__name__}: {exc}") from exc

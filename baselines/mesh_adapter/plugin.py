@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import sys
 
-from baselines.reference.lookup import TrackLookupMethod, audio_key
+from baselines.reference.lookup import TrackLookupMethod
 
 from .adapt import adapted_coefficients, resolve_vertex_subset
 from .config import adapter_config, read_adapter_config
@@ -16,9 +16,9 @@ __all__ = ["MeshAdapterMethod"]
 class MeshAdapterMethod(TrackLookupMethod):
     """Coefficient tracks fitted to another method's vertex outputs.
 
-    ``train`` reads the outputs for every sentence of ``split`` (default test),
-    fits each with the speaker's rig (the QP of ``blendvoca.fit``) and indexes the
-    tracks by audio; ``generate`` returns them. The result is labelled with the
+    ``train`` reads the outputs stored for the dataset's subjects, fits each with
+    the speaker's rig (the QP of ``blendvoca.fit``) and keys the tracks by
+    (subject, sentence); ``generate`` returns the utterance's track. The result is labelled with the
     config's ``name``.
 
     Parameters
@@ -56,6 +56,13 @@ class MeshAdapterMethod(TrackLookupMethod):
         return {**super().config(), "adapter": self.adapter.to_dict()}
 
     def train(self, dataset, *, seed, budget):
+        """Fit every stored output of a dataset subject with that speaker's rig.
+
+        Nothing is learned and no ground truth is read: the outputs in the adapter's
+        ``vertices`` folder are turned into coefficient tracks once, keyed by
+        (subject, sentence). ``split`` names the split whose sentences must all have
+        an output (checked here, so a missing file fails before scoring starts).
+        """
         from blendvoca.names import BLENDVOCA_NAMES
 
         outputs = find_sequences(self.adapter.vertices)
@@ -69,13 +76,15 @@ class MeshAdapterMethod(TrackLookupMethod):
             )
         subset = resolve_vertex_subset(self.adapter.vertex_subset)
         names = tuple(getattr(dataset, "names", None) or BLENDVOCA_NAMES)
+        known = set(dataset.subjects)
+        items = sorted(key for key in outputs if key[0] in known)
         rigs = {}
         try:
             from tqdm import tqdm
 
-            iterator = tqdm(wanted, desc=f"mesh-adapter ({self.adapter.name}): fit", unit="sentence", file=sys.stderr)
+            iterator = tqdm(items, desc=f"mesh-adapter ({self.adapter.name}): fit", unit="sentence", file=sys.stderr)
         except ImportError:
-            iterator = wanted
+            iterator = items
         tracks = {}
         for subject, sentence in iterator:
             if subject not in rigs:
@@ -89,6 +98,5 @@ class MeshAdapterMethod(TrackLookupMethod):
                                               delta=self.adapter.delta, vertex_subset=subset)
             except ValueError as exc:
                 raise ValueError(f"mesh-adapter ({self.adapter.name}): {subject}/{sentence} ({path}): {exc}") from exc
-            audio, _ = dataset.audio(subject, sentence)
-            tracks[(subject, audio_key(audio))] = (sentence, coeffs)
+            tracks[(subject, sentence)] = coeffs
         self._tracks = tracks

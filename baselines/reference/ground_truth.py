@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .lookup import TrackLookupMethod, audio_key
+from .lookup import TrackLookupMethod
 
 __all__ = ["GroundTruthMethod"]
 
@@ -12,8 +12,8 @@ __all__ = ["GroundTruthMethod"]
 class GroundTruthMethod(TrackLookupMethod):
     """Upper reference: the BlendVOCA coefficients of the very sentence being scored.
 
-    ``train`` indexes the sentences of ``split`` (default ``"test"``) by their
-    audio; ``generate`` returns the matching track, repeated over samples.
+    ``train`` stores the tracks of ``split`` (default ``"test"``: it is an oracle);
+    ``generate`` returns the utterance's own track, repeated over samples.
 
     Parameters
     ----------
@@ -29,9 +29,8 @@ class GroundTruthMethod(TrackLookupMethod):
         super().__init__(split=split)
 
     def train(self, dataset, *, seed, budget):
-        tracks = {}
-        for subject in dataset.split(self._config["split"]):
-            for sentence in dataset.sentences(subject):
-                audio, _ = dataset.audio(subject, sentence)
-                tracks[(subject, audio_key(audio))] = (sentence, np.asarray(dataset.coeffs(subject, sentence), dtype=np.float64))
-        self._tracks = tracks
+        self._tracks = {
+            (subject, sentence): np.asarray(dataset.coeffs(subject, sentence), dtype=np.float64)
+            for subject in dataset.split(self._config["split"])
+            for sentence in dataset.sentences(subject)
+        }

@@ -1,14 +1,11 @@
-"""Recognising which dataset sentence an audio clip is, for oracle-like methods.
+"""Stored tracks looked up by (subject, sentence), for oracle-like methods.
 
-The method contract gives ``generate`` only the audio and the subject. Methods whose
-output is tied to a sentence (ground truth, vertex outputs of other methods) index
-the sentences by a digest of their audio samples when trained and look the clip up
-when asked to generate.
+Methods whose output is tied to a sentence (the ground truth, another method's
+stored outputs) return the track stored for the utterance's subject and sentence.
 """
 
 from __future__ import annotations
 
-import hashlib
 import json
 from pathlib import Path
 
@@ -16,20 +13,7 @@ import numpy as np
 
 from benchmark.methods.base import Method
 
-__all__ = ["TrackLookupMethod", "audio_key", "fit_track_length"]
-
-
-def audio_key(audio) -> str:
-    """Hex digest identifying an audio clip by its float32 samples.
-
-    Parameters
-    ----------
-    audio : (N,) array-like
-        Mono samples; converted to contiguous float32 before hashing, so the same
-        clip loaded twice gives the same key.
-    """
-    samples = np.ascontiguousarray(np.asarray(audio, dtype=np.float32).ravel())
-    return hashlib.sha1(samples.tobytes()).hexdigest()
+__all__ = ["TrackLookupMethod", "fit_track_length"]
 
 
 def fit_track_length(track, num_frames: int, *, max_mismatch: int, where: str):
@@ -63,10 +47,10 @@ def fit_track_length(track, num_frames: int, *, max_mismatch: int, where: str):
 
 
 class TrackLookupMethod(Method):
-    """A method whose output is one stored ``(T, 32)`` track per (subject, audio clip).
+    """A method whose output is one stored ``(T, 32)`` track per (subject, sentence).
 
-    Subclasses fill ``self._tracks[(subject, audio_key)] = (sentence, track)`` in
-    :meth:`train`; save/load store them in ``tracks.npz``.
+    Subclasses fill ``self._tracks[(subject, sentence)] = track`` (in :meth:`train`
+    or on demand in :meth:`stored_track`); save/load store them in ``tracks.npz``.
     """
 
     #: largest frame-count mismatch padded or cropped in :meth:`generate`
@@ -74,28 +58,30 @@ class TrackLookupMethod(Method):
 
     def __init__(self, **config):
         super().__init__(**config)
-        self._tracks: dict[tuple[str, str], tuple[str, np.ndarray]] = {}
+        self._tracks: dict[tuple[str, str], np.ndarray] = {}
 
-    def generate(self, audio, subject, *, num_frames, samples=1, seed=0):
-        key = (subject, audio_key(audio))
-        if key not in self._tracks:
+    def stored_track(self, utterance) -> np.ndarray:
+        """The ``(T', 32)`` track stored for the utterance (KeyError naming it if none)."""
+        if utterance.key not in self._tracks:
             known = sorted({s for s, _ in self._tracks})
             raise KeyError(
-                f"{self.name}: no stored track for this audio clip of subject {subject!r} "
+                f"{self.name}: no stored track for {utterance.subject}/{utterance.sentence} "
                 f"({len(self._tracks)} tracks stored, subjects {known}); was the method trained on this dataset?"
             )
-        sentence, track = self._tracks[key]
+        return self._tracks[utterance.key]
+
+    def generate(self, utterance, *, samples=1, seed=0):
         track = fit_track_length(
-            track, int(num_frames), max_mismatch=self.max_frame_mismatch,
-            where=f"{self.name}: subject {subject!r}, sentence {sentence!r}",
+            self.stored_track(utterance), utterance.num_frames, max_mismatch=self.max_frame_mismatch,
+            where=f"{self.name}: subject {utterance.subject!r}, sentence {utterance.sentence!r}",
         )
         return np.repeat(track[None], int(samples), axis=0)
 
     def save(self, directory) -> None:
         super().save(directory)
         directory = Path(directory)
-        index = [[subject, key, sentence] for (subject, key), (sentence, _) in sorted(self._tracks.items())]
-        arrays = {f"track_{i}": self._tracks[(s, k)][1] for i, (s, k, _) in enumerate(index)}
+        index = [[subject, sentence] for subject, sentence in sorted(self._tracks)]
+        arrays = {f"track_{i}": self._tracks[(s, q)] for i, (s, q) in enumerate(index)}
         np.savez_compressed(directory / "tracks.npz", **arrays)
         (directory / "tracks.json").write_text(json.dumps(index, indent=1) + "\n")
 
@@ -105,7 +91,5 @@ class TrackLookupMethod(Method):
         directory = Path(directory)
         index = json.loads((directory / "tracks.json").read_text())
         with np.load(directory / "tracks.npz") as arrays:
-            method._tracks = {
-                (subject, key): (sentence, arrays[f"track_{i}"]) for i, (subject, key, sentence) in enumerate(index)
-            }
+            method._tracks = {(subject, sentence): arrays[f"track_{i}"] for i, (subject, sentence) in enumerate(index)}
         return method

@@ -60,10 +60,10 @@ class MeanMethod(Method):
             for sentence in dataset.sentences(subject)
         )
 
-    def generate(self, audio, subject, *, num_frames, samples=1, seed=0):
+    def generate(self, utterance, *, samples=1, seed=0):
         if self.mean_ is None:
             raise RuntimeError("mean: generate called before train/load")
-        return np.broadcast_to(self.mean_, (int(samples), int(num_frames), self.mean_.shape[0])).copy()
+        return np.broadcast_to(self.mean_, (int(samples), utterance.num_frames, self.mean_.shape[0])).copy()
 
     def save(self, directory):
         super().save(directory)

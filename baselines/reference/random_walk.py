@@ -54,7 +54,7 @@ class RandomWalkMethod(Method):
     def __init__(self, scale: float = 0.3, smoothing: int = 15):
         super().__init__(scale=scale, smoothing=smoothing)
 
-    def generate(self, audio, subject, *, num_frames, samples=1, seed=0):
+    def generate(self, utterance, *, samples=1, seed=0):
         rng = np.random.default_rng(seed)
-        return random_tracks(rng, int(samples), int(num_frames), 32, scale=self._config["scale"],
+        return random_tracks(rng, int(samples), utterance.num_frames, 32, scale=self._config["scale"],
                              smoothing=self._config["smoothing"])

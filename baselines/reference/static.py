@@ -25,5 +25,5 @@ class StaticMethod(Method):
     def __init__(self, num_coeffs: int = 32):
         super().__init__(num_coeffs=num_coeffs)
 
-    def generate(self, audio, subject, *, num_frames, samples=1, seed=0):
-        return np.zeros((int(samples), int(num_frames), int(self._config["num_coeffs"])))
+    def generate(self, utterance, *, samples=1, seed=0):
+        return np.zeros((int(samples), utterance.num_frames, int(self._config["num_coeffs"])))

@@ -87,14 +87,14 @@ class RegressionMethod(Method):
             model_kwargs={"channels": cfg["channels"], "hidden": cfg["hidden"]},
         )
 
-    def generate(self, audio, subject, *, num_frames, samples=1, seed=0):
+    def generate(self, utterance, *, samples=1, seed=0):
         import torch
 
         if self.model is None:
             raise RuntimeError("regression: generate called before train/load")
         self._threads()
         mean, std = self.stats
-        x = (self._features(audio, int(num_frames)) - mean) / std
+        x = (self._features(utterance.audio, utterance.num_frames) - mean) / std
         with torch.no_grad():
             y = self.model(torch.from_numpy(x[None].astype(np.float32)))[0].double().numpy()
         return np.repeat(y[None], int(samples), axis=0)

@@ -85,9 +85,9 @@ class SAiDMethod(Method):
             mirror=mirror_for(names),
         )
 
-    def generate(self, audio, subject, *, num_frames, samples=1, seed=0):
-        """Return ``(S, T, 32)`` coefficient tracks in [0, 1] sampled for ``audio`` (speaker-independent)."""
-        return self.said.generate(np.asarray(audio, dtype=np.float32), int(num_frames), samples=int(samples), seed=int(seed))
+    def generate(self, utterance, *, samples=1, seed=0):
+        """Return ``(S, T, 32)`` coefficient tracks in [0, 1] sampled for the utterance's audio (speaker-independent)."""
+        return self.said.generate(utterance.audio, utterance.num_frames, samples=int(samples), seed=int(seed))
 
     def save(self, directory) -> None:
         """Write the config and the checkpoint ``said.pt`` into ``directory``."""

@@ -5,6 +5,16 @@ baseline (and no torch).
 """
 
 from .base import Budget, Method
+from .contract import (
+    AUDIO_RATE,
+    COEFFICIENT_NAMES,
+    FPS,
+    NUM_COEFFS,
+    OUTPUT_COEFFICIENTS,
+    OUTPUT_KINDS,
+    OUTPUT_VERTICES,
+    Utterance,
+)
 from .registry import (
     ENTRY_POINT_GROUP,
     UnknownMethodError,
@@ -17,7 +27,15 @@ from .registry import (
 from .validate import MethodError, MethodOutputError, validated_tracks
 
 __all__ = [
+    "AUDIO_RATE",
     "BUILTIN_METHODS",
+    "COEFFICIENT_NAMES",
+    "FPS",
+    "NUM_COEFFS",
+    "OUTPUT_COEFFICIENTS",
+    "OUTPUT_KINDS",
+    "OUTPUT_VERTICES",
+    "Utterance",
     "ENTRY_POINT_GROUP",
     "Budget",
     "Method",

@@ -1,12 +1,15 @@
-"""The method contract every plug-in implements (see docs/architecture.md).
+"""The method contract every plug-in implements (docs/methods.md).
 
-A method turns 16 kHz mono speech into ``S`` tracks of the 32 BlendVOCA blendshape
-coefficients at 60 fps. It may be trained on the BlendVOCA train/val splits under a
-:class:`Budget`, and it can save and reload its trained state.
+A method turns one :class:`~benchmark.methods.contract.Utterance` (16 kHz mono
+speech, subject, sentence, split, frame count) into ``S`` samples of either the 32
+BlendVOCA blendshape coefficients or the speaker's mesh vertices, at 60 fps, as its
+:attr:`Method.output` declares. It may be trained on the BlendVOCA train/val splits
+under a :class:`Budget`, and it can save and reload its trained state.
 """
 
 from __future__ import annotations
 
+import abc
 import json
 import math
 import time
@@ -14,6 +17,8 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
+
+from .contract import OUTPUT_COEFFICIENTS, OUTPUT_KINDS
 
 __all__ = ["CONFIG_FILE", "Budget", "Method"]
 
@@ -74,13 +79,18 @@ class Budget:
         return asdict(self)
 
 
-class Method:
-    """Base class of a speech-to-blendshape method plug-in.
+class Method(abc.ABC):
+    """Base class of a speech-to-face method plug-in.
 
-    Subclasses set :attr:`name` and :attr:`stochastic` and implement
+    Subclasses set :attr:`name`, :attr:`stochastic` and :attr:`output` and implement
     :meth:`generate`; trainable methods also implement :meth:`train`, and methods
     with learned state override :meth:`save` / :meth:`load` (calling the base
     versions so that the config travels with the state).
+
+    The config round trip is part of the contract: ``type(m)(**m.config())`` builds
+    an equivalent untrained method, so a result file's ``method.config`` rebuilds the
+    method that produced it. Subclasses read their settings through
+    :meth:`config` (or their own attributes), never through private state.
 
     Parameters
     ----------
@@ -93,11 +103,19 @@ class Method:
     name: str = "method"
     #: True: the benchmark asks for and scores S samples per sentence.
     stochastic: bool = False
+    #: What :meth:`generate` returns: ``"coefficients"`` (S, T, 32) in [0, 1], or
+    #: ``"vertices"`` (S, T, V, 3) in metres on the speaker's topology.
+    output: str = OUTPUT_COEFFICIENTS
     #: True for reference rows (ground truth, mean, static); the leaderboard shows
     #: them but never ranks them among the methods.
     reference: bool = False
     #: Leaderboard row name; None means the registry name.
     label: str | None = None
+
+    def __init_subclass__(cls, **kwargs):
+        super().__init_subclass__(**kwargs)
+        if cls.output not in OUTPUT_KINDS:
+            raise TypeError(f"{cls.__name__}.output: expected one of {OUTPUT_KINDS}, got {cls.output!r}")
 
     def __init__(self, **config):
         try:
@@ -107,7 +125,8 @@ class Method:
         self._config = dict(config)
 
     def config(self) -> dict:
-        """The configuration that goes into the result file (JSON-serialisable)."""
+        """The configuration that goes into the result file (JSON-serialisable);
+        ``type(self)(**self.config())`` rebuilds the method."""
         return dict(self._config)
 
     def train(self, dataset, *, seed: int, budget: Budget) -> None:
@@ -116,7 +135,8 @@ class Method:
         Parameters
         ----------
         dataset : benchmark.data dataset
-            As returned by ``benchmark.data.open_blendvoca``.
+            As returned by ``benchmark.data.open_blendvoca``; vertex-trained methods
+            read ``dataset.vertices(subject, sentence)`` and ``dataset.template(subject)``.
         seed : int
             Seed for every random choice made while training.
         budget : Budget
@@ -124,17 +144,15 @@ class Method:
         """
         return
 
-    def generate(self, audio, subject, *, num_frames, samples=1, seed=0):
-        """Coefficient tracks for one utterance.
+    @abc.abstractmethod
+    def generate(self, utterance, *, samples: int = 1, seed: int = 0):
+        """Animation for one utterance.
 
         Parameters
         ----------
-        audio : (N,) float32 ndarray
-            Mono speech at 16 kHz.
-        subject : str
-            Speaker id (its rig shapes the vertex metrics, not the coefficients).
-        num_frames : int
-            Number of 60 fps frames ``T`` to return.
+        utterance : benchmark.methods.contract.Utterance
+            Subject, sentence, split, audio ((N,) float32 at 16 kHz) and
+            ``num_frames`` (T at 60 fps).
         samples : int
             Number of samples ``S`` (1 for deterministic methods).
         seed : int
@@ -143,9 +161,12 @@ class Method:
         Returns
         -------
         (S, T, 32) ndarray
-            Values in [0, 1]; columns in ``blendvoca.names.BLENDVOCA_NAMES`` order.
+            ``output == "coefficients"``: values in [0, 1], columns in
+            ``benchmark.methods.contract.COEFFICIENT_NAMES`` order.
+        (S, T, V, 3) ndarray
+            ``output == "vertices"``: metres, on the speaker's topology
+            (``dataset.template(subject)``).
         """
-        raise NotImplementedError(f"{type(self).__name__}.generate is not implemented")
 
     def save(self, directory) -> None:
         """Write the config (and, in subclasses, the trained state) into ``directory``."""

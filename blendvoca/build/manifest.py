@@ -78,7 +78,8 @@ def manifest_dict(out, *, files, vocaset, corpus, params, records, failures, ver
     files : iterable of str
         The current build's outputs (relative paths); each is listed with its sha256.
     """
-    inputs = {"vocaset": {"root_name": Path(vocaset).name, "layout": getattr(corpus, "layout", "")},
+    inputs = {"vocaset": {"root_name": Path(vocaset).name, "path": str(Path(vocaset).resolve()),
+                          "layout": getattr(corpus, "layout", "")},
               "speakers": {}}
     for subject in corpus.subjects:
         rig_rec = read_record(record_path(out, "rigs", subject)) or {}

@@ -21,6 +21,7 @@ class RigDataset:
         self.names = BLENDVOCA_NAMES
         self.manifest_hash = "righash"
         self._splits = {"train": [], "val": [], "test": ["S1", "S2"]}
+        self.subjects = ["S1", "S2"]
         self._rigs, self._data = {}, {}
         faces = np.array([[0, 1, 2], [1, 2, 3]])
         for subject in self._splits["test"]:

@@ -15,8 +15,8 @@ from benchmark.methods import (
 
 
 class _Tiny(Method):
-    def generate(self, audio, subject, *, num_frames, samples=1, seed=0):
-        return np.zeros((samples, num_frames, 32))
+    def generate(self, utterance, *, samples=1, seed=0):
+        return np.zeros((samples, utterance.num_frames, 32))
 
 
 @pytest.fixture

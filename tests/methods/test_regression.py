@@ -9,7 +9,7 @@ from baselines.regression.mel import (
     mel_to_hz,
 )
 from baselines.regression.training import window_batch
-from benchmark.methods import Budget, get_method
+from benchmark.methods import Budget, Utterance, get_method
 from benchmark.run import generated_tracks
 
 from .fakes import FakeDataset, fake_evaluate
@@ -96,7 +96,8 @@ def test_regression_save_load_same_output(dataset, trained, tmp_path):
     trained.save(tmp_path)
     loaded = get_method("regression").load(tmp_path)
     audio, _ = dataset.audio("D", "sentence01")
-    a = trained.generate(audio, "D", num_frames=90, samples=2)
-    b = loaded.generate(audio, "D", num_frames=90, samples=2)
+    utterance = Utterance(subject="D", sentence="sentence01", split="test", audio=audio, num_frames=90)
+    a = trained.generate(utterance, samples=2)
+    b = loaded.generate(utterance, samples=2)
     assert a.shape == (2, 90, 32) and (a >= 0).all() and (a <= 1).all()
     np.testing.assert_array_equal(a, b)

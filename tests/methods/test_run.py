@@ -46,9 +46,9 @@ class _Broken(Method):
         if self._config["mode"] == "train-raises":
             raise RuntimeError("boom in train")
 
-    def generate(self, audio, subject, *, num_frames, samples=1, seed=0):
+    def generate(self, utterance, *, samples=1, seed=0):
         mode = self._config["mode"]
-        out = np.full((samples, num_frames, 32), 0.5)
+        out = np.full((samples, utterance.num_frames, 32), 0.5)
         if mode == "generate-raises":
             raise ZeroDivisionError("boom in generate")
         if mode == "nan":

@@ -48,12 +48,15 @@ def test_plugin_train_generate_save_load(tmp_path):
     method.train(FakeDataset(), seed=0, budget=Budget(max_steps=4))
     assert method.said.history["steps"] == 4 and method.said.history["best_step"] in (2, 4)
     audio = np.random.default_rng(1).standard_normal(16000).astype(np.float32) * 0.1
-    out = method.generate(audio, "s3", num_frames=61, samples=2, seed=5)
+    from benchmark.methods import Utterance
+
+    utterance = Utterance(subject="s3", sentence="sentence01", split="test", audio=audio, num_frames=61)
+    out = method.generate(utterance, samples=2, seed=5)
     assert out.shape == (2, 61, 32) and out.min() >= 0 and out.max() <= 1
     method.save(tmp_path)
     back = SAiDMethod.load(tmp_path)
     assert back.config() == method.config()
-    np.testing.assert_array_equal(back.generate(audio, "s3", num_frames=61, samples=2, seed=5), out)
+    np.testing.assert_array_equal(back.generate(utterance, samples=2, seed=5), out)
 
 
 def test_plugin_rejects_unknown_option():

@@ -74,10 +74,11 @@ class EnergyJawMethod(Method):
         self.mean = np.concatenate(tracks).mean(axis=0)
         self.jaw = jaw
 
-    def generate(self, audio, subject, *, num_frames, samples=1, seed=0):
+    def generate(self, utterance, *, samples=1, seed=0):
         rng = np.random.default_rng(seed)
+        num_frames = utterance.num_frames
         out = np.repeat(np.tile(self.mean, (num_frames, 1))[None], samples, axis=0)
-        env = energy_envelope(audio, num_frames)
+        env = energy_envelope(utterance.audio, num_frames)
         noise = rng.normal(0, self._config["noise"], size=(samples, num_frames + 8))
         noise = np.stack([np.convolve(n, np.ones(9) / 9, mode="valid") for n in noise])
         out[:, :, self.jaw] = self.gain * env[None] + noise
