@@ -476,8 +476,9 @@ def _build(out, vocaset, corpus, params, *, workers, report, progress):
     remove_stale_temporaries(out)
     summary = BuildSummary(out)
     initargs = (str(vocaset), str(out), params)
-    # Problems the corpus found when it was opened, for items that get no task (missing sentences ...).
-    problems = {(p.subject, p.sentence): p for p in corpus.problems if p.kind in ("missing_sentence",)}
+    # Problems the corpus found when it was opened for sentences that get no task (missing, unreadable index).
+    problems = {(p.subject, p.sentence): p for p in corpus.problems
+                if p.sentence is not None and p.sentence not in corpus.sentences(p.subject)}
 
     clock = time.perf_counter()
     subjects = list(corpus.subjects)

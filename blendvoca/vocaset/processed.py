@@ -172,6 +172,12 @@ class ProcessedVocaset(VocasetCorpus):
                 sentence = sentence_name(key)
                 if not frames:
                     continue
+                if not isinstance(frames, dict) or not all(
+                        isinstance(k, (int, np.integer)) and isinstance(v, (int, np.integer)) for k, v in frames.items()):
+                    self._record(Problem(subject, sentence, None, "unreadable",
+                                         "subj_seq_to_idx.pkl: expected {frame (int): row of data_verts (int)}, got "
+                                         f"{type(frames).__name__}"))
+                    continue
                 numbers = np.array(sorted(frames), dtype=np.int64)
                 self._index[subject, sentence] = np.array([frames[n] for n in numbers], dtype=np.int64)
                 names.append(sentence)

@@ -202,3 +202,20 @@ def test_reproduction_corpus_generates(tmp_path, capsys):
                  "--max-duration", "1.5", "--quiet"]) == 0
     assert sorted(p.name for p in (out / "templates").iterdir()) and (out / "synthetic.json").is_file()
     assert Path(out).is_dir()
+
+
+def test_a_malformed_frame_index_fails_only_its_sentence(tmp_path, small_processed):
+    from blendvoca.build import build_dataset
+
+    root = _processed_copy(tmp_path, small_processed)
+    index = _load(root / "subj_seq_to_idx.pkl")
+    subject = sorted(index)[0]
+    index[subject]["sentence02"] = [1, 2, 3]  # a list, not {frame: row}
+    _dump(index, root / "subj_seq_to_idx.pkl")
+    corpus = open_vocaset(root)
+    assert "sentence02" not in corpus.sentences(subject)
+    assert {(p.subject, p.sentence) for p in corpus.problems} == {(subject, "sentence02")}
+    assert "unreadable" in {p.kind for p in corpus.problems}
+    summary = build_dataset(tmp_path / "out", root, workers=1, progress=False, report=False)
+    assert [(f["subject"], f["sentence"], f["stage"]) for f in summary.failures] == [(subject, "sentence02", "input")]
+    assert "expected {frame (int)" in summary.failures[0]["reason"]
