@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 import json
 from pathlib import Path
 
@@ -99,11 +100,17 @@ def main(argv=None) -> int:
                         help="distance (target units) over which re-attached vertices blend back to rest")
     parser.add_argument("--no-sheet", action="store_true", help="skip the contact sheet image")
     args = parser.parse_args(argv)
-    report = retarget_files(
-        args.target, args.target_landmarks, args.out, source_rig=args.source_rig,
-        source_landmarks=args.source_landmarks, crop=args.crop, shapes=args.shapes,
-        falloff=args.falloff, sheet=not args.no_sheet,
-    )
+    from blendvoca.errors import BlendVOCAError, error_line
+
+    try:
+        report = retarget_files(
+            args.target, args.target_landmarks, args.out, source_rig=args.source_rig,
+            source_landmarks=args.source_landmarks, crop=args.crop, shapes=args.shapes,
+            falloff=args.falloff, sheet=not args.no_sheet,
+        )
+    except (BlendVOCAError, ValueError, OSError) as error:  # bad mesh / landmarks / paths: one line, exit 2
+        print(error_line(error), file=sys.stderr)
+        return 2
     s = report["summary"]
     print(f"{s['shapes']} shapes written to {args.out}; largest displacement {s['largest_displacement_mm']:.1f} mm; "
           f"landmark RMS {report['alignment']['landmark_rms_mm']:.2f} mm")

@@ -22,7 +22,7 @@ from blendvoca.io.audio import read_wav, to_mono
 from blendvoca.io.mesh import MeshFormatError, read_ply, read_ply_sequence, read_ply_vertices
 from blendvoca.vocaset.checks import frame_gaps, wav_truncation
 from blendvoca.vocaset.corpus import VocasetCorpus
-from blendvoca.vocaset.errors import Problem, VocasetError
+from blendvoca.vocaset.errors import Problem, VocasetError, check_safe_name
 
 _FRAME = re.compile(r"^(?P<sentence>.+)\.(?P<number>\d+)\.ply$")
 
@@ -54,6 +54,8 @@ class OfficialVocaset(VocasetCorpus):
                                                 self.root / "templates")
         templates = {p.stem for p in template_root.glob("*.ply")} if template_root.is_dir() else set()
         subjects = sorted(set(_dirs(mesh_root)) | set(_dirs(audio_root)) | templates)
+        for subject in subjects:
+            check_safe_name(subject, "subject", self.root)
         self._subjects = subjects
         self._frames: dict[tuple[str, str], tuple[list[Path], np.ndarray]] = {}
         self._sentences: dict[str, list[str]] = {}
@@ -61,6 +63,7 @@ class OfficialVocaset(VocasetCorpus):
         for subject in subjects:
             names = []
             for sentence in _dirs(mesh_root / subject):
+                check_safe_name(sentence, "sentence", mesh_root / subject)
                 paths, numbers = frame_files(mesh_root / subject / sentence)
                 if not paths:
                     continue
@@ -193,4 +196,6 @@ class OfficialVocaset(VocasetCorpus):
             samples, rate = read_wav(path)
         except (ValueError, OSError) as error:
             self._fail("unreadable", subject, sentence, str(error))
+        if samples.size == 0:
+            self._fail("empty_audio", subject, sentence, f"{path}: no samples")
         return to_mono(samples).astype(np.float32), rate
