@@ -44,6 +44,8 @@ def main(argv=None) -> int:
     parser.add_argument("--shift", type=int, default=8)
     parser.add_argument("--out", default=None, help="save the trained expert here")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--regression-seconds", type=float, default=120.0,
+                        help="also train the regression baseline (a model that follows the phones) this long; 0: skip")
     args = parser.parse_args(argv)
 
     import torch
@@ -76,6 +78,14 @@ def main(argv=None) -> int:
             save_expert(expert, args.out)
     print(f"expert: {expert.trained_on} ({time.perf_counter() - start:.0f} s)")
 
+    regression = None
+    if args.regression_seconds > 0:
+        from baselines.regression.plugin import RegressionMethod
+        from benchmark.methods.base import Budget
+
+        regression = RegressionMethod()
+        regression.train(dataset, seed=args.seed, budget=Budget(max_seconds=args.regression_seconds))
+
     # Loudness follower fitted on the training split, as the example plug-in does.
     jaw = list(dataset.names).index("jawOpen")
     x = np.concatenate([energy_envelope(it.audio, len(it.coeffs)) for it in train])
@@ -93,10 +103,16 @@ def main(argv=None) -> int:
             late = expert.sync(shifted(it.coeffs, args.shift), it.audio)
             early = expert.sync(shifted(it.coeffs, -args.shift), it.audio)
             lo = expert.sync(loud, it.audio)
-            # A model that follows the phones imperfectly: the truth plus smooth noise.
+            # A model that follows the phones imperfectly: the truth plus smooth noise
+            # of 30 % of each shape's spread in the sentence.
             noise = gaussian_filter1d(np.random.default_rng(0).normal(size=it.coeffs.shape), 3.0, axis=0)
-            noisy = np.clip(it.coeffs + 0.1 * noise / noise.std(), 0, 1)
-            ph = expert.sync(noisy, it.audio)
+            noise *= 0.3 * it.coeffs.std(axis=0) / noise.std(axis=0)
+            ph = expert.sync(np.clip(it.coeffs + noise, 0, 1), it.audio)
+            reg = None
+            if regression is not None:
+                utt = dataset.utterance(subject, it.name.split("/")[1])
+                reg_track = np.asarray(regression.generate(utt, samples=1, seed=0))[0]
+                reg = expert.sync(reg_track, it.audio)
             rig = dataset.rig(subject)
             neutral, deltas = np.asarray(rig.neutral), np.asarray(rig.deltas)
             lip = regions.lip_vertices(deltas, dataset.names)
@@ -105,7 +121,8 @@ def main(argv=None) -> int:
                 return geometric_sync(mouth_activity(vertex.rig_vertices(neutral, deltas, track), neutral, lip),
                                       it.audio, 16000, 60.0, 15)
 
-            rows.append(dict(name=it.name, lag=it.lag, gt=gt, late=late, early=early, loud=lo, noisy=ph,
+            rows.append(dict(name=it.name, lag=it.lag, gt=gt, late=late, early=early, loud=lo, noisy=ph, reg=reg,
+                             geo_reg=None if reg is None else geo(reg_track),
                              geo_gt=geo(it.coeffs), geo_loud=geo(loud)))
 
     print(f"\n{'sentence':28s} lag | expert: gt  +{args.shift}  -{args.shift}  conf gt  conf loud | "
@@ -123,6 +140,13 @@ def main(argv=None) -> int:
     conf_loud = np.mean([r["loud"].confidence for r in rows])
     conf_noisy = np.mean([r["noisy"].confidence for r in rows])
     ok_noisy = np.mean([r["loud"].confidence < r["noisy"].confidence for r in rows])
+    if regression is not None:
+        conf_reg = np.mean([r["reg"].confidence for r in rows])
+        geo_reg = np.mean([r["geo_reg"].confidence for r in rows])
+        off_reg = np.mean([abs(r["reg"].offset - r["lag"]) for r in rows])
+        ok_reg = np.mean([r["loud"].confidence < r["reg"].confidence for r in rows])
+        print(f"regression baseline: mean expert confidence {conf_reg:.3f}, mean |offset - lag| {off_reg:.2f}; "
+              f"loudness follower below it in {ok_reg:.0%}; geometric confidence {geo_reg:.3f}")
     geo_gt = np.mean([r["geo_gt"].confidence for r in rows])
     geo_loud = np.mean([r["geo_loud"].confidence for r in rows])
     print(f"\n{n} validation + test sentences")

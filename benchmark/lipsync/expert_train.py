@@ -21,6 +21,10 @@ import torch
 from benchmark.lipsync.expert import DEFAULT_CONFIG, SyncExpert, audio_features, build_expert
 
 
+#: Smallest per-shape standard deviation used to standardise coefficients.
+STD_FLOOR = 0.01
+
+
 @dataclass(frozen=True)
 class SyncItem:
     """One sentence for the expert: coefficients ``(T, 32)``, 16 kHz audio ``(N,)``,
@@ -117,8 +121,10 @@ def train_expert(items, *, max_steps: int | None = None, max_seconds: float | No
                          f"expected {cfg['num_coeffs']}")
     from blendvoca.names import BLENDVOCA_NAMES
 
-    expert = build_expert(cfg, all_coeffs.mean(axis=0), all_coeffs.std(axis=0) + 1e-3, BLENDVOCA_NAMES,
-                          trained_on)
+    # A floor on the scale: shapes the training data hardly uses must not turn a
+    # small deviation of a generated track into a huge input.
+    expert = build_expert(cfg, all_coeffs.mean(axis=0), np.maximum(all_coeffs.std(axis=0), STD_FLOOR),
+                          BLENDVOCA_NAMES, trained_on)
     net, S, r = expert.net, expert.max_shift, expert.net.reach
     motions, mels, lags = [], [], []
     for it in items:

@@ -31,10 +31,8 @@ def test_audio_features_ignore_loudness_and_follow_time():
     # Delaying the audio by 4 frames (1/15 s) delays the features by 4 frames.
     late = np.concatenate([np.zeros(4 * 16000 // 60, np.float32), x])[: len(x)]
     f_late = audio_features(late, num_frames=120)
-    inner = slice(20, 100)
-    err_aligned = np.abs(f_late[24:104] - feats[inner]).mean()
-    err_unaligned = np.abs(f_late[inner] - feats[inner]).mean()
-    assert err_aligned < 0.2 * err_unaligned
+    errors = [np.abs(f_late[20 + lag:100 + lag] - feats[20:100]).mean() for lag in range(-8, 9)]
+    assert int(np.argmin(errors)) - 8 == 4
 
 
 def test_shift_distances_find_a_known_shift():
@@ -82,12 +80,13 @@ def test_checkpoint_round_trip_and_bad_files(tmp_path):
         loaded.sync(np.zeros((10, 31)), item.audio)
 
 
-@pytest.mark.parametrize("lag", [0, 3])
-def test_short_training_learns_the_offset_sign(lag):
+@pytest.mark.slow
+def test_short_training_learns_the_offset_sign():
+    lag = 3  # the motion 3 frames after the sound
     rng = np.random.default_rng(3)
     items = _items(rng, count=4, lag=lag)
-    expert = train_expert(items, max_steps=60, batch_size=16, progress=False, seed=0)
-    assert expert.trained_on["steps"] == 60
+    expert = train_expert(items, max_steps=40, batch_size=16, progress=False, seed=0)
+    assert expert.trained_on["steps"] == 40
     held_out = _items(np.random.default_rng(4), count=2, lag=lag)
     for it in held_out:
         truth = expert.sync(it.coeffs, it.audio)

@@ -131,6 +131,13 @@ def test_fit_on_posed_frames_matches_fit_on_unposed(posed_corpus, built_dataset)
     # Without the pose removal the same frames fit far worse.
     assert np.linalg.norm(kept.coeffs - reference.coeffs) / np.linalg.norm(reference.coeffs) > 0.2
     assert kept.rmse.mean() > 2 * reference.rmse.mean()
+    # The mesh adapter (method outputs) removes it too and hands the pose back.
+    from baselines.mesh_adapter.adapt import adapted_coefficients
+
+    poses = []
+    adapted = adapted_coefficients(posed, rig.neutral, rig.deltas, poses=poses)
+    np.testing.assert_allclose(adapted, fitted.coeffs, atol=1e-9)
+    assert poses[0].summary() == fitted.pose.summary()
 
 
 def test_head_motion_needs_the_official_layout(tmp_path, assets_dir):
