@@ -185,3 +185,45 @@ def train_expert(items, *, max_steps: int | None = None, max_seconds: float | No
     expert.trained_on.update(steps=step, seconds=round(time.perf_counter() - start, 1), final_loss=loss_value,
                              sentences=len(items), crop=crop, batch_size=batch_size, seed=seed)
     return expert
+
+
+def cached_expert(data, *, max_seconds: float | None = 240.0, max_steps: int | None = None, seed: int = 0,
+                  cache_dir=None, progress: bool = True):
+    """The expert trained on a build's training split, trained once and cached.
+
+    The checkpoint is ``<cache>/sync-expert/<manifest hash[:16]>-<budget>-seed<seed>.pt``
+    (``cache`` defaults to :func:`blendvoca.assets.cache_dir`), so the same build and
+    budget reuse it and a changed build trains a new one.
+
+    Parameters
+    ----------
+    data : path
+        BlendVOCA build.
+    max_seconds, max_steps : optional
+        Training budget (as :func:`train_expert`).
+
+    Returns
+    -------
+    (SyncExpert, Path)
+        The expert and its checkpoint path (to report with the scores).
+    """
+    from pathlib import Path
+
+    from benchmark.data import open_blendvoca
+    from benchmark.lipsync.expert import load_expert, save_expert
+
+    if cache_dir is None:
+        from blendvoca.assets import cache_dir as user_cache
+
+        cache_dir = user_cache()
+    dataset = open_blendvoca(data)
+    budget = f"{max_steps}steps" if max_steps is not None else f"{max_seconds:g}s"
+    path = Path(cache_dir).expanduser() / "sync-expert" / f"{dataset.manifest_hash[:16]}-{budget}-seed{seed}.pt"
+    if path.is_file():
+        return load_expert(path), path
+    expert = train_expert(dataset_items(dataset, "train"), max_steps=max_steps, max_seconds=max_seconds, seed=seed,
+                          progress=progress,
+                          trained_on={"data": str(Path(data).expanduser().resolve()), "split": "train",
+                                      "subjects": dataset.split("train"), "manifest_hash": dataset.manifest_hash})
+    save_expert(expert, path)
+    return expert, path

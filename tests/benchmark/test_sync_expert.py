@@ -131,3 +131,14 @@ def test_dataset_items_carry_the_true_lags(built_dataset):
         subject, sentence = it.name.split("/")
         assert it.lag == meta["subjects"][subject]["sentences"][sentence]["lag_frames"]
         assert it.coeffs.shape[1] == 32 and it.audio.dtype == np.float32
+
+
+def test_cached_expert_trains_once_per_build(built_dataset, tmp_path):
+    from benchmark.lipsync.expert_train import cached_expert
+
+    expert, path = cached_expert(built_dataset, max_steps=2, cache_dir=tmp_path, progress=False)
+    assert path.is_file() and path.parent == tmp_path / "sync-expert"
+    stamp = path.stat().st_mtime_ns
+    again, same = cached_expert(built_dataset, max_steps=2, cache_dir=tmp_path, progress=False)
+    assert same == path and path.stat().st_mtime_ns == stamp
+    assert again.trained_on == expert.trained_on and again.trained_on["steps"] == 2
