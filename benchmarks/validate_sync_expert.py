@@ -48,7 +48,6 @@ def main(argv=None) -> int:
                         help="also train the regression baseline (a model that follows the phones) this long; 0: skip")
     args = parser.parse_args(argv)
 
-    import torch
     from scipy.ndimage import gaussian_filter1d
 
     from benchmark.data import open_blendvoca
