@@ -45,6 +45,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--min-duration", type=float, default=DEFAULT_CORPUS["duration"][0], help="seconds (> 0)")
     parser.add_argument("--max-duration", type=float, default=DEFAULT_CORPUS["duration"][1], help="seconds (>= min)")
     parser.add_argument("--frame-faces", action="store_true", help="store triangles in every frame PLY")
+    parser.add_argument("--head-motion", nargs="?", type=float, const=3.0, default=0.0, metavar="DEG",
+                        help="also write posed frames (registereddata/) with a smooth head motion of up to DEG "
+                             "degrees per axis (default 3), recorded in the ground truth")
     parser.add_argument("--overwrite", action="store_true", help="replace an existing synthetic corpus in --out")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     args = parser.parse_args(argv)
@@ -53,7 +56,8 @@ def main(argv: list[str] | None = None) -> int:
         check_arguments(args)
         out = generate_corpus(args.out, speakers=args.speakers, sentences=args.sentences, seed=args.seed,
                               layout=args.layout, duration=(args.min_duration, args.max_duration),
-                              frame_faces=args.frame_faces, overwrite=args.overwrite, progress=not args.quiet)
+                              frame_faces=args.frame_faces, head_motion=args.head_motion or False,
+                              overwrite=args.overwrite, progress=not args.quiet)
     except (BlendVOCAError, ValueError, OSError) as error:  # FileExistsError, read-only, disk full: an OSError
         print(error_line(error), file=sys.stderr)
         return 2

@@ -4,6 +4,7 @@
 
     templates/<subject>.ply
     unposedcleaneddata/<subject>/sentenceNN/sentenceNN.NNNNNN.ply   (60 fps)
+    registereddata/<subject>/sentenceNN/sentenceNN.NNNNNN.ply       (optional: with head pose)
     audio/<subject>/sentenceNN.wav
 
 Frame files are numbered (1-based in the real data); they are sorted by number
@@ -168,6 +169,35 @@ class OfficialVocaset(VocasetCorpus):
             self._locate_bad_frame(subject, sentence, paths)
             raise  # not reached: _locate_bad_frame raises
         return self._check_frames(subject, sentence, frames, str(paths[0].parent))
+
+    def has_posed(self, subject: str, sentence: str) -> bool:
+        """Whether ``registereddata/`` (VOCASET's data with head pose) holds this sentence."""
+        return bool(frame_files(self.root / "registereddata" / subject / sentence)[0])
+
+    def posed_frames(self, subject: str, sentence: str) -> np.ndarray:
+        """The sentence with head pose, ``(T, V, 3) float64`` from ``registereddata/``.
+
+        Raises
+        ------
+        VocasetError
+            No posed frames for the sentence (``missing_sentence``), a gap in
+            their numbering, or a bad frame.
+        """
+        self._check_subject(subject)
+        folder = self.root / "registereddata" / subject / sentence
+        paths, numbers = frame_files(folder)
+        if not paths:
+            self._fail("missing_sentence", subject, sentence, f"{folder}: no posed frame files")
+        gaps = frame_gaps(numbers)
+        if gaps:
+            self._fail("missing_frame", subject, sentence, f"{folder}: frame files {gaps[:5]} missing",
+                       frame=int(np.searchsorted(numbers, gaps[0])))
+        try:
+            frames = read_ply_sequence(paths, num_vertices=self.num_vertices)
+        except (MeshFormatError, OSError):
+            self._locate_bad_frame(subject, sentence, paths)
+            raise  # not reached: _locate_bad_frame raises
+        return self._check_frames(subject, sentence, frames, str(folder))
 
     def _locate_bad_frame(self, subject: str, sentence: str, paths: list[Path]) -> None:
         for t, path in enumerate(paths):
