@@ -24,6 +24,9 @@ def check_arguments(args) -> None:
     low, high = args.min_duration, args.max_duration
     if not (math.isfinite(low) and math.isfinite(high) and 0 < low <= high):
         problems.append(f"--min-duration/--max-duration: expected 0 < min <= max seconds, got {low} and {high}")
+    head_motion = getattr(args, "head_motion", 0.0)
+    if not (math.isfinite(head_motion) and 0 <= head_motion <= 45):
+        problems.append(f"--head-motion: expected 0 to 45 degrees, got {head_motion}")
     out = Path(args.out).expanduser()
     if out.exists() and not out.is_dir():
         problems.append(f"--out {out} is a file; expected a new or empty folder")
