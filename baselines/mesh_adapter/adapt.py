@@ -19,7 +19,8 @@ def resolve_vertex_subset(subset):
 
 
 def adapted_coefficients(frames, neutral, deltas, *, fps: float = 60.0, template: str = "absolute",
-                         delta: float | None = 0.1, vertex_subset=None) -> np.ndarray:
+                         delta: float | None = 0.1, vertex_subset=None, unposed: bool | None = None,
+                         poses: list | None = None) -> np.ndarray:
     """The coefficient track that best reproduces a vertex sequence with a rig.
 
     Parameters
@@ -39,12 +40,19 @@ def adapted_coefficients(frames, neutral, deltas, *, fps: float = 60.0, template
         Rate bound ``|u[t+1] - u[t]| <= delta`` of the QP (None: bounds only).
     vertex_subset : (M,) int ndarray, optional
         Vertices used in the fit.
+    unposed : bool or None
+        Whether the output is known to carry no head pose; None (default): the
+        head pose is removed for FLAME-topology outputs
+        (:func:`blendvoca.fit.remove_head_pose`), see :func:`blendvoca.fit.fit_sequence`.
+    poses : list, optional
+        When given, the removed :class:`blendvoca.fit.HeadPose` (or None) is
+        appended to it, so callers can report it (``pose.summary()``: degrees, mm).
 
     Returns
     -------
     (T60, K) float64 ndarray in [0, 1]
     """
-    from blendvoca.fit import fit_coefficients, resample_sequence
+    from blendvoca.fit import fit_sequence, resample_sequence
 
     frames = np.asarray(frames, dtype=np.float64)
     neutral = np.asarray(neutral, dtype=np.float64)
@@ -59,9 +67,12 @@ def adapted_coefficients(frames, neutral, deltas, *, fps: float = 60.0, template
         raise ValueError(f"adapted_coefficients: template must be 'absolute' or 'offsets', got {template!r}")
     if fps != 60.0:
         frames = resample_sequence(frames, fps, 60.0)
-    kwargs = {"vertex_subset": vertex_subset}
+    kwargs = {"vertex_subset": vertex_subset, "unposed": unposed}
     if delta is None:
         kwargs["rate"] = False
     else:
         kwargs["delta"] = delta
-    return np.asarray(fit_coefficients(neutral, deltas, frames, **kwargs), dtype=np.float64)
+    result = fit_sequence(neutral, deltas, frames, **kwargs)
+    if poses is not None:
+        poses.append(result.pose)
+    return np.asarray(result.coeffs, dtype=np.float64)
