@@ -119,7 +119,8 @@ def prepared_method(name: str, config: dict, dataset, *, seed: int, budget: Budg
     """
     cls = get_method(name)
     timings = {"train_s": None, "load_s": None}
-    if checkpoint is not None and Path(checkpoint).is_dir() and any(Path(checkpoint).iterdir()):
+    # a file: a method's own single-file format (e.g. SAiD's published weights), read by its load()
+    if checkpoint is not None and (Path(checkpoint).is_file() or Path(checkpoint).is_dir() and any(Path(checkpoint).iterdir())):
         saved = Path(checkpoint) / CONFIG_FILE
         if saved.is_file():
             saved_name = json.loads(saved.read_text()).get("name")

@@ -5,7 +5,17 @@
 
 Prints one row per (sampler, steps): seconds per call, sequences per second and the
 ratio of that throughput to the reference run (DDIM, 50 steps) measured in the same
-process.  Without a checkpoint it times an untrained model of the preset (speed does
+process.
+
+    python benchmarks/bench_said_sampling.py --authors [--samples 5] [--steps 50 1000] [--seconds 4]
+        [--width 192] [--tiny-encoder] [--threads 2] [--device cpu|cuda]
+
+The authors' network (random weights, the published sizes unless ``--width`` /
+``--tiny-encoder``): sequences per second of :func:`baselines.said.inference.said_inference`
+(all samples of an utterance in one batch, the audio embedding and the cross-attention
+keys/values computed once) against the authors' way, a plain diffusers
+``DDIMScheduler`` loop with classifier-free guidance run once per sequence, from the
+same initial noise (the largest output difference is printed too).  Without a checkpoint it times an untrained model of the preset (speed does
 not depend on the weights).  Audio: the first 4 s of the ``speech-voca`` asset, or
 noise when the asset is unavailable.
 """
@@ -56,6 +66,77 @@ def time_generation(said: SAiD, audio: np.ndarray, *, sampler: str, steps: int, 
     return float(np.median([once() for _ in range(repeats)]))
 
 
+def _authors_network(width: int, tiny_encoder: bool, device: str):
+    from baselines.said.official import SAID_UNet1D
+    from baselines.wav2vec2 import tiny_config
+
+    torch.manual_seed(0)
+    model = SAID_UNet1D(tiny_config() if tiny_encoder else None, model_channels=width)
+    with torch.no_grad():  # the zero-initialised output layers get weights, so outputs differ per step
+        for name, p in model.denoiser.named_parameters():
+            if not p.abs().sum():
+                p.normal_(0.0, 0.02)
+    return model.eval().to(device)
+
+
+@torch.no_grad()
+def diffusers_cfg_loop(model, waveform: torch.Tensor, frames: int, steps: int, guidance: float, noise: torch.Tensor) -> torch.Tensor:
+    """One sequence as the authors' inference makes it: embedding, then a diffusers DDIM loop with CFG."""
+    from diffusers import DDIMScheduler
+
+    sched = DDIMScheduler(num_train_timesteps=1000, beta_schedule="squaredcos_cap_v2", prediction_type="epsilon")
+    sched.set_timesteps(steps, device=waveform.device)
+    emb = model.get_audio_embedding(model.process_audio(waveform), frames)
+    ctx = torch.cat([model.null_cond_emb.repeat(1, frames, 1), emb])
+    latents = noise.clone()
+    for t in sched.timesteps:
+        out = model(sched.scale_model_input(torch.cat([latents] * 2), t), t, ctx)
+        uncond, cond = out.chunk(2)
+        latents = sched.step(cond + guidance * (cond - uncond), t, latents, eta=0.0).prev_sample
+    return latents.clamp(0, 1)
+
+
+def authors_comparison(args) -> None:
+    """Print seq/s of said_inference vs the per-sequence diffusers CFG loop, for each DDIM step count."""
+    from baselines.said.inference import said_inference
+
+    if args.threads:
+        torch.set_num_threads(args.threads)
+    model = _authors_network(args.width, args.tiny_encoder, args.device)
+    audio = clip_audio(args.seconds)
+    frames = int(len(audio) * 60 / 16000)
+    wav = torch.from_numpy(audio)[None].to(args.device)
+    noise = torch.randn(args.samples, frames, 32, generator=torch.Generator().manual_seed(0)).to(args.device)
+
+    def timed(fn):
+        if args.device.startswith("cuda"):
+            torch.cuda.synchronize()
+        t0 = time.perf_counter()
+        out = fn()
+        if args.device.startswith("cuda"):
+            torch.cuda.synchronize()
+        return time.perf_counter() - t0, out
+
+    def ours(steps):
+        with torch.no_grad():
+            emb = model.get_audio_embedding(model.process_audio(wav), frames)
+            return said_inference(model, emb, batch=args.samples, num_steps=steps, guidance=args.guidance, noise=noise).result
+
+    def reference(steps):
+        return torch.cat([diffusers_cfg_loop(model, wav, frames, steps, args.guidance, noise[i:i + 1]) for i in range(args.samples)])
+
+    print(f"SAiD authors' network: width {args.width}, encoder {'tiny' if args.tiny_encoder else 'wav2vec2-base'}, "
+          f"{args.samples} sample(s) of {args.seconds:g} s ({frames} frames), gamma {args.guidance}, device {args.device}, "
+          f"threads {torch.get_num_threads()}")
+    print(f"{'steps':>6s} {'diffusers seq/s':>16s} {'ours seq/s':>11s} {'ratio':>6s} {'max |diff|':>11s}")
+    ours(2)  # warm-up
+    for steps in args.steps:
+        t_ref, want = timed(lambda: reference(steps))
+        t_ours, got = timed(lambda: ours(steps))
+        print(f"{steps:6d} {args.samples / t_ref:16.3f} {args.samples / t_ours:11.3f} {t_ref / t_ours:6.2f} "
+              f"{(got - want).abs().max().item():11.2e}", flush=True)
+
+
 def main(argv=None) -> None:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--checkpoint", default=None)
@@ -66,7 +147,19 @@ def main(argv=None) -> None:
     p.add_argument("--samplers", nargs="+", default=["ddim", "ddpm"])
     p.add_argument("--repeats", type=int, default=3)
     p.add_argument("--threads", type=int, default=None, help="torch threads (default: the preset's)")
+    p.add_argument("--authors", action="store_true", help="the authors' network vs a diffusers CFG loop")
+    p.add_argument("--seconds", type=float, default=CLIP_SECONDS, help="clip length (--authors)")
+    p.add_argument("--width", type=int, default=192, help="UNet width (--authors; the published 192)")
+    p.add_argument("--tiny-encoder", action="store_true", help="tiny wav2vec 2.0 instead of base (--authors)")
+    p.add_argument("--guidance", type=float, default=2.0, help="gamma (--authors; the authors' script's 2)")
     args = p.parse_args(argv)
+    if args.authors:
+        if args.steps == [10, 50, 100]:
+            args.steps = [50, 1000]
+        if args.samples == 1 and "--samples" not in (argv or sys.argv):
+            args.samples = 5
+        authors_comparison(args)
+        return
 
     from blendvoca.names import BLENDVOCA_NAMES
 

@@ -10,6 +10,7 @@ package does not import the benchmark.
 from baselines.said.attention_bias import alignment_bias
 from baselines.said.guidance import classifier_free_guidance
 from baselines.said.losses import noise_l1_loss, said_loss, velocity_loss
+from baselines.said.official import load_official
 from baselines.said.schedule import (
     add_noise,
     alphas_cumprod_schedule,
@@ -21,6 +22,7 @@ __all__ = [
     "alignment_bias",
     "alphas_cumprod_schedule",
     "classifier_free_guidance",
+    "load_official",
     "noise_l1_loss",
     "said_loss",
     "sampling_timesteps",

@@ -59,3 +59,37 @@ def alignment_bias(
     inside = (i - j).abs() <= half_width
     bias = torch.zeros((num_queries, num_keys), dtype=dtype, device=device)
     return bias.masked_fill(~inside, float("-inf"))
+
+
+def alignment_mask(num_queries: int, num_keys: int, *, pad: int = 1, device: torch.device | str | None = None) -> torch.Tensor:
+    """Return the boolean band of SAiD's cross-attention for any ratio of key to query frames.
+
+    Query frame ``i`` covers key positions ``[lo, hi)`` around its centre
+    ``c = (i + 0.5) r`` with ``r = num_keys / num_queries``:
+    ``lo = max(round(c - r / 2 - pad), 0)`` and ``hi = min(round(c + r / 2 + pad), num_keys)``,
+    rounding half to even.  With ``num_keys == num_queries`` this is the band
+    ``|i - j| <= pad`` of :func:`alignment_bias`.
+
+    Parameters
+    ----------
+    num_queries, num_keys : int
+        ``T`` and ``S``, both >= 1.
+    pad : int, default 1
+        Extra key frames on each side.
+    device : optional
+
+    Returns
+    -------
+    allowed : (num_queries, num_keys) bool Tensor
+        True where query ``i`` may attend to key ``j``.
+    """
+    for name, value in (("num_queries", num_queries), ("num_keys", num_keys)):
+        if int(value) != value or value < 1:
+            raise ValueError(f"alignment_mask: expected {name} >= 1 (int), got {value!r}")
+    ratio = num_keys / num_queries
+    half = ratio / 2 + pad
+    centre = (torch.arange(num_queries, dtype=torch.float64, device=device) + 0.5) * ratio
+    lo = torch.round(centre - half).clamp(min=0)
+    hi = torch.round(centre + half).clamp(max=num_keys)
+    j = torch.arange(num_keys, dtype=torch.float64, device=device)[None, :]
+    return (j >= lo[:, None]) & (j < hi[:, None])

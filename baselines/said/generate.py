@@ -12,6 +12,12 @@ value is kept and 0 where it is generated (in-betweening: rows of ones at both e
 per-blendshape constraints: columns of ones).  The checkpoint is a ``said.pt`` file or
 a directory holding one (``benchmark.run`` output, ``python -m baselines.said.train``);
 it defaults to ``$BLENDVOCA_SAID_CHECKPOINT``.
+
+The authors' published ``SAiD.pth`` is detected by its keys (``--official`` insists
+on it) and samples as their inference script does (DDIM 1000, gamma 2 unless
+``--steps``/``--guidance``), with ``--eta``, ``--guidance-rescale``, ``--strength``
+(editing from ``--reference``), ``--intermediates DIR`` (the chain's states as
+CSV + PNG, ``1`` = the last) and ``--image PNG`` (the coefficients as an image).
 """
 
 from __future__ import annotations
@@ -20,6 +26,7 @@ import argparse
 import os
 from pathlib import Path
 
+from baselines.said.official_pipeline import OfficialSAiD
 from baselines.said.pipeline import SAiD
 
 CHECKPOINT_ENV = "BLENDVOCA_SAID_CHECKPOINT"
@@ -36,10 +43,41 @@ def checkpoint_file(path: str | os.PathLike | None) -> Path:
             )
     path = Path(path).expanduser()
     if path.is_dir():
-        path = path / "said.pt"
+        path = path / "said.pt" if (path / "said.pt").is_file() or not (path / "SAiD.pth").is_file() else path / "SAiD.pth"
     if not path.is_file():
         raise ValueError(f"SAiD generate: expected a checkpoint file at {path}, found none")
     return path
+
+
+def load_pipeline(path: Path, official: bool | None = None):
+    """Return the pipeline in ``path``: a ``said.pt`` checkpoint, or the authors' ``SAiD.pth`` (detected by its keys)."""
+    import torch
+
+    from baselines.said.checkpoint import FORMAT
+    from baselines.said.official import is_official_state
+
+    payload = torch.load(path, map_location="cpu", weights_only=True)
+    if is_official_state(payload):
+        from baselines.said.official import model_from_state
+
+        return OfficialSAiD(model_from_state(payload, where=str(path)))
+    if official:
+        raise ValueError(f"SAiD generate: --official expects the authors' SAID_UNet1D state_dict, got a different file {path}")
+    if not isinstance(payload, dict) or payload.get("format") != FORMAT:
+        raise ValueError(f"SAiD generate: expected a {FORMAT} checkpoint or the authors' SAiD.pth at {path}")
+    return SAiD.load(path)
+
+
+def write_intermediates(directory, states, names) -> None:
+    """Write the chain's states (first sample) as ``<k>.csv`` and ``<k>.png``, ``k = 1`` being the last state."""
+    from baselines.said.coeff_image import write_coefficient_image
+    from blendvoca.io.coeffs import write_coeffs_csv
+
+    directory = Path(directory)
+    directory.mkdir(parents=True, exist_ok=True)
+    for k, state in enumerate(reversed(states), start=1):
+        write_coeffs_csv(directory / f"{k}.csv", state[0], names)
+        write_coefficient_image(directory / f"{k}.png", state[0])
 
 
 def output_paths(out: str | os.PathLike, samples: int) -> list[Path]:
@@ -65,6 +103,12 @@ def generate_files(
     progress: bool = True,
     export: str = "csv",
     rig=None,
+    official: bool | None = None,
+    eta: float | None = None,
+    guidance_rescale: float | None = None,
+    strength: float = 1.0,
+    intermediates_dir=None,
+    image_path=None,
 ) -> list[Path]:
     """Read a WAV (and optional reference/mask CSVs), sample, write coefficient CSVs.
 
@@ -87,22 +131,38 @@ def generate_files(
     if isinstance(rig, (str, os.PathLike)):
         rig = load_rig(rig)
 
-    said = SAiD.load(checkpoint_file(checkpoint))
+    said = load_pipeline(checkpoint_file(checkpoint), official)
+    authors_only = {"--guidance-rescale": guidance_rescale, "--intermediates": intermediates_dir,
+                    "--strength": None if strength == 1.0 else strength}
+    if not isinstance(said, OfficialSAiD) and any(v is not None for v in authors_only.values()):
+        raise ValueError(f"SAiD generate: {', '.join(k for k, v in authors_only.items() if v is not None)} "
+                         "need the authors' weights (--official SAiD.pth)")
     audio = load_audio(audio_path, rate=16000)
     reference = mask = None
     num_frames = None
-    if (reference_path is None) != (mask_path is None):
+    if (reference_path is None) != (mask_path is None) and not (isinstance(said, OfficialSAiD) and mask_path is None):
         raise ValueError("SAiD generate: expected both --reference and --mask, or neither")
     if reference_path is not None:
         reference, _ = read_coeffs_csv(reference_path, names=said.names)
-        mask, _ = read_coeffs_csv(mask_path, names=said.names)
+        mask = reference * 0.0 if mask_path is None else read_coeffs_csv(mask_path, names=said.names)[0]
         if mask.shape != reference.shape:
             raise ValueError(f"SAiD generate: expected the mask {mask_path} to have the reference's shape {reference.shape}, got {mask.shape}")
         num_frames = reference.shape[0]
+    extra = {}
+    if isinstance(said, OfficialSAiD):
+        extra = {"guidance_rescale": guidance_rescale, "strength": strength, "return_intermediates": intermediates_dir is not None}
     tracks = said.generate(
         audio, num_frames, samples=samples, seed=seed, reference=reference, mask=mask,
-        sampler=sampler, num_steps=num_steps, guidance=guidance, progress=progress,
+        sampler=sampler, num_steps=num_steps, guidance=guidance, eta=eta, progress=progress, **extra,
     )
+    if intermediates_dir is not None:
+        tracks, states = tracks
+        write_intermediates(intermediates_dir, states, said.names)
+    if image_path is not None:
+        from baselines.said.coeff_image import write_coefficient_image
+
+        for path, track in zip(output_paths(image_path, samples), tracks):
+            write_coefficient_image(path, track)
     paths = output_paths(out_path, samples)
     for path, track in zip(paths, tracks):
         path.parent.mkdir(parents=True, exist_ok=True)
@@ -129,11 +189,19 @@ def main(argv=None) -> None:
     p.add_argument("--sampler", choices=("ddim", "ddpm"), default=None, help="default: the checkpoint's")
     p.add_argument("--steps", type=int, default=None, help="sampling steps (default: the checkpoint's)")
     p.add_argument("--guidance", type=float, default=None, help="classifier-free guidance gamma (default: the checkpoint's)")
+    p.add_argument("--official", action="store_true", help="the checkpoint is the authors' SAiD.pth (detected anyway)")
+    p.add_argument("--eta", type=float, default=None, help="DDIM eta in [0, 1] (default: the checkpoint's)")
+    p.add_argument("--guidance-rescale", type=float, default=None, help="guidance rescale in [0, 1] (authors' weights)")
+    p.add_argument("--strength", type=float, default=1.0, help="editing strength in (0, 1] with --reference (authors' weights)")
+    p.add_argument("--intermediates", default=None, metavar="DIR", help="write the chain's states here (authors' weights)")
+    p.add_argument("--image", default=None, metavar="PNG", help="also write the coefficients as a grayscale image")
     args = p.parse_args(argv)
     paths = generate_files(
         args.audio, args.out, checkpoint=args.checkpoint, samples=args.samples, seed=args.seed,
         reference_path=args.reference, mask_path=args.mask, sampler=args.sampler,
         num_steps=args.steps, guidance=args.guidance, export=args.export, rig=args.rig,
+        official=args.official or None, eta=args.eta, guidance_rescale=args.guidance_rescale,
+        strength=args.strength, intermediates_dir=args.intermediates, image_path=args.image,
     )
     for path in paths:
         print(path)

@@ -32,3 +32,26 @@ def classifier_free_guidance(
             f"{tuple(eps_cond.shape)} and {tuple(eps_uncond.shape)}"
         )
     return eps_cond + gamma * (eps_cond - eps_uncond)
+
+
+def rescale_guidance(eps: torch.Tensor, eps_cond: torch.Tensor, rescale: float) -> torch.Tensor:
+    """Return the guided estimate with its spread pulled back towards the conditional one's.
+
+    ``rescale * eps * (std(eps_cond) / std(eps)) + (1 - rescale) * eps`` with the
+    (unbiased) standard deviation over each item's frames and channels (Lin et
+    al. 2024, sec. 3.4; SAiD's ``guidance_rescale``).
+
+    Parameters
+    ----------
+    eps, eps_cond : (B, T, K) Tensor
+        Guided and conditional noise estimates.
+    rescale : float
+        In [0, 1]; 0 returns ``eps``.
+
+    Returns
+    -------
+    (B, T, K) Tensor
+    """
+    dims = tuple(range(1, eps.ndim))
+    ratio = eps_cond.std(dim=dims, keepdim=True) / eps.std(dim=dims, keepdim=True)
+    return rescale * (eps * ratio) + (1.0 - rescale) * eps

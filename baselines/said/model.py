@@ -19,6 +19,9 @@ from torch import nn
 
 from baselines.said.attention_bias import alignment_bias
 from baselines.said.encoders import build_encoder
+from baselines.said.unet1d import ConditionalUNet1D
+
+ARCHITECTURES = ("authors", "compact")
 
 
 def timestep_embedding(timesteps: torch.Tensor, dim: int, max_period: float = 10000.0) -> torch.Tensor:
@@ -190,9 +193,11 @@ class AudioAdapter(nn.Module):
     where wav2vec 2.0 features already carry context).
     """
 
-    def __init__(self, feature_dim: int, cond_dim: int, layers: int = 2, kernel: int = 5):
+    def __init__(self, feature_dim: int, cond_dim: int | None, layers: int = 2, kernel: int = 5):
         super().__init__()
-        self.proj = nn.Linear(feature_dim, cond_dim)
+        # cond_dim None: the features enter the denoiser as they are (the authors' feature_dim = -1)
+        self.proj = nn.Identity() if cond_dim is None else nn.Linear(feature_dim, cond_dim)
+        cond_dim = feature_dim if cond_dim is None else cond_dim
         self.convs = nn.ModuleList(nn.Conv1d(cond_dim, cond_dim, kernel, padding=kernel // 2) for _ in range(layers))
         self.norms = nn.ModuleList(nn.GroupNorm(_groups(cond_dim), cond_dim) for _ in range(layers))
 
@@ -212,10 +217,16 @@ class SAiDModel(nn.Module):
     num_coeffs : int, default 32
     channels : int, default 64
         UNet width.
-    cond_dim : int, default 64
-        Condition (cross-attention key/value input) size.
+    cond_dim : int or None, default 64
+        Condition (cross-attention key/value input) size; None: the encoder's
+        feature size, without projection.
     heads : int, default 4
     dropout : float, default 0.0
+        Of the residual blocks (``authors``) or of every block (``compact``).
+    architecture : {"authors", "compact"}, default "compact"
+        ``authors``: the authors' UNet (:class:`baselines.said.unet1d.ConditionalUNet1D`,
+        ``heads = channels / num_head_channels``); ``compact``: the smaller
+        :class:`UNet1DCondition` (three transformer blocks) of earlier checkpoints.
     encoder : dict, default ``{"kind": "logmel"}``
         Spec for :func:`baselines.said.encoders.build_encoder`.
     adapter_layers : int, default 2
@@ -234,17 +245,28 @@ class SAiDModel(nn.Module):
         adapter_layers: int = 2,
         adapter_kernel: int = 5,
         attention_half_width: int = 1,
+        architecture: str = "compact",
     ):
         super().__init__()
+        if architecture not in ARCHITECTURES:
+            raise ValueError(f"SAiDModel: expected architecture in {ARCHITECTURES}, got {architecture!r}")
         self.encoder_spec = dict(encoder or {"kind": "logmel"})
         self.num_coeffs = num_coeffs
+        self.architecture = architecture
         self.encoder = build_encoder(self.encoder_spec)
         self.adapter = AudioAdapter(self.encoder.feature_dim, cond_dim, adapter_layers, adapter_kernel)
+        cond_dim = self.encoder.feature_dim if cond_dim is None else cond_dim
         self.null_cond = nn.Parameter(torch.randn(cond_dim) * 0.02)
         # x = (u - coeff_mean) / coeff_scale; set from the training data by train_said
         self.register_buffer("coeff_mean", torch.full((num_coeffs,), 0.5))
         self.register_buffer("coeff_scale", torch.full((num_coeffs,), 0.5))
-        self.denoiser = UNet1DCondition(num_coeffs, channels, cond_dim, heads, dropout, attention_half_width)
+        if architecture == "authors":
+            if channels % heads:
+                raise ValueError(f"SAiDModel: expected channels divisible by heads, got {channels}, {heads}")
+            self.denoiser = ConditionalUNet1D(num_coeffs, num_coeffs, cond_dim, channels, channels // heads, dropout=dropout,
+                                              norm_groups=math.gcd(channels, 32), pad=attention_half_width)
+        else:
+            self.denoiser = UNet1DCondition(num_coeffs, channels, cond_dim, heads, dropout, attention_half_width)
 
     def trainable_parameters(self):
         """Return the parameters that training updates (everything but the frozen encoder)."""
@@ -273,6 +295,12 @@ class SAiDModel(nn.Module):
         """Return the null condition repeated to ``(batch, num_frames, cond_dim)``."""
         return self.null_cond.expand(batch, num_frames, -1)
 
-    def forward(self, x_t: torch.Tensor, timesteps: torch.Tensor, cond: torch.Tensor) -> torch.Tensor:
-        """Return the predicted noise ``(B, T, K)`` (see :meth:`UNet1DCondition.forward`)."""
+    def context_cache(self, cond: torch.Tensor) -> dict | None:
+        """Cross-attention keys/values of ``cond`` for :meth:`forward` (``authors`` only; None otherwise)."""
+        return self.denoiser.context_cache(cond) if self.architecture == "authors" else None
+
+    def forward(self, x_t: torch.Tensor, timesteps: torch.Tensor, cond: torch.Tensor, caches: dict | None = None) -> torch.Tensor:
+        """Return the network output ``(B, T, K)`` for ``x_t (B, T, K)``, ``timesteps (B,)``, ``cond (B, S, D)``."""
+        if self.architecture == "authors":
+            return self.denoiser(x_t.transpose(1, 2), timesteps, cond, caches).transpose(1, 2)
         return self.denoiser(x_t, timesteps, cond)

@@ -146,16 +146,18 @@ class SAiD:
             wav = torch.from_numpy(audio.astype(np.float32))[None].to(self.device)
             cond = model.condition(model.audio_features(wav, num_frames)).expand(samples, -1, -1)  # (S, T, D)
             both = torch.cat([cond, model.null_condition(samples, num_frames)])
+            # the condition's cross-attention keys/values, once per utterance
+            cond_cache, both_cache = model.context_cache(cond), model.context_cache(both)
 
             prediction = self.config["diffusion"].get("prediction", "epsilon")
 
             def noise_fn(x, t):
                 a = alphas_of(t, self.alphas_cumprod)
                 if guidance == 0:
-                    return noise_from_output(model(x, t, cond), x, a, prediction)
+                    return noise_from_output(model(x, t, cond, cond_cache), x, a, prediction)
                 # one batched pass for the conditional and the unconditional estimate
                 xx, aa = torch.cat([x, x]), torch.cat([a, a])
-                eps = noise_from_output(model(xx, torch.cat([t, t]), both), xx, aa, prediction)
+                eps = noise_from_output(model(xx, torch.cat([t, t]), both, both_cache), xx, aa, prediction)
                 return classifier_free_guidance(eps[:samples], eps[samples:], guidance)
 
             x = sample_diffusion(

@@ -9,7 +9,9 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import torch
 
+from baselines.said.official_pipeline import OfficialSAiD
 from baselines.said.pipeline import SAiD
 from baselines.said.train import train_said
 from benchmark.methods.base import Budget, Method
@@ -71,6 +73,8 @@ class SAiDMethod(Method):
 
     def train(self, dataset, *, seed: int, budget: Budget) -> None:
         """Train on the dataset's train split, select on its val split, within ``budget``."""
+        if isinstance(self.said, OfficialSAiD):
+            raise ValueError("SAiDMethod.train: the authors' published weights are loaded, not trained here")
         names = tuple(dataset.names)
         if names != self.said.names:
             raise ValueError(f"SAiDMethod.train: expected dataset columns {self.said.names}, got {names}")
@@ -90,13 +94,36 @@ class SAiDMethod(Method):
         return self.said.generate(utterance.audio, utterance.num_frames, samples=int(samples), seed=int(seed))
 
     def save(self, directory) -> None:
-        """Write the config and the checkpoint ``said.pt`` into ``directory``."""
-        super().save(directory)
+        """Write the config and the checkpoint ``said.pt`` into ``directory`` (not for published weights)."""
+        if isinstance(self.said, OfficialSAiD):
+            raise ValueError("SAiDMethod.save: the authors' published weights are used from their file; nothing to save")
+        Method.save(self, directory)
         self.said.save(Path(directory) / CHECKPOINT_FILE)
 
     @classmethod
     def load(cls, directory) -> SAiDMethod:
-        """Rebuild from :meth:`save`'s output."""
+        """Rebuild from :meth:`save`'s output, or from the authors' ``SAiD.pth`` (a file, detected by its keys).
+
+        A published-weights method samples with the authors' inference settings
+        (DDIM 1000, gamma 2); ``BLENDVOCA_SAID_OFFICIAL_STEPS`` sets fewer DDIM steps.
+        """
+        path = Path(directory)
+        if path.is_file():
+            import os
+
+            from baselines.said.official import is_official_state
+
+            state = torch.load(path, map_location="cpu", weights_only=True)
+            if not is_official_state(state):
+                raise ValueError(f"SAiDMethod.load: {path} is a file but not the authors' SAID_UNet1D state_dict; "
+                                 "expected that or a directory written by SAiDMethod.save")
+            method = cls()
+            steps = os.environ.get("BLENDVOCA_SAID_OFFICIAL_STEPS")
+            from baselines.said.official import model_from_state
+
+            method.said = OfficialSAiD(model_from_state(state, where=str(path)),
+                                       {"num_steps": int(steps)} if steps else None)
+            return method
         method = super().load(directory)
-        method.said = SAiD.load(Path(directory) / CHECKPOINT_FILE)
+        method.said = SAiD.load(path / CHECKPOINT_FILE)
         return method

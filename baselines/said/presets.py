@@ -16,6 +16,7 @@ DEFAULT_PRESET = "cpu-demo"
 PRESETS: dict[str, dict[str, dict]] = {
     "cpu-demo": {
         "model": {
+            "architecture": "authors",
             "channels": 32,
             "cond_dim": 32,
             "heads": 4,
@@ -54,9 +55,12 @@ PRESETS: dict[str, dict[str, dict]] = {
     },
     "paper": {
         "model": {
-            "channels": 256,
-            "cond_dim": 256,
-            "heads": 8,
+            # the authors' network: width 192, 6 heads of 32, wav2vec 2.0 features
+            # straight into the cross-attention (no projection), dropout 0.1
+            "architecture": "authors",
+            "channels": 192,
+            "cond_dim": None,
+            "heads": 6,
             "dropout": 0.1,
             "encoder": {"kind": "wav2vec2", "path": "${BLENDVOCA_WAV2VEC2:-~/models/wav2vec2-base-960h}"},
             "adapter_layers": 0,

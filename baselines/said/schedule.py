@@ -120,3 +120,38 @@ def alphas_of(timesteps: torch.Tensor, alphas_cumprod: torch.Tensor) -> torch.Te
         raise ValueError(f"alphas_of: expected timesteps in [-1, {alphas_cumprod.shape[0] - 1}], got {t.tolist()}")
     padded = torch.cat([alphas_cumprod.new_ones(1), alphas_cumprod])
     return padded[t + 1]
+
+
+def authors_alphas_cumprod(num_train_steps: int = 1000, max_beta: float = 0.999) -> torch.Tensor:
+    """Return the cosine ``alpha_bar`` as SAiD's schedulers hold it (``squaredcos_cap_v2``), in float32.
+
+    The betas ``min(1 - f((i + 1) / N) / f(i / N), max_beta)`` with
+    ``f(s) = cos((s + 0.008) / 1.008 * pi / 2)^2`` are rounded to float32 first and
+    the cumulative product is taken in float32, so the values equal the schedulers'
+    own to the last bit (the float64 :func:`alphas_cumprod_schedule` differs by
+    about 1e-7).
+
+    Returns
+    -------
+    alphas_cumprod : (N,) float32 Tensor
+    """
+    n = int(num_train_steps)
+
+    def f(s):
+        return math.cos((s + 0.008) / 1.008 * math.pi / 2) ** 2
+
+    betas = torch.tensor([min(1 - f((i + 1) / n) / f(i / n), max_beta) for i in range(n)], dtype=torch.float32)
+    return torch.cumprod(1.0 - betas, dim=0)
+
+
+def leading_timesteps(num_train_steps: int, num_steps: int) -> np.ndarray:
+    """Return the "leading" timesteps ``(num_steps - 1 - k) * (N // num_steps)`` of SAiD's inference (ends at 0).
+
+    Returns
+    -------
+    timesteps : (num_steps,) int64 ndarray, strictly decreasing
+    """
+    if int(num_steps) != num_steps or not 1 <= num_steps <= num_train_steps:
+        raise ValueError(f"leading_timesteps: expected 1 <= num_steps <= {num_train_steps}, got {num_steps!r}")
+    ratio = int(num_train_steps) // int(num_steps)
+    return (np.arange(int(num_steps) - 1, -1, -1) * ratio).astype(np.int64)

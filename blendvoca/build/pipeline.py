@@ -528,7 +528,7 @@ def _build(out, vocaset, corpus, params, *, workers, report, progress):
 
 
 #: What the summary stage writes (besides manifest.json), relative to ``out``.
-SUMMARY_OUTPUTS = ("coeffs_std.csv", "splits.json", "report/README.md", "report/usage.png", "report/tracks.png")
+SUMMARY_OUTPUTS = ("coeffs_std.csv", "blendshape_residuals.pickle", "splits.json", "report/README.md", "report/usage.png", "report/tracks.png")
 
 
 def _write_summary_files(out, corpus, vocaset, subjects, params, summary, *, report):
@@ -569,6 +569,8 @@ def _write_summary_files(out, corpus, vocaset, subjects, params, summary, *, rep
                 tracks.append(coeffs)
     if tracks:
         write_coeffs_std(out / "coeffs_std.csv", coeffs_std(tracks), names)
+    from .said_residuals import write_blendshape_residuals
+    write_blendshape_residuals(out, subjects)
     with atomic_write(out / "splits.json", "w", encoding="utf-8") as f:
         f.write(json.dumps(corpus.splits, indent=2, sort_keys=True) + "\n")
     if report:

@@ -7,35 +7,19 @@ from pathlib import Path
 import torch
 from torch import nn
 
-from baselines.said.encoders.interpolate import interpolate_features
-
-
-def _transformers():
-    try:
-        import transformers
-    except ImportError as exc:  # pragma: no cover - depends on the environment
-        raise ImportError("the wav2vec2 encoders need transformers: pip install transformers") from exc
-    return transformers
+from baselines.wav2vec2 import interpolated_features, tiny_config, wav2vec2_model
 
 
 def tiny_wav2vec2_config():
-    """Return a tiny ``Wav2Vec2Config`` (2 layers, hidden 32) for tests; same frame rate as the base model."""
-    t = _transformers()
-    return t.Wav2Vec2Config(
-        hidden_size=32,
-        num_hidden_layers=2,
-        num_attention_heads=2,
-        intermediate_size=64,
-        conv_dim=(16, 16, 16, 16, 16, 16, 16),
-        num_conv_pos_embeddings=16,
-        num_conv_pos_embedding_groups=4,
-        do_stable_layer_norm=False,
-        feat_extract_norm="group",
-    )
+    """Return the shared tiny ``Wav2Vec2Config`` (:func:`baselines.wav2vec2.tiny_config`), for tests."""
+    return tiny_config()
 
 
 def normalize_waveform(audio: torch.Tensor) -> torch.Tensor:
     """Return each waveform with zero mean and unit variance (wav2vec 2.0's input normalisation).
+
+    ``(x - mean) / sqrt(var + 1e-7)`` with the population variance: what SAiD's
+    ``process_audio`` (the base-960h feature extractor) does.
 
     Parameters
     ----------
@@ -77,6 +61,8 @@ class Wav2Vec2Encoder(nn.Module):
                 f"Wav2Vec2Encoder: expected a local wav2vec2 directory with config.json at {path}; "
                 "download e.g. facebook/wav2vec2-base-960h there first"
             )
+        from baselines.wav2vec2.config import _transformers
+
         model = _transformers().Wav2Vec2Model.from_pretrained(str(path))
         return cls(model)
 
@@ -85,7 +71,7 @@ class Wav2Vec2Encoder(nn.Module):
         """Return a tiny random-init encoder (deterministic in ``seed``), for tests."""
         with torch.random.fork_rng():
             torch.manual_seed(seed)
-            model = _transformers().Wav2Vec2Model(tiny_wav2vec2_config())
+            model = wav2vec2_model(tiny_config())
         return cls(model)
 
     def forward(self, audio: torch.Tensor, num_frames: int) -> torch.Tensor:
@@ -94,8 +80,4 @@ class Wav2Vec2Encoder(nn.Module):
             raise ValueError(f"Wav2Vec2Encoder: expected (B, N) audio, got shape {tuple(audio.shape)}")
         if audio.shape[-1] < 400:
             audio = torch.nn.functional.pad(audio, (0, 400 - audio.shape[-1]))
-        x = normalize_waveform(audio.float())
-        feats = self.model.feature_extractor(x).transpose(1, 2)  # (B, T_cnn, C)
-        feats = interpolate_features(feats, num_frames)
-        hidden, _ = self.model.feature_projection(feats)
-        return self.model.encoder(hidden).last_hidden_state
+        return interpolated_features(self.model, normalize_waveform(audio.float()), num_frames)

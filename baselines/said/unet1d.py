@@ -1,0 +1,354 @@
+"""SAiD's denoiser as the authors build it: a 1-D latent-diffusion UNet with aligned cross-attention.
+
+The network is the latent-diffusion ``UNetModel`` in one dimension with one
+resolution level (``channel_mult = (1,)``), ``num_res_blocks`` residual blocks per
+side, a spatial transformer after every residual block and in the middle, and
+the parameter names of that model, so that the ``denoiser.model.*`` part of the
+published SAiD state_dict loads strictly into :class:`ConditionalUNet1D`:
+
+* ``time_embed.{0,2}``: sinusoidal timestep embedding (``model_channels``) then
+  Linear-SiLU-Linear to ``4 * model_channels``;
+* ``input_blocks.0.0``: Conv1d ``in_channels -> model_channels`` (kernel 3);
+* ``input_blocks.i = [ResBlock, SpatialTransformer]``, ``middle_block = [ResBlock,
+  SpatialTransformer, ResBlock]``, ``output_blocks.i = [ResBlock(2C -> C),
+  SpatialTransformer]`` with the UNet skip concatenation;
+* ``out.{0,2}``: GroupNorm-SiLU-Conv1d to ``out_channels``.
+
+The last convolution of every residual block, every transformer's ``proj_out``
+and the output convolution start at zero.  The transformer's cross-attention
+sees the audio features through the alignment mask of
+:func:`baselines.said.attention_bias.alignment_mask`; its feed-forward is a GEGLU.
+
+For sampling, :meth:`ConditionalUNet1D.context_cache` precomputes the
+cross-attention keys and values of a condition once, so that the denoising
+steps skip those projections (same result).
+"""
+
+from __future__ import annotations
+
+import math
+
+import torch
+import torch.nn.functional as F
+from torch import nn
+
+from baselines.said.attention_bias import alignment_mask
+
+
+def timestep_embedding(timesteps: torch.Tensor, dim: int, max_period: float = 10000.0) -> torch.Tensor:
+    """Return ``[cos(t f_k), sin(t f_k)]`` with ``f_k = max_period^(-k / (dim // 2))`` (zero-padded if ``dim`` is odd).
+
+    Parameters
+    ----------
+    timesteps : (B,) Tensor
+    dim : int
+    max_period : float, default 10000.0
+
+    Returns
+    -------
+    embedding : (B, dim) float32 Tensor
+    """
+    half = dim // 2
+    freqs = torch.exp(-math.log(max_period) * torch.arange(half, dtype=torch.float32) / half).to(timesteps.device)
+    args = timesteps[:, None].float() * freqs[None]
+    emb = torch.cat([torch.cos(args), torch.sin(args)], dim=-1)
+    if dim % 2:
+        emb = torch.cat([emb, torch.zeros_like(emb[:, :1])], dim=-1)
+    return emb
+
+
+def _zeroed(module: nn.Module) -> nn.Module:
+    for p in module.parameters():
+        nn.init.zeros_(p)
+    return module
+
+
+class GroupNorm32(nn.GroupNorm):
+    """GroupNorm evaluated in float32 (cast back to the input dtype)."""
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        return super().forward(x.float()).type(x.dtype)
+
+
+class TimestepSequential(nn.Sequential):
+    """Children run in order; residual blocks get the timestep embedding, transformers the condition."""
+
+    def forward(self, x, emb, context=None, caches=None):
+        for layer in self:
+            if isinstance(layer, ResBlock):
+                x = layer(x, emb)
+            elif isinstance(layer, SpatialTransformer):
+                x = layer(x, context, None if caches is None else caches[id(layer)])
+            else:
+                x = layer(x)
+        return x
+
+
+class ResBlock(nn.Module):
+    """``skip(x) + out_layers(in_layers(x) + emb_layers(emb))`` (GroupNorm-SiLU-Conv, kernel 3).
+
+    Parameters
+    ----------
+    channels, emb_channels : int
+    dropout : float
+    out_channels : int, optional
+        Defaults to ``channels``; otherwise the skip is a 1x1 convolution.
+    groups : int, default 32
+    """
+
+    def __init__(self, channels: int, emb_channels: int, dropout: float, out_channels: int | None = None, groups: int = 32):
+        super().__init__()
+        out = out_channels or channels
+        self.in_layers = nn.Sequential(GroupNorm32(groups, channels), nn.SiLU(), nn.Conv1d(channels, out, 3, padding=1))
+        self.emb_layers = nn.Sequential(nn.SiLU(), nn.Linear(emb_channels, out))
+        self.out_layers = nn.Sequential(
+            GroupNorm32(groups, out), nn.SiLU(), nn.Dropout(p=dropout), _zeroed(nn.Conv1d(out, out, 3, padding=1))
+        )
+        self.skip_connection = nn.Identity() if out == channels else nn.Conv1d(channels, out, 1)
+
+    def forward(self, x: torch.Tensor, emb: torch.Tensor) -> torch.Tensor:
+        """x: (B, C_in, T), emb: (B, emb_channels) -> (B, C_out, T)."""
+        h = self.in_layers(x)
+        h = h + self.emb_layers(emb).type(h.dtype)[:, :, None]
+        return self.skip_connection(x) + self.out_layers(h)
+
+
+class CrossAttention(nn.Module):
+    """Multi-head attention ``softmax(Q K^T / sqrt(d_head), masked) V``, then ``to_out``.
+
+    Parameters
+    ----------
+    query_dim : int
+    context_dim : int, optional
+        Defaults to ``query_dim`` (self-attention).
+    heads, dim_head : int
+    dropout : float
+        Of ``to_out``.
+    """
+
+    def __init__(self, query_dim: int, context_dim: int | None = None, heads: int = 8, dim_head: int = 64, dropout: float = 0.0):
+        super().__init__()
+        inner = heads * dim_head
+        context_dim = context_dim or query_dim
+        self.heads, self.dim_head = heads, dim_head
+        self.to_q = nn.Linear(query_dim, inner, bias=False)
+        self.to_k = nn.Linear(context_dim, inner, bias=False)
+        self.to_v = nn.Linear(context_dim, inner, bias=False)
+        self.to_out = nn.Sequential(nn.Linear(inner, query_dim), nn.Dropout(dropout))
+
+    def _split(self, z: torch.Tensor) -> torch.Tensor:
+        b, n, _ = z.shape
+        return z.reshape(b, n, self.heads, self.dim_head).transpose(1, 2)
+
+    def keys_values(self, context: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """Return the head-split keys and values ``(B, heads, S, dim_head)`` of ``context (B, S, context_dim)``."""
+        return self._split(self.to_k(context)), self._split(self.to_v(context))
+
+    def forward(self, x, context=None, allowed=None, kv=None, band=None):
+        """x: (B, T, query_dim); context: (B, S, context_dim) or None; allowed: (T, S) bool; kv: from :meth:`keys_values`.
+
+        ``band = p`` (with ``S == T``): the keys are ``|i - j| <= p``, computed on the
+        band alone (same values as ``allowed`` = that band, in ``O(T p)``).
+        """
+        q = self._split(self.to_q(x))
+        k, v = kv if kv is not None else self.keys_values(x if context is None else context)
+        if band is not None:
+            out = banded_attention(q, k, v, band)
+        else:
+            out = F.scaled_dot_product_attention(q, k, v, attn_mask=allowed)
+        b, _, t, _ = out.shape
+        return self.to_out(out.transpose(1, 2).reshape(b, t, self.heads * self.dim_head))
+
+
+def banded_attention(q: torch.Tensor, k: torch.Tensor, v: torch.Tensor, pad: int) -> torch.Tensor:
+    """``softmax(Q K^T / sqrt(d))V`` restricted to keys ``|i - j| <= pad`` (``S == T``).
+
+    Parameters
+    ----------
+    q, k, v : (B, H, T, d) Tensor
+    pad : int
+
+    Returns
+    -------
+    (B, H, T, d) Tensor
+    """
+    t, d = q.shape[2], q.shape[3]
+    width = 2 * pad + 1
+    k_win = F.pad(k, (0, 0, pad, pad)).unfold(2, width, 1)  # (B, H, T, d, width)
+    v_win = F.pad(v, (0, 0, pad, pad)).unfold(2, width, 1)
+    scores = torch.einsum("bhtd,bhtdw->bhtw", q, k_win) * d**-0.5
+    j = torch.arange(t, device=q.device)[:, None] + torch.arange(-pad, pad + 1, device=q.device)[None, :]
+    scores = scores.masked_fill(((j < 0) | (j >= t))[None, None], float("-inf"))
+    return torch.einsum("bhtw,bhtdw->bhtd", scores.softmax(dim=-1), v_win)
+
+
+class GEGLU(nn.Module):
+    """``a * gelu(g)`` with ``[a, g] = proj(x)``."""
+
+    def __init__(self, dim_in: int, dim_out: int):
+        super().__init__()
+        self.proj = nn.Linear(dim_in, 2 * dim_out)
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        a, gate = self.proj(x).chunk(2, dim=-1)
+        return a * F.gelu(gate)
+
+
+class FeedForward(nn.Module):
+    """GEGLU to ``mult * dim``, dropout, Linear back to ``dim``."""
+
+    def __init__(self, dim: int, mult: int = 4, dropout: float = 0.0):
+        super().__init__()
+        self.net = nn.Sequential(GEGLU(dim, mult * dim), nn.Dropout(dropout), nn.Linear(mult * dim, dim))
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        return self.net(x)
+
+
+class BasicTransformerBlock(nn.Module):
+    """Pre-norm self-attention, aligned cross-attention to the condition, GEGLU feed-forward."""
+
+    def __init__(self, dim: int, heads: int, dim_head: int, context_dim: int, dropout: float = 0.0, pad: int = 1):
+        super().__init__()
+        self.attn1 = CrossAttention(dim, None, heads, dim_head, dropout)
+        self.ff = FeedForward(dim, dropout=dropout)
+        self.attn2 = CrossAttention(dim, context_dim, heads, dim_head, dropout)
+        self.norm1 = nn.LayerNorm(dim)
+        self.norm2 = nn.LayerNorm(dim)
+        self.norm3 = nn.LayerNorm(dim)
+        self.pad = pad
+
+    def forward(self, x, context, kv=None):
+        """x: (B, T, dim), context: (B, S, context_dim) -> (B, T, dim)."""
+        x = self.attn1(self.norm1(x)) + x
+        num_keys = context.shape[1] if kv is None else kv[0].shape[2]
+        if num_keys == x.shape[1]:  # one audio feature per frame: the band |i - j| <= pad
+            x = self.attn2(self.norm2(x), context, None, kv, band=self.pad) + x
+        else:
+            allowed = alignment_mask(x.shape[1], num_keys, pad=self.pad, device=x.device)
+            x = self.attn2(self.norm2(x), context, allowed, kv) + x
+        return self.ff(self.norm3(x)) + x
+
+
+class SpatialTransformer(nn.Module):
+    """GroupNorm, ``depth`` transformer blocks over frames, zero-initialised 1x1 ``proj_out``, residual."""
+
+    def __init__(self, channels: int, heads: int, dim_head: int, context_dim: int, depth: int = 1, dropout: float = 0.0, groups: int = 32, pad: int = 1):
+        super().__init__()
+        if heads * dim_head != channels:
+            raise ValueError(f"SpatialTransformer: expected heads * dim_head == channels, got {heads} * {dim_head} != {channels}")
+        self.norm = nn.GroupNorm(groups, channels, eps=1e-6)
+        self.transformer_blocks = nn.ModuleList(
+            BasicTransformerBlock(channels, heads, dim_head, context_dim, dropout, pad) for _ in range(depth)
+        )
+        self.proj_out = _zeroed(nn.Conv1d(channels, channels, 1))
+
+    def keys_values(self, context: torch.Tensor) -> list:
+        """Cross-attention keys and values of every block for ``context``."""
+        return [block.attn2.keys_values(context) for block in self.transformer_blocks]
+
+    def forward(self, x, context, cache=None):
+        """x: (B, C, T), context: (B, S, context_dim) -> (B, C, T)."""
+        h = self.norm(x).transpose(1, 2)
+        for i, block in enumerate(self.transformer_blocks):
+            h = block(h, context, None if cache is None else cache[i])
+        return self.proj_out(h.transpose(1, 2)) + x
+
+
+class ConditionalUNet1D(nn.Module):
+    """The denoiser ``eps(x_t, t, context)`` of SAiD (latent-diffusion UNet, 1-D, one level).
+
+    Parameters
+    ----------
+    in_channels, out_channels : int
+        Coefficient channels (32).
+    context_dim : int
+        Size of a condition (audio feature) vector.
+    model_channels : int, default 192
+        Width (the authors' value).
+    num_head_channels : int, default 32
+        Channels per attention head (heads = ``model_channels // num_head_channels``).
+    num_res_blocks : int, default 1
+    dropout : float, default 0.1
+        Of the residual blocks (the transformers have none, as in the authors' model).
+    norm_groups : int, default 32
+    pad : int, default 1
+        Alignment band half width (:func:`alignment_mask`).
+    """
+
+    def __init__(
+        self,
+        in_channels: int = 32,
+        out_channels: int = 32,
+        context_dim: int = 768,
+        model_channels: int = 192,
+        num_head_channels: int = 32,
+        num_res_blocks: int = 1,
+        dropout: float = 0.1,
+        norm_groups: int = 32,
+        pad: int = 1,
+    ):
+        super().__init__()
+        c = int(model_channels)
+        if c % num_head_channels or c % norm_groups:
+            raise ValueError(
+                f"ConditionalUNet1D: expected model_channels divisible by num_head_channels and norm_groups, "
+                f"got {c}, {num_head_channels}, {norm_groups}"
+            )
+        self.in_channels, self.out_channels, self.model_channels = in_channels, out_channels, c
+        heads = c // num_head_channels
+        temb = 4 * c
+
+        def res(cin):
+            return ResBlock(cin, temb, dropout, c, norm_groups)
+
+        def transformer():
+            return SpatialTransformer(c, heads, num_head_channels, context_dim, groups=norm_groups, pad=pad)
+
+        self.time_embed = nn.Sequential(nn.Linear(c, temb), nn.SiLU(), nn.Linear(temb, temb))
+        self.input_blocks = nn.ModuleList([TimestepSequential(nn.Conv1d(in_channels, c, 3, padding=1))])
+        self.input_blocks.extend(TimestepSequential(res(c), transformer()) for _ in range(num_res_blocks))
+        self.middle_block = TimestepSequential(res(c), transformer(), res(c))
+        self.output_blocks = nn.ModuleList(TimestepSequential(res(2 * c), transformer()) for _ in range(num_res_blocks + 1))
+        self.out = nn.Sequential(GroupNorm32(norm_groups, c), nn.SiLU(), _zeroed(nn.Conv1d(c, out_channels, 3, padding=1)))
+
+    def transformers(self) -> list[SpatialTransformer]:
+        """The spatial transformers, in forward order."""
+        return [m for m in self.modules() if isinstance(m, SpatialTransformer)]
+
+    def context_cache(self, context: torch.Tensor) -> dict:
+        """Precompute every cross-attention's keys and values for ``context (B, S, context_dim)``.
+
+        Pass the result as ``caches`` to :meth:`forward` with any ``x_t`` of batch ``B``
+        (the same output as passing ``context``, without the key/value projections).
+        """
+        return {id(m): m.keys_values(context) for m in self.transformers()}
+
+    def forward(self, x: torch.Tensor, timesteps: torch.Tensor, context: torch.Tensor | None = None, caches: dict | None = None) -> torch.Tensor:
+        """Return the network output (the noise estimate for SAiD).
+
+        Parameters
+        ----------
+        x : (B, in_channels, T) Tensor
+        timesteps : (B,) Tensor
+        context : (B, S, context_dim) Tensor
+            Condition; may be None when ``caches`` is given.
+        caches : dict, optional
+            From :meth:`context_cache`.
+
+        Returns
+        -------
+        (B, out_channels, T) Tensor
+        """
+        if context is None and caches is None:
+            raise ValueError("ConditionalUNet1D: expected a context or its caches")
+        emb = self.time_embed(timestep_embedding(timesteps, self.model_channels))
+        skips = []
+        h = x.float()
+        for block in self.input_blocks:
+            h = block(h, emb, context, caches)
+            skips.append(h)
+        h = self.middle_block(h, emb, context, caches)
+        for block in self.output_blocks:
+            h = block(torch.cat([h, skips.pop()], dim=1), emb, context, caches)
+        return self.out(h.type(x.dtype))
