@@ -1,5 +1,7 @@
 """``python -m baselines.said`` is ``python -m baselines.said.generate``."""
 
+import sys
+
 from baselines.said.generate import main
 
-main()
+sys.exit(main())

@@ -23,6 +23,7 @@ CSV + PNG, ``1`` = the last) and ``--image PNG`` (the coefficients as an image).
 from __future__ import annotations
 
 import argparse
+import sys
 import os
 from pathlib import Path
 
@@ -173,8 +174,8 @@ def generate_files(
     return paths
 
 
-def main(argv=None) -> None:
-    """Command line entry point (see the module docstring)."""
+def main(argv=None) -> int:
+    """Command line entry point (see the module docstring); a user mistake is one ``error:`` line and exit 2."""
     p = argparse.ArgumentParser(prog="python -m baselines.said.generate", description=__doc__.split("\n\n")[0])
     p.add_argument("--audio", required=True, help="input WAV (any rate, mono or stereo)")
     p.add_argument("--out", required=True, help="output CSV (header = blendshape names, 60 fps) or --export file")
@@ -196,16 +197,23 @@ def main(argv=None) -> None:
     p.add_argument("--intermediates", default=None, metavar="DIR", help="write the chain's states here (authors' weights)")
     p.add_argument("--image", default=None, metavar="PNG", help="also write the coefficients as a grayscale image")
     args = p.parse_args(argv)
-    paths = generate_files(
-        args.audio, args.out, checkpoint=args.checkpoint, samples=args.samples, seed=args.seed,
-        reference_path=args.reference, mask_path=args.mask, sampler=args.sampler,
-        num_steps=args.steps, guidance=args.guidance, export=args.export, rig=args.rig,
-        official=args.official or None, eta=args.eta, guidance_rescale=args.guidance_rescale,
-        strength=args.strength, intermediates_dir=args.intermediates, image_path=args.image,
-    )
+    from blendvoca.errors import error_line
+
+    try:
+        paths = generate_files(
+            args.audio, args.out, checkpoint=args.checkpoint, samples=args.samples, seed=args.seed,
+            reference_path=args.reference, mask_path=args.mask, sampler=args.sampler,
+            num_steps=args.steps, guidance=args.guidance, export=args.export, rig=args.rig,
+            official=args.official or None, eta=args.eta, guidance_rescale=args.guidance_rescale,
+            strength=args.strength, intermediates_dir=args.intermediates, image_path=args.image,
+        )
+    except (ValueError, OSError, KeyError) as error:  # bad paths, files or options: the message names them
+        print(error_line(error), file=sys.stderr)
+        return 2
     for path in paths:
         print(path)
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

@@ -70,3 +70,13 @@ def test_missing_checkpoint_explains(tmp_path, monkeypatch):
 def test_module_runs_as_a_script():
     out = subprocess.run([sys.executable, "-m", "baselines.said.generate", "--help"], capture_output=True, text=True, check=True)
     assert "--reference" in out.stdout and "--samples" in out.stdout
+
+
+def test_cli_mistake_is_one_error_line(tmp_path, capsys):
+    from baselines.said.generate import main
+
+    code = main(["--audio", str(tmp_path / "missing.wav"), "--out", str(tmp_path / "o.csv"),
+                 "--checkpoint", str(tmp_path / "none")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and err[0].startswith("error: ")
+    assert not (tmp_path / "o.csv").exists()
