@@ -59,6 +59,8 @@ BUILTIN_METHODS = {
     "regression": "baselines.regression.plugin:RegressionMethod",
     "mesh-adapter": "baselines.mesh_adapter.plugin:MeshAdapterMethod",
     "said": "baselines.said.plugin:SAiDMethod",
+    "faceformer": "baselines.faceformer.plugin:FaceFormerMethod",
+    "codetalker": "baselines.codetalker.plugin:CodeTalkerMethod",
 }
 
 for _name, _target in BUILTIN_METHODS.items():
