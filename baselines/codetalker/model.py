@@ -159,12 +159,11 @@ class CodeTalker(nn.Module):
             quantized.append(q)
             if i == frames - 1:
                 break
-            prefix = torch.cat(quantized, dim=-1)
             if i == 0:
-                decoded = self.autoencoder.decode(torch.cat([q, q], dim=-1))[:, :1]
+                decoded = self.autoencoder.decode_frame(torch.cat([q, q], dim=-1), 0)
             else:
-                decoded = self.autoencoder.decode(prefix)
-            token = self.vertice_map(decoded[:, -1:]) + style
+                decoded = self.autoencoder.decode_frame(torch.cat(quantized, dim=-1), -1)
+            token = self.vertice_map(decoded) + style
         return self.autoencoder.decode(torch.cat(quantized, dim=-1)) + template
 
     def _pe(self, t: int, like: torch.Tensor) -> torch.Tensor:

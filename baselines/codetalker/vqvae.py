@@ -200,10 +200,13 @@ class TransformerDecoder(nn.Module):
         self.decoder_linear_embedding = LinearEmbedding(dim, dim)
         self.vertice_map_reverse = nn.Linear(dim, out_dim)
 
-    def forward(self, inputs: torch.Tensor) -> torch.Tensor:
+    def hidden(self, inputs: torch.Tensor) -> torch.Tensor:
+        """Frame features ``(B, hidden_size, T)`` -> transformer outputs ``(B, T, hidden_size)``."""
         x = self.expander[0](inputs).permute(0, 2, 1)
-        x = self.decoder_pos_embedding(self.decoder_linear_embedding(x))
-        return self.vertice_map_reverse(self.decoder_transformer(x))
+        return self.decoder_transformer(self.decoder_pos_embedding(self.decoder_linear_embedding(x)))
+
+    def forward(self, inputs: torch.Tensor) -> torch.Tensor:
+        return self.vertice_map_reverse(self.hidden(inputs))
 
 
 class VQAutoEncoder(nn.Module):
@@ -229,11 +232,19 @@ class VQAutoEncoder(nn.Module):
         h = h.reshape(x.shape[0], -1, self.config["zquant_dim"])
         return self.quantize(h)
 
-    def decode(self, quant: torch.Tensor) -> torch.Tensor:
-        """Quantized ``(B, zquant_dim, T * face_quan_num)`` -> displacements ``(B, T, in_dim)``."""
+    def _frames(self, quant: torch.Tensor) -> torch.Tensor:
         b = quant.shape[0]
         frames = quant.permute(0, 2, 1).reshape(b, -1, self.config["face_quan_num"] * self.config["zquant_dim"])
-        return self.decoder(frames.permute(0, 2, 1).contiguous())
+        return frames.permute(0, 2, 1).contiguous()
+
+    def decode(self, quant: torch.Tensor) -> torch.Tensor:
+        """Quantized ``(B, zquant_dim, T * face_quan_num)`` -> displacements ``(B, T, in_dim)``."""
+        return self.decoder(self._frames(quant))
+
+    def decode_frame(self, quant: torch.Tensor, frame: int = -1) -> torch.Tensor:
+        """One frame ``(B, 1, in_dim)`` of :meth:`decode` (the decoder sees all frames; only one is mapped out)."""
+        hidden = self.decoder.hidden(self._frames(quant))
+        return self.decoder.vertice_map_reverse(hidden[:, frame : frame + 1 if frame != -1 else None])
 
     def forward(self, x: torch.Tensor, template: torch.Tensor):
         """Reconstruction of ``x`` ``(B, T, in_dim)`` around ``template`` ``(B, in_dim)``: ``(recon, vq_loss, info)``."""

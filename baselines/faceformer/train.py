@@ -24,81 +24,111 @@ def sequence_tensors(seq, *, scale: float, normalise_audio: bool):
     return (audio, torch.from_numpy(seq.template)[None] * scale, torch.from_numpy(seq.vertices)[None] * scale)
 
 
-def train_faceformer(model, train, val, subjects, *, training: dict, seed: int, max_steps: float, max_seconds: float,
-                     progress: bool = True) -> dict:
-    """Train ``model`` (a :class:`~baselines.faceformer.model.Faceformer`) in place.
+def fit_sequences(model, step_loss, items, val_loss=None, *, lr: float, seed: int, max_steps: float,
+                  max_seconds: float, optimizer: str = "adam", num_threads=None, grad_clip=None,
+                  desc: str = "training", progress: bool = True, loss_scale: float = 1.0) -> dict:
+    """Optimise ``model``'s trainable parameters, one item per step in shuffled epochs.
 
-    One sentence per step (batch 1, as the authors), teacher-forced MSE on the
-    vertices, Adam. Keeps the weights with the lowest validation MSE when ``val`` is
-    given (checked ten times over the run and at the end).
+    Parameters
+    ----------
+    model : nn.Module
+    step_loss : callable
+        ``step_loss(item) -> scalar loss`` in train mode.
+    items : list
+        What ``step_loss`` takes (one sentence each).
+    val_loss : callable, optional
+        ``val_loss() -> float`` in eval mode; checked ten times over a step-limited run
+        (every 200 steps otherwise) and at the end; the best weights are kept.
+    lr : float
+    optimizer : {"adam", "adamw"}
+    loss_scale : float
+        Divides the logged losses (undoes a unit change of the targets).
 
     Returns
     -------
     dict
-        ``train_loss`` per step, ``val`` ``[step, loss]`` pairs, ``steps``, ``seconds``.
+        ``train_loss`` per step, ``val`` ``[step, loss]`` pairs, ``best_step``, ``steps``, ``seconds``.
     """
     import copy
 
-    scale = float(training["motion_scale"])
-    w2v = model.config["audio"]["kind"] == "wav2vec2"
     rng = np.random.default_rng(seed)
     params = [p for p in model.parameters() if p.requires_grad]
-    opt = torch.optim.Adam(params, lr=training["lr"])
-    tensors = [(sequence_tensors(s, scale=scale, normalise_audio=w2v), subjects.index(s.subject)) for s in train]
-    val_tensors = [(sequence_tensors(s, scale=scale, normalise_audio=w2v), 0) for s in val]
-    n_sub = len(subjects)
-    if training.get("max_epochs") and math.isinf(max_steps) and math.isinf(max_seconds):
-        max_steps = int(training["max_epochs"]) * len(tensors)
+    opt = (torch.optim.AdamW if optimizer == "adamw" else torch.optim.Adam)(params, lr=lr)
     check_every = max(1, int(max_steps // 10)) if not math.isinf(max_steps) else 200
-
-    def val_loss() -> float:
-        model.eval()
-        total = 0.0
-        with torch.no_grad():
-            for (audio, template, verts), _ in val_tensors:
-                # unseen speakers: average over the styles, as the benchmark samples them
-                losses = [torch.mean((model(audio, template, verts, torch.eye(n_sub)[k : k + 1]) - verts) ** 2)
-                          for k in range(min(n_sub, 2))]
-                total += float(sum(losses) / len(losses))
-        model.train()
-        return total / max(1, len(val_tensors))
-
     history = {"train_loss": [], "val": [], "best_step": None}
     best, best_state = math.inf, None
-    start, step = time.perf_counter(), 0
-    bar = tqdm(total=None if math.isinf(max_steps) else int(max_steps), desc=f"{type(model).__name__} training",
-               disable=not progress)
+
+    def check(step):
+        nonlocal best, best_state
+        model.eval()
+        with torch.no_grad():
+            v = float(val_loss())
+        model.train()
+        history["val"].append([step, v / loss_scale])
+        if v < best:
+            best, best_state, history["best_step"] = v, copy.deepcopy(model.state_dict()), step
+
+    start, step, order = time.perf_counter(), 0, []
+    bar = tqdm(total=None if math.isinf(max_steps) else int(max_steps), desc=desc, disable=not progress)
     model.train()
-    with torch_threads(training.get("num_threads")):
-        order = []
+    with torch_threads(num_threads):
         while step < max_steps and time.perf_counter() - start < max_seconds:
             if not order:
-                order = list(rng.permutation(len(tensors)))
-            (audio, template, verts), k = tensors[order.pop()]
-            one_hot = torch.eye(n_sub)[k : k + 1]
-            loss = torch.mean((model(audio, template, verts, one_hot) - verts) ** 2)
+                order = list(rng.permutation(len(items)))
+            loss = step_loss(items[order.pop()])
             opt.zero_grad(set_to_none=True)
             loss.backward()
-            if training.get("grad_clip"):
-                torch.nn.utils.clip_grad_norm_(params, training["grad_clip"])
+            if grad_clip:
+                torch.nn.utils.clip_grad_norm_(params, grad_clip)
             opt.step()
             step += 1
-            history["train_loss"].append(float(loss) / scale**2)
+            history["train_loss"].append(loss.item() / loss_scale)
             bar.update(1)
-            bar.set_postfix(mse_mm2=f"{history['train_loss'][-1] * 1e6:.4f}", refresh=False)
-            if val_tensors and step % check_every == 0:
-                v = val_loss()
-                history["val"].append([step, v / scale**2])
-                if v < best:
-                    best, best_state, history["best_step"] = v, copy.deepcopy(model.state_dict()), step
-        if val_tensors and step and (not history["val"] or history["val"][-1][0] != step):
-            v = val_loss()
-            history["val"].append([step, v / scale**2])
-            if v < best:
-                best, best_state, history["best_step"] = v, copy.deepcopy(model.state_dict()), step
+            bar.set_postfix(loss=f"{history['train_loss'][-1]:.3g}", refresh=False)
+            if val_loss is not None and step % check_every == 0:
+                check(step)
+        if val_loss is not None and step and (not history["val"] or history["val"][-1][0] != step):
+            check(step)
     bar.close()
     if best_state is not None:
         model.load_state_dict(best_state)
     model.eval()
     history["steps"], history["seconds"] = step, time.perf_counter() - start
     return history
+
+
+def epochs_to_steps(training: dict, n_items: int, max_steps: float, max_seconds: float) -> float:
+    """``max_epochs * n_items`` when the run has no other limit, else ``max_steps``."""
+    if training.get("max_epochs") and math.isinf(max_steps) and math.isinf(max_seconds):
+        return int(training["max_epochs"]) * n_items
+    return max_steps
+
+
+def train_faceformer(model, train, val, subjects, *, training: dict, seed: int, max_steps: float, max_seconds: float,
+                     progress: bool = True) -> dict:
+    """Train ``model`` (a :class:`~baselines.faceformer.model.Faceformer`) in place.
+
+    One sentence per step (batch 1, as the authors), teacher-forced MSE on the
+    vertices, Adam; keeps the weights with the lowest validation MSE (teacher-forced,
+    averaged over two styles since validation speakers are unseen) when ``val`` is given.
+    """
+    scale = float(training["motion_scale"])
+    w2v = model.config["audio"]["kind"] == "wav2vec2"
+    n_sub = len(subjects)
+    items = [(sequence_tensors(s, scale=scale, normalise_audio=w2v), subjects.index(s.subject)) for s in train]
+    val_items = [sequence_tensors(s, scale=scale, normalise_audio=w2v) for s in val]
+
+    def step_loss(item):
+        (audio, template, verts), k = item
+        return torch.mean((model(audio, template, verts, torch.eye(n_sub)[k : k + 1]) - verts) ** 2)
+
+    def val_loss():
+        losses = [torch.mean((model(a, t, v, torch.eye(n_sub)[k : k + 1]) - v) ** 2)
+                  for a, t, v in val_items for k in range(min(n_sub, 2))]
+        return float(sum(losses) / len(losses))
+
+    return fit_sequences(model, step_loss, items, val_loss if val_items else None, lr=training["lr"], seed=seed,
+                         max_steps=epochs_to_steps(training, len(items), max_steps, max_seconds),
+                         max_seconds=max_seconds, num_threads=training.get("num_threads"),
+                         grad_clip=training.get("grad_clip"), desc="FaceFormer training", progress=progress,
+                         loss_scale=scale**2)
