@@ -114,40 +114,126 @@ def vertex_metrics(ground_truth, generated, rigs: Mapping, names) -> dict:
         return _vertex_metrics(ground_truth, generated, rigs, names)
 
 
-def _vertex_metrics(ground_truth, generated, rigs, names) -> dict:
-    from benchmark.metrics import regions, vertex
+_VERTEX_SPEC = {"lve": (False, "mm"), "lve_squared": (False, "mm^2"), "mve": (False, "mm"), "fdd": (False, "mm^2"),
+                "apd": (True, "mm"), "upd": (True, "mm"), "lpd": (True, "mm"), "mpd": (True, "mm")}
 
-    per_seq = {k: [] for k in ("lve", "lve_squared", "mve", "fdd", "apd", "upd", "lpd", "mpd")}
-    cache = {}
+
+def sentence_vertex_values(preds, gt_v, neutral, lip, upper, lower) -> dict:
+    """LVE, LVE², MVE, |FDD| (means over samples) and, for S >= 2, the diversity measures of one sentence.
+
+    Parameters
+    ----------
+    preds : (S, T, V, 3) ndarray
+    gt_v : (T, V, 3) ndarray
+    neutral : (V, 3) ndarray
+    lip, upper, lower : int ndarrays
+        Lip, upper-face and lower-face vertex indices.
+
+    Returns
+    -------
+    dict
+        ``{name: float}`` with the names of :data:`_VERTEX_SPEC`.
+    """
+    from benchmark.metrics import vertex
+
+    lve, lve_sq, mve, fdd = [], [], [], []
+    for p in preds:
+        lve.append(vertex.lip_vertex_error(p, gt_v, lip))
+        lve_sq.append(vertex.lip_vertex_error(p, gt_v, lip, squared=True))
+        mve.append(vertex.mean_vertex_error(p, gt_v))
+        # |FDD| per sequence: CodeTalker's signed mean lets too-lively and
+        # too-still sequences cancel, and a ranking needs "closer to 0 is better".
+        fdd.append(abs(vertex.upper_face_dynamics_deviation(p, gt_v, neutral, upper)))
+    out = {"lve": float(np.mean(lve)), "lve_squared": float(np.mean(lve_sq)), "mve": float(np.mean(mve)),
+           "fdd": float(np.mean(fdd))}
+    if len(preds) >= 2:
+        div = vertex.pairwise_distance_by_region(preds, {"apd": None, "upd": upper, "lpd": lower, "mpd": lip})
+        out.update({name: float(value) for name, value in div.items()})
+    return out
+
+
+def _rig_regions(rig, names):
+    from benchmark.metrics import regions
+
+    neutral = np.asarray(rig.neutral, dtype=np.float64)
+    deltas = _rig_deltas(rig, names)
+    return (neutral, deltas, regions.lip_vertices(deltas, names), regions.upper_face_vertices(neutral),
+            regions.lower_face_vertices(neutral))
+
+
+def _collect(per_sentence_values: dict) -> dict:
+    per_seq = {}
+    for values in per_sentence_values.values():
+        for name, value in values.items():
+            per_seq.setdefault(name, []).append(value)
+    return {k: _entry(*_spread(per_seq[k]), *_VERTEX_SPEC[k]) for k in _VERTEX_SPEC if k in per_seq}
+
+
+def _vertex_metrics(ground_truth, generated, rigs, names) -> dict:
+    from benchmark.metrics import vertex
+
+    cache, values = {}, {}
     for (subject, sentence), tracks in generated.items():
         if subject not in cache:
-            rig = rigs[subject]
-            neutral = np.asarray(rig.neutral, dtype=np.float64)
-            deltas = _rig_deltas(rig, names)
-            cache[subject] = (neutral, deltas, regions.lip_vertices(deltas, names),
-                              regions.upper_face_vertices(neutral), regions.lower_face_vertices(neutral))
+            cache[subject] = _rig_regions(rigs[subject], names)
         neutral, deltas, lip, upper, lower = cache[subject]
         gt_v = vertex.rig_vertices(neutral, deltas, ground_truth[(subject, sentence)])
         preds = np.stack([vertex.rig_vertices(neutral, deltas, t) for t in tracks])
-        lve, lve_sq, mve, fdd = [], [], [], []
-        for p in preds:
-            lve.append(vertex.lip_vertex_error(p, gt_v, lip))
-            lve_sq.append(vertex.lip_vertex_error(p, gt_v, lip, squared=True))
-            mve.append(vertex.mean_vertex_error(p, gt_v))
-            # |FDD| per sequence: CodeTalker's signed mean lets too-lively and
-            # too-still sequences cancel, and a ranking needs "closer to 0 is better".
-            fdd.append(abs(vertex.upper_face_dynamics_deviation(p, gt_v, neutral, upper)))
-        per_seq["lve"].append(np.mean(lve))
-        per_seq["lve_squared"].append(np.mean(lve_sq))
-        per_seq["mve"].append(np.mean(mve))
-        per_seq["fdd"].append(np.mean(fdd))
-        if len(preds) >= 2:
-            div = vertex.pairwise_distance_by_region(preds, {"apd": None, "upd": upper, "lpd": lower, "mpd": lip})
-            for name, value in div.items():
-                per_seq[name].append(value)
-    spec = {"lve": (False, "mm"), "lve_squared": (False, "mm^2"), "mve": (False, "mm"), "fdd": (False, "mm^2"),
-            "apd": (True, "mm"), "upd": (True, "mm"), "lpd": (True, "mm"), "mpd": (True, "mm")}
-    return {k: _entry(*_spread(v), *spec[k]) for k, v in per_seq.items() if v}
+        values[(subject, sentence)] = sentence_vertex_values(preds, gt_v, neutral, lip, upper, lower)
+    return _collect(values)
+
+
+def own_vertex_metrics(generated_vertices: Mapping, ground_truth_vertices, rigs: Mapping, names, *,
+                       progress: bool = False) -> dict:
+    """LVE, MVE, FDD and the diversity measures of a vertex-output method's own vertices.
+
+    Parameters
+    ----------
+    generated_vertices : mapping (subject, sentence) -> (S, T, V, 3)
+        The method's vertices (metres, the speaker's topology).
+    ground_truth_vertices : callable (subject, sentence) -> (T, V, 3)
+        The source meshes (``dataset.vertices``).
+    rigs : subject -> rig
+        Define the lip region (from the rig's mouth shapes) and the face regions.
+    names : column names of the rig's shapes
+
+    Returns
+    -------
+    dict of metric entries; spread = std over sequences.
+    """
+    from threadpoolctl import threadpool_limits
+
+    cache, values = {}, {}
+    with threadpool_limits(limits=1):
+        for subject, sentence in tqdm(list(generated_vertices), disable=not progress, desc="vertex metrics",
+                                      unit="sentence"):
+            if subject not in cache:
+                cache[subject] = _rig_regions(rigs[subject], names)
+            neutral, _deltas, lip, upper, lower = cache[subject]
+            preds = np.asarray(generated_vertices[(subject, sentence)], dtype=np.float64)
+            gt_v = np.asarray(ground_truth_vertices(subject, sentence), dtype=np.float64)
+            if preds.shape[1:] != gt_v.shape or gt_v.shape[1:] != neutral.shape:
+                raise ValueError(f"own_vertex_metrics {subject}/{sentence}: expected vertices (S, {gt_v.shape[0]}, "
+                                 f"{neutral.shape[0]}, 3) like the source meshes {gt_v.shape} and the rig "
+                                 f"{neutral.shape}, got {preds.shape}")
+            values[(subject, sentence)] = sentence_vertex_values(preds, gt_v, neutral, lip, upper, lower)
+    return _collect(values)
+
+
+class _Subset(Mapping):
+    """The entries ``keys`` of a (lazily reading) mapping."""
+
+    def __init__(self, mapping, keys):
+        self._mapping, self._keys = mapping, keys
+
+    def __getitem__(self, key):
+        return self._mapping[key]
+
+    def __iter__(self):
+        return iter(self._keys)
+
+    def __len__(self):
+        return len(self._keys)
 
 
 def _rig_deltas(rig, names) -> np.ndarray:
@@ -208,6 +294,7 @@ def evaluate_split(
     syncnet=None,
     vertex: bool = True,
     lipsync: bool = True,
+    vertices: Mapping | None = None,
     progress: bool = False,
 ) -> dict:
     """Score generated tracks against a split's ground truth.
@@ -231,6 +318,11 @@ def evaluate_split(
         ``syncnet-weights``), or None (skip SyncNet).
     vertex, lipsync : bool
         Compute vertex-space and lip-sync metrics.
+    vertices : mapping (subject, sentence) -> (S, T, V, 3), optional
+        The own vertices of an ``output = "vertices"`` method (``generated`` then
+        holds their rig fits): the vertex metrics compare them with the source
+        meshes ``dataset.vertices(subject, sentence)`` instead of comparing rig
+        reconstructions of the tracks.
     progress : bool
 
     Returns
@@ -262,7 +354,10 @@ def evaluate_split(
         results = {}
     if vertex or lipsync:
         rigs = {s: dataset.rig(s) for s in {k[0] for k in generated}}
-    if vertex:
+    if vertex and vertices is not None:
+        results.update(own_vertex_metrics(_Subset(vertices, list(generated)), dataset.vertices, rigs, names,
+                                          progress=progress))
+    elif vertex:
         results.update(vertex_metrics(ground_truth, generated, rigs, names))
     if lipsync:
         if syncnet is True or isinstance(syncnet, (str, PathLike)):

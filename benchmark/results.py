@@ -140,7 +140,8 @@ def _clean_metrics(metrics) -> dict:
 
 
 def build_result(*, method: dict, dataset: dict, protocol: dict, metrics: dict, timings: dict,
-                 provenance: dict | None = None) -> dict:
+                 provenance: dict | None = None, tracks: str | None = None,
+                 per_sentence: list | None = None) -> dict:
     """Assemble and check a result record.
 
     Parameters
@@ -158,6 +159,10 @@ def build_result(*, method: dict, dataset: dict, protocol: dict, metrics: dict, 
         Seconds per stage.
     provenance : dict, optional
         Defaults to the current date, git revision, versions and hardware.
+    tracks : str, optional
+        The stored tracks folder, relative to the JSON's folder (``benchmark.runs``).
+    per_sentence : list of dict, optional
+        One ``{"subject", "sentence", metric: value, ...}`` row per scored sentence.
 
     Returns
     -------
@@ -184,6 +189,10 @@ def build_result(*, method: dict, dataset: dict, protocol: dict, metrics: dict, 
         "provenance": dict(provenance),
         "timings": {k: (None if v is None else round(float(v), 3)) for k, v in timings.items()},
     }
+    if tracks is not None:
+        result["tracks"] = str(tracks)
+    if per_sentence is not None:
+        result["per_sentence"] = list(per_sentence)
     result["method"].setdefault("label", result["method"].get("name"))
     check_result(result)
     return result

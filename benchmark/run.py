@@ -21,14 +21,20 @@ from benchmark.methods import (
     AUDIO_RATE,
     Budget,
     MethodError,
+    OUTPUT_COEFFICIENTS,
+    OUTPUT_KINDS,
+    OUTPUT_VERTICES,
     MethodOutputError,
     UnknownMethodError,
     Utterance,
     get_method,
     validated_tracks,
+    validated_vertices,
 )
 from benchmark.methods.base import CONFIG_FILE
-from benchmark.results import build_result, write_result
+from benchmark.methods.contract import COEFFICIENT_NAMES
+from benchmark.results import build_result, result_filename, write_result
+from benchmark.runs import TrackWriter, tracks_folder_name
 
 __all__ = [
     "DEFAULT_RESULTS_DIR",
@@ -152,8 +158,44 @@ def sentence_seed(seed: int, index: int) -> int:
     return int(np.random.SeedSequence([int(seed), int(index)]).generate_state(1)[0] & 0x7FFFFFFF)
 
 
+class _TimeLimit:
+    """Raise :class:`MethodTimeout` in the main thread once ``seconds`` have passed (SIGALRM; a no-op
+    where signals are unavailable, i.e. off the main thread or on Windows)."""
+
+    def __init__(self, seconds: float | None, what: str):
+        self.seconds, self.what = seconds, what
+        self._armed = False
+
+    def _fire(self, signum, frame):
+        raise MethodTimeout(f"{self.what}: exceeded the limit of {self.seconds:g} s")
+
+    def __enter__(self):
+        import signal
+        import threading
+
+        if (self.seconds is not None and self.seconds > 0 and hasattr(signal, "setitimer")
+                and threading.current_thread() is threading.main_thread()):
+            self._previous = signal.signal(signal.SIGALRM, self._fire)
+            signal.setitimer(signal.ITIMER_REAL, float(self.seconds))
+            self._armed = True
+        return self
+
+    def __exit__(self, *exc):
+        if self._armed:
+            import signal
+
+            signal.setitimer(signal.ITIMER_REAL, 0)
+            signal.signal(signal.SIGALRM, self._previous)
+        return False
+
+
+class MethodTimeout(MethodError):
+    """A method's ``generate`` or ``train`` ran past the limit the runner enforces."""
+
+
 def generated_tracks(method, dataset, *, split: str = "test", samples: int = 1, seed: int = 0,
-                     clip: bool = False, name: str | None = None, progress: bool = True):
+                     clip: bool = False, name: str | None = None, progress: bool = True, store=None,
+                     vertices_out=None, time_limit: float | None = None):
     """Ask ``method`` for every sentence of ``split`` and check each answer.
 
     Parameters
@@ -167,21 +209,33 @@ def generated_tracks(method, dataset, *, split: str = "test", samples: int = 1, 
     seed : int
     clip : bool
         Clip values outside [0, 1] instead of refusing them.
+    store : benchmark.runs.TrackWriter, optional
+        Receives every scored track (and a vertex method's own vertices).
+    vertices_out : dict, optional
+        Filled with a vertex method's own ``(S, T, V, 3)`` vertices per key (memory
+        permitting; the runner reads them back from ``store`` instead).
+    time_limit : float, optional
+        Seconds one ``generate`` call may take (stopped with :class:`MethodTimeout`).
 
     Returns
     -------
     generated : dict
-        ``{(subject, sentence): (S, T, 32) float64 ndarray}``, ``T`` = ground-truth frames.
+        ``{(subject, sentence): (S, T, 32) float64 ndarray}``, ``T`` = ground-truth
+        frames; for ``output = "vertices"`` methods the tracks fitted to their
+        vertices with the speaker's rig (:mod:`benchmark.vertex_fit`).
     n_clipped : int
 
     Raises
     ------
     MethodError
-        ``generate`` raised (message names method, subject and sentence).
+        ``generate`` raised or ran past ``time_limit`` (message names method, subject and sentence).
     MethodOutputError
         The output broke the contract (shape, frames, NaN, range).
     """
     name = name or getattr(method, "name", type(method).__name__)
+    kind = getattr(method, "output", OUTPUT_COEFFICIENTS)
+    if kind not in OUTPUT_KINDS:
+        raise MethodOutputError(f"method {name!r}: output must be one of {OUTPUT_KINDS}, got {kind!r}")
     num_samples = int(samples) if getattr(method, "stochastic", False) else 1
     names = tuple(getattr(dataset, "names", ()) or ())
     num_coeffs = len(names) if names else 32
@@ -200,16 +254,33 @@ def generated_tracks(method, dataset, *, split: str = "test", samples: int = 1, 
             raise ValueError(f"dataset audio for {subject}/{sentence}: expected {AUDIO_RATE} Hz, got {rate}")
         num_frames = int(np.asarray(dataset.coeffs(subject, sentence)).shape[0])
         utterance = Utterance(subject=subject, sentence=sentence, split=split, audio=audio, num_frames=num_frames)
+        where = f"method {name!r}, subject {subject!r}, sentence {sentence!r}"
         try:
-            output = method.generate(utterance, samples=num_samples, seed=sentence_seed(seed, index))
+            with _TimeLimit(time_limit, f"{where}: generate"):
+                output = method.generate(utterance, samples=num_samples, seed=sentence_seed(seed, index))
+        except MethodTimeout:
+            raise
         except Exception as exc:
-            raise MethodError(f"method {name!r}, subject {subject!r}, sentence {sentence!r}: generate failed: "
-                              f"{type(exc).__name__}: {exc}") from exc
-        tracks, clipped = validated_tracks(output, method=name, subject=subject, sentence=sentence,
-                                           num_frames=num_frames, samples=num_samples, num_coeffs=num_coeffs,
-                                           clip=clip)
+            raise MethodError(f"{where}: generate failed: {type(exc).__name__}: {exc}") from exc
+        if kind == OUTPUT_VERTICES:
+            rig = dataset.rig(subject)
+            verts = validated_vertices(output, method=name, subject=subject, sentence=sentence, num_frames=num_frames,
+                                       samples=num_samples, num_vertices=int(np.asarray(rig.neutral).shape[0]))
+            from benchmark.vertex_fit import fitted_sample_tracks
+
+            tracks = fitted_sample_tracks(verts, rig, names or rig.names)
+            if store is not None:
+                store.write_vertices(subject, sentence, verts, rig.neutral)
+            if vertices_out is not None:
+                vertices_out[(subject, sentence)] = verts
+        else:
+            tracks, clipped = validated_tracks(output, method=name, subject=subject, sentence=sentence,
+                                               num_frames=num_frames, samples=num_samples, num_coeffs=num_coeffs,
+                                               clip=clip)
+            n_clipped += clipped
+        if store is not None:
+            store.write_tracks(subject, sentence, tracks)
         generated[(subject, sentence)] = tracks
-        n_clipped += clipped
     return generated, n_clipped
 
 
@@ -264,6 +335,7 @@ def run_method(
     evaluate=None,
     open_dataset=None,
     progress: bool = True,
+    generate_time_limit: float | None = None,
 ) -> Path:
     """Train or load ``method_name``, generate on ``split``, score it and write the result.
 
@@ -292,6 +364,8 @@ def run_method(
         ``benchmark.evaluate.evaluate_split``.
     open_dataset : callable, optional
         ``open_dataset(root) -> dataset``; default ``benchmark.data.open_blendvoca``.
+    generate_time_limit : float, optional
+        Seconds one ``generate`` call may take before the run stops with an error.
 
     Returns
     -------
@@ -310,29 +384,46 @@ def run_method(
     dataset = open_dataset(data_root)
 
     method, timings = prepared_method(method_name, config, dataset, seed=seed, budget=budget, checkpoint=checkpoint)
-    start = time.perf_counter()
-    generated, n_clipped = generated_tracks(method, dataset, split=split, samples=samples, seed=seed, clip=clip,
-                                            name=method_name, progress=progress)
-    timings["generate_s"] = time.perf_counter() - start
-    start = time.perf_counter()
-    metrics = evaluate(generated, dataset, split=split)
-    timings["evaluate_s"] = time.perf_counter() - start
+    stochastic = bool(getattr(method, "stochastic", False))
+    kind = getattr(method, "output", OUTPUT_COEFFICIENTS)
+    label = getattr(method, "label", None) or method_name
+    filename = result_filename({"method": {"name": method_name, "label": label},
+                                "dataset": {"manifest_hash": str(dataset.manifest_hash)},
+                                "protocol": {"samples": int(samples) if stochastic else 1, "seed": int(seed)}})
+    names = tuple(getattr(dataset, "names", ()) or COEFFICIENT_NAMES)
+    store = TrackWriter(Path(results_dir) / tracks_folder_name(filename), names)
+    try:
+        start = time.perf_counter()
+        generated, n_clipped = generated_tracks(method, dataset, split=split, samples=samples, seed=seed, clip=clip,
+                                                name=method_name, progress=progress, store=store,
+                                                time_limit=generate_time_limit)
+        timings["generate_s"] = time.perf_counter() - start
+        start = time.perf_counter()
+        if kind == OUTPUT_VERTICES:
+            metrics = evaluate(generated, dataset, split=split, vertices=store.stored_vertices())
+        else:
+            metrics = evaluate(generated, dataset, split=split)
+        timings["evaluate_s"] = time.perf_counter() - start
+    except BaseException:
+        store.discard()
+        raise
     timings["total_s"] = time.perf_counter() - total_start
 
     try:
         method_config = method.config()
         json.dumps(method_config)
     except Exception as exc:
+        store.discard()
         raise MethodError(f"method {method_name!r}: config() must return a JSON-serialisable dict ({exc})") from exc
-    stochastic = bool(getattr(method, "stochastic", False))
     cls = type(method)
     result = build_result(
         method={
             "name": method_name,
-            "label": getattr(method, "label", None) or method_name,
+            "label": label,
             "class": f"{cls.__module__}:{cls.__qualname__}",
             "stochastic": stochastic,
             "reference": bool(getattr(method, "reference", False)),
+            "output": kind,
             "config": method_config,
         },
         dataset={
@@ -352,8 +443,10 @@ def run_method(
         },
         metrics=metrics,
         timings=timings,
+        tracks=tracks_folder_name(filename),
     )
-    return write_result(result, results_dir)
+    store.commit()
+    return write_result(result, results_dir, filename)
 
 
 def _parser() -> argparse.ArgumentParser:

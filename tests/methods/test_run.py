@@ -107,9 +107,14 @@ def test_cli_reports_misbehaviour_without_traceback(dataset, tmp_path, monkeypat
                "--samples", "2", "--seed", "5"])
     assert rc == 0
     assert "coeff_mse" in capsys.readouterr().err  # the metric summary
-    (path,) = (tmp_path / "r").iterdir()
+    (path,) = (tmp_path / "r").glob("*.json")
     result = json.loads(path.read_text())
     assert result["protocol"]["samples"] == 2 and result["protocol"]["seed"] == 5
+    # the stored tracks: one CSV per sentence and sample, in the folder the JSON names
+    tracks = sorted(p.relative_to(tmp_path / "r" / result["tracks"]).as_posix()
+                    for p in (tmp_path / "r" / result["tracks"]).rglob("*.csv"))
+    assert tracks == [f"{s}/sentence{q:02d}-{k}.csv" for s in ("D", "E") for q in (1, 2) for k in (0, 1)]
+    assert sorted(p.name for p in (tmp_path / "r").iterdir()) == [result["tracks"], path.name]
 
 
 def test_result_file_contents(dataset, tmp_path):
