@@ -125,6 +125,22 @@ def prepared_method(name: str, config: dict, dataset, *, seed: int, budget: Budg
     """
     cls = get_method(name)
     timings = {"train_s": None, "load_s": None}
+    if checkpoint is not None and Path(checkpoint).is_file():
+        # a released weights file (e.g. FaceFormer's vocaset.pth): methods that read one
+        # provide ``from_official_checkpoint(path, **config)``; ``train`` then only reads
+        # what the method needs from the dataset (templates) and trains nothing
+        loader = getattr(cls, "from_official_checkpoint", None)
+        if loader is None:
+            raise MethodError(f"method {name!r}: --checkpoint {checkpoint} is a file, but this method loads only "
+                              f"directories written by its save()")
+        start = time.perf_counter()
+        try:
+            method = loader(str(checkpoint), **config)
+            method.train(dataset, seed=seed, budget=budget)
+        except Exception as exc:
+            raise MethodError(f"method {name!r}: loading {checkpoint} failed: {type(exc).__name__}: {exc}") from exc
+        timings["load_s"] = time.perf_counter() - start
+        return method, timings
     if checkpoint is not None and Path(checkpoint).is_dir() and any(Path(checkpoint).iterdir()):
         saved = Path(checkpoint) / CONFIG_FILE
         if saved.is_file():
@@ -463,7 +479,8 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--config", action="append", default=[], metavar="KEY=VALUE",
                    help="method config entry (repeatable; VALUE parsed as JSON when possible)")
     p.add_argument("--split", default="test")
-    p.add_argument("--checkpoint", default=None, help="load the trained method from here, or train and save here")
+    p.add_argument("--checkpoint", default=None, help="load the trained method from here, or train and save here; "
+                        "a file: the authors' released weights (faceformer, codetalker)")
     p.add_argument("--clip", action="store_true", help="clip out-of-range coefficients instead of failing")
     p.add_argument("--list", action="store_true", help="list the available methods and exit")
     p.add_argument("--quiet", action="store_true", help="no progress bars")

@@ -25,6 +25,8 @@ class CodeTalkerMethod(StyleVertexMethod):
     preset : {"cpu-demo", "paper"}, default "cpu-demo"
     official, official_stage1 : str, optional
         The authors' ``vocaset_stage2.pth.tar`` and ``vocaset_stage1.pth.tar``; then nothing is trained.
+    official_wav2vec2 : "base", "tiny" or dict, default "base"
+        wav2vec 2.0 architecture of those files (the released ones: base-960h).
     resolved : dict, optional
         Ignored (the resolved config reported by :meth:`config`).
     **overrides
@@ -36,8 +38,9 @@ class CodeTalkerMethod(StyleVertexMethod):
     checkpoint_file = "codetalker.pt"
 
     def __init__(self, preset: str = "cpu-demo", official: str | None = None, official_stage1: str | None = None,
-                 resolved: dict | None = None, **overrides):
-        super().__init__(preset=preset, official=official, official_stage1=official_stage1, **overrides)
+                 official_wav2vec2="base", resolved: dict | None = None, **overrides):
+        super().__init__(preset=preset, official=official, official_stage1=official_stage1,
+                         official_wav2vec2=official_wav2vec2, **overrides)
         self.settings = resolve_config(preset, **overrides)
         self.motion_scale = float(self.settings["training"]["motion_scale"])
         if (official is None) != (official_stage1 is None):
@@ -46,12 +49,34 @@ class CodeTalkerMethod(StyleVertexMethod):
         if official is not None:
             from baselines.codetalker.official import load_official
 
-            self.network = load_official(official, official_stage1)
+            self.network = load_official(official, official_stage1, wav2vec2_config=official_wav2vec2)
             self.subjects = official_style_names(self.network.config["num_subjects"])
             self.motion_scale = 1.0
 
     def config(self) -> dict:
         return {**super().config(), "resolved": self.settings}
+
+    @classmethod
+    def from_official_checkpoint(cls, path, **config) -> CodeTalkerMethod:
+        """The method with the authors' stage-2 file ``path`` (``benchmark.run --checkpoint FILE``).
+
+        The stage-1 file is ``official_stage1`` when given, else the sibling named like
+        ``path`` with ``stage2`` replaced by ``stage1`` (the released files' names).
+        """
+        from pathlib import Path
+
+        config.pop("official", None)
+        stage1 = config.pop("official_stage1", None)
+        if stage1 is None:
+            path = Path(path)
+            if "stage2" not in path.name:
+                raise ValueError(f"CodeTalker: cannot tell the stage-1 file for {path}; expected a name with 'stage2' "
+                                 "(vocaset_stage2.pth.tar) or --config official_stage1=PATH")
+            stage1 = path.with_name(path.name.replace("stage2", "stage1"))
+            if not stage1.is_file():
+                raise FileNotFoundError(f"CodeTalker: expected the stage-1 file {stage1} next to {path}, not found "
+                                        "(or pass --config official_stage1=PATH)")
+        return cls(official=str(path), official_stage1=str(stage1), **config)
 
     def build_network(self, num_subjects: int, vertice_dim: int) -> None:
         from baselines.codetalker.model import CodeTalker

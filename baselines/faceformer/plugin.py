@@ -44,6 +44,8 @@ class FaceFormerMethod(StyleVertexMethod):
     preset : {"cpu-demo", "paper"}, default "cpu-demo"
     official : str, optional
         Path of the authors' ``vocaset.pth``; then nothing is trained.
+    official_wav2vec2 : "base", "tiny" or dict, default "base"
+        wav2vec 2.0 architecture of that file (the released one: base-960h).
     resolved : dict, optional
         Ignored (the resolved config reported by :meth:`config`).
     **overrides
@@ -54,19 +56,26 @@ class FaceFormerMethod(StyleVertexMethod):
     label = "FaceFormer"
     checkpoint_file = "faceformer.pt"
 
-    def __init__(self, preset: str = "cpu-demo", official: str | None = None, resolved: dict | None = None, **overrides):
-        super().__init__(preset=preset, official=official, **overrides)
+    def __init__(self, preset: str = "cpu-demo", official: str | None = None, official_wav2vec2="base",
+                 resolved: dict | None = None, **overrides):
+        super().__init__(preset=preset, official=official, official_wav2vec2=official_wav2vec2, **overrides)
         self.settings = resolve_config(preset, **overrides)
         self.motion_scale = float(self.settings["training"]["motion_scale"])
         if official is not None:
             from baselines.faceformer.official import load_official
 
-            self.network = load_official(official)
+            self.network = load_official(official, wav2vec2_config=official_wav2vec2)
             self.subjects = official_style_names(self.network.config["num_subjects"])
             self.motion_scale = 1.0
 
     def config(self) -> dict:
         return {**super().config(), "resolved": self.settings}
+
+    @classmethod
+    def from_official_checkpoint(cls, path, **config) -> FaceFormerMethod:
+        """The method with the authors' ``vocaset.pth`` (``benchmark.run --checkpoint FILE``)."""
+        config.pop("official", None)
+        return cls(official=str(path), **config)
 
     def build_network(self, num_subjects: int, vertice_dim: int) -> None:
         from baselines.faceformer.model import Faceformer

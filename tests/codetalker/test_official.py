@@ -50,22 +50,22 @@ def _random(shape, key):
     return torch.randn(shape) / math.sqrt(fan_in)
 
 
-def authors_stage1_state(seed=0):
+def authors_stage1_state(seed=0, cfg1=CFG1):
     torch.manual_seed(seed)
-    state = {k: _random(s, k) for k, s in authors_stage1_shapes(CFG1).items()}
-    state["quantize.embedding.weight"] = torch.randn(CFG1["n_embed"], CFG1["zquant_dim"])
-    state["encoder.encoder_pos_embedding.pe"] = _sinusoid_table(CFG1["hidden_size"])
-    state["decoder.decoder_pos_embedding.pe"] = _sinusoid_table(CFG1["hidden_size"])
+    state = {k: _random(s, k) for k, s in authors_stage1_shapes(cfg1).items()}
+    state["quantize.embedding.weight"] = torch.randn(cfg1["n_embed"], cfg1["zquant_dim"])
+    state["encoder.encoder_pos_embedding.pe"] = _sinusoid_table(cfg1["hidden_size"])
+    state["decoder.decoder_pos_embedding.pe"] = _sinusoid_table(cfg1["hidden_size"])
     return state
 
 
-def authors_stage2_state(legacy, seed=1):
+def authors_stage2_state(legacy, seed=1, cfg1=CFG1):
     torch.manual_seed(seed)
     w2v = wav2vec2_model(tiny_config()).state_dict()
     state = {"audio_encoder." + k: v for k, v in (legacy_layout_state(w2v) if legacy else w2v).items()}
     for name, shape in {"audio_feature_map.weight": (D, 32), "audio_feature_map.bias": (D,),
-                        "vertice_map.weight": (D, CFG1["in_dim"]), "vertice_map.bias": (D,),
-                        "feat_map.weight": (CFG1["face_quan_num"] * CFG1["zquant_dim"], D),
+                        "vertice_map.weight": (D, cfg1["in_dim"]), "vertice_map.bias": (D,),
+                        "feat_map.weight": (cfg1["face_quan_num"] * cfg1["zquant_dim"], D),
                         "learnable_style_emb.weight": (NSUBJ, D)}.items():
         state[name] = _random(shape, name)
     state["learnable_style_emb.weight"] = torch.randn(NSUBJ, D)

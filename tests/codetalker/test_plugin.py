@@ -76,3 +76,27 @@ def test_save_load_round_trip(tmp_path):
 def test_official_paths_come_in_pairs():
     with pytest.raises(ValueError, match="official_stage1"):
         CodeTalkerMethod(official="stage2.pth.tar")
+
+
+def test_official_checkpoints_through_the_runner(tmp_path):
+    """``benchmark.run --checkpoint vocaset_stage2.pth.tar`` finds the stage-1 file beside it."""
+    from benchmark.run import prepared_method
+    from tests.codetalker import test_official as official
+
+    ds = FakeBlendVOCA(0, train=2, sentences=1)
+    subject = ds.split("test")[0]
+    vdim = ds.template(subject).size
+    cfg1 = {**official.CFG1, "in_dim": vdim}
+    s1, s2 = official.authors_stage1_state(cfg1=cfg1), official.authors_stage2_state(True, cfg1=cfg1)
+    torch.save({"state_dict": s1}, tmp_path / "vocaset_stage1.pth.tar")
+    torch.save({"state_dict": s2}, tmp_path / "vocaset_stage2.pth.tar")
+    method, timings = prepared_method("codetalker", {"official_wav2vec2": "tiny"}, ds, seed=0,
+                                      budget=Budget(max_steps=5), checkpoint=tmp_path / "vocaset_stage2.pth.tar")
+    assert timings["train_s"] is None and len(method.subjects) == 8
+    u = ds.utterance(subject, ds.sentences(subject)[0], "test")
+    out = method.generate(u, samples=2)
+    assert out.shape == (2, u.num_frames, vdim // 3, 3) and np.isfinite(out).all()
+    (tmp_path / "vocaset_stage1.pth.tar").unlink()
+    with pytest.raises(Exception, match="stage-1 file"):
+        prepared_method("codetalker", {"official_wav2vec2": "tiny"}, ds, seed=0, budget=Budget(max_steps=5),
+                        checkpoint=tmp_path / "vocaset_stage2.pth.tar")

@@ -16,7 +16,7 @@ from tests.faceformer.authors_reference import (
 VDIM, D, NSUBJ, PERIOD = 5023 * 3, 64, 8, 30
 
 
-def authors_state(legacy: bool, seed: int = 0) -> dict:
+def authors_state(legacy: bool, seed: int = 0, vdim: int = VDIM) -> dict:
     """A random-init state_dict with the key names and shapes of the authors' Faceformer (tiny wav2vec 2.0)."""
     torch.manual_seed(seed)
     w2v = wav2vec2_model(tiny_config()).state_dict()
@@ -29,12 +29,12 @@ def authors_state(legacy: bool, seed: int = 0) -> dict:
             state[name + ".bias"] = m.bias.detach().clone()
 
     linear("audio_feature_map", 32, D)
-    linear("vertice_map", VDIM, D)
+    linear("vertice_map", vdim, D)
     state["PPE.pe"] = reference_pe(D, PERIOD)
     layer = nn.TransformerDecoderLayer(d_model=D, nhead=4, dim_feedforward=2 * D, batch_first=True)
     for k, v in nn.TransformerDecoder(layer, num_layers=1).state_dict().items():
         state["transformer_decoder." + k] = v.detach().clone()
-    linear("vertice_map_r", D, VDIM)
+    linear("vertice_map_r", D, vdim)
     with torch.no_grad():
         state["vertice_map_r.weight"] *= 0.01
     linear("obj_vector", NSUBJ, D, bias=False)

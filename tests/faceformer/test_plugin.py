@@ -93,21 +93,32 @@ def test_save_load_round_trip(tmp_path):
     assert back.subjects == m.subjects
 
 
-def test_official_checkpoint_through_the_plugin(tmp_path):
+def test_official_checkpoint_through_the_runner(tmp_path):
+    """``benchmark.run --checkpoint vocaset.pth``: the authors' weights, their 8 styles, no training."""
+    from baselines.faceformer import load_official
+    from benchmark.methods.base import Budget
+    from benchmark.run import prepared_method
     from tests.faceformer.test_official import authors_state
 
-    state = authors_state(legacy=True)
-    torch.save(state, tmp_path / "vocaset.pth")
+    ds = FakeBlendVOCA(0, train=2, sentences=1)
+    subject = ds.split("test")[0]
+    vdim = ds.template(subject).size
+    torch.save(authors_state(legacy=True, vdim=vdim), tmp_path / "vocaset.pth")
     with pytest.raises(FileNotFoundError, match="missing.pth"):
         FaceFormerMethod(official=str(tmp_path / "missing.pth"))
-    from baselines.faceformer import load_official
+    method, timings = prepared_method("faceformer", {"official_wav2vec2": "tiny"}, ds, seed=0,
+                                      budget=Budget(max_steps=5), checkpoint=tmp_path / "vocaset.pth")
+    assert timings["train_s"] is None and len(method.subjects) == 8
+    u = ds.utterance(subject, ds.sentences(subject)[0], "test")
+    out = method.generate(u, samples=2, seed=3)
+    assert out.shape == (2, u.num_frames, vdim // 3, 3)
+    # sample 0 is style 3: the authors' predict with one-hot 3, at 30 fps, resampled to 60 fps
+    from baselines.faceformer.audio import normalized_speech
+    from baselines.faceformer.sequences import motion_frames, to_benchmark_rate
 
     model = load_official(tmp_path / "vocaset.pth", wav2vec2_config="tiny")
-    m = FaceFormerMethod()
-    m.network, m.subjects, m.motion_scale = model, [f"s{k}" for k in range(8)], 1.0
-    m.templates = {"X": np.zeros(5023 * 3, np.float32)}
-    from benchmark.methods.contract import Utterance
-
-    u = Utterance("X", "sentence01", "test", np.random.default_rng(0).standard_normal(16000).astype(np.float32), 60)
-    out = m.generate(u, samples=2)
-    assert out.shape == (2, 60, 5023, 3) and np.isfinite(out).all()
+    with torch.no_grad():
+        ref = model.predict(normalized_speech(torch.from_numpy(u.audio)[None]),
+                            torch.from_numpy(ds.template(subject).reshape(1, -1)).float(),
+                            torch.eye(8)[3:4], motion_frames(u.num_frames))[0].numpy()
+    np.testing.assert_allclose(out[0], to_benchmark_rate(ref, u.num_frames).reshape(out[0].shape), atol=1e-6)
