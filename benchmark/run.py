@@ -457,12 +457,20 @@ def run_method(
             "n_clipped": int(n_clipped),
             "checkpoint": None if checkpoint is None else str(checkpoint),
         },
-        metrics=metrics,
+        metrics=dict(metrics),
         timings=timings,
         tracks=tracks_folder_name(filename),
+        per_sentence=_per_sentence_rows(metrics, generated),
     )
     store.commit()
     return write_result(result, results_dir, filename)
+
+
+def _per_sentence_rows(metrics, generated) -> list:
+    """One row per scored sentence: the evaluation's rows (``Scores.per_sentence``) or, for an
+    evaluation that gives none, the sentence's subject and name."""
+    rows = {(r["subject"], r["sentence"]): r for r in getattr(metrics, "per_sentence", None) or []}
+    return [dict(rows.get(key, {"subject": key[0], "sentence": key[1]})) for key in generated]
 
 
 def _parser() -> argparse.ArgumentParser:
