@@ -330,10 +330,10 @@ def _open_default(root):
     return open_blendvoca(root)
 
 
-def _evaluate_default(generated, dataset, split="test"):
+def _evaluate_default(generated, dataset, split="test", vertices=None):
     from benchmark.evaluate import evaluate_split
 
-    return evaluate_split(generated, dataset, split=split)
+    return evaluate_split(generated, dataset, split=split, vertices=vertices)
 
 
 def run_method(
