@@ -49,6 +49,12 @@ PLAN = (
     PlanEntry("regression", max_steps=1500, note="log-mel -> 1-D conv regression, 1500 steps"),
     PlanEntry("said", config={"preset": "cpu-demo"}, samples=5, max_steps=1500,
               note="SAiD cpu-demo preset, 1500 steps, 5 samples, DDIM 50 (paper: 72 samples, DDIM 1000)"),
+    PlanEntry("faceformer", config={"preset": "cpu-demo"}, samples=8, max_steps=1500,
+              note="FaceFormer cpu-demo (log-mel front end, width 64), 1500 steps of one sentence, "
+                   "8 samples = 8 training-speaker styles"),
+    PlanEntry("codetalker", config={"preset": "cpu-demo"}, samples=8, max_steps=2000,
+              note="CodeTalker cpu-demo (VQ-VAE 64 = 4 x 16, 128 codes), 800 + 1200 steps (stage 1 + 2), "
+                   "8 samples = 8 training-speaker styles"),
 )
 
 

@@ -1,7 +1,8 @@
 """CodeTalker's two-stage training on vertex sequences.
 
 Stage 1 learns the motion codebook: the VQ-VAE reconstructs each sentence (L1) with
-the codebook + commitment loss (weight ``quant_loss_weight``), AdamW. Stage 2 freezes
+the codebook + commitment loss (weight ``quant_loss_weight``), AdamW (``paper``: the
+rate halved every 20 epochs). Stage 2 freezes
 it and learns the speech-conditioned code query with teacher forcing: MSE of the
 decoded motion plus MSE between the predicted and the ground truth's quantized
 features, Adam.
@@ -50,7 +51,9 @@ def train_stage1(vq, train, val, *, training: dict, seed: int, max_steps: float,
     return fit_sequences(vq, loss, items, val_loss if val_items else None, lr=training["stage1_lr"], seed=seed,
                          max_steps=max_steps, max_seconds=max_seconds, optimizer="adamw",
                          num_threads=training.get("num_threads"), grad_clip=training.get("grad_clip"),
-                         desc="CodeTalker stage 1 (VQ-VAE)", progress=progress, loss_scale=scale)
+                         desc="CodeTalker stage 1 (VQ-VAE)", progress=progress, loss_scale=scale,
+                         lr_step_every=(int(training["stage1_step_epochs"]) * len(items)
+                                        if training.get("stage1_step_epochs") else None))
 
 
 def train_stage2(model, train, val, subjects, *, training: dict, seed: int, max_steps: float, max_seconds: float,

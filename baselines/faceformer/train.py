@@ -26,7 +26,8 @@ def sequence_tensors(seq, *, scale: float, normalise_audio: bool):
 
 def fit_sequences(model, step_loss, items, val_loss=None, *, lr: float, seed: int, max_steps: float,
                   max_seconds: float, optimizer: str = "adam", num_threads=None, grad_clip=None,
-                  desc: str = "training", progress: bool = True, loss_scale: float = 1.0) -> dict:
+                  desc: str = "training", progress: bool = True, loss_scale: float = 1.0,
+                  lr_step_every: int | None = None, lr_gamma: float = 0.5) -> dict:
     """Optimise ``model``'s trainable parameters, one item per step in shuffled epochs.
 
     Parameters
@@ -43,6 +44,8 @@ def fit_sequences(model, step_loss, items, val_loss=None, *, lr: float, seed: in
     optimizer : {"adam", "adamw"}
     loss_scale : float
         Divides the logged losses (undoes a unit change of the targets).
+    lr_step_every : int, optional
+        Multiply the learning rate by ``lr_gamma`` every this many steps (a StepLR).
 
     Returns
     -------
@@ -51,9 +54,12 @@ def fit_sequences(model, step_loss, items, val_loss=None, *, lr: float, seed: in
     """
     import copy
 
+    if math.isinf(max_steps) and math.isinf(max_seconds):
+        raise ValueError(f"{desc}: expected a step, time or epoch limit, got none")
     rng = np.random.default_rng(seed)
     params = [p for p in model.parameters() if p.requires_grad]
     opt = (torch.optim.AdamW if optimizer == "adamw" else torch.optim.Adam)(params, lr=lr)
+    sched = torch.optim.lr_scheduler.StepLR(opt, int(lr_step_every), lr_gamma) if lr_step_every else None
     check_every = max(1, int(max_steps // 10)) if not math.isinf(max_steps) else 200
     history = {"train_loss": [], "val": [], "best_step": None}
     best, best_state = math.inf, None
@@ -81,6 +87,8 @@ def fit_sequences(model, step_loss, items, val_loss=None, *, lr: float, seed: in
             if grad_clip:
                 torch.nn.utils.clip_grad_norm_(params, grad_clip)
             opt.step()
+            if sched is not None:
+                sched.step()
             step += 1
             history["train_loss"].append(loss.item() / loss_scale)
             bar.update(1)

@@ -29,13 +29,12 @@ def style_indices(samples: int, seed: int, n_styles: int) -> list[int]:
 
 
 def training_limits(budget: Budget, default_steps, default_seconds) -> tuple[float, float]:
-    """``(max_steps, max_seconds)`` from the budget, else the preset (``inf`` for none)."""
+    """``(max_steps, max_seconds)`` from the budget, else the preset (``inf`` for none; an epoch count
+    of the preset then applies)."""
     steps = budget.max_steps if budget.max_steps is not None else default_steps
     seconds = budget.max_seconds if budget.max_seconds is not None else default_seconds
     if budget.max_steps is not None and budget.max_seconds is None:
         seconds = None
-    if steps is None and seconds is None:
-        raise ValueError("training: expected a step or time limit, got neither")
     return (math.inf if steps is None else int(steps)), (math.inf if seconds is None else float(seconds))
 
 

@@ -1,5 +1,7 @@
 """CodeTalker plug-in and training: contract, codebook learning, two-stage freeze, round trip."""
 
+import math
+
 import numpy as np
 import pytest
 import torch
@@ -24,6 +26,7 @@ def test_budget_split():
     assert (t1, t2) == (25.0, 75.0) and s1 == s2 == float("inf")
 
 
+@pytest.mark.slow
 def test_stage1_learns_a_codebook_that_reconstructs():
     """On a toy of 8 repeated poses the VQ-VAE's reconstruction error falls well below the motion's size."""
     rng = np.random.default_rng(0)
@@ -100,3 +103,18 @@ def test_official_checkpoints_through_the_runner(tmp_path):
     with pytest.raises(Exception, match="stage-1 file"):
         prepared_method("codetalker", {"official_wav2vec2": "tiny"}, ds, seed=0, budget=Budget(max_steps=5),
                         checkpoint=tmp_path / "vocaset_stage2.pth.tar")
+
+
+def test_paper_schedule_is_epochs_when_no_budget_is_given():
+    from baselines.faceformer.train import epochs_to_steps
+    from baselines.faceformer.vertex_method import training_limits
+
+    from baselines.codetalker.presets import resolve_config
+
+    t = resolve_config("paper")["training"]
+    steps, seconds = training_limits(Budget(), t["max_steps"], t["max_seconds"])
+    assert math.isinf(steps) and math.isinf(seconds)
+    assert epochs_to_steps(t, 320, steps, seconds) == 100 * 320
+    assert training_limits(Budget(max_steps=7), t["max_steps"], t["max_seconds"]) == (7, math.inf)
+    with pytest.raises(ValueError, match="unknown config key"):
+        resolve_config("paper", widht=3)

@@ -44,6 +44,7 @@ def test_samples_are_training_speaker_styles():
     np.testing.assert_allclose(m.generate(u, samples=1, seed=1)[0], out[1])
 
 
+@pytest.mark.slow
 def test_teacher_forcing_and_autoregression_agree_on_a_trained_toy():
     """Trained to reproduce one sequence, the free-running prediction follows the teacher-forced one."""
     from baselines.faceformer.model import Faceformer
