@@ -467,6 +467,12 @@ def run_method(
     splits = getattr(dataset, "splits", None)
     if splits is not None and split not in splits:
         raise UsageError(f"--split: expected one of {sorted(splits)}, got {split!r}")
+    try:
+        subjects = dataset.split(split)
+    except (KeyError, ValueError):
+        raise UsageError(f"--split: the dataset has no split {split!r}") from None
+    if not subjects:
+        raise UsageError(f"--split {split!r}: no subjects of that split in {data_root}")
     cls = get_method(method_name)
     if getattr(cls, "output", OUTPUT_COEFFICIENTS) == OUTPUT_VERTICES and hasattr(dataset, "corpus_root"):
         try:  # the vertex metrics compare with the source meshes: fail now, not after training

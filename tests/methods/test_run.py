@@ -244,3 +244,27 @@ def test_runner_enforces_generate_time_limit_and_training_budget(dataset, tmp_pa
         assert json.loads(path.read_text())["protocol"]["deterministic"] is False
     finally:
         unregister("test-slow")
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--method", "mean", "--data", "/no/such/dir"], "--data /no/such/dir: no such folder"),
+    (["--method", "mean", "--samples", "many"], "--samples"),
+    (["--method", "mean", "--vocaset", "/no/such/corpus"], "--vocaset"),
+])
+def test_cli_user_mistakes_are_one_error_line(argv, message, capsys):
+    with pytest.raises(SystemExit) as exit_info:
+        main(argv)
+    err = capsys.readouterr().err.strip().splitlines()
+    assert exit_info.value.code == 2 and len(err) == 1 and err[0].startswith("error: ") and message in err[0]
+
+
+def test_cli_results_must_be_a_writable_folder(dataset, tmp_path, monkeypatch, capsys):
+    import benchmark.run as run_mod
+
+    monkeypatch.setattr(run_mod, "_open_default", lambda root: dataset)
+    (tmp_path / "file").write_text("x")
+    for argv in (["--results", str(tmp_path / "file")], ["--split", "nope", "--results", str(tmp_path / "r")],
+                 ["--budget", "5 parsecs", "--results", str(tmp_path / "r")]):
+        assert main(["--method", "mean", "--data", str(tmp_path), "--quiet", *argv]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and err[0].startswith("error: "), err
