@@ -11,8 +11,12 @@ Layout (docs/architecture.md)::
     splits.json                                      {"train": [...], "val": [...], "test": [...]}
     manifest.json
 
-Without ``splits.json`` the standard VOCASET split is used; without ``rigs/`` the
-rig is built from the SAiD-layout OBJ files.
+Only the files ``manifest.json`` lists exist for the dataset (outputs of failed or
+removed sentences left on disk are not seen); a folder without a manifest is
+refused with the command that builds it (a hand-made SAiD-layout folder is listed
+once with ``python -m blendvoca.build.manifest DIR``). Without ``splits.json`` the
+standard VOCASET split is used; without ``rigs/`` the rig is built from the
+SAiD-layout OBJ files.
 
 Vertex-trained methods read the source mesh sequences through
 :meth:`BlendVOCADataset.vertices` and :meth:`BlendVOCADataset.template`: they come
@@ -51,23 +55,30 @@ class BlendVOCADataset:
     """
 
     def __init__(self, root: Path, vocaset=None):
+        from blendvoca.build.manifest import listed_files
         from blendvoca.names import BLENDVOCA_NAMES
 
         self.root = root
         self._vocaset = None if vocaset is None else Path(vocaset).expanduser()
         self.names = tuple(BLENDVOCA_NAMES)
+        self._listed = listed_files(root)  # the dataset is what manifest.json lists, nothing else
         coeff_dir = root / "blendshape_coeffs"
-        if not coeff_dir.is_dir():
-            raise ValueError(f"open_blendvoca: {root} has no blendshape_coeffs/ folder; not a BlendVOCA dataset")
-        self.subjects = sorted(p.name for p in coeff_dir.iterdir() if p.is_dir())
+        self.subjects = sorted({rel.split("/")[1] for rel in self._listed
+                                if rel.startswith("blendshape_coeffs/") and rel.count("/") == 2})
         if not self.subjects:
-            raise ValueError(f"open_blendvoca: {coeff_dir} holds no subject folders")
+            raise ValueError(f"open_blendvoca: {root}/manifest.json lists no blendshape_coeffs/<subject>/<sentence>.csv "
+                             f"in {coeff_dir}; not a BlendVOCA dataset")
         self._splits = self._read_splits()
         self.manifest_hash = self._hash_manifest()
 
+    def _listed_names(self, folder: str) -> list:
+        """Names of the files directly in ``folder`` (relative to root) that the manifest lists."""
+        prefix = folder.rstrip("/") + "/"
+        return sorted(rel[len(prefix):] for rel in self._listed if rel.startswith(prefix) and "/" not in rel[len(prefix):])
+
     def _read_splits(self) -> dict:
         path = self.root / "splits.json"
-        if path.exists():
+        if "splits.json" in self._listed:
             splits = json.loads(path.read_text())
             if not isinstance(splits, dict):
                 raise ValueError(f"open_blendvoca: {path}: expected an object of split -> subjects")
@@ -115,16 +126,17 @@ class BlendVOCADataset:
 
     def sentences(self, subject: str) -> list:
         """Sentence names (``sentenceNN``) with a ground-truth track, sorted."""
-        d = self._subject_dir(subject)
-        return sorted(m.group(1) for p in d.iterdir() if (m := _SENTENCE.match(p.name)))
+        self._subject_dir(subject)
+        return sorted(m.group(1) for name in self._listed_names(f"blendshape_coeffs/{subject}")
+                      if (m := _SENTENCE.match(name)))
 
     def coeffs(self, subject: str, sentence: str) -> np.ndarray:
         """Ground-truth track, (T, 32) float64 in ``names`` order, 60 fps."""
         from blendvoca.io.coeffs import read_coeffs_csv
 
         path = self._subject_dir(subject) / f"{sentence}.csv"
-        if not path.exists():
-            raise ValueError(f"BlendVOCADataset.coeffs: no track {path}")
+        if f"blendshape_coeffs/{subject}/{sentence}.csv" not in self._listed or not path.exists():
+            raise ValueError(f"BlendVOCADataset.coeffs: no track {path} (in manifest.json and on disk)")
         coeffs, _ = read_coeffs_csv(path, names=self.names)
         return np.asarray(coeffs, dtype=np.float64)
 
@@ -135,7 +147,8 @@ class BlendVOCADataset:
 
         d = self._subject_dir(subject)
         found = sorted(
-            (int(m.group(2)), p) for p in d.iterdir() if (m := _SAMPLE.match(p.name)) and m.group(1) == sentence
+            (int(m.group(2)), d / name) for name in self._listed_names(f"blendshape_coeffs/{subject}")
+            if (m := _SAMPLE.match(name)) and m.group(1) == sentence
         )
         if not found:
             return self.coeffs(subject, sentence)[None]
@@ -148,8 +161,8 @@ class BlendVOCADataset:
         from blendvoca.io.audio import load_audio
 
         path = self.root / "audio" / subject / f"{sentence}.wav"
-        if not path.exists():
-            raise ValueError(f"BlendVOCADataset.audio: no audio {path}")
+        if f"audio/{subject}/{sentence}.wav" not in self._listed or not path.exists():
+            raise ValueError(f"BlendVOCADataset.audio: no audio {path} (in manifest.json and on disk)")
         return np.asarray(load_audio(path, rate=16000), dtype=np.float32), 16000
 
     def rig(self, subject: str):
@@ -162,8 +175,11 @@ class BlendVOCADataset:
 
         self._subject_dir(subject)
         npz = self.root / "rigs" / f"{subject}.npz"
-        if npz.exists():
+        if f"rigs/{subject}.npz" in self._listed and npz.exists():
             return Rig.load(npz)
+        if f"templates_head/{subject}.obj" not in self._listed:
+            raise ValueError(f"said_layout_rig: subject {subject!r} has neither rigs/{subject}.npz nor "
+                             f"templates_head/{subject}.obj + blendshapes_head/{subject}/ listed in {self.root}/manifest.json")
         return said_layout_rig(self.root, subject, self.names)
 
     def utterance(self, subject: str, sentence: str, split: str | None = None):
@@ -258,7 +274,7 @@ def said_layout_rig(root, subject: str, names):
 
 
 def open_blendvoca(root: str | PathLike, *, vocaset: str | PathLike | None = None) -> BlendVOCADataset:
-    """Open a BlendVOCA build or SAiD-layout folder.
+    """Open a BlendVOCA build or SAiD-layout folder (the files its ``manifest.json`` lists).
 
     Parameters
     ----------
@@ -270,6 +286,12 @@ def open_blendvoca(root: str | PathLike, *, vocaset: str | PathLike | None = Non
     Returns
     -------
     BlendVOCADataset
+
+    Raises
+    ------
+    ValueError
+        Not a folder, or no usable ``manifest.json`` (``blendvoca.build.manifest.ManifestError``,
+        whose message gives the command that makes one), or no tracks listed.
     """
     root = Path(root)
     if not root.is_dir():

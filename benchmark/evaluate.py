@@ -393,7 +393,7 @@ def _lipsync_values(generated, rigs, audio, names, *, syncnet=None, sync_expert=
         values["av_offset_geometric"][key] = [abs(e.offset) for e in geo]
         values["av_confidence_geometric"][key] = [e.confidence for e in geo]
         if sync_expert is not None:
-            est = [sync_expert.sync(track, samples) for track in tracks]
+            est = [sync_expert.sync(np.asarray(track, dtype=np.float64), samples, rate) for track in tracks]
             values["av_offset_expert"][key] = [abs(e.offset) for e in est]
             values["av_confidence_expert"][key] = [e.confidence for e in est]
     return {k: v for k, v in values.items() if v}
@@ -419,7 +419,7 @@ def _load_models(syncnet, sync_expert):
 
         syncnet = load_syncnet(None if syncnet is True else syncnet)
     if isinstance(sync_expert, (str, PathLike)):
-        from benchmark.lipsync import load_expert
+        from benchmark.lipsync.expert import load_expert
 
         sync_expert = load_expert(sync_expert)
     return syncnet, sync_expert

@@ -105,7 +105,7 @@ class StoredVertices(Mapping):
 
 
 class TrackWriter:
-    """Writes a run's tracks folder; files land in ``<final>.partial`` until :meth:`commit`.
+    """Writes a run's tracks folder; files land in ``.<final>.<pid>.partial`` until :meth:`commit`.
 
     Parameters
     ----------
@@ -118,8 +118,9 @@ class TrackWriter:
     def __init__(self, folder, names):
         self.folder = Path(folder)
         self.names = tuple(names)
-        self.staging = self.folder.with_name(f".{self.folder.name}.partial")
-        if self.staging.exists():  # leftover of an interrupted run of this same setting
+        # one staging folder per process: two runs of the same setting never share files
+        self.staging = self.folder.with_name(f".{self.folder.name}.{os.getpid()}.partial")
+        if self.staging.exists():  # leftover of an interrupted run of this process id
             shutil.rmtree(self.staging)
         self.staging.mkdir(parents=True)
         self._templates = set()
@@ -153,7 +154,7 @@ class TrackWriter:
     def commit(self) -> Path:
         """Move the staged folder to its final name (replacing that run's previous tracks)."""
         if self.folder.exists():
-            old = self.folder.with_name(f".{self.folder.name}.old")
+            old = self.folder.with_name(f".{self.folder.name}.{os.getpid()}.old")
             if old.exists():
                 shutil.rmtree(old)
             os.replace(self.folder, old)

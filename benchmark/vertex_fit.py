@@ -2,10 +2,11 @@
 
 The one place where meshes become coefficients for scoring: the runner uses it for
 ``output = "vertices"`` methods and the ``mesh-adapter`` plug-in for stored outputs.
-The fit is :func:`blendvoca.fit.fit_coefficients` (bounded, rate-constrained QP,
+The fit is :func:`blendvoca.fit.fit_sequence` (bounded, rate-constrained QP,
 ``|u[t+1] - u[t]| <= delta``), the protocol the SAiD paper scores VOCA, FaceFormer
-and CodeTalker with; on FLAME rigs it uses the 4580-vertex head crop that the
-BlendVOCA build fits with (asset ``flame-head-idx``).
+and CodeTalker with; FLAME-topology outputs are first rigidly unposed
+(:func:`blendvoca.fit.remove_head_pose`), and on FLAME rigs the fit uses the
+4580-vertex head crop that the BlendVOCA build fits with (asset ``flame-head-idx``).
 """
 
 from __future__ import annotations
@@ -34,7 +35,8 @@ def rig_fit_vertices(num_vertices: int):
 
 
 def adapted_coefficients(frames, neutral, deltas, *, fps: float = 60.0, template: str = "absolute",
-                         delta: float | None = 0.1, vertex_subset=None) -> np.ndarray:
+                         delta: float | None = 0.1, vertex_subset=None, unposed: bool | None = None,
+                         poses: list | None = None) -> np.ndarray:
     """The coefficient track that best reproduces a vertex sequence with a rig.
 
     Parameters
@@ -53,12 +55,19 @@ def adapted_coefficients(frames, neutral, deltas, *, fps: float = 60.0, template
         Rate bound ``|u[t+1] - u[t]| <= delta`` of the QP (None: bounds only).
     vertex_subset : (M,) int ndarray, optional
         Vertices used in the fit.
+    unposed : bool or None
+        Whether the output is known to carry no head pose; None (default): the
+        head pose is removed for FLAME-topology outputs
+        (:func:`blendvoca.fit.remove_head_pose`), see :func:`blendvoca.fit.fit_sequence`.
+    poses : list, optional
+        When given, the removed :class:`blendvoca.fit.HeadPose` (or None) is
+        appended to it, so callers can report it (``pose.summary()``: degrees, mm).
 
     Returns
     -------
     (T60, K) float64 ndarray in [0, 1]
     """
-    from blendvoca.fit import fit_coefficients, resample_sequence
+    from blendvoca.fit import fit_sequence, resample_sequence
 
     frames = np.asarray(frames, dtype=np.float64)
     neutral = np.asarray(neutral, dtype=np.float64)
@@ -73,12 +82,15 @@ def adapted_coefficients(frames, neutral, deltas, *, fps: float = 60.0, template
         raise ValueError(f"adapted_coefficients: template must be 'absolute' or 'offsets', got {template!r}")
     if fps != 60.0:
         frames = resample_sequence(frames, fps, 60.0)
-    kwargs = {"vertex_subset": vertex_subset}
+    kwargs = {"vertex_subset": vertex_subset, "unposed": unposed}
     if delta is None:
         kwargs["rate"] = False
     else:
         kwargs["delta"] = delta
-    return np.asarray(fit_coefficients(neutral, deltas, frames, **kwargs), dtype=np.float64)
+    result = fit_sequence(neutral, deltas, frames, **kwargs)
+    if poses is not None:
+        poses.append(result.pose)
+    return np.asarray(result.coeffs, dtype=np.float64)
 
 
 def fitted_sample_tracks(vertices, rig, names, *, delta: float = 0.1) -> np.ndarray:

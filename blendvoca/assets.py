@@ -27,11 +27,13 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from blendvoca.errors import BlendVOCAError
+
 MANIFEST_PATH = Path(__file__).with_name("data_manifest.yaml")
 
 
-class AssetError(RuntimeError):
-    """An asset is missing, corrupted, or cannot be downloaded here."""
+class AssetError(BlendVOCAError, RuntimeError):
+    """An asset is missing, corrupted, or cannot be downloaded here (a `BlendVOCAError`)."""
 
 
 @lru_cache(maxsize=None)

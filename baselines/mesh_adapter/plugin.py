@@ -86,18 +86,28 @@ class MeshAdapterMethod(TrackLookupMethod):
             iterator = tqdm(items, desc=f"mesh-adapter ({self.adapter.name}): fit", unit="sentence", file=sys.stderr)
         except ImportError:
             iterator = items
-        tracks = {}
+        tracks, poses = {}, {}
         for subject, sentence in iterator:
             if subject not in rigs:
                 rig = dataset.rig(subject)
                 rigs[subject] = rig.select(names) if tuple(rig.names) != names else rig
             rig = rigs[subject]
             path = outputs[(subject, sentence)]
+            removed = []
             try:
                 coeffs = adapted_coefficients(read_vertex_sequence(path), rig.neutral, rig.deltas,
                                               fps=self.adapter.fps, template=self.adapter.template,
-                                              delta=self.adapter.delta, vertex_subset=subset)
+                                              delta=self.adapter.delta, vertex_subset=subset, poses=removed)
             except ValueError as exc:
                 raise ValueError(f"mesh-adapter ({self.adapter.name}): {subject}/{sentence} ({path}): {exc}") from exc
             tracks[(subject, sentence)] = coeffs
+            if removed and removed[0] is not None:
+                poses[(subject, sentence)] = removed[0].summary()
         self._tracks = tracks
+        #: Head pose removed from each output before fitting (degrees, mm), FLAME topology only.
+        self.removed_pose = poses
+        if poses:
+            deg = max(p["rotation_deg_max"] for p in poses.values())
+            mm = max(p["translation_mm_max"] for p in poses.values())
+            print(f"mesh-adapter ({self.adapter.name}): head pose removed from {len(poses)} outputs "
+                  f"(up to {deg:.2f} degrees, {mm:.1f} mm)", file=sys.stderr)

@@ -3,7 +3,10 @@
     python -m baselines.said.generate --audio x.wav --out y.csv [--samples N]
         [--checkpoint PATH] [--reference ref.csv --mask mask.csv]
 
-With ``--samples N > 1`` the files are ``y-0.csv ... y-<N-1>.csv``.  Editing: the
+With ``--samples N > 1`` the files are ``y-0.csv ... y-<N-1>.csv``.  ``--export FMT``
+writes another format of :mod:`blendvoca.export` instead of the CSV (``livelink``,
+``arkit-json``, ``a2f-json``; ``glb`` and ``usd`` with ``--rig``), e.g. ``--export glb
+--rig rigs/FaceTalk.npz --out y.glb``.  Editing: the
 mask CSV has the reference's header and one row per frame, 1 where the reference
 value is kept and 0 where it is generated (in-betweening: rows of ones at both ends;
 per-blendshape constraints: columns of ones).  The checkpoint is a ``said.pt`` file or
@@ -60,16 +63,29 @@ def generate_files(
     num_steps: int | None = None,
     guidance: float | None = None,
     progress: bool = True,
+    export: str = "csv",
+    rig=None,
 ) -> list[Path]:
     """Read a WAV (and optional reference/mask CSVs), sample, write coefficient CSVs.
+
+    ``export`` is a :data:`blendvoca.export.FORMATS` name; ``rig`` (a Rig or its path)
+    is needed by ``glb`` and ``usd``.
 
     Returns
     -------
     paths : list of Path
-        The CSV files written.
+        The files written.
     """
+    from blendvoca.export import FORMATS, NEEDS_RIG, export_track, load_rig
     from blendvoca.io.audio import load_audio
     from blendvoca.io.coeffs import read_coeffs_csv, write_coeffs_csv
+
+    if export not in FORMATS:
+        raise ValueError(f"SAiD generate: expected --export one of {FORMATS}, got {export!r}")
+    if export in NEEDS_RIG and rig is None:
+        raise ValueError(f"SAiD generate: --export {export} needs --rig (a rig .npz or SAiD folder)")
+    if isinstance(rig, (str, os.PathLike)):
+        rig = load_rig(rig)
 
     said = SAiD.load(checkpoint_file(checkpoint))
     audio = load_audio(audio_path, rate=16000)
@@ -90,7 +106,10 @@ def generate_files(
     paths = output_paths(out_path, samples)
     for path, track in zip(paths, tracks):
         path.parent.mkdir(parents=True, exist_ok=True)
-        write_coeffs_csv(path, track, said.names)
+        if export == "csv":
+            write_coeffs_csv(path, track, said.names)
+        else:
+            export_track(path, track, said.names, export, rig=rig, fps=60.0, audio=audio_path)
     return paths
 
 
@@ -98,7 +117,10 @@ def main(argv=None) -> None:
     """Command line entry point (see the module docstring)."""
     p = argparse.ArgumentParser(prog="python -m baselines.said.generate", description=__doc__.split("\n\n")[0])
     p.add_argument("--audio", required=True, help="input WAV (any rate, mono or stereo)")
-    p.add_argument("--out", required=True, help="output CSV (header = blendshape names, 60 fps)")
+    p.add_argument("--out", required=True, help="output CSV (header = blendshape names, 60 fps) or --export file")
+    p.add_argument("--export", default="csv", choices=("csv", "livelink", "arkit-json", "a2f-json", "glb", "usd"),
+                   help="output format (default csv; glb and usd need --rig)")
+    p.add_argument("--rig", default=None, help="rig .npz or SAiD folder for --export glb/usd")
     p.add_argument("--samples", type=int, default=1, help="number of samples (default 1)")
     p.add_argument("--checkpoint", default=None, help=f"said.pt or its directory (default ${CHECKPOINT_ENV})")
     p.add_argument("--reference", default=None, help="reference coefficient CSV for editing")
@@ -111,7 +133,7 @@ def main(argv=None) -> None:
     paths = generate_files(
         args.audio, args.out, checkpoint=args.checkpoint, samples=args.samples, seed=args.seed,
         reference_path=args.reference, mask_path=args.mask, sampler=args.sampler,
-        num_steps=args.steps, guidance=args.guidance,
+        num_steps=args.steps, guidance=args.guidance, export=args.export, rig=args.rig,
     )
     for path in paths:
         print(path)

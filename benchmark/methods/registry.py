@@ -12,6 +12,8 @@ from .base import Method
 
 __all__ = [
     "ENTRY_POINT_GROUP",
+    "MethodClassError",
+    "MethodImportError",
     "UnknownMethodError",
     "available_methods",
     "get_method",
@@ -24,10 +26,20 @@ __all__ = [
 ENTRY_POINT_GROUP = "blendvoca.methods"
 
 class UnknownMethodError(KeyError):
-    """No method of that name; the message lists the close matches."""
+    """No usable method of that name: unknown (the message lists the close matches), or
+    its target cannot be imported (:class:`MethodImportError`) or is not a method class
+    (:class:`MethodClassError`). Command-line tools report it as one ``error:`` line."""
 
     def __str__(self) -> str:  # KeyError would print the message in quotes
         return str(self.args[0]) if self.args else ""
+
+
+class MethodImportError(UnknownMethodError, ImportError):
+    """A registered target or installed entry point whose module or attribute does not import."""
+
+
+class MethodClassError(UnknownMethodError, TypeError):
+    """A registered target or entry point that is not a :class:`Method` class."""
 
 
 _NAME_PATTERN = re.compile(r"^[a-z0-9][a-z0-9._-]*$")
@@ -98,11 +110,11 @@ def unregister(name: str) -> None:
 
 def _check_class(cls, name: str, where: str) -> None:
     if not isinstance(cls, type):
-        raise TypeError(f"{where}: method {name!r} must be a class, got {type(cls).__name__} {cls!r}")
+        raise MethodClassError(f"{where}: method {name!r} must be a class, got {type(cls).__name__} {cls!r}")
     if not issubclass(cls, Method):
         missing = [attr for attr in ("generate", "train", "save", "load", "config") if not hasattr(cls, attr)]
         if missing:
-            raise TypeError(
+            raise MethodClassError(
                 f"{where}: method {name!r} ({_target_of(cls)}) must subclass "
                 f"benchmark.methods.Method or provide {', '.join(missing)}"
             )
@@ -146,14 +158,15 @@ def _import_target(target: str, name: str):
     module_name, _, attr = target.partition(":")
     try:
         module = importlib.import_module(module_name)
-    except ImportError as exc:
-        raise ImportError(f"method {name!r}: cannot import module {module_name!r} ({exc})") from exc
+    except Exception as exc:  # ImportError, or the module failing while it is imported
+        raise MethodImportError(f"method {name!r}: cannot import module {module_name!r} "
+                                f"({type(exc).__name__}: {exc})") from exc
     obj = module
     for part in attr.split("."):
         try:
             obj = getattr(obj, part)
         except AttributeError as exc:
-            raise ImportError(f"method {name!r}: module {module_name!r} has no attribute {attr!r}") from exc
+            raise MethodImportError(f"method {name!r}: module {module_name!r} has no attribute {attr!r}") from exc
     return obj
 
 
@@ -164,8 +177,10 @@ def get_method(name: str) -> type[Method]:
     ------
     UnknownMethodError (a KeyError)
         Unknown name; the message lists the close matches and all known names.
-    ImportError
+    MethodImportError (an UnknownMethodError and an ImportError)
         The lazy target or entry point cannot be imported.
+    MethodClassError (an UnknownMethodError and a TypeError)
+        The target is not a method class.
     """
     if not isinstance(name, str):
         raise TypeError(f"get_method: expected a method name (str), got {type(name).__name__}")
@@ -183,7 +198,8 @@ def get_method(name: str) -> type[Method]:
         try:
             cls = entry.load()
         except Exception as exc:  # broken installed plug-in: say which package and why
-            raise ImportError(f"method {name!r}: cannot load entry point {entry.value!r} ({exc})") from exc
+            raise MethodImportError(f"method {name!r}: cannot load entry point {entry.value!r} "
+                                    f"({type(exc).__name__}: {exc})") from exc
     _check_class(cls, name, where="get_method")
     if isinstance(entry, str):
         _REGISTRY[name] = cls  # resolve once

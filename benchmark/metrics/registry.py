@@ -103,7 +103,7 @@ for _info in (
     MetricInfo("av_confidence_syncnet", "AV conf. (SyncNet)", "distance", True, "lip sync",
                "std over sentences (first sample)"),
     MetricInfo("av_offset_expert", "AV offset (expert)", "frames@60fps", False, "lip sync", _SENT),
-    MetricInfo("av_confidence_expert", "AV conf. (expert)", "score", True, "lip sync", _SENT),
+    MetricInfo("av_confidence_expert", "AV conf. (expert)", "distance", True, "lip sync", _SENT),
     MetricInfo("av_offset_geometric", "AV offset (geom.)", "frames@60fps", False, "lip sync", _SENT),
     MetricInfo("av_confidence_geometric", "AV conf. (geom.)", "correlation", True, "lip sync", _SENT),
     # distribution, on VAE features of 120-frame windows

@@ -10,7 +10,7 @@ import functools
 
 import numpy as np
 
-from benchmark.render.camera import front_camera, project
+from benchmark.render.camera import face_box, face_camera, front_camera, project
 from benchmark.render.software import rasterize
 from benchmark.render.timing import resample_frames
 from benchmark.render.video import read_video, write_video
@@ -40,7 +40,7 @@ def render_sequence(vertices, faces, *, size: int = 256, backend: str = "auto", 
     pose : (4, 4), optional
         Camera-to-world pose; default :func:`front_camera` over the whole sequence.
     progress : bool
-        tqdm bar over frames (software backend).
+        tqdm bar over frames (either backend).
 
     Returns
     -------
@@ -61,10 +61,11 @@ def render_sequence(vertices, faces, *, size: int = 256, backend: str = "auto", 
     if backend == "pyrender":
         from benchmark.render.pyrender_backend import render_pyrender
 
-        return render_pyrender(vertices, faces, pose, yfov, size, size)
+        return render_pyrender(vertices, faces, pose, yfov, size, size, progress=progress)
     from tqdm import tqdm
 
-    return np.stack([rasterize(v, faces, pose, yfov, size, size) for v in tqdm(vertices, disable=not progress)])
+    return np.stack([rasterize(v, faces, pose, yfov, size, size)
+                     for v in tqdm(vertices, desc="render (software)", unit="frame", disable=not progress)])
 
 
 def render_coeffs(coeffs, rig, *, fps: float = 60.0, out_fps: float | None = None, **kwargs) -> np.ndarray:
@@ -91,5 +92,34 @@ def render_coeffs(coeffs, rig, *, fps: float = 60.0, out_fps: float | None = Non
     return render_sequence(rig_vertices(rig.neutral, rig.deltas, coeffs), rig.faces, **kwargs)
 
 
-__all__ = ["front_camera", "project", "rasterize", "read_video", "render_coeffs", "render_sequence",
-           "resample_frames", "write_video"]
+class RenderError(RuntimeError):
+    """A render that shows nothing (no face in the picture)."""
+
+
+def visible_fraction(frames, background: int = 250) -> np.ndarray:
+    """Fraction of pixels of each frame that are not the white background, ``(T,)``."""
+    frames = np.asarray(frames)
+    return (frames < background).any(axis=-1).reshape(len(frames), -1).mean(axis=1)
+
+
+def check_visible(frames, *, where: str, minimum: float = 0.01) -> None:
+    """Raise :class:`RenderError` when some frame shows (almost) nothing.
+
+    Parameters
+    ----------
+    frames : (T, H, W, 3) uint8
+    where : what was rendered, for the message
+    minimum : least fraction of non-background pixels a frame must have
+    """
+    shown = visible_fraction(frames)
+    if len(shown) == 0:
+        raise RenderError(f"{where}: the render has no frames")
+    bad = np.flatnonzero(shown < minimum)
+    if len(bad):
+        raise RenderError(f"{where}: {len(bad)} of {len(shown)} frames show no face (first: frame {bad[0]}, "
+                          f"{100 * shown[bad[0]]:.2f}% of pixels drawn, expected at least {100 * minimum:g}%); "
+                          "check the faces (a vertex-only mesh draws nothing) and the camera")
+
+
+__all__ = ["RenderError", "check_visible", "face_box", "face_camera", "front_camera", "project", "rasterize", "read_video", "render_coeffs", "render_sequence",
+           "resample_frames", "visible_fraction", "write_video"]

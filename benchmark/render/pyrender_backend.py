@@ -13,13 +13,15 @@ def egl_environment() -> None:
     os.environ.setdefault("EGL_PLATFORM", "surfaceless")
 
 
-def render_pyrender(vertices, faces, pose, yfov: float, width: int = 256, height: int = 256) -> np.ndarray:
+def render_pyrender(vertices, faces, pose, yfov: float, width: int = 256, height: int = 256,
+                    progress: bool = False) -> np.ndarray:
     """Render a mesh sequence with one pyrender renderer, deleted afterwards
     (a renderer reused across sequences leaks memory).
 
     Parameters
     ----------
     vertices : (T, V, 3), faces : (F, 3), pose : (4, 4), yfov : float
+    progress : bool, a tqdm bar over frames
 
     Returns
     -------
@@ -29,6 +31,7 @@ def render_pyrender(vertices, faces, pose, yfov: float, width: int = 256, height
     try:
         import pyrender
         import trimesh
+        from tqdm import tqdm
     except ImportError as err:  # pragma: no cover - depends on the environment
         raise ImportError("render_pyrender needs pyrender and trimesh: pip install pyrender trimesh") from err
     vertices = np.asarray(vertices, dtype=np.float64)
@@ -42,7 +45,7 @@ def render_pyrender(vertices, faces, pose, yfov: float, width: int = 256, height
         scene.add(pyrender.PerspectiveCamera(yfov=yfov, aspectRatio=width / height), pose=pose)
         scene.add(pyrender.DirectionalLight(intensity=2.0), pose=pose)
         node = None
-        for t, v in enumerate(vertices):
+        for t, v in enumerate(tqdm(vertices, desc="render (pyrender)", unit="frame", disable=not progress)):
             mesh = pyrender.Mesh.from_trimesh(trimesh.Trimesh(v, faces, process=False), material=material, smooth=True)
             if node is not None:
                 scene.remove_node(node)

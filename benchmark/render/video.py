@@ -13,6 +13,9 @@ import numpy as np
 def write_video(path: str | PathLike, frames, fps: float, audio=None, rate: int = 16000) -> Path:
     """Encode RGB frames to H.264 MP4, muxing mono audio when given.
 
+    With audio, the video lasts as long as the audio: frames past its end are left
+    out and, when the frames end first, the last one is held.
+
     Parameters
     ----------
     path : path-like
@@ -30,6 +33,11 @@ def write_video(path: str | PathLike, frames, fps: float, audio=None, rate: int 
     frames = np.asarray(frames)
     if frames.ndim != 4 or frames.shape[3] != 3 or frames.dtype != np.uint8:
         raise ValueError(f"write_video: expected uint8 frames (T, H, W, 3), got {frames.dtype} {frames.shape}")
+    if audio is not None:
+        frames = match_audio_length(frames, fps, len(np.asarray(audio)), rate)
+    if frames.shape[1] % 2 or frames.shape[2] % 2:  # H.264 4:2:0 needs even sides: pad with white
+        frames = np.pad(frames, ((0, 0), (0, frames.shape[1] % 2), (0, frames.shape[2] % 2), (0, 0)),
+                        constant_values=255)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     height, width = frames.shape[1:3]
@@ -50,9 +58,18 @@ def write_video(path: str | PathLike, frames, fps: float, audio=None, rate: int 
         wav = Path(tmp) / "audio.wav"
         write_wav(wav, np.asarray(audio, dtype=np.float32), rate)
         cmd = [imageio_ffmpeg.get_ffmpeg_exe(), "-y", "-loglevel", "error", "-i", str(silent), "-i", str(wav),
-               "-c:v", "copy", "-c:a", "aac", "-shortest", str(path)]
+               "-c:v", "copy", "-c:a", "aac", str(path)]
         subprocess.run(cmd, check=True)
     return path
+
+
+def match_audio_length(frames, fps: float, num_samples: int, rate: int) -> np.ndarray:
+    """Frames cut or extended (holding the last) to ``round(num_samples / rate * fps)``."""
+    frames = np.asarray(frames)
+    count = max(int(round(num_samples / rate * fps)), 1)
+    if len(frames) >= count:
+        return frames[:count]
+    return np.concatenate([frames, np.repeat(frames[-1:], count - len(frames), axis=0)])
 
 
 def read_video(path: str | PathLike, rate: int = 16000):

@@ -3,12 +3,15 @@
 :func:`build_dataset` runs rig construction for every speaker and the
 coefficient fit for every sentence (in parallel, resumable, atomic writes) and
 writes SAiD's layout plus ``rigs/``, ``splits.json``, ``manifest.json`` and
-``report/``.  See ``docs/build.md``.
+``report/``; it refuses bad arguments and unusable output folders before any
+work (:class:`BuildInputError`, ``blendvoca.errors.OutputDirError``).  See ``docs/build.md``.
 """
 
-from .pipeline import BuildSummary, build_dataset, default_output_dir
+from .manifest import ManifestError, listed_files, write_folder_manifest
+from .pipeline import BuildInputError, BuildSummary, WorkerStartError, build_dataset, default_output_dir
 from .report import coeffs_std
 from .sentence import lip_aperture, sentence_fit
 from .speaker import head_faces, speaker_rig
 
-__all__ = ["BuildSummary", "build_dataset", "default_output_dir", "coeffs_std", "head_faces", "lip_aperture", "sentence_fit", "speaker_rig"]
+__all__ = ["BuildInputError", "BuildSummary", "ManifestError", "WorkerStartError", "build_dataset",
+           "listed_files", "write_folder_manifest", "default_output_dir", "coeffs_std", "head_faces", "lip_aperture", "sentence_fit", "speaker_rig"]

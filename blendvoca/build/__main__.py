@@ -7,6 +7,7 @@ import sys
 import time
 
 from blendvoca.build.pipeline import build_dataset, default_output_dir
+from blendvoca.errors import BlendVOCAError, error_line
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -20,10 +21,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", default=None,
                         help="output folder (required with --vocaset; default for the bundled corpus: "
                         "<user cache>/blendvoca-default, where the benchmark looks for it)")
-    parser.add_argument("--workers", type=int, default=None, help="processes (default: all cores)")
+    parser.add_argument("--workers", type=int, default=None, help="processes, >= 1 (default: all cores)")
     parser.add_argument("--shapes", choices=("speech", "all"), default="speech",
                         help="the 32 BlendVOCA shapes or all ARKit shapes")
-    parser.add_argument("--delta", type=float, default=0.1, help="rate bound |u[t+1] - u[t]| per 60 fps frame")
+    parser.add_argument("--delta", type=float, default=0.1, help="rate bound |u[t+1] - u[t]| per 60 fps frame (> 0)")
     parser.add_argument("--no-report", action="store_true", help="skip report/")
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
     args = parser.parse_args(argv)
@@ -38,8 +39,8 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("interrupted: rerun the same command to continue", file=sys.stderr)
         return 130
-    except (ValueError, FileNotFoundError) as error:
-        print(f"error: {error}", file=sys.stderr)
+    except (BlendVOCAError, ValueError, OSError) as error:  # user input, assets, output folder
+        print(error_line(error), file=sys.stderr)
         return 2
     elapsed = time.perf_counter() - start
     print(f"{summary.out}: speakers built {summary.built['speakers']}, up to date {summary.skipped['speakers']}; "
@@ -48,6 +49,9 @@ def main(argv: list[str] | None = None) -> int:
     for failure in summary.failures:
         print(f"FAILED {failure['subject']} {failure['sentence'] or ''} ({failure['stage']}): {failure['reason']}",
               file=sys.stderr)
+    if summary.failures:
+        print(f"{len(summary.failures)} item(s) failed (listed above, in report/README.md and in manifest.json "
+              "failures); the other outputs are complete", file=sys.stderr)
     return 1 if summary.failures else 0
 
 

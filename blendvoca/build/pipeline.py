@@ -26,10 +26,20 @@ from pathlib import Path
 import numpy as np
 
 import blendvoca
+from blendvoca.errors import BlendVOCAError, OutputDirError
 from blendvoca.io.atomic import atomic_write
 
 from .hashing import array_digest, file_digest, stage_key
-from .state import is_up_to_date, read_record, record_path, remove_stale_temporaries, write_record
+from .outdir import (
+    build_lock,
+    check_output_dir,
+    claim_output_dir,
+    is_fatal_write_error,
+    remove_own_outputs,
+    remove_stale_temporaries,
+    unwritable,
+)
+from .state import STATE_DIR, is_up_to_date, read_record, record_path, write_record
 
 #: Bumped when a stage's algorithm changes its outputs (invalidates records).
 RIG_STAGE_VERSION = "1"
@@ -37,6 +47,10 @@ FIT_STAGE_VERSION = "1"
 AUDIO_RATE = 16000
 #: Inner-lip landmarks (0-based) of the 68-point scheme: upper and lower lip middle.
 LIP_LANDMARKS = (62, 66)
+
+
+class BuildInputError(BlendVOCAError):
+    """A build argument or a corpus-level condition that rules the build out (checked before any work)."""
 
 
 @dataclass
@@ -49,7 +63,9 @@ class BuildSummary:
     built, skipped : dict
         ``{"speakers": n, "sentences": n}`` redone / already up to date.
     failures : list of dict
-        ``{"subject", "sentence", "stage", "reason"}`` per failed item.
+        ``{"subject", "sentence", "stage", "reason"}`` per failed item; ``stage`` is
+        ``"rig"``, ``"fit"`` or ``"input"`` (a sentence the corpus lacks, or one
+        built before that is no longer in it).
     """
 
     out: Path
@@ -84,6 +100,41 @@ def _static_inputs(shapes):
 
 
 _WORKER: dict = {}
+
+
+class WorkerStartError(BlendVOCAError):
+    """A worker process could not set itself up (assets, imports); ends the build."""
+
+
+def _guarded_init(*initargs):
+    """`_worker_init` in a pool process: a failure is kept and raised by every task.
+
+    (An initializer that raises would make a ``multiprocessing.Pool`` respawn
+    workers forever; here the first task reports it and the build stops.)
+    """
+    try:
+        _worker_init(*initargs)
+    except Exception as error:  # reported to the parent by the tasks
+        _WORKER.clear()
+        _WORKER["init_error"] = f"a worker process could not start: {_reason(error)}"
+
+
+def _guarded_call(function, task):
+    if "init_error" in _WORKER:
+        raise WorkerStartError(_WORKER["init_error"])
+    return function(task)
+
+
+def _invalidate_manifest(out: Path) -> None:
+    """Remove ``manifest.json`` before the first output changes: it is rewritten at the end,
+    so an interrupted or failed build never leaves a manifest claiming partial outputs."""
+    (out / "manifest.json").unlink(missing_ok=True)
+
+
+def _retire(out: Path, record: dict | None) -> str:
+    """Remove a failed or vanished item's previous outputs (the build's own); a note for its reason."""
+    removed = remove_own_outputs(out, record)
+    return f" (its previous outputs were removed: {', '.join(removed)})" if removed else ""
 
 
 def _worker_init(corpus_root, out, params):
@@ -140,6 +191,7 @@ def _speaker_task(subject):
             static["reference"] = load_arkit_reference(params["shapes"])
         rig = speaker_rig(static["reference"], template, faces, static["reference_landmarks"],
                           static["flame_landmarks"], static["head_index"])
+        _invalidate_manifest(out)
         head = static["head_index"]
         hfaces = head_faces(rig.faces, head, rig.num_vertices)
         files = [f"rigs/{subject}.npz", f"templates_head/{subject}.obj"]
@@ -154,8 +206,12 @@ def _speaker_task(subject):
         assert isinstance(rig, Rig)
         return {"subject": subject, "status": "built", "key": key}
     except Exception as error:  # recorded, the build carries on
-        write_record(path, {"status": "failed", "subject": subject, "reason": _reason(error)})
-        return {"subject": subject, "status": "failed", "reason": _reason(error)}
+        if is_fatal_write_error(error):
+            raise unwritable(error, out) from None
+        _invalidate_manifest(out)
+        reason = _reason(error) + _retire(out, read_record(path))
+        write_record(path, {"status": "failed", "subject": subject, "reason": reason})
+        return {"subject": subject, "status": "failed", "reason": reason}
 
 
 # ----------------------------------------------------------------------------- sentence stage
@@ -194,6 +250,7 @@ def _sentence_task(item):
         record = read_record(path)
         if is_up_to_date(out, record, key):
             return {**base, "status": "skipped"}
+        _invalidate_manifest(out)
         rig = _load_rig(subject)
         coeffs, stats = sentence_fit(rig, frames, static["head_index"], delta=params["delta"])
         lips = static["flame_landmarks"][list(LIP_LANDMARKS)]
@@ -205,11 +262,17 @@ def _sentence_task(item):
                             "files": {rel: file_digest(out / rel) for rel in files}})
         return {**base, "status": "built"}
     except Exception as error:  # recorded, the build carries on
-        write_record(path, {**base, "status": "failed", "reason": _reason(error)})
-        return {**base, "status": "failed", "reason": _reason(error)}
+        if is_fatal_write_error(error):
+            raise unwritable(error, out) from None
+        _invalidate_manifest(out)
+        reason = _reason(error) + _retire(out, read_record(path))
+        write_record(path, {**base, "status": "failed", "reason": reason})
+        return {**base, "status": "failed", "reason": reason}
 
 
 def _reason(error: BaseException) -> str:
+    if isinstance(error, BlendVOCAError):  # its message already says what and where
+        return str(error)
     return f"{type(error).__name__}: {error}"
 
 
@@ -224,18 +287,28 @@ def _run(tasks, function, *, workers, initargs, desc, progress):
     results = []
     try:
         if workers <= 1 or len(tasks) <= 1:
-            _worker_init(*initargs)
+            _guarded_init(*initargs)
             for task in tasks:
-                results.append(function(task))
+                results.append(_guarded_call(function, task))
                 bar.update()
         else:
+            import functools
             import multiprocessing
+            from concurrent.futures import ProcessPoolExecutor
+            from concurrent.futures.process import BrokenProcessPool
 
             context = multiprocessing.get_context("fork" if sys.platform.startswith("linux") else "spawn")
-            with context.Pool(min(workers, len(tasks)), initializer=_worker_init, initargs=initargs) as pool:
-                for result in pool.imap(function, tasks, chunksize=1):
+            pool = ProcessPoolExecutor(min(workers, len(tasks)), mp_context=context, initializer=_guarded_init,
+                                       initargs=initargs)
+            try:
+                for result in pool.map(functools.partial(_guarded_call, function), tasks):
                     results.append(result)
                     bar.update()
+            except BrokenProcessPool:
+                raise WorkerStartError(f"{desc}: a worker process died (killed, or out of memory); "
+                                       "rerun the same command to continue") from None
+            finally:
+                pool.shutdown(wait=True, cancel_futures=True)
     finally:
         bar.close()
     return results
@@ -286,30 +359,130 @@ def build_dataset(
     Returns
     -------
     BuildSummary
+        Failed items (unreadable or empty inputs, fits that failed, sentences
+        that left the corpus) are listed in ``failures``, the report and the manifest.
+
+    Raises
+    ------
+    BlendVOCAError
+        Before any work: bad arguments (``workers < 1``, ``delta <= 0``), a
+        corpus that cannot be read or split (fewer than 3 speakers), unsafe
+        names, missing or corrupted assets, an ``out`` that is a file, the
+        corpus, inside it, not empty and not a previous build, or locked by
+        another build (:class:`OutputDirError`). During the build: output that
+        cannot be written (disk full, read-only; no manifest is left) and
+        worker processes that cannot start or die (``WorkerStartError``).
     """
     from blendvoca.vocaset import open_vocaset
 
+    # Everything a user can get wrong is checked before any work (and before --out is touched).
+    if shapes not in ("speech", "all"):
+        raise BuildInputError(f"--shapes: expected 'speech' or 'all', got {shapes!r}")
+    workers = check_workers(workers)
+    delta = check_delta(delta)
     if vocaset is None:
         from blendvoca.synthetic import default_corpus
 
         vocaset = default_corpus(progress=progress)
-    if shapes not in ("speech", "all"):
-        raise ValueError(f"build_dataset: shapes must be 'speech' or 'all', got {shapes!r}")
     out = Path(out).expanduser().resolve()
     vocaset = Path(vocaset).expanduser().resolve()
-    workers = max(1, int(workers or os.cpu_count() or 1))
-    out.mkdir(parents=True, exist_ok=True)
-    remove_stale_temporaries(out)
-
-    params = {"shapes": shapes, "delta": float(delta)}
+    check_output_dir(out, vocaset)
     corpus = open_vocaset(vocaset)
+    check_corpus(corpus)
+    params = {"shapes": shapes, "delta": float(delta)}
+    _static_inputs(shapes)  # every asset resolved and verified here, once, before any worker starts
+    corpus.faces  # noqa: B018 - the topology (or the flame-sample asset it falls back to), checked here too
+    claim_output_dir(out)
+    with build_lock(out):
+        try:
+            return _build(out, vocaset, corpus, params, workers=workers, report=report, progress=progress)
+        except OutputDirError:
+            (out / "manifest.json").unlink(missing_ok=True)
+            raise
+        except OSError as error:
+            if is_fatal_write_error(error):
+                (out / "manifest.json").unlink(missing_ok=True)
+                raise unwritable(error, out) from None
+            raise
+
+
+def check_workers(workers) -> int:
+    """``workers`` as an int >= 1 (None: all cores); anything else raises `BuildInputError`."""
+    if workers is None:
+        return max(1, os.cpu_count() or 1)
+    if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
+        raise BuildInputError(f"--workers: expected an integer >= 1, got {workers!r}")
+    return int(workers)
+
+
+def check_delta(delta) -> float:
+    """``delta`` as a finite float > 0; anything else raises `BuildInputError`."""
+    try:
+        value = float(delta)
+    except (TypeError, ValueError):
+        value = float("nan")
+    if not np.isfinite(value) or value <= 0:
+        raise BuildInputError(f"--delta: expected a rate bound > 0 per 60 fps frame (e.g. 0.1), got {delta!r}")
+    return value
+
+
+def check_corpus(corpus) -> dict:
+    """Corpus-level conditions checked before any work: speakers, sentences, the split.
+
+    Returns
+    -------
+    dict
+        The corpus splits.
+    """
+    where = corpus.root
+    if not corpus.subjects:
+        raise BuildInputError(f"{where}: the corpus has no speakers")
+    if not corpus.items():
+        raise BuildInputError(f"{where}: the corpus has no sentence with mesh frames")
+    try:
+        return corpus.splits
+    except ValueError as error:
+        raise BuildInputError(f"{where}: cannot split the speakers into train/val/test: {error}") from None
+
+
+def _stale_records(out: Path, stage: str, current: set) -> list[tuple[tuple, Path]]:
+    """Records of ``stage`` whose item (``(subject,)`` or ``(subject, sentence)``) is not in ``current``."""
+    root = out / STATE_DIR / stage
+    found = []
+    for path in sorted(root.rglob("*.json")) if root.is_dir() else []:
+        item = tuple(path.relative_to(root).with_suffix("").parts)
+        if item not in current:
+            found.append((item, path))
+    return found
+
+
+def _retire_vanished(out: Path, stage: str, current: set, summary, problems: dict) -> None:
+    """Items built before that the corpus no longer has: remove their outputs and records, report them."""
+    for item, path in _stale_records(out, stage, current):
+        record = read_record(path)
+        _invalidate_manifest(out)
+        note = _retire(out, record)
+        path.unlink()
+        subject, sentence = (item + (None,))[:2]
+        problem = problems.pop((subject, sentence), None)
+        why = str(problem.message) if problem is not None else "no longer in the corpus"
+        summary.failures.append({"subject": subject, "sentence": sentence, "stage": "input",
+                                 "reason": f"{why}; built before{note or ' (no outputs left)'}"})
+
+
+def _build(out, vocaset, corpus, params, *, workers, report, progress):
+    import time
+
+    remove_stale_temporaries(out)
     summary = BuildSummary(out)
     initargs = (str(vocaset), str(out), params)
-
-    import time
+    # Problems the corpus found when it was opened for sentences that get no task (missing, unreadable index).
+    problems = {(p.subject, p.sentence): p for p in corpus.problems
+                if p.sentence is not None and p.sentence not in corpus.sentences(p.subject)}
 
     clock = time.perf_counter()
     subjects = list(corpus.subjects)
+    _retire_vanished(out, "rigs", {(s,) for s in subjects}, summary, {})
     speaker_results = _run(subjects, _speaker_task, workers=workers, initargs=initargs,
                            desc="speaker rigs", progress=progress)
     rig_keys = {}
@@ -325,11 +498,15 @@ def build_dataset(
     summary.seconds["rigs"] = time.perf_counter() - clock
     clock = time.perf_counter()
     items = [(s, q, rig_keys[s]) for s in subjects if s in rig_keys for q in corpus.sentences(s)]
+    _retire_vanished(out, "sentences", {(s, q) for s in subjects for q in corpus.sentences(s)}, summary, problems)
     for subject in subjects:
         if subject not in rig_keys:
             for sentence in corpus.sentences(subject):
-                summary.failures.append({"subject": subject, "sentence": sentence, "stage": "fit",
-                                         "reason": "no rig for this speaker (see the rig failure)"})
+                path = record_path(out, "sentences", subject, sentence)
+                reason = "no rig for this speaker (see the rig failure)" + _retire(out, read_record(path))
+                if path.exists():
+                    write_record(path, {"subject": subject, "sentence": sentence, "status": "failed", "reason": reason})
+                summary.failures.append({"subject": subject, "sentence": sentence, "stage": "fit", "reason": reason})
     sentence_results = _run(items, _sentence_task, workers=workers, initargs=initargs,
                             desc="sentences", progress=progress)
     for result in sentence_results:
@@ -339,12 +516,19 @@ def build_dataset(
         else:
             key = "built" if result["status"] == "built" else "skipped"
             getattr(summary, key)["sentences"] += 1
+    for (subject, sentence), problem in sorted(problems.items()):
+        summary.failures.append({"subject": subject, "sentence": sentence, "stage": "input",
+                                 "reason": problem.message})
 
     summary.seconds["sentences"] = time.perf_counter() - clock
     clock = time.perf_counter()
     _write_summary_files(out, corpus, vocaset, subjects, params, summary, report=report)
     summary.seconds["summary"] = time.perf_counter() - clock
     return summary
+
+
+#: What the summary stage writes (besides manifest.json), relative to ``out``.
+SUMMARY_OUTPUTS = ("coeffs_std.csv", "splits.json", "report/README.md", "report/usage.png", "report/tracks.png")
 
 
 def _write_summary_files(out, corpus, vocaset, subjects, params, summary, *, report):
@@ -361,14 +545,26 @@ def _write_summary_files(out, corpus, vocaset, subjects, params, summary, *, rep
     keys.update({s: (read_record(record_path(out, "rigs", s)) or {}).get("key") for s in subjects})
     summary_key = stage_key({"stage": "summary", "keys": keys, "failures": summary.failures, "params": params,
                              "report": report, "version": blendvoca.__version__, "splits": corpus.splits})
-    if is_up_to_date(out, read_record(summary_path), summary_key):
+    previous = read_record(summary_path)
+    if is_up_to_date(out, previous, summary_key):
         return
+    _invalidate_manifest(out)
+    # The previous summary's own files go first: a report or coeffs_std.csv this build does not
+    # write again must not stay behind looking current.
+    remove_own_outputs(out, {"files": {rel: d for rel, d in ((previous or {}).get("files") or {}).items()
+                                       if rel in SUMMARY_OUTPUTS}})
+    files = []
+    for subject in subjects:
+        rig_record = read_record(record_path(out, "rigs", subject))
+        if rig_record and rig_record.get("status") == "ok":
+            files += list(rig_record.get("files", {}))
     tracks = []
     for subject in subjects:
         for sentence in corpus.sentences(subject):
             rec = read_record(record_path(out, "sentences", subject, sentence))
             if rec and rec.get("status") == "ok":
                 records[(subject, sentence)] = rec
+                files += list(rec.get("files", {}))
                 coeffs, names = read_coeffs_csv(out / "blendshape_coeffs" / subject / f"{sentence}.csv")
                 tracks.append(coeffs)
     if tracks:
@@ -377,7 +573,8 @@ def _write_summary_files(out, corpus, vocaset, subjects, params, summary, *, rep
         f.write(json.dumps(corpus.splits, indent=2, sort_keys=True) + "\n")
     if report:
         write_report(out, records, names or (), summary.failures, params)
-    manifest = write_manifest(out, vocaset=vocaset, corpus=corpus, params=params, records=records,
+    files += [rel for rel in SUMMARY_OUTPUTS if (out / rel).is_file()]
+    manifest = write_manifest(out, files=files, vocaset=vocaset, corpus=corpus, params=params, records=records,
                               failures=summary.failures, version=blendvoca.__version__)
     listed = json.loads(manifest.read_text(encoding="utf-8"))["files"]
     listed["manifest.json"] = file_digest(manifest)

@@ -49,7 +49,8 @@ def sentence_fit(rig: Rig, frames: np.ndarray, head_index, *, delta: float = 0.1
         constraints active), ``usage`` (per-shape mean coefficient),
         ``active_per_shape`` and ``solver``.
     """
-    result = fit_sequence(rig.neutral, rig.deltas, frames, delta=delta, vertex_subset=head_index)
+    # VOCASET's unposedcleaneddata (and the synthetic corpus's) carry no head pose.
+    result = fit_sequence(rig.neutral, rig.deltas, frames, delta=delta, vertex_subset=head_index, unposed=True)
     activity = result.activity
     stats = {
         "frames": int(frames.shape[0]),

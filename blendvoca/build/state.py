@@ -9,7 +9,6 @@ stage simply has no (or an old) record and is redone.
 from __future__ import annotations
 
 import json
-import os
 from pathlib import Path
 
 from blendvoca.io.atomic import atomic_write
@@ -47,17 +46,3 @@ def is_up_to_date(out, record: dict | None, key: str) -> bool:
         if not path.is_file() or file_digest(path) != digest:
             return False
     return True
-
-
-def remove_stale_temporaries(out) -> int:
-    """Delete temporary files left by writes that were killed mid-way; return the count.
-
-    ``atomic_write`` names them ``.<name>.<random>.tmp`` beside the target.
-    """
-    count = 0
-    for dirpath, _, filenames in os.walk(out):
-        for name in filenames:
-            if name.startswith(".") and name.endswith(".tmp"):
-                os.unlink(os.path.join(dirpath, name))
-                count += 1
-    return count

@@ -8,7 +8,9 @@ returns it with diagnostics.  Building blocks (one file per step):
 :func:`solve_banded_qp` (banded interior point + certified active-set polish),
 :func:`solve_sparse_qp` (general solvers), :func:`least_squares_coefficients`,
 :func:`framewise_coefficients`, :func:`resample_sequence`,
-:func:`vertex_errors`, :func:`constraint_activity`.
+:func:`vertex_errors`, :func:`constraint_activity`, and
+:func:`remove_head_pose` (robust rigid alignment of posed frames to the neutral,
+applied by the fit entry points unless the input is declared unposed).
 """
 
 from .banded_qp import QPSolution, solve_banded_qp
@@ -17,21 +19,26 @@ from .diagnostics import constraint_activity, vertex_errors
 from .framewise import framewise_coefficients
 from .least_squares import least_squares_coefficients
 from .normal_equations import NormalEquations, normal_equations
+from .pose import HeadPose, flame_stable_vertices, least_moving_vertices, remove_head_pose
 from .resample import resample_sequence
 from .sparse_qp import solve_published_qp, solve_sparse_qp
 
 __all__ = [
     "FitResult",
+    "HeadPose",
     "METHODS",
     "NormalEquations",
     "QPSolution",
     "constraint_activity",
+    "flame_stable_vertices",
+    "least_moving_vertices",
     "fit_coefficients",
     "fit_rig",
     "fit_sequence",
     "framewise_coefficients",
     "least_squares_coefficients",
     "normal_equations",
+    "remove_head_pose",
     "resample_sequence",
     "solve_banded_qp",
     "solve_published_qp",

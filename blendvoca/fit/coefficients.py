@@ -12,6 +12,7 @@ from .diagnostics import constraint_activity, vertex_errors
 from .framewise import framewise_coefficients
 from .least_squares import least_squares_coefficients
 from .normal_equations import check_rig_and_frames, normal_equations
+from .pose import FLAME_NUM_VERTICES, HeadPose, remove_head_pose
 from .resample import resample_sequence
 from .sparse_qp import SOLVER_OPTIONS, solve_sparse_qp
 
@@ -59,6 +60,9 @@ class FitResult:
         Solver iterations (0 for closed forms).
     converged : bool
         False when the solver stopped without its optimality certificate.
+    pose : HeadPose or None
+        The head pose removed before fitting (``pose.summary()``: degrees, mm);
+        None when the frames were declared unposed.
     """
 
     coeffs: np.ndarray
@@ -69,6 +73,20 @@ class FitResult:
     solver: str
     iterations: int
     converged: bool
+    pose: HeadPose | None = field(default=None, repr=False)
+
+
+def _checked_frames(neutral, deltas, frames, vertex_subset, unposed, stable, where):
+    """Validated rig and frames (subset applied), with the head pose removed unless ``unposed``."""
+    checked = check_rig_and_frames(neutral, deltas, frames, vertex_subset, where)
+    if unposed is None:
+        # Auto: FLAME meshes (captures, method outputs) have a known stable
+        # region; other topologies are treated as rig-space data.
+        unposed = np.shape(neutral)[0] != FLAME_NUM_VERTICES
+    if unposed:
+        return checked, None
+    pose = remove_head_pose(frames, neutral, stable=stable)
+    return check_rig_and_frames(neutral, deltas, pose.frames, vertex_subset, where), pose
 
 
 def fit_sequence(
@@ -84,6 +102,8 @@ def fit_sequence(
     warm_start=None,
     framewise=False,
     fps=60.0,
+    unposed=None,
+    stable=None,
 ) -> FitResult:
     """Fit a coefficient track and return it with its diagnostics.
 
@@ -121,6 +141,17 @@ def fit_sequence(
     fps : float, optional
         Frame rate of ``frames``; other rates are resampled to 60 fps first,
         and the result is at 60 fps.
+    unposed : bool or None, optional
+        True: the frames are known to carry no head pose (VOCASET's
+        ``unposedcleaneddata``, rig outputs). False: each frame is first rigidly
+        aligned to ``neutral`` by :func:`remove_head_pose` on stable vertices and
+        the removed pose is returned in ``pose``. None (default): False for
+        FLAME-topology meshes (5023 vertices, whose stable region is known),
+        True for other topologies (rig-space data: with a rig whose shapes move
+        every vertex a rigid alignment would absorb part of the expression).
+    stable : (S,) array_like of int, optional
+        Stable vertices for the pose removal (full topology indices); default
+        as :func:`remove_head_pose`.
 
     Returns
     -------
@@ -132,7 +163,7 @@ def fit_sequence(
     delta = check_delta(delta, where) if rate else None
     if rate and delta is None:
         raise ValueError(f"{where}: rate=True needs a delta, got None")
-    neutral, deltas, frames = check_rig_and_frames(neutral, deltas, frames, vertex_subset, where)
+    (neutral, deltas, frames), pose = _checked_frames(neutral, deltas, frames, vertex_subset, unposed, stable, where)
     if fps != 60.0:
         frames = resample_sequence(frames, fps, 60.0)
     lower, upper = (0.0, 1.0) if bounds else (None, None)
@@ -175,6 +206,7 @@ def fit_sequence(
         solver=solver,
         iterations=iterations,
         converged=converged,
+        pose=pose,
     )
 
 
@@ -191,13 +223,16 @@ def fit_coefficients(
     warm_start=None,
     framewise=False,
     fps=60.0,
+    unposed=None,
+    stable=None,
 ) -> np.ndarray:
     """Return the coefficient track ``(T, K)`` that best reproduces ``frames``.
 
     Same parameters as :func:`fit_sequence` (which also returns diagnostics):
     ``neutral (V, 3)``, ``deltas (K, V, 3)``, ``frames (T, V, 3)``; by default
     the exact optimum of ``min sum_t ||B u_t - (p_t - n)||^2`` subject to
-    ``0 <= u <= 1`` and ``|u_{t+1} - u_t| <= delta``.
+    ``0 <= u <= 1`` and ``|u_{t+1} - u_t| <= delta``, after removing the head
+    pose unless ``unposed=True``.
 
     Returns
     -------
@@ -208,7 +243,7 @@ def fit_coefficients(
     if method not in METHODS:
         raise ValueError(f"{where}: method must be one of {METHODS}, got {method!r}")
     delta = check_delta(delta, where) if rate else None
-    neutral, deltas, frames = check_rig_and_frames(neutral, deltas, frames, vertex_subset, where)
+    (neutral, deltas, frames), _ = _checked_frames(neutral, deltas, frames, vertex_subset, unposed, stable, where)
     if fps != 60.0:
         frames = resample_sequence(frames, fps, 60.0)
     lower, upper = (0.0, 1.0) if bounds else (None, None)

@@ -10,9 +10,14 @@ from pathlib import Path
 
 import numpy as np
 
+from blendvoca.errors import BlendVOCAError
 from blendvoca.io.atomic import atomic_write
 
 SAMPLE_RATE = 16000
+
+
+class AudioFormatError(BlendVOCAError):
+    """An audio file that does not decode; the message names the file and the problem."""
 
 
 def resample_audio(samples: np.ndarray, rate_in: int, rate_out: int = SAMPLE_RATE) -> np.ndarray:
@@ -34,7 +39,15 @@ def to_mono(samples: np.ndarray) -> np.ndarray:
 
 
 def read_wav(path) -> tuple[np.ndarray, int]:
-    """Samples ``(N,)`` or ``(N, C)`` float32 in [-1, 1] and the native rate."""
+    """Samples ``(N,)`` or ``(N, C)`` float32 in [-1, 1] and the native rate.
+
+    Raises
+    ------
+    FileNotFoundError
+        No such file.
+    AudioFormatError
+        Anything libsndfile cannot decode (naming the file).
+    """
     import soundfile
 
     path = Path(path)
@@ -42,8 +55,10 @@ def read_wav(path) -> tuple[np.ndarray, int]:
         raise FileNotFoundError(f"audio file not found: {path}")
     try:
         samples, rate = soundfile.read(str(path), dtype="float32", always_2d=False)
-    except RuntimeError as error:  # soundfile raises LibsndfileError(RuntimeError)
-        raise ValueError(f"{path}: not a readable audio file: {error}") from None
+    except (RuntimeError, ValueError, TypeError, EOFError, OverflowError) as error:  # LibsndfileError is a RuntimeError
+        raise AudioFormatError(f"{path}: not a readable audio file: {error}") from None
+    if rate <= 0:
+        raise AudioFormatError(f"{path}: sample rate {rate} Hz; expected a positive rate")
     return samples, int(rate)
 
 

@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
+from blendvoca.errors import BlendVOCAError
 from blendvoca.io.atomic import atomic_write
 
 _PLY_TYPES = {
@@ -25,7 +26,7 @@ _PLY_TYPES = {
 }
 
 
-class MeshFormatError(ValueError):
+class MeshFormatError(BlendVOCAError):
     """A mesh file that does not parse; the message names the file and the problem."""
 
 
@@ -60,9 +61,18 @@ def parse_obj(text: str, *, where="<obj>") -> tuple[np.ndarray, np.ndarray]:
             parts = line.split()
             if len(parts) < 4:
                 raise MeshFormatError(f"{where}:{lineno}: vertex with fewer than 3 coordinates: {line.strip()!r}")
-            vertices.append(parts[1:4])
+            try:
+                vertices.append([float(x) for x in parts[1:4]])
+            except ValueError:
+                raise MeshFormatError(f"{where}:{lineno}: vertex coordinates are not numbers: {line.strip()!r}") from None
         elif line.startswith("f "):
-            idx = [int(tok.split("/")[0]) for tok in line.split()[1:]]
+            try:
+                idx = [int(tok.split("/")[0]) for tok in line.split()[1:]]
+            except ValueError:
+                raise MeshFormatError(f"{where}:{lineno}: face indices are not integers: {line.strip()!r}") from None
+            if len(idx) < 3 or 0 in idx:
+                raise MeshFormatError(f"{where}:{lineno}: expected a face of >= 3 vertex indices (1-based or "
+                                      f"negative, never 0): {line.strip()!r}")
             idx = [i - 1 if i > 0 else len(vertices) + i for i in idx]
             faces.extend([idx[0], idx[k], idx[k + 1]] for k in range(1, len(idx) - 1))
     if not vertices:
@@ -92,32 +102,64 @@ def _parse_ply_header(data: bytes, path) -> tuple[str, list[dict], int]:
     end = data.find(b"end_header")
     if not data.startswith(b"ply") or end < 0:
         raise MeshFormatError(f"{path}: not a PLY file (no 'ply' magic or no 'end_header')")
-    body_start = data.index(b"\n", end) + 1
+    newline = data.find(b"\n", end)
+    if newline < 0:
+        raise MeshFormatError(f"{path}: no line break after 'end_header'")
+    body_start = newline + 1
     fmt, elements = None, []
-    for raw in data[:end].decode("ascii", errors="replace").splitlines()[1:]:
+    for lineno, raw in enumerate(data[:end].decode("ascii", errors="replace").splitlines()[1:], 2):
         tokens = raw.split()
         if not tokens or tokens[0] in ("comment", "obj_info"):
             continue
+        where = f"{path}: header line {lineno} {raw.strip()!r}"
         if tokens[0] == "format":
+            if len(tokens) < 2:
+                raise MeshFormatError(f"{where}: expected 'format <ascii|binary_little_endian|binary_big_endian> 1.0'")
             fmt = tokens[1]
         elif tokens[0] == "element":
+            if len(tokens) != 3 or not tokens[2].isdigit():
+                raise MeshFormatError(f"{where}: expected 'element <name> <count>' with a count >= 0")
             elements.append({"name": tokens[1], "count": int(tokens[2]), "props": []})
         elif tokens[0] == "property":
             if not elements:
-                raise MeshFormatError(f"{path}: property before any element")
+                raise MeshFormatError(f"{where}: property before any element")
+            if len(tokens) < 3:
+                raise MeshFormatError(f"{where}: expected 'property <type> <name>'")
+            types = tokens[2:4] if tokens[1] == "list" else tokens[1:2]
+            for t in types:
+                if t not in _PLY_TYPES:
+                    raise MeshFormatError(f"{where}: unknown property type {t!r}; expected one of {sorted(_PLY_TYPES)}")
             if tokens[1] == "list":
+                if len(tokens) != 5:
+                    raise MeshFormatError(f"{where}: expected 'property list <count type> <index type> <name>'")
                 elements[-1]["props"].append((tokens[4], _PLY_TYPES[tokens[2]], _PLY_TYPES[tokens[3]]))
             else:
+                if len(tokens) != 3:
+                    raise MeshFormatError(f"{where}: expected 'property <type> <name>'")
                 elements[-1]["props"].append((tokens[2], _PLY_TYPES[tokens[1]], None))
+        elif tokens[0] not in ("end_header", "ply"):
+            raise MeshFormatError(f"{where}: unknown header keyword {tokens[0]!r}")
     if fmt not in ("ascii", "binary_little_endian", "binary_big_endian"):
-        raise MeshFormatError(f"{path}: unsupported PLY format {fmt!r}")
+        raise MeshFormatError(f"{path}: unsupported PLY format {fmt!r}; expected ascii, binary_little_endian "
+                              "or binary_big_endian")
+    for element in elements:
+        if element["name"] == "vertex":
+            names = [p[0] for p in element["props"]]
+            missing = [c for c in "xyz" if c not in names]
+            if missing:
+                raise MeshFormatError(f"{path}: the vertex element lacks properties {missing} (has {names})")
+            if any(p[2] is not None for p in element["props"]):
+                raise MeshFormatError(f"{path}: list properties on vertices are not supported")
     return fmt, elements, body_start
 
 
-def _vertex_dtype(props, endian: str) -> np.dtype:
+def _vertex_dtype(props, endian: str, path="<ply>") -> np.dtype:
     if any(p[2] is not None for p in props):
-        raise MeshFormatError("list properties on vertices are not supported")
-    return np.dtype([(name, endian + t) for name, t, _ in props])
+        raise MeshFormatError(f"{path}: list properties are only supported on faces")
+    try:
+        return np.dtype([(name, endian + t) for name, t, _ in props])
+    except (ValueError, TypeError) as error:  # e.g. a property name given twice
+        raise MeshFormatError(f"{path}: bad property list {[p[0] for p in props]}: {error}") from None
 
 
 def _read_ply_bytes(data: bytes, path, *, with_faces: bool) -> tuple[np.ndarray, np.ndarray | None]:
@@ -125,13 +167,26 @@ def _read_ply_bytes(data: bytes, path, *, with_faces: bool) -> tuple[np.ndarray,
     names = [e["name"] for e in elements]
     if "vertex" not in names:
         raise MeshFormatError(f"{path}: no 'vertex' element in the PLY header")
-    if fmt == "ascii":
-        return _read_ply_ascii(data[offset:].decode("ascii", errors="replace"), elements, path, with_faces)
-    endian = "<" if fmt == "binary_little_endian" else ">"
+    try:
+        if fmt == "ascii":
+            V, F = _read_ply_ascii(data[offset:].decode("ascii", errors="replace"), elements, path, with_faces)
+        else:
+            V, F = _read_ply_binary(data, offset, elements, "<" if fmt == "binary_little_endian" else ">", path,
+                                    with_faces)
+    except MeshFormatError:
+        raise
+    except (ValueError, IndexError, OverflowError, TypeError) as error:  # anything the checks did not foresee
+        raise MeshFormatError(f"{path}: malformed {fmt} PLY body: {error}") from None
+    if F is not None and F.size and (F.min() < 0 or F.max() >= len(V)):
+        raise MeshFormatError(f"{path}: face vertex index out of range [0, {len(V)}): min {F.min()}, max {F.max()}")
+    return V, F
+
+
+def _read_ply_binary(data, offset, elements, endian, path, with_faces):
     V = F = None
     for element in elements:
         if element["name"] == "vertex":
-            dtype = _vertex_dtype(element["props"], endian)
+            dtype = _vertex_dtype(element["props"], endian, path)
             nbytes = dtype.itemsize * element["count"]
             if offset + nbytes > len(data):
                 raise MeshFormatError(
@@ -139,7 +194,7 @@ def _read_ply_bytes(data: bytes, path, *, with_faces: bool) -> tuple[np.ndarray,
                     f"({nbytes} bytes) but only {len(data) - offset} bytes follow the header"
                 )
             block = np.frombuffer(data, dtype=dtype, count=element["count"], offset=offset)
-            V = np.stack([block["x"], block["y"], block["z"]], axis=1).astype(np.float64)
+            V = np.stack([block["x"], block["y"], block["z"]], axis=1).astype(np.float64).reshape(-1, 3)
             offset += nbytes
         elif element["name"] == "face":
             if not with_faces:
@@ -148,7 +203,7 @@ def _read_ply_bytes(data: bytes, path, *, with_faces: bool) -> tuple[np.ndarray,
         else:
             if element["count"] and V is not None and (F is not None or not with_faces):
                 break
-            dtype = _vertex_dtype(element["props"], endian)
+            dtype = _vertex_dtype(element["props"], endian, path)
             offset += dtype.itemsize * element["count"]
     return V, F
 
@@ -167,16 +222,19 @@ def _read_binary_faces(data, offset, element, endian, path):
                 return block["i"].astype(np.int64), offset + nbytes
     # General path: polygons of any size, fan-triangulated.
     faces = []
-    for _ in range(count):
+    for number in range(count):
         row = []
         for _name, t, index_t in props:
+            size = np.dtype(t).itemsize
+            if offset + size > len(data):
+                raise MeshFormatError(f"{path}: truncated inside the face block (face {number} of {count})")
             if index_t is None:
-                offset += np.dtype(t).itemsize
+                offset += size
                 continue
-            if offset >= len(data):
-                raise MeshFormatError(f"{path}: truncated inside the face block")
             n = int(np.frombuffer(data, endian + t, 1, offset)[0])
-            offset += np.dtype(t).itemsize
+            offset += size
+            if n < 0 or offset + n * np.dtype(index_t).itemsize > len(data):
+                raise MeshFormatError(f"{path}: truncated inside the face block (face {number} of {count})")
             row = np.frombuffer(data, endian + index_t, n, offset).tolist()
             offset += n * np.dtype(index_t).itemsize
         faces.extend([row[0], row[k], row[k + 1]] for k in range(1, len(row) - 1))
@@ -196,12 +254,23 @@ def _read_ply_ascii(text, elements, path, with_faces):
         if element["name"] == "vertex":
             names = [p[0] for p in element["props"]]
             cols = [names.index(c) for c in "xyz"]
-            V = np.array([[float(r[c]) for c in cols] for r in rows], dtype=np.float64).reshape(-1, 3)
+            for i, r in enumerate(rows):
+                if len(r) < len(names):
+                    raise MeshFormatError(f"{path}: vertex {i}: {len(r)} values, expected {len(names)} ({names})")
+            try:
+                V = np.array([[float(r[c]) for c in cols] for r in rows], dtype=np.float64).reshape(-1, 3)
+            except ValueError as error:
+                raise MeshFormatError(f"{path}: vertex block: {error}") from None
         elif element["name"] == "face" and with_faces:
             faces = []
-            for r in rows:
-                n = int(r[0])
-                idx = [int(x) for x in r[1 : 1 + n]]
+            for i, r in enumerate(rows):
+                try:
+                    n = int(r[0])
+                    idx = [int(x) for x in r[1 : 1 + n]]
+                except (ValueError, IndexError):
+                    raise MeshFormatError(f"{path}: face {i}: expected '<n> <i1> ... <in>', got {' '.join(r)!r}") from None
+                if n < 0 or len(idx) != n:
+                    raise MeshFormatError(f"{path}: face {i}: declares {n} indices, has {len(idx)}")
                 faces.extend([idx[0], idx[k], idx[k + 1]] for k in range(1, n - 1))
             F = np.array(faces, dtype=np.int64).reshape(-1, 3)
     return V, F

@@ -3,10 +3,38 @@
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 import time
+from pathlib import Path
 
+from blendvoca.errors import BlendVOCAError, error_line
 from blendvoca.synthetic.corpus import DEFAULT_CORPUS, generate_corpus
+
+
+def check_arguments(args) -> None:
+    """Refuse bad arguments before anything is written (``argparse`` reports them: exit 2)."""
+    problems = []
+    if args.speakers < 3:
+        problems.append(f"--speakers: expected >= 3 (train/val/test), got {args.speakers}")
+    if not 1 <= args.sentences <= 99:
+        problems.append(f"--sentences: expected 1 to 99, got {args.sentences}")
+    if args.seed < 0:
+        problems.append(f"--seed: expected >= 0, got {args.seed}")
+    low, high = args.min_duration, args.max_duration
+    if not (math.isfinite(low) and math.isfinite(high) and 0 < low <= high):
+        problems.append(f"--min-duration/--max-duration: expected 0 < min <= max seconds, got {low} and {high}")
+    head_motion = getattr(args, "head_motion", 0.0)
+    if not (math.isfinite(head_motion) and 0 <= head_motion <= 45):
+        problems.append(f"--head-motion: expected 0 to 45 degrees, got {head_motion}")
+    out = Path(args.out).expanduser()
+    if out.exists() and not out.is_dir():
+        problems.append(f"--out {out} is a file; expected a new or empty folder")
+    elif args.overwrite and out.is_dir() and any(out.iterdir()) and not (out / "synthetic.json").is_file():
+        problems.append(f"--overwrite: {out} is not a synthetic corpus (no synthetic.json); "
+                        "refusing to replace a folder this tool did not write")
+    if problems:
+        raise BlendVOCAError("; ".join(problems))
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -14,22 +42,27 @@ def main(argv: list[str] | None = None) -> int:
                                      description="Generate a synthetic VOCASET corpus with ground truth.")
     parser.add_argument("--out", required=True, help="output folder (must not exist or be empty)")
     parser.add_argument("--speakers", type=int, default=DEFAULT_CORPUS["speakers"], help="number of speakers (>= 3)")
-    parser.add_argument("--sentences", type=int, default=DEFAULT_CORPUS["sentences"], help="sentences per speaker")
-    parser.add_argument("--seed", type=int, default=DEFAULT_CORPUS["seed"])
+    parser.add_argument("--sentences", type=int, default=DEFAULT_CORPUS["sentences"], help="sentences per speaker (1-99)")
+    parser.add_argument("--seed", type=int, default=DEFAULT_CORPUS["seed"], help=">= 0")
     parser.add_argument("--layout", choices=("official", "processed"), default="official")
-    parser.add_argument("--min-duration", type=float, default=DEFAULT_CORPUS["duration"][0], help="seconds")
-    parser.add_argument("--max-duration", type=float, default=DEFAULT_CORPUS["duration"][1], help="seconds")
+    parser.add_argument("--min-duration", type=float, default=DEFAULT_CORPUS["duration"][0], help="seconds (> 0)")
+    parser.add_argument("--max-duration", type=float, default=DEFAULT_CORPUS["duration"][1], help="seconds (>= min)")
     parser.add_argument("--frame-faces", action="store_true", help="store triangles in every frame PLY")
-    parser.add_argument("--overwrite", action="store_true")
+    parser.add_argument("--head-motion", nargs="?", type=float, const=3.0, default=0.0, metavar="DEG",
+                        help="also write posed frames (registereddata/) with a smooth head motion of up to DEG "
+                             "degrees per axis (default 3), recorded in the ground truth")
+    parser.add_argument("--overwrite", action="store_true", help="replace an existing synthetic corpus in --out")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     args = parser.parse_args(argv)
     start = time.perf_counter()
     try:
+        check_arguments(args)
         out = generate_corpus(args.out, speakers=args.speakers, sentences=args.sentences, seed=args.seed,
                               layout=args.layout, duration=(args.min_duration, args.max_duration),
-                              frame_faces=args.frame_faces, overwrite=args.overwrite, progress=not args.quiet)
-    except (ValueError, FileExistsError) as error:
-        print(f"error: {error}", file=sys.stderr)
+                              frame_faces=args.frame_faces, head_motion=args.head_motion or False,
+                              overwrite=args.overwrite, progress=not args.quiet)
+    except (BlendVOCAError, ValueError, OSError) as error:  # FileExistsError, read-only, disk full: an OSError
+        print(error_line(error), file=sys.stderr)
         return 2
     print(f"wrote {out} ({args.layout} layout, {args.speakers} x {args.sentences}) in {time.perf_counter() - start:.1f} s")
     return 0

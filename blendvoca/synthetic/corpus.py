@@ -20,6 +20,7 @@ import numpy as np
 
 from blendvoca.synthetic.audio import speech_audio
 from blendvoca.synthetic.groundtruth import write_npz
+from blendvoca.synthetic.headpose import apply_pose, head_motion as draw_head_motion
 from blendvoca.synthetic.identity import speaker_neutral, speaker_profile
 from blendvoca.synthetic.motion import animate_face
 from blendvoca.synthetic.plan import sentence_plan
@@ -32,7 +33,10 @@ GENERATOR_VERSION = "1"
 DEFAULT_CORPUS = dict(speakers=6, sentences=4, seed=0, duration=(3.0, 5.0))
 
 # Stream ids of the per-item random generators.
-_SPEAKER, _SENTENCE, _LENGTH = 0, 1, 2
+_SPEAKER, _SENTENCE, _LENGTH, _HEAD = 0, 1, 2, 3
+
+#: Where the head turns, relative to the jaw hinge (metres): the top of the neck.
+_NECK_FROM_HINGE = np.array([0.0, -0.05, -0.02])
 
 
 def speaker_name(index: int) -> str:
@@ -107,7 +111,7 @@ def _groundtruth_arrays(item: dict) -> dict[str, np.ndarray]:
 
 def _write_corpus(out: Path, *, speakers: int, sentences: int, seed: int, layout: str,
                   duration: tuple[float, float], rate: int, max_lag_frames: int, frame_faces: bool,
-                  progress: bool) -> None:
+                  head_motion: float, progress: bool) -> None:
     from tqdm.auto import tqdm
 
     from blendvoca.assets import load_index_list, resolve
@@ -122,6 +126,9 @@ def _write_corpus(out: Path, *, speakers: int, sentences: int, seed: int, layout
         writer = ProcessedWriter(out, int(lengths.sum()), num_vertices=len(template))
     else:
         raise ValueError(f"generate_corpus: layout must be 'official' or 'processed', got {layout!r}")
+    if head_motion and layout != "official":
+        raise ValueError("generate_corpus: head motion is written as VOCASET's posed data (registereddata/), "
+                         f"which only the official layout has; got layout {layout!r}")
     names = [speaker_name(i) for i in range(speakers)]
     meta = {
         "generator": "blendvoca.synthetic",
@@ -137,6 +144,11 @@ def _write_corpus(out: Path, *, speakers: int, sentences: int, seed: int, layout
         "splits": proportional_split(names),
         "subjects": {},
     }
+    if head_motion:
+        meta["head_motion"] = {"max_angle_deg": head_motion, "max_translation_m": 0.003,
+                               "posed_frames": "registereddata/<subject>/<sentence>/<sentence>.NNNNNN.ply",
+                               "convention": "posed = unposed @ head_rotations[t].T + head_translations[t] "
+                                             "(groundtruth npz, metres)"}
     bar = tqdm(total=speakers * sentences, desc="synthetic VOCASET", unit="sentence", disable=not progress)
     for i, subject in enumerate(names):
         rng = np.random.default_rng([seed, _SPEAKER, i])
@@ -151,7 +163,14 @@ def _write_corpus(out: Path, *, speakers: int, sentences: int, seed: int, layout
                                        np.random.default_rng([seed, _SENTENCE, i, j]),
                                        rate=rate, max_lag_frames=max_lag_frames)
             writer.add_sentence(subject, sentence, item["frames"], item["audio"], rate)
-            write_npz(out / "groundtruth" / subject / f"{sentence}.npz", _groundtruth_arrays(item))
+            arrays = _groundtruth_arrays(item)
+            if head_motion:
+                rotations, translations = draw_head_motion(
+                    int(lengths[i, j]), regions.hinge + _NECK_FROM_HINGE,
+                    np.random.default_rng([seed, _HEAD, i, j]), max_angle_deg=head_motion)
+                writer.add_posed_sentence(subject, sentence, apply_pose(item["frames"], rotations, translations))
+                arrays.update(head_rotations=rotations, head_translations=translations)
+            write_npz(out / "groundtruth" / subject / f"{sentence}.npz", arrays)
             items[sentence] = {
                 "num_frames": int(lengths[i, j]),
                 "duration": int(lengths[i, j]) / FPS,
@@ -177,6 +196,7 @@ def generate_corpus(
     rate: int = 22000,
     max_lag_frames: int = 2,
     frame_faces: bool = False,
+    head_motion: bool | float = False,
     overwrite: bool = False,
     progress: bool = True,
 ) -> Path:
@@ -205,6 +225,12 @@ def generate_corpus(
         Range of the true audio-motion lag per sentence, in 60 fps frames.
     frame_faces : bool
         Official layout: store triangles in every frame PLY (3x the size).
+    head_motion : bool or float
+        Also write the frames with a smooth rigid head motion under
+        ``registereddata/`` (VOCASET's posed data; official layout only), the
+        pose in the ground truth (``head_rotations (T, 3, 3)``,
+        ``head_translations (T, 3)``). True: peaks up to 3 degrees and 3 mm per
+        axis; a number: that many degrees. The unposed frames are unchanged.
     overwrite : bool
         Replace an existing ``out``.
     progress : bool
@@ -228,7 +254,8 @@ def generate_corpus(
     try:
         _write_corpus(tmp, speakers=int(speakers), sentences=int(sentences), seed=int(seed), layout=layout,
                       duration=(float(duration[0]), float(duration[1])), rate=int(rate),
-                      max_lag_frames=int(max_lag_frames), frame_faces=frame_faces, progress=progress)
+                      max_lag_frames=int(max_lag_frames), frame_faces=frame_faces,
+                      head_motion=_head_motion_degrees(head_motion), progress=progress)
         os.chmod(tmp, 0o755)
         if out.exists():
             shutil.rmtree(out)
@@ -237,6 +264,17 @@ def generate_corpus(
         shutil.rmtree(tmp, ignore_errors=True)
         raise
     return out
+
+
+def _head_motion_degrees(head_motion) -> float:
+    if head_motion is True:
+        return 3.0
+    if head_motion is False or head_motion is None:
+        return 0.0
+    if isinstance(head_motion, (int, float, np.integer, np.floating)) and 0 < float(head_motion) <= 30:
+        return float(head_motion)
+    raise ValueError(f"generate_corpus: head_motion must be True/False or a peak angle in (0, 30] degrees, "
+                     f"got {head_motion!r}")
 
 
 def default_corpus(cache_dir=None, *, progress: bool = True) -> Path:

@@ -6,7 +6,7 @@
 """
 
 from blendvoca.vocaset.corpus import VocasetCorpus, detect_layout, open_vocaset
-from blendvoca.vocaset.errors import PROBLEM_KINDS, Problem, VocasetError
+from blendvoca.vocaset.errors import PROBLEM_KINDS, SAFE_NAME, Problem, UnsafeNameError, VocasetError, check_safe_name
 from blendvoca.vocaset.splits import (
     FPS,
     NUM_VERTICES,
@@ -20,6 +20,6 @@ from blendvoca.vocaset.write import OfficialWriter, ProcessedWriter, convert_cor
 
 __all__ = [
     "FPS", "NUM_VERTICES", "PROBLEM_KINDS", "VOCASET_SENTENCES", "VOCASET_SPLITS", "VOCASET_SUBJECTS",
-    "OfficialWriter", "Problem", "ProcessedWriter", "VocasetCorpus", "VocasetError", "convert_corpus",
+    "OfficialWriter", "Problem", "SAFE_NAME", "UnsafeNameError", "check_safe_name", "ProcessedWriter", "VocasetCorpus", "VocasetError", "convert_corpus",
     "corpus_splits", "detect_layout", "open_vocaset", "proportional_split",
 ]

@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
+
+from blendvoca.errors import BlendVOCAError
 
 PROBLEM_KINDS = (
     "missing_sentence",  # a sentence other subjects have, or audio without meshes
@@ -12,6 +15,7 @@ PROBLEM_KINDS = (
     "vertex_count",      # a mesh that does not have the expected 5023 vertices
     "nan",               # NaN or infinite coordinates
     "truncated",         # a file shorter than its header says
+    "empty_audio",       # a WAV / raw audio entry with no samples
     "unreadable",        # anything else that does not parse
 )
 
@@ -49,7 +53,36 @@ class Problem:
         return f"[{self.kind}] {where}: {self.message}"
 
 
-class VocasetError(ValueError):
+#: Subject and sentence names that may become file names: letters, digits, ``_``, ``-``
+#: and ``.``, not starting with ``.`` (no ``..``, no separators), at most 128 characters.
+SAFE_NAME = re.compile(r"^[A-Za-z0-9_-][A-Za-z0-9_.-]{0,127}$")
+
+
+class UnsafeNameError(BlendVOCAError):
+    """A subject or sentence name that cannot safely become part of a path."""
+
+
+def check_safe_name(name, what: str, where) -> str:
+    """Return ``name`` if it matches :data:`SAFE_NAME`, else raise :class:`UnsafeNameError`.
+
+    Parameters
+    ----------
+    name : object
+        The name read from the corpus (a folder name or a pickle key).
+    what : str
+        ``"subject"`` or ``"sentence"``.
+    where : str or path
+        The file or folder it came from (named in the error).
+    """
+    if not isinstance(name, str) or not SAFE_NAME.match(name):
+        raise UnsafeNameError(
+            f"{where}: {what} name {name!r} is not a safe file name; expected letters, digits, '_', '-' "
+            "or '.' (not starting with '.', at most 128 characters)"
+        )
+    return name
+
+
+class VocasetError(BlendVOCAError):
     """A VOCASET item (template, frames or audio) that cannot be read.
 
     Carries the ``Problem``; ``subject``, ``sentence``, ``frame`` and ``kind`` are

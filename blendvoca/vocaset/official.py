@@ -4,6 +4,7 @@
 
     templates/<subject>.ply
     unposedcleaneddata/<subject>/sentenceNN/sentenceNN.NNNNNN.ply   (60 fps)
+    registereddata/<subject>/sentenceNN/sentenceNN.NNNNNN.ply       (optional: with head pose)
     audio/<subject>/sentenceNN.wav
 
 Frame files are numbered (1-based in the real data); they are sorted by number
@@ -22,7 +23,7 @@ from blendvoca.io.audio import read_wav, to_mono
 from blendvoca.io.mesh import MeshFormatError, read_ply, read_ply_sequence, read_ply_vertices
 from blendvoca.vocaset.checks import frame_gaps, wav_truncation
 from blendvoca.vocaset.corpus import VocasetCorpus
-from blendvoca.vocaset.errors import Problem, VocasetError
+from blendvoca.vocaset.errors import Problem, VocasetError, check_safe_name
 
 _FRAME = re.compile(r"^(?P<sentence>.+)\.(?P<number>\d+)\.ply$")
 
@@ -54,6 +55,8 @@ class OfficialVocaset(VocasetCorpus):
                                                 self.root / "templates")
         templates = {p.stem for p in template_root.glob("*.ply")} if template_root.is_dir() else set()
         subjects = sorted(set(_dirs(mesh_root)) | set(_dirs(audio_root)) | templates)
+        for subject in subjects:
+            check_safe_name(subject, "subject", self.root)
         self._subjects = subjects
         self._frames: dict[tuple[str, str], tuple[list[Path], np.ndarray]] = {}
         self._sentences: dict[str, list[str]] = {}
@@ -61,6 +64,7 @@ class OfficialVocaset(VocasetCorpus):
         for subject in subjects:
             names = []
             for sentence in _dirs(mesh_root / subject):
+                check_safe_name(sentence, "sentence", mesh_root / subject)
                 paths, numbers = frame_files(mesh_root / subject / sentence)
                 if not paths:
                     continue
@@ -166,6 +170,35 @@ class OfficialVocaset(VocasetCorpus):
             raise  # not reached: _locate_bad_frame raises
         return self._check_frames(subject, sentence, frames, str(paths[0].parent))
 
+    def has_posed(self, subject: str, sentence: str) -> bool:
+        """Whether ``registereddata/`` (VOCASET's data with head pose) holds this sentence."""
+        return bool(frame_files(self.root / "registereddata" / subject / sentence)[0])
+
+    def posed_frames(self, subject: str, sentence: str) -> np.ndarray:
+        """The sentence with head pose, ``(T, V, 3) float64`` from ``registereddata/``.
+
+        Raises
+        ------
+        VocasetError
+            No posed frames for the sentence (``missing_sentence``), a gap in
+            their numbering, or a bad frame.
+        """
+        self._check_subject(subject)
+        folder = self.root / "registereddata" / subject / sentence
+        paths, numbers = frame_files(folder)
+        if not paths:
+            self._fail("missing_sentence", subject, sentence, f"{folder}: no posed frame files")
+        gaps = frame_gaps(numbers)
+        if gaps:
+            self._fail("missing_frame", subject, sentence, f"{folder}: frame files {gaps[:5]} missing",
+                       frame=int(np.searchsorted(numbers, gaps[0])))
+        try:
+            frames = read_ply_sequence(paths, num_vertices=self.num_vertices)
+        except (MeshFormatError, OSError):
+            self._locate_bad_frame(subject, sentence, paths)
+            raise  # not reached: _locate_bad_frame raises
+        return self._check_frames(subject, sentence, frames, str(folder))
+
     def _locate_bad_frame(self, subject: str, sentence: str, paths: list[Path]) -> None:
         for t, path in enumerate(paths):
             try:
@@ -193,4 +226,6 @@ class OfficialVocaset(VocasetCorpus):
             samples, rate = read_wav(path)
         except (ValueError, OSError) as error:
             self._fail("unreadable", subject, sentence, str(error))
+        if samples.size == 0:
+            self._fail("empty_audio", subject, sentence, f"{path}: no samples")
         return to_mono(samples).astype(np.float32), rate

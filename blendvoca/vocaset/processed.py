@@ -8,7 +8,10 @@
     templates.pkl         {subject: (5023, 3)}
 
 VOCA's pickles were written by Python 2, so they are read with
-``encoding="latin1"``. Integer sentence keys (some re-exports use them) are read
+``encoding="latin1"``, by a restricted unpickler (:func:`load_data_pickle`)
+that builds only what these files hold (dicts, lists, numbers, strings, numpy
+arrays and scalars): a pickle naming any other class or function is refused
+with :class:`UnsafePickleError` instead of running its code. Integer sentence keys (some re-exports use them) are read
 as ``sentenceNN``. A truncated ``data_verts.npy`` is mapped as far as it goes:
 frames beyond the end are reported, the others still read.
 """
@@ -22,7 +25,8 @@ import numpy as np
 
 from blendvoca.vocaset.checks import frame_gaps
 from blendvoca.vocaset.corpus import VocasetCorpus
-from blendvoca.vocaset.errors import Problem
+from blendvoca.errors import BlendVOCAError
+from blendvoca.vocaset.errors import Problem, check_safe_name
 
 FILES = ("data_verts.npy", "subj_seq_to_idx.pkl", "raw_audio_fixed.pkl", "templates.pkl")
 
@@ -61,9 +65,79 @@ def open_rows(path) -> tuple[np.ndarray, int]:
     return rows, shape[0]
 
 
-def _load_pickle(path: Path):
+class UnsafePickleError(BlendVOCAError):
+    """A pickle that is not plain data (names a class or function outside the allowed list) or does not parse."""
+
+
+#: The only globals a processed-layout pickle may name: numpy's array and scalar
+#: reconstruction (numpy 1 and 2 module paths), plain containers and the bytes codec.
+_ALLOWED_GLOBALS = {
+    ("numpy.core.multiarray", "_reconstruct"), ("numpy._core.multiarray", "_reconstruct"),
+    ("numpy.core.multiarray", "scalar"), ("numpy._core.multiarray", "scalar"),
+    ("numpy", "ndarray"), ("numpy", "dtype"),
+    ("collections", "OrderedDict"), ("builtins", "set"), ("builtins", "frozenset"), ("builtins", "complex"),
+    ("copy_reg", "_reconstructor"), ("copyreg", "_reconstructor"),
+    ("builtins", "object"), ("__builtin__", "object"),
+    ("_codecs", "encode"),  # how protocol 2 stores bytes (an array's buffer)
+}
+
+
+class _DataUnpickler(pickle.Unpickler):
+    def __init__(self, file, where):
+        super().__init__(file, encoding="latin1")
+        self._where = where
+
+    def find_class(self, module, name):
+        if (module, name) not in _ALLOWED_GLOBALS:
+            raise UnsafePickleError(
+                f"{self._where}: refusing to load {module}.{name}: the processed VOCASET pickles hold only dicts, "
+                "lists, numbers, strings and numpy arrays (a pickle naming other classes or functions could run code)"
+            )
+        if module in ("copy_reg", "copyreg"):
+            import copyreg
+
+            return copyreg._reconstructor
+        if module in ("builtins", "__builtin__"):
+            import builtins
+
+            return getattr(builtins, name)
+        return super().find_class(module, name)
+
+
+def load_data_pickle(path):
+    """Load a processed-layout pickle allowing only plain data (see :data:`_ALLOWED_GLOBALS`).
+
+    Raises
+    ------
+    UnsafePickleError
+        The pickle names anything else, or is truncated or corrupted (naming the file).
+    """
+    path = Path(path)
     with open(path, "rb") as f:
-        return pickle.load(f, encoding="latin1")
+        try:
+            obj = _DataUnpickler(f, path).load()
+        except UnsafePickleError:
+            raise
+        except Exception as error:  # truncated / corrupted: EOFError, UnpicklingError, ValueError, ...
+            raise UnsafePickleError(f"{path}: not a readable pickle ({type(error).__name__}: {error})") from None
+    return obj
+
+
+def _load_pickle(path: Path, expected=dict):
+    obj = load_data_pickle(path)
+    if not isinstance(obj, expected):
+        raise UnsafePickleError(f"{path}: expected a {expected.__name__} of subject -> ..., got {type(obj).__name__}")
+    return obj
+
+
+def _check_nested(mapping, path: Path) -> None:
+    for subject, value in mapping.items():
+        check_safe_name(subject, "subject", path)
+        if not isinstance(value, dict):
+            raise UnsafePickleError(f"{path}: entry of {subject!r} is a {type(value).__name__}, expected a dict "
+                                    "of sentence -> ...")
+        for key in value:
+            check_safe_name(sentence_name(key), "sentence", path)
 
 
 class ProcessedVocaset(VocasetCorpus):
@@ -81,9 +155,13 @@ class ProcessedVocaset(VocasetCorpus):
         if self._rows.ndim == 2 and self._rows.shape[1] == 3 * self.num_vertices:
             self._rows = self._rows.reshape(len(self._rows), self.num_vertices, 3)
         index = _load_pickle(self.root / "subj_seq_to_idx.pkl")
-        self._audio = {s: {sentence_name(k): v for k, v in d.items()}
-                       for s, d in _load_pickle(self.root / "raw_audio_fixed.pkl").items()}
+        _check_nested(index, self.root / "subj_seq_to_idx.pkl")
+        raw_audio = _load_pickle(self.root / "raw_audio_fixed.pkl")
+        _check_nested(raw_audio, self.root / "raw_audio_fixed.pkl")
+        self._audio = {s: {sentence_name(k): v for k, v in d.items()} for s, d in raw_audio.items()}
         self._templates = _load_pickle(self.root / "templates.pkl")
+        for subject in self._templates:
+            check_safe_name(subject, "subject", self.root / "templates.pkl")
         self._index: dict[tuple[str, str], np.ndarray] = {}
         self._sentences: dict[str, list[str]] = {}
         subjects = sorted(set(index) | set(self._audio) | set(self._templates))
@@ -93,6 +171,12 @@ class ProcessedVocaset(VocasetCorpus):
             for key, frames in sorted((index.get(subject) or {}).items(), key=lambda kv: sentence_name(kv[0])):
                 sentence = sentence_name(key)
                 if not frames:
+                    continue
+                if not isinstance(frames, dict) or not all(
+                        isinstance(k, (int, np.integer)) and isinstance(v, (int, np.integer)) for k, v in frames.items()):
+                    self._record(Problem(subject, sentence, None, "unreadable",
+                                         "subj_seq_to_idx.pkl: expected {frame (int): row of data_verts (int)}, got "
+                                         f"{type(frames).__name__}"))
                     continue
                 numbers = np.array(sorted(frames), dtype=np.int64)
                 self._index[subject, sentence] = np.array([frames[n] for n in numbers], dtype=np.int64)
@@ -187,6 +271,12 @@ class ProcessedVocaset(VocasetCorpus):
             samples, rate = np.asarray(entry["audio"]), int(entry["sample_rate"])
         except (KeyError, TypeError) as error:
             self._fail("unreadable", subject, sentence, f"raw_audio_fixed.pkl: entry lacks 'audio'/'sample_rate' ({error})")
+        if not (np.issubdtype(samples.dtype, np.integer) or np.issubdtype(samples.dtype, np.floating)) \
+                or samples.ndim not in (1, 2) or rate <= 0:
+            self._fail("unreadable", subject, sentence, f"raw_audio_fixed.pkl: expected (N,) or (N, C) numeric samples "
+                       f"and a positive sample_rate, got {samples.dtype} {samples.shape} at {rate} Hz")
+        if samples.size == 0:
+            self._fail("empty_audio", subject, sentence, "raw_audio_fixed.pkl: the entry holds no samples")
         if np.issubdtype(samples.dtype, np.integer):
             samples = samples.astype(np.float32) / float(np.iinfo(samples.dtype).max + 1)
         if samples.ndim == 2:

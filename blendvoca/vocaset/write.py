@@ -52,8 +52,17 @@ class OfficialWriter:
 
     def add_sentence(self, subject: str, sentence: str, frames: np.ndarray, audio: np.ndarray, rate: int) -> None:
         """Frames ``(T, V, 3)`` as ``sentenceNN.%06d.ply`` (1-based) and audio as 16-bit WAV."""
+        self._write_frames("unposedcleaneddata", subject, sentence, frames)
+        write_wav(self.root / "audio" / subject / f"{sentence}.wav",
+                  quantize_pcm16(audio).astype(np.float32) / 32768.0, rate)
+
+    def add_posed_sentence(self, subject: str, sentence: str, frames: np.ndarray) -> None:
+        """Frames ``(T, V, 3)`` with head pose under ``registereddata/`` (VOCASET's posed data)."""
+        self._write_frames("registereddata", subject, sentence, frames)
+
+    def _write_frames(self, kind: str, subject: str, sentence: str, frames: np.ndarray) -> None:
         frames = _check_sentence(subject, sentence, frames, self.num_vertices)
-        folder = self.root / "unposedcleaneddata" / subject / sentence
+        folder = self.root / kind / subject / sentence
         folder.mkdir(parents=True, exist_ok=True)
         faces = self._faces if self.frame_faces else None
         # Thousands of small files: write them directly (same bytes as write_ply)
@@ -64,8 +73,6 @@ class OfficialWriter:
         for t, V in enumerate(frames, start=1):
             with open(folder / f"{sentence}.{t:06d}.ply", "wb") as f:
                 f.write(header + np.asarray(V, dtype="<f4").tobytes() + face_block)
-        write_wav(self.root / "audio" / subject / f"{sentence}.wav",
-                  quantize_pcm16(audio).astype(np.float32) / 32768.0, rate)
 
     def finish(self) -> Path:
         return self.root

@@ -89,5 +89,7 @@ def make_dataset(root: Path, assets_dir: Path, subjects=("FakeA", "FakeB", "Fake
             write_wav(root / "audio" / subject / f"sentence{j:02d}.wav", speech_for(track[:, jaw], rng), RATE)
     splits = {"train": [subjects[0]], "val": [subjects[1]], "test": list(subjects[2:])}
     (root / "splits.json").write_text(json.dumps(splits))
-    (root / "manifest.json").write_text(json.dumps({"seed": seed, "subjects": list(subjects)}))
+    from blendvoca.build.manifest import write_folder_manifest
+
+    write_folder_manifest(root)  # what open_blendvoca reads: every file listed with its sha256
     return root

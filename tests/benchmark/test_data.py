@@ -39,6 +39,11 @@ def test_said_layout_fallback(fake_dataset_dir, tmp_path):
     rig.save_said_folder(root / "blendshapes_head" / "FakeC")
     (root / "templates_head").mkdir()
     (root / "blendshapes_head" / "FakeC" / "Neutral.obj").rename(root / "templates_head" / "FakeC.obj")
+    with pytest.raises(ValueError, match=r"no manifest.json.*python -m blendvoca.build.manifest"):
+        open_blendvoca(root)  # a hand-made folder is listed once, then opened
+    from blendvoca.build.manifest import main as list_folder
+
+    assert list_folder([str(root)]) == 0
     ds = open_blendvoca(root)
     np.testing.assert_allclose(ds.rig("FakeC").deltas, rig.deltas, atol=1e-6)
     assert set(ds.splits) == {"train", "val", "test"}  # the VOCASET split (no such subjects here)
@@ -52,16 +57,25 @@ def test_samples_and_manifest_hash(fake_dataset_dir, tmp_path):
     shutil.copytree(fake_dataset_dir, root)
     from blendvoca.io.coeffs import write_coeffs_csv
 
+    from blendvoca.build.manifest import write_folder_manifest
+
     base = open_blendvoca(root).coeffs("FakeC", "sentence02")
     for k in range(3):
         write_coeffs_csv(root / "blendshape_coeffs" / "FakeC" / f"sentence02-{k}.csv", base * (k + 1) / 4, BLENDVOCA_NAMES)
+    assert open_blendvoca(root).samples("FakeC", "sentence02").shape == (1, *base.shape)  # not listed: not seen
+    write_folder_manifest(root)
     ds = open_blendvoca(root)
     s = ds.samples("FakeC", "sentence02")
     assert s.shape == (3, *base.shape)
     np.testing.assert_allclose(s[2], base * 0.75, atol=1e-6)
     assert ds.sentences("FakeC") == ["sentence01", "sentence02", "sentence03"]
-    (root / "manifest.json").write_text(json.dumps({"changed": True}))
+    manifest = json.loads((root / "manifest.json").read_text())
+    del manifest["files"]["blendshape_coeffs/FakeC/sentence02-2.csv"]
+    (root / "manifest.json").write_text(json.dumps(manifest))
     assert open_blendvoca(root).manifest_hash != ds.manifest_hash
+    (root / "manifest.json").write_text(json.dumps({"changed": True}))
+    with pytest.raises(ValueError, match="files"):
+        open_blendvoca(root)
 
 
 def test_manifest_hash_covers_data_files_not_the_report(fake_dataset_dir, tmp_path):
@@ -81,7 +95,7 @@ def test_manifest_hash_covers_data_files_not_the_report(fake_dataset_dir, tmp_pa
 def test_errors(tmp_path, fake_dataset_dir):
     with pytest.raises(ValueError, match="not a directory"):
         open_blendvoca(tmp_path / "missing")
-    with pytest.raises(ValueError, match="blendshape_coeffs"):
+    with pytest.raises(ValueError, match="manifest.json"):
         open_blendvoca(tmp_path)
     ds = open_blendvoca(fake_dataset_dir)
     with pytest.raises(ValueError, match="unknown split"):

@@ -80,7 +80,12 @@ def test_cli_coeffs_and_meshes(fake_dataset_dir, tmp_path):
           "--audio", str(fake_dataset_dir / "audio" / "FakeC" / "sentence01.wav"),
           "--out", str(out), "--size", "64", "--backend", "software", "--out-fps", "25"])
     frames, fps, audio = read_video(out)
-    assert frames.shape[0] == 5 and fps == pytest.approx(25) and len(audio) > 0
+    # the video lasts as long as the audio (the 12-frame track's last frame is held)
+    from blendvoca.io.audio import load_audio
+
+    wav = load_audio(fake_dataset_dir / "audio" / "FakeC" / "sentence01.wav")
+    assert fps == pytest.approx(25) and len(audio) > 0
+    assert frames.shape[0] == round(len(wav) / 16000 * 25)
 
     rig = Rig.load(fake_dataset_dir / "rigs" / "FakeC.npz")
     np.save(tmp_path / "seq.npy", rig.evaluate(coeffs[:4]))
@@ -88,3 +93,182 @@ def test_cli_coeffs_and_meshes(fake_dataset_dir, tmp_path):
     main(["--meshes", str(tmp_path / "seq.npy"), "--faces", str(tmp_path / "faces.obj"),
           "--out", str(tmp_path / "mesh.mp4"), "--size", "64", "--backend", "software"])
     assert read_video(tmp_path / "mesh.mp4")[0].shape[0] == 4
+
+
+# ------------------------------------------------------------------ renders to judge lip sync from
+
+
+def _face_pixels_std(frames, size):
+    """Standard deviation of the grey levels in the central half of the picture (the face)."""
+    centre = frames[:, size // 4: 3 * size // 4, size // 4: 3 * size // 4].astype(float)
+    return float(centre.mean(axis=-1).std())
+
+
+def test_default_framing_puts_a_wide_mouth_on_screen(assets_dir):
+    from benchmark.render import face_camera
+    from benchmark.render.__main__ import DEFAULT_SIZE
+
+    v, _ = flame_head(assets_dir)
+    corners = np.loadtxt(assets_dir / "said" / "FLAME_landmarks.txt", dtype=np.int64)[[48, 54]]
+    xy, depth = project(v[corners], face_camera(v), np.pi / 8, DEFAULT_SIZE, DEFAULT_SIZE)
+    assert xy[1, 0] - xy[0, 0] >= 120 and np.all(depth > 0)
+    assert np.all((xy > 0) & (xy < DEFAULT_SIZE))
+    chin, brow = np.loadtxt(assets_dir / "said" / "FLAME_landmarks.txt", dtype=np.int64)[[8, 19]]
+    xy, _ = project(v[[chin, brow]], face_camera(v), np.pi / 8, DEFAULT_SIZE, DEFAULT_SIZE)
+    assert np.all((xy > 0) & (xy < DEFAULT_SIZE))  # brows to chin in the picture
+    # the profile view sees the nose tip in the picture too
+    xy, depth = project(v[[np.argmax(v[:, 2])]], face_camera(v, side=True), np.pi / 8, 128, 128)
+    assert depth[0] > 0 and np.all((xy > 0) & (xy < 128))
+
+
+def test_vertex_only_ply_folder_shows_the_face(tmp_path, assets_dir, capsys):
+    from benchmark.render.__main__ import main
+    from blendvoca.io.mesh import write_ply
+
+    v, f = flame_head(assets_dir)
+    frames_dir = tmp_path / "frames"
+    for t in range(3):
+        write_ply(frames_dir / f"frame{t:03d}.ply", v + [0, 0.002 * t, 0])  # vertices only, as the corpus writes
+    out = tmp_path / "ply.mp4"
+    assert main(["--meshes", str(frames_dir), "--out", str(out), "--size", "64", "--backend", "software"]) == 0
+    assert "FLAME template" in capsys.readouterr().err
+    frames = read_video(out)[0]
+    assert len(frames) == 3 and _face_pixels_std(frames, 64) > 10
+    assert (frames < 250).any(axis=-1).mean() > 0.3
+    # the same with --faces given explicitly
+    from blendvoca.io.mesh import write_mesh
+
+    write_mesh(tmp_path / "template.obj", v, f)
+    assert main(["--meshes", str(frames_dir), "--faces", str(tmp_path / "template.obj"), "--out", str(out),
+                 "--size", "64", "--backend", "software"]) == 0
+    capsys.readouterr()
+    # a vertex-only sequence that is not FLAME and no --faces: one error line, exit 2
+    other = tmp_path / "other"
+    write_ply(other / "a.ply", np.random.default_rng(0).normal(size=(10, 3)))
+    assert main(["--meshes", str(other), "--out", str(out), "--backend", "software"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: ") and "no faces" in err and "--faces" in err and len(err.splitlines()) == 1
+
+
+def test_a_render_that_shows_nothing_fails(tmp_path, assets_dir, capsys):
+    from benchmark.render import RenderError, check_visible
+    from benchmark.render.__main__ import main
+    from blendvoca.io.mesh import write_mesh
+
+    with pytest.raises(RenderError, match="show no face"):
+        check_visible(np.full((2, 8, 8, 3), 255, np.uint8), where="test")
+    v, f = flame_head(assets_dir)
+    flat = np.repeat(v[:1], len(v), axis=0)  # every triangle collapsed to a point: nothing drawn
+    np.save(tmp_path / "flat.npy", flat[None].repeat(2, axis=0))
+    write_mesh(tmp_path / "faces.obj", v, f)
+    assert main(["--meshes", str(tmp_path / "flat.npy"), "--faces", str(tmp_path / "faces.obj"),
+                 "--out", str(tmp_path / "x.mp4"), "--size", "32", "--backend", "software", "--framing", "head"]) == 2
+    assert "show no face" in capsys.readouterr().err
+    assert not (tmp_path / "x.mp4").exists()
+
+
+def test_a_51_shape_rig_renders_a_32_column_track(tmp_path, assets_dir, capsys):
+    from benchmark.render.__main__ import main
+    from blendvoca.io.coeffs import write_coeffs_csv
+    from blendvoca.names import ARKIT_NAMES, BLENDVOCA_NAMES
+    from blendvoca.rig import Rig
+    from tests.benchmark.fakes import fake_rig
+
+    v, f = flame_head(assets_dir)
+    small = fake_rig(v, f)
+    deltas = np.zeros((len(ARKIT_NAMES), *v.shape))
+    for k, name in enumerate(ARKIT_NAMES):
+        if name in small.names:
+            deltas[k] = small.deltas[small.names.index(name)]
+    Rig(v, deltas, ARKIT_NAMES, f).save(tmp_path / "rig51.npz")
+    coeffs = np.zeros((4, 32))
+    coeffs[:, BLENDVOCA_NAMES.index("jawOpen")] = [0, 0.3, 0.6, 1.0]
+    write_coeffs_csv(tmp_path / "t.csv", coeffs, BLENDVOCA_NAMES)
+    out = tmp_path / "r.mp4"
+    assert main(["--coeffs", str(tmp_path / "t.csv"), "--rig", str(tmp_path / "rig51.npz"), "--out", str(out),
+                 "--size", "64", "--backend", "software"]) == 0
+    err = capsys.readouterr().err
+    assert "the rig has 51 shapes, the track lacks 19; they are 0" in err and "eyeBlinkLeft" in err
+    frames = read_video(out)[0]
+    assert len(frames) == 4 and np.abs(frames[3].astype(int) - frames[0].astype(int)).mean() > 0.5
+
+
+def test_side_view_waveform_and_audio_length(tmp_path, fake_dataset_dir):
+    from benchmark.render.__main__ import main
+    from blendvoca.io.audio import load_audio
+
+    subject = fake_dataset_dir / "blendshape_coeffs" / "FakeA" / "sentence01.csv"
+    wav = fake_dataset_dir / "audio" / "FakeA" / "sentence01.wav"
+    out = tmp_path / "side.mp4"
+    assert main(["--coeffs", str(subject), "--rig", str(fake_dataset_dir / "rigs" / "FakeA.npz"), "--audio", str(wav),
+                 "--out", str(out), "--size", "48", "--side", "--backend", "software", "--out-fps", "25"]) == 0
+    frames, fps, audio = read_video(out)
+    assert frames.shape[1:] == (48 + 16, 96, 3)  # front | side, waveform strip under them
+    seconds = len(load_audio(wav)) / 16000
+    assert abs(len(frames) / fps - seconds) <= 1 / fps
+    assert abs(len(audio) / 16000 - seconds) < 0.1
+    strip = frames[:, 48:]
+    assert (strip[..., 2].astype(int) - strip[..., 0].astype(int) > 40).any()  # blue waveform drawn
+
+
+def test_waveform_strip_scrolls_with_time():
+    from benchmark.render.compose import waveform_strip
+
+    rate = 1000
+    audio = np.r_[np.zeros(500), np.ones(1000), np.zeros(500)]  # sound from 0.5 s to 1.5 s
+    strips = waveform_strip(audio, rate, 3, 1.0, 200, 21, window=2.0)  # t = 0, 1, 2 s
+    drawn = (strips[:, 0] != 255).any(axis=-1) & (strips[:, 0, :, 0] < 150)  # wave colour in the top row
+    # at t = 0 the window is [-1, 1] s: the sound fills 0.5..1 s, the right quarter
+    assert drawn[0, 160:].all() and not drawn[0, :140].any()
+    assert drawn[1, 60:95].all() and drawn[1, 105:140].all() and not drawn[1, :40].any() and not drawn[1, 160:].any()
+    assert drawn[2, :40].all() and not drawn[2, 60:].any()
+
+
+def _stored_run(tmp_path, dataset, subject, sentence, generated):
+    """A protocol-v2 result: R/run.json with tracks/<subject>/<sentence>-0.csv."""
+    import json
+
+    from blendvoca.io.coeffs import write_coeffs_csv
+    from blendvoca.names import BLENDVOCA_NAMES
+
+    results = tmp_path / "R"
+    write_coeffs_csv(results / "run-tracks" / subject / f"{sentence}-0.csv", generated, BLENDVOCA_NAMES)
+    (results / "run.json").write_text(json.dumps({"method": "open-jaw", "tracks": "run-tracks",
+                                                  "dataset": {"path": str(dataset)}}))
+    return results / "run.json"
+
+
+def test_side_by_side_from_a_stored_run(tmp_path, fake_dataset_dir, capsys):
+    from benchmark.render import render_coeffs
+    from benchmark.render.__main__ import main
+    from benchmark.render.camera import face_camera
+    from blendvoca.io.coeffs import read_coeffs_csv
+    from blendvoca.names import BLENDVOCA_NAMES
+    from blendvoca.rig import Rig
+
+    gt, _ = read_coeffs_csv(fake_dataset_dir / "blendshape_coeffs" / "FakeB" / "sentence02.csv", names=BLENDVOCA_NAMES)
+    generated = gt.copy()
+    generated[:, BLENDVOCA_NAMES.index("jawOpen")] = 1.0
+    run = _stored_run(tmp_path, fake_dataset_dir, "FakeB", "sentence02", generated)
+    out = tmp_path / "sbs.mp4"
+    assert main(["--run", str(run), "--subject", "FakeB", "--sentence", "sentence02", "--out", str(out),
+                 "--size", "64", "--backend", "software", "--no-waveform", "--fps", "60", "--out-fps", "10"]) == 0
+    frames = read_video(out)[0].astype(int)
+    assert frames.shape[1:] == (64, 128, 3)
+    rig = Rig.load(fake_dataset_dir / "rigs" / "FakeB.npz")
+    pose = face_camera(rig.neutral)
+    direct = render_coeffs(gt, rig, fps=60, out_fps=10, size=64, backend="software", pose=pose).astype(int)
+    count = min(len(direct), len(frames))
+    below_label = slice(20, 64)
+    left = frames[:count, below_label, :64]
+    right = frames[:count, below_label, 64:]
+    assert np.abs(left - direct[:count, below_label]).mean() < 4  # left: the ground truth
+    assert np.abs(right - direct[:count, below_label]).mean() > 2 * np.abs(left - direct[:count, below_label]).mean()
+    capsys.readouterr()
+    # a sample the run does not have: one error line naming what it has
+    assert main(["--run", str(run), "--subject", "FakeB", "--sentence", "sentence02", "--sample", "3",
+                 "--out", str(out), "--backend", "software"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: ") and "sentence02-0.csv" in err
+    assert main(["--run", str(run), "--subject", "FakeB", "--out", str(out)]) == 2
+    assert "--run needs --subject and --sentence" in capsys.readouterr().err

@@ -1,0 +1,85 @@
+"""Composing rendered views into one video frame: panels side by side, labels, and a
+scrolling waveform strip under them with the current instant marked."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+WAVE_COLOUR = np.array([70, 90, 140], dtype=np.uint8)
+CURSOR_COLOUR = np.array([200, 40, 40], dtype=np.uint8)
+
+
+def waveform_strip(audio, rate: int, num_frames: int, fps: float, width: int, height: int,
+                   window: float = 2.0) -> np.ndarray:
+    """One waveform image per video frame: ``window`` seconds of audio centred on the
+    frame's instant, a red cursor at the centre (what is heard now), the speech to come
+    on the right.
+
+    Parameters
+    ----------
+    audio : (N,) float array_like in [-1, 1]
+    rate : int, samples per second
+    num_frames : int, fps : float
+    width, height : int, the strip's size in pixels
+    window : float, seconds shown
+
+    Returns
+    -------
+    (num_frames, height, width, 3) uint8 ndarray
+    """
+    audio = np.asarray(audio, dtype=np.float64).reshape(-1)
+    peak = float(np.abs(audio).max()) if audio.size else 0.0
+    scale = 1.0 / peak if peak > 0 else 1.0
+    per_column = window * rate / width
+    # min/max envelope on a fixed grid of columns over the whole clip, padded by half a window
+    pad = int(np.ceil(window * rate / 2))
+    padded = np.concatenate([np.zeros(pad), audio * scale, np.zeros(pad + int(per_column) + 2)])
+    edges = np.floor(np.arange(int(np.ceil((len(audio) + pad) / per_column)) + width + 2) * per_column).astype(np.int64)
+    edges = np.clip(edges, 0, len(padded) - 1)
+    lo = np.minimum.reduceat(padded, edges[:-1]) if len(edges) > 1 else np.zeros(1)
+    hi = np.maximum.reduceat(padded, edges[:-1]) if len(edges) > 1 else np.zeros(1)
+    half = (height - 1) / 2.0
+    rows = np.arange(height)[:, None]
+    strips = np.full((num_frames, height, width, 3), 255, dtype=np.uint8)
+    for t in range(num_frames):
+        start = int(round(t / fps * rate / per_column))
+        column_lo = lo[start:start + width]
+        column_hi = hi[start:start + width]
+        n = len(column_lo)
+        top = np.round(half - column_hi * half)
+        bottom = np.round(half - column_lo * half)
+        mask = (rows >= top[None]) & (rows <= bottom[None])
+        strips[t, :, :n][mask] = WAVE_COLOUR
+        strips[t, :, width // 2] = CURSOR_COLOUR
+        strips[t, int(half)] = np.minimum(strips[t, int(half)], 200)
+    return strips
+
+
+def label(frames, text: str, scale: int = 2) -> np.ndarray:
+    """Frames with ``text`` written in black at the top left (PIL's built-in font)."""
+    from PIL import Image, ImageDraw
+
+    frames = np.asarray(frames)
+    stamp = Image.new("L", (8 * len(text) + 8, 14), 255)
+    ImageDraw.Draw(stamp).text((2, 1), text, fill=0)
+    stamp = np.asarray(stamp.resize((stamp.width * scale, stamp.height * scale), Image.NEAREST)) < 128
+    h = min(stamp.shape[0], frames.shape[1] - 4)
+    w = min(stamp.shape[1], frames.shape[2] - 4)
+    out = frames.copy()
+    region = out[:, 4:4 + h, 4:4 + w]
+    region[:, stamp[:h, :w]] = 0
+    return out
+
+
+def side_by_side(panels: Sequence[np.ndarray], strip: np.ndarray | None = None) -> np.ndarray:
+    """Panels ``(T, H, W_i, 3)`` next to one another, the strip ``(T, h, W, 3)`` (resized to
+    the total width by nearest column) under them; the shortest length wins."""
+    count = min(len(p) for p in panels)
+    top = np.concatenate([p[:count] for p in panels], axis=2)
+    if strip is None:
+        return top
+    width = top.shape[2]
+    columns = np.minimum((np.arange(width) * strip.shape[2] / width).astype(np.int64), strip.shape[2] - 1)
+    return np.concatenate([top, strip[:count][:, :, columns]], axis=1)
