@@ -74,7 +74,7 @@ class SAiDMethod(Method):
     def train(self, dataset, *, seed: int, budget: Budget) -> None:
         """Train on the dataset's train split, select on its val split, within ``budget``."""
         if isinstance(self.said, OfficialSAiD):
-            raise ValueError("SAiDMethod.train: the authors' published weights are loaded, not trained here")
+            return  # the authors' published weights: nothing to train
         names = tuple(dataset.names)
         if names != self.said.names:
             raise ValueError(f"SAiDMethod.train: expected dataset columns {self.said.names}, got {names}")
@@ -101,29 +101,28 @@ class SAiDMethod(Method):
         self.said.save(Path(directory) / CHECKPOINT_FILE)
 
     @classmethod
-    def load(cls, directory) -> SAiDMethod:
-        """Rebuild from :meth:`save`'s output, or from the authors' ``SAiD.pth`` (a file, detected by its keys).
+    def from_official_checkpoint(cls, path, *, official_steps: int | None = None, **config) -> SAiDMethod:
+        """The method with the authors' ``SAiD.pth`` (``benchmark.run --checkpoint SAiD.pth``; detected by its keys).
 
-        A published-weights method samples with the authors' inference settings
-        (DDIM 1000, gamma 2); ``BLENDVOCA_SAID_OFFICIAL_STEPS`` sets fewer DDIM steps.
+        It samples with the authors' inference settings (DDIM 1000, gamma 2);
+        ``official_steps`` (``--config official_steps=50``) sets fewer DDIM steps.
         """
+        from baselines.said.official import is_official_state, model_from_state
+
+        path = Path(path)
+        state = torch.load(path, map_location="cpu", weights_only=True)
+        if not is_official_state(state):
+            raise ValueError(f"SAiDMethod: {path} is a file but not the authors' SAID_UNet1D state_dict; "
+                             "expected that or a directory written by SAiDMethod.save")
+        method = cls(**config)
+        method.said = OfficialSAiD(model_from_state(state, where=str(path)),
+                                   {"num_steps": int(official_steps)} if official_steps else None)
+        return method
+
+    @classmethod
+    def load(cls, directory) -> SAiDMethod:
+        """Rebuild from :meth:`save`'s output."""
         path = Path(directory)
-        if path.is_file():
-            import os
-
-            from baselines.said.official import is_official_state
-
-            state = torch.load(path, map_location="cpu", weights_only=True)
-            if not is_official_state(state):
-                raise ValueError(f"SAiDMethod.load: {path} is a file but not the authors' SAID_UNet1D state_dict; "
-                                 "expected that or a directory written by SAiDMethod.save")
-            method = cls()
-            steps = os.environ.get("BLENDVOCA_SAID_OFFICIAL_STEPS")
-            from baselines.said.official import model_from_state
-
-            method.said = OfficialSAiD(model_from_state(state, where=str(path)),
-                                       {"num_steps": int(steps)} if steps else None)
-            return method
         method = super().load(directory)
         method.said = SAiD.load(path / CHECKPOINT_FILE)
         return method

@@ -24,7 +24,7 @@ from .registry import (
     register_lazy,
     unregister,
 )
-from .validate import MethodError, MethodOutputError, validated_tracks
+from .validate import MethodError, MethodOutputError, validated_tracks, validated_vertices
 
 __all__ = [
     "AUDIO_RATE",
@@ -48,6 +48,7 @@ __all__ = [
     "register_lazy",
     "unregister",
     "validated_tracks",
+    "validated_vertices",
 ]
 
 #: Methods shipped with the project, as lazy ``"module:Class"`` targets.
@@ -59,6 +60,8 @@ BUILTIN_METHODS = {
     "regression": "baselines.regression.plugin:RegressionMethod",
     "mesh-adapter": "baselines.mesh_adapter.plugin:MeshAdapterMethod",
     "said": "baselines.said.plugin:SAiDMethod",
+    "faceformer": "baselines.faceformer.plugin:FaceFormerMethod",
+    "codetalker": "baselines.codetalker.plugin:CodeTalkerMethod",
 }
 
 for _name, _target in BUILTIN_METHODS.items():

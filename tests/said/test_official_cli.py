@@ -78,15 +78,14 @@ def test_authors_only_options_need_the_authors_weights(tmp_path, wav):
         generate_files(wav, tmp_path / "x.csv", checkpoint=tmp_path / "said.pt", official=True)
 
 
-def test_benchmark_loads_official_weights_from_a_file(weights, monkeypatch):
+def test_benchmark_loads_official_weights_from_a_file(weights):
     from baselines.said.plugin import SAiDMethod
     from benchmark.methods.base import Budget
     from benchmark.methods.contract import Utterance
     from benchmark.run import prepared_method
 
-    monkeypatch.setenv("BLENDVOCA_SAID_OFFICIAL_STEPS", "3")
-    method, timings = prepared_method("said", {}, None, seed=0, budget=Budget(), checkpoint=weights)
-    assert isinstance(method, SAiDMethod) and timings["train_s"] is None
+    method, timings = prepared_method("said", {"official_steps": 3}, None, seed=0, budget=Budget(), checkpoint=weights)
+    assert isinstance(method, SAiDMethod) and timings["train_s"] is None and method.said.sampling["num_steps"] == 3
     utt = Utterance(subject="s", sentence="x", split="test", audio=np.zeros(8000, np.float32) + 0.01, num_frames=31)
     out = method.generate(utt, samples=2, seed=1)
     assert out.shape == (2, 31, 32) and np.all((0 <= out) & (out <= 1))

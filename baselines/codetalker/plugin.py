@@ -1,0 +1,127 @@
+"""The ``codetalker`` method of the benchmark (``python -m benchmark.run --method codetalker``).
+
+Without ``official``, training runs both stages on the BlendVOCA train split. With
+``--config official=vocaset_stage2.pth.tar --config official_stage1=vocaset_stage1.pth.tar``
+the authors' released weights are used as they are.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import torch
+
+from baselines.codetalker.presets import resolve_config
+from baselines.faceformer.plugin import load_pretrained_wav2vec2, official_style_names
+from baselines.faceformer.vertex_method import StyleVertexMethod, training_limits
+
+__all__ = ["CodeTalkerMethod"]
+
+
+class CodeTalkerMethod(StyleVertexMethod):
+    """CodeTalker (vertex output, one sample per training-speaker style).
+
+    Parameters
+    ----------
+    preset : {"cpu-demo", "paper"}, default "cpu-demo"
+    official, official_stage1 : str, optional
+        The authors' ``vocaset_stage2.pth.tar`` and ``vocaset_stage1.pth.tar``; then nothing is trained.
+    official_wav2vec2 : "base", "tiny" or dict, default "base"
+        wav2vec 2.0 architecture of those files (the released ones: base-960h).
+    resolved : dict, optional
+        Ignored (the resolved config reported by :meth:`config`).
+    **overrides
+        Flat keys of :func:`baselines.codetalker.presets.resolve_config`.
+    """
+
+    name = "codetalker"
+    label = "CodeTalker"
+    checkpoint_file = "codetalker.pt"
+
+    def __init__(self, preset: str = "cpu-demo", official: str | None = None, official_stage1: str | None = None,
+                 official_wav2vec2="base", resolved: dict | None = None, **overrides):
+        super().__init__(preset=preset, official=official, official_stage1=official_stage1,
+                         official_wav2vec2=official_wav2vec2, **overrides)
+        self.settings = resolve_config(preset, **overrides)
+        self.motion_scale = float(self.settings["training"]["motion_scale"])
+        if (official is None) != (official_stage1 is None):
+            raise ValueError("CodeTalkerMethod: expected both official (stage 2) and official_stage1 (stage 1) paths, "
+                             f"got official={official!r}, official_stage1={official_stage1!r}")
+        if official is not None:
+            from baselines.codetalker.official import load_official
+
+            self.network = load_official(official, official_stage1, wav2vec2_config=official_wav2vec2)
+            self.subjects = official_style_names(self.network.config["num_subjects"])
+            self.motion_scale = 1.0
+
+    def config(self) -> dict:
+        return {**super().config(), "resolved": self.settings}
+
+    @classmethod
+    def from_official_checkpoint(cls, path, **config) -> CodeTalkerMethod:
+        """The method with the authors' stage-2 file ``path`` (``benchmark.run --checkpoint FILE``).
+
+        The stage-1 file is ``official_stage1`` when given, else the sibling named like
+        ``path`` with ``stage2`` replaced by ``stage1`` (the released files' names).
+        """
+        from pathlib import Path
+
+        config.pop("official", None)
+        stage1 = config.pop("official_stage1", None)
+        if stage1 is None:
+            path = Path(path)
+            if "stage2" not in path.name:
+                raise ValueError(f"CodeTalker: cannot tell the stage-1 file for {path}; expected a name with 'stage2' "
+                                 "(vocaset_stage2.pth.tar) or --config official_stage1=PATH")
+            stage1 = path.with_name(path.name.replace("stage2", "stage1"))
+            if not stage1.is_file():
+                raise FileNotFoundError(f"CodeTalker: expected the stage-1 file {stage1} next to {path}, not found "
+                                        "(or pass --config official_stage1=PATH)")
+        return cls(official=str(path), official_stage1=str(stage1), **config)
+
+    def build_network(self, num_subjects: int, vertice_dim: int) -> None:
+        from baselines.codetalker.model import CodeTalker
+
+        self.network = CodeTalker({**self.settings["model"], "num_subjects": num_subjects, "vertice_dim": vertice_dim},
+                                  {**self.settings["stage1"], "in_dim": vertice_dim})
+        if self.settings["model"]["audio"]["kind"] == "wav2vec2" and self.settings.get("wav2vec2_path"):
+            load_pretrained_wav2vec2(self.network.audio_encoder, self.settings["wav2vec2_path"])
+
+    def fit(self, train, val, *, seed, budget):
+        from baselines.codetalker.train import split_budget, train_stage1, train_stage2
+
+        t = self.settings["training"]
+        steps, seconds = training_limits(budget, t["max_steps"], t["max_seconds"])
+        (s1, t1), (s2, t2) = split_budget(steps, seconds, t["stage1_fraction"])
+        vq = self.network.autoencoder
+        for p in vq.parameters():
+            p.requires_grad_(True)
+        h1 = train_stage1(vq, train, val, training=t, seed=seed, max_steps=s1, max_seconds=t1)
+        for p in vq.parameters():
+            p.requires_grad_(False)
+        h2 = train_stage2(self.network, train, val, self.subjects, training=t, seed=seed + 1, max_steps=s2, max_seconds=t2)
+        return {"stage1": h1, "stage2": h2, "steps": h1["steps"] + h2["steps"], "seconds": h1["seconds"] + h2["seconds"]}
+
+    def network_state(self) -> dict:
+        return {"state_dict": self.network.state_dict(), "model_config": self.network.config,
+                "stage1_config": self.network.stage1, "motion_scale": self.motion_scale}
+
+    def restore_network(self, payload: dict) -> None:
+        from baselines.codetalker.model import CodeTalker
+
+        self.network = CodeTalker(payload["model_config"], payload["stage1_config"])
+        self.network.load_state_dict(payload["state_dict"])
+        self.motion_scale = float(payload["motion_scale"])
+
+    def predict_motion(self, audio, template, style, num_frames):
+        from baselines.faceformer.sequences import MotionSequence
+        from baselines.faceformer.train import sequence_tensors
+        from baselines.said.threads import torch_threads
+
+        net = self.network.eval()
+        w2v = net.config["audio"]["kind"] == "wav2vec2"
+        seq = MotionSequence("", "", np.asarray(audio, np.float32), np.zeros((1, template.size), np.float32),
+                             np.asarray(template, np.float32))
+        a, tpl, _ = sequence_tensors(seq, scale=self.motion_scale, normalise_audio=w2v)
+        with torch.no_grad(), torch_threads(self.settings["training"].get("num_threads")):
+            out = net.predict(a, tpl, torch.eye(len(self.subjects))[style : style + 1], num_frames)
+        return out[0].numpy() / self.motion_scale

@@ -1,0 +1,59 @@
+"""CodeTalker presets and flat overrides.
+
+``cpu-demo`` shrinks both stages (VQ-VAE hidden 64 = 4 codes x 16, one transformer
+layer each; stage-2 width 64, log-mel front end) to train on 2 CPU cores in minutes,
+the budget split between the stages. ``paper`` is the authors' VOCASET setup
+(config/vocaset/stage1.yaml and stage2.yaml: VQ-VAE 1024 wide, 6+6 layers, 256 codes of
+64, 16 per frame, AdamW 1e-4 for 200 epochs with the rate halved every 20; stage 2
+1024 wide, 6 layers, Adam 1e-4 for 100 epochs, wav2vec 2.0 base-960h from a local
+directory) and wants a GPU.
+"""
+
+from __future__ import annotations
+
+import copy
+
+__all__ = ["PRESETS", "resolve_config"]
+
+PRESETS = {
+    "cpu-demo": {
+        "stage1": {"hidden_size": 64, "num_hidden_layers": 1, "num_attention_heads": 4, "intermediate_size": 128,
+                   "face_quan_num": 4, "zquant_dim": 16, "n_embed": 128},
+        "model": {"feature_dim": 64, "period": 30, "n_head": 4, "num_layers": 1, "dropout": 0.1,
+                  "audio": {"kind": "logmel", "n_mels": 80, "hidden_size": 64, "layers": 3, "kernel": 5}},
+        "training": {"stage1_lr": 1e-3, "stage1_epochs": None, "stage1_step_epochs": None, "stage1_fraction": 0.4,
+                     "lr": 1e-3, "max_epochs": None, "max_steps": 4000, "max_seconds": 300.0,
+                     "quant_loss_weight": 1.0, "motion_scale": 100.0, "num_threads": 1, "grad_clip": 1.0},
+        "wav2vec2_path": None,
+    },
+    "paper": {
+        "stage1": {"hidden_size": 1024, "num_hidden_layers": 6, "num_attention_heads": 8, "intermediate_size": 1536,
+                   "face_quan_num": 16, "zquant_dim": 64, "n_embed": 256},
+        "model": {"feature_dim": 1024, "period": 30, "n_head": 4, "num_layers": 6, "dropout": 0.1,
+                  "audio": {"kind": "wav2vec2", "config": "base"}},
+        "training": {"stage1_lr": 1e-4, "stage1_epochs": 200, "stage1_step_epochs": 20, "stage1_fraction": None,
+                     "lr": 1e-4, "max_epochs": 100, "max_steps": None, "max_seconds": None,
+                     "quant_loss_weight": 1.0, "motion_scale": 1.0, "num_threads": None, "grad_clip": None},
+        "wav2vec2_path": "${BLENDVOCA_WAV2VEC2:-~/models/wav2vec2-base-960h}",
+    },
+}
+
+
+def resolve_config(preset: str, **overrides) -> dict:
+    """The nested config of ``preset`` with flat overrides (``vq_<key>`` for the VQ-VAE's keys)."""
+    if preset not in PRESETS:
+        raise ValueError(f"unknown preset {preset!r}; expected one of {sorted(PRESETS)}")
+    cfg = copy.deepcopy(PRESETS[preset])
+    for key, value in overrides.items():
+        if key.startswith("vq_") and key[3:] in cfg["stage1"]:
+            cfg["stage1"][key[3:]] = value
+        elif key in cfg["model"]:
+            cfg["model"][key] = value
+        elif key in cfg["training"]:
+            cfg["training"][key] = value
+        elif key in cfg:
+            cfg[key] = value
+        else:
+            known = sorted({*cfg["model"], *cfg["training"], *(f"vq_{k}" for k in cfg["stage1"]), "wav2vec2_path"})
+            raise ValueError(f"unknown config key {key!r}; expected one of {known}")
+    return cfg

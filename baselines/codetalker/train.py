@@ -1,0 +1,80 @@
+"""CodeTalker's two-stage training on vertex sequences.
+
+Stage 1 learns the motion codebook: the VQ-VAE reconstructs each sentence (L1) with
+the codebook + commitment loss (weight ``quant_loss_weight``), AdamW (``paper``: the
+rate halved every 20 epochs). Stage 2 freezes
+it and learns the speech-conditioned code query with teacher forcing: MSE of the
+decoded motion plus MSE between the predicted and the ground truth's quantized
+features, Adam.
+"""
+
+from __future__ import annotations
+
+import math
+
+import torch
+
+from baselines.faceformer.train import epochs_to_steps, fit_sequences, sequence_tensors
+
+__all__ = ["split_budget", "train_stage1", "train_stage2"]
+
+
+def split_budget(max_steps: float, max_seconds: float, fraction) -> tuple[tuple, tuple]:
+    """``((steps1, seconds1), (steps2, seconds2))``: ``fraction`` of each limit for stage 1 (None: no split)."""
+    if fraction is None:
+        return (max_steps, max_seconds), (max_steps, max_seconds)
+    f = float(fraction)
+    s1 = max_steps if math.isinf(max_steps) else max(1, int(round(max_steps * f)))
+    t1 = max_seconds if math.isinf(max_seconds) else max_seconds * f
+    s2 = max_steps if math.isinf(max_steps) else max(1, int(max_steps) - s1)
+    t2 = max_seconds if math.isinf(max_seconds) else max_seconds - t1
+    return (s1, t1), (s2, t2)
+
+
+def train_stage1(vq, train, val, *, training: dict, seed: int, max_steps: float, max_seconds: float, progress=True) -> dict:
+    """Train the VQ-VAE ``vq`` in place on displacement sequences."""
+    scale = float(training["motion_scale"])
+    items = [sequence_tensors(s, scale=scale, normalise_audio=False)[1:] for s in train]
+    val_items = [sequence_tensors(s, scale=scale, normalise_audio=False)[1:] for s in val]
+    w = float(training["quant_loss_weight"])
+
+    def loss(item):
+        template, verts = item
+        recon, quant_loss, _ = vq(verts, template)
+        return torch.nn.functional.l1_loss(recon, verts) + w * quant_loss
+
+    def val_loss():
+        return sum(float(torch.nn.functional.l1_loss(vq(v, t)[0], v)) for t, v in val_items) / len(val_items)
+
+    if training.get("stage1_epochs") and math.isinf(max_steps) and math.isinf(max_seconds):
+        max_steps = int(training["stage1_epochs"]) * len(items)
+    return fit_sequences(vq, loss, items, val_loss if val_items else None, lr=training["stage1_lr"], seed=seed,
+                         max_steps=max_steps, max_seconds=max_seconds, optimizer="adamw",
+                         num_threads=training.get("num_threads"), grad_clip=training.get("grad_clip"),
+                         desc="CodeTalker stage 1 (VQ-VAE)", progress=progress, loss_scale=scale,
+                         lr_step_every=(int(training["stage1_step_epochs"]) * len(items)
+                                        if training.get("stage1_step_epochs") else None))
+
+
+def train_stage2(model, train, val, subjects, *, training: dict, seed: int, max_steps: float, max_seconds: float,
+                 progress=True) -> dict:
+    """Train the stage-2 parts of ``model`` (a :class:`~baselines.codetalker.model.CodeTalker`) in place."""
+    scale = float(training["motion_scale"])
+    w2v = model.config["audio"]["kind"] == "wav2vec2"
+    n = len(subjects)
+    items = [(sequence_tensors(s, scale=scale, normalise_audio=w2v), subjects.index(s.subject)) for s in train]
+    val_items = [sequence_tensors(s, scale=scale, normalise_audio=w2v) for s in val]
+
+    def loss(item):
+        (audio, template, verts), k = item
+        return model.loss(audio, template, verts, torch.eye(n)[k : k + 1])
+
+    def val_loss():
+        out = [float(model(a, t, v, torch.eye(n)[k : k + 1])[1]) for a, t, v in val_items for k in range(min(n, 2))]
+        return sum(out) / len(out)
+
+    return fit_sequences(model, loss, items, val_loss if val_items else None, lr=training["lr"], seed=seed,
+                         max_steps=epochs_to_steps(training, len(items), max_steps, max_seconds),
+                         max_seconds=max_seconds, num_threads=training.get("num_threads"),
+                         grad_clip=training.get("grad_clip"), desc="CodeTalker stage 2", progress=progress,
+                         loss_scale=scale**2)

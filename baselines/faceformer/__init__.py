@@ -1,0 +1,11 @@
+"""FaceFormer (Fan et al., CVPR 2022): speech-driven 3D facial animation with transformers.
+
+``Faceformer`` is the network with the authors' parameter names, ``load_official``
+loads their released ``vocaset.pth``; the benchmark plug-in is
+``baselines.faceformer.plugin:FaceFormerMethod`` (registered as ``faceformer``).
+"""
+
+from baselines.faceformer.model import DEFAULT_CONFIG, Faceformer
+from baselines.faceformer.official import load_official
+
+__all__ = ["DEFAULT_CONFIG", "Faceformer", "load_official"]

@@ -1,0 +1,181 @@
+"""FaceFormer (Fan et al., CVPR 2022) with the authors' module and parameter names.
+
+``Faceformer`` holds ``audio_encoder`` (wav2vec 2.0), ``audio_feature_map``,
+``vertice_map`` (motion encoder), ``PPE`` (periodic positional encoding),
+``transformer_decoder``, ``vertice_map_r`` (motion decoder) and ``obj_vector`` (the
+one-hot style embedding), so the authors' ``vocaset.pth`` loads with ``strict=True``.
+Motion is ``(B, T, V*3)`` vertex positions at 30 fps; the network works on
+displacements from the speaker's template.
+"""
+
+from __future__ import annotations
+
+import copy
+
+import torch
+from torch import nn
+
+from baselines.faceformer.audio import LogMelContextEncoder, wav2vec2_motion_features
+from baselines.faceformer.decoding import decode_step, decode_teacher_forced, motion_decoder
+from baselines.faceformer.positional import PeriodicPositionalEncoding
+
+__all__ = ["DEFAULT_CONFIG", "Faceformer", "build_audio_encoder", "resolved_model_config"]
+
+#: The authors' VOCASET settings (main.py defaults; 4 heads, 1 layer, wav2vec 2.0 base).
+DEFAULT_CONFIG = {
+    "dataset": "vocaset",
+    "vertice_dim": 5023 * 3,
+    "feature_dim": 64,
+    "period": 30,
+    "n_head": 4,
+    "num_layers": 1,
+    "num_subjects": 8,
+    "dropout": 0.1,
+    "max_seq_len": 600,
+    "fps": 30,
+    "audio": {"kind": "wav2vec2", "config": "base"},
+}
+
+
+def resolved_model_config(**overrides) -> dict:
+    """:data:`DEFAULT_CONFIG` with ``overrides`` (unknown keys are an error)."""
+    unknown = sorted(set(overrides) - set(DEFAULT_CONFIG))
+    if unknown:
+        raise ValueError(f"model config: unknown keys {unknown}; expected some of {sorted(DEFAULT_CONFIG)}")
+    cfg = copy.deepcopy(DEFAULT_CONFIG)
+    cfg.update(copy.deepcopy(overrides))
+    return cfg
+
+
+def build_audio_encoder(spec: dict) -> tuple[nn.Module, int]:
+    """The speech encoder of ``spec`` and its feature size.
+
+    ``{"kind": "wav2vec2", "config": "base" | "tiny" | {Wav2Vec2Config fields}}``: a
+    randomly initialised wav2vec 2.0 (weights come from a checkpoint), CNN frozen as
+    the authors do; ``{"kind": "logmel", "n_mels": 80, "hidden_size": 64, "layers": 2}``:
+    :class:`~baselines.faceformer.audio.LogMelContextEncoder`.
+    """
+    kind = spec.get("kind")
+    if kind == "wav2vec2":
+        from baselines.wav2vec2 import base_config, tiny_config, wav2vec2_model
+
+        which = spec.get("config", "base")
+        if which == "base":
+            config = base_config()
+        elif which == "tiny":
+            config = tiny_config()
+        elif isinstance(which, dict):
+            config = base_config(**which)
+        else:
+            raise ValueError(f"audio encoder: expected config 'base', 'tiny' or a dict, got {which!r}")
+        model = wav2vec2_model(config)
+        model.feature_extractor._freeze_parameters()
+        return model, int(config.hidden_size)
+    if kind == "logmel":
+        options = {k: v for k, v in spec.items() if k != "kind"}
+        encoder = LogMelContextEncoder(**options)
+        return encoder, encoder.hidden_size
+    raise ValueError(f"audio encoder: expected kind 'wav2vec2' or 'logmel', got {kind!r}")
+
+
+class Faceformer(nn.Module):
+    """FaceFormer: speech-driven autoregressive transformer over vertex sequences.
+
+    Parameters
+    ----------
+    config : dict, optional
+        Keys of :data:`DEFAULT_CONFIG` (missing ones take the default).
+    """
+
+    def __init__(self, config: dict | None = None):
+        super().__init__()
+        self.config = resolved_model_config(**(config or {}))
+        cfg = self.config
+        self.dataset = cfg["dataset"]
+        self.period = int(cfg["period"])
+        self.n_head = int(cfg["n_head"])
+        self.fps = int(cfg["fps"])
+        self.audio_encoder, audio_dim = build_audio_encoder(cfg["audio"])
+        self.audio_feature_map = nn.Linear(audio_dim, cfg["feature_dim"])
+        self.vertice_map = nn.Linear(cfg["vertice_dim"], cfg["feature_dim"])
+        self.PPE = PeriodicPositionalEncoding(cfg["feature_dim"], dropout=cfg["dropout"], period=self.period,
+                                              max_seq_len=cfg["max_seq_len"])
+        self.transformer_decoder = motion_decoder(cfg["feature_dim"], self.n_head, cfg["num_layers"], cfg["dropout"])
+        self.vertice_map_r = nn.Linear(cfg["feature_dim"], cfg["vertice_dim"])
+        self.obj_vector = nn.Linear(cfg["num_subjects"], cfg["feature_dim"], bias=False)
+        nn.init.constant_(self.vertice_map_r.weight, 0)
+        nn.init.constant_(self.vertice_map_r.bias, 0)
+
+    def audio_features(self, audio: torch.Tensor, num_frames: int | None = None) -> torch.Tensor:
+        """Mapped speech features ``(B, T, feature_dim)``, one per motion frame.
+
+        Parameters
+        ----------
+        audio : (B, N) Tensor
+            16 kHz speech, normalised (:func:`~baselines.faceformer.audio.normalized_speech`)
+            for wav2vec 2.0.
+        num_frames : int, optional
+            Default: the authors' count from the audio length.
+        """
+        if isinstance(self.audio_encoder, LogMelContextEncoder):
+            hidden = self.audio_encoder(audio, num_frames, fps=self.fps)
+        else:
+            hidden = wav2vec2_motion_features(self.audio_encoder, audio, num_frames, fps=self.fps)
+        return self.audio_feature_map(hidden)
+
+    def _decode_kwargs(self) -> dict:
+        return {"period": self.period, "dataset": self.dataset, "bias_heads": self.n_head}
+
+    def forward(self, audio: torch.Tensor, template: torch.Tensor, vertice: torch.Tensor, one_hot: torch.Tensor) -> torch.Tensor:
+        """Teacher-forced prediction ``(B, T, V*3)`` of ``vertice`` (the training pass).
+
+        Parameters
+        ----------
+        audio : (B, N) Tensor
+        template : (B, V*3) Tensor
+        vertice : (B, T, V*3) Tensor
+            Ground-truth motion; frame ``t``'s input is frame ``t - 1`` (the template at ``t = 0``).
+        one_hot : (B, num_subjects) Tensor
+            Style (training speaker) of each sequence.
+        """
+        template = template.unsqueeze(1)
+        style = self.obj_vector(one_hot).unsqueeze(1)
+        memory = self.audio_features(audio, vertice.shape[1])
+        previous = torch.cat([template, vertice[:, :-1]], dim=1) - template
+        inputs = self.PPE(self.vertice_map(previous) + style)
+        out = decode_teacher_forced(self.transformer_decoder, inputs, memory, **self._decode_kwargs())
+        return self.vertice_map_r(out) + template
+
+    def predict(self, audio: torch.Tensor, template: torch.Tensor, one_hot: torch.Tensor, num_frames: int | None = None) -> torch.Tensor:
+        """Autoregressive prediction ``(B, T, V*3)``, the authors' ``predict``.
+
+        Frame 0's input is the style embedding; frame ``t``'s input is the motion
+        embedding of the predicted frame ``t - 1`` plus the style embedding.
+
+        Parameters
+        ----------
+        audio : (B, N) Tensor
+        template : (B, V*3) Tensor
+        one_hot : (B, num_subjects) Tensor
+        num_frames : int, optional
+            Default (the authors'): ``int(cnn_frames / 50 * 30)``.
+        """
+        template = template.unsqueeze(1)
+        style = self.obj_vector(one_hot).unsqueeze(1)
+        memory = self.audio_features(audio, num_frames)
+        cache = [None] * len(self.transformer_decoder.layers)
+        token = style
+        outputs = []
+        for t in range(memory.shape[1]):
+            x = self.PPE.dropout(token + self._pe(t, token))
+            out = self.vertice_map_r(decode_step(self.transformer_decoder, x, memory, cache, **self._decode_kwargs()))
+            outputs.append(out)
+            token = self.vertice_map(out) + style
+        return torch.cat(outputs, dim=1) + template
+
+    def _pe(self, t: int, like: torch.Tensor) -> torch.Tensor:
+        from baselines.faceformer.positional import periodic_encoding
+
+        if t < self.PPE.pe.shape[1]:
+            return self.PPE.pe[:, t : t + 1]
+        return periodic_encoding(like.shape[2], self.period, t + 1)[:, t:].to(like)

@@ -1,0 +1,57 @@
+"""FaceFormer presets and flat overrides.
+
+``cpu-demo`` trains in minutes on 2 CPU cores: the authors' decoder width (64) with
+the log-mel front end instead of wav2vec 2.0 and a larger learning rate.
+``paper`` is the authors' VOCASET setup (wav2vec 2.0 base-960h initialised from a
+local ``from_pretrained`` directory, Adam 1e-4, batch 1, 100 epochs) and wants a GPU.
+"""
+
+from __future__ import annotations
+
+import copy
+
+__all__ = ["PRESETS", "VOCASET_TRAIN_SUBJECTS", "resolve_config"]
+
+#: The authors' VOCASET training speakers, in their one-hot order.
+VOCASET_TRAIN_SUBJECTS = (
+    "FaceTalk_170728_03272_TA", "FaceTalk_170904_00128_TA", "FaceTalk_170725_00137_TA", "FaceTalk_170915_00223_TA",
+    "FaceTalk_170811_03274_TA", "FaceTalk_170913_03279_TA", "FaceTalk_170904_03276_TA", "FaceTalk_170912_03278_TA",
+)
+
+PRESETS = {
+    "cpu-demo": {
+        "model": {"feature_dim": 64, "period": 30, "n_head": 4, "num_layers": 1, "dropout": 0.1,
+                  "audio": {"kind": "logmel", "n_mels": 80, "hidden_size": 64, "layers": 3, "kernel": 5}},
+        "training": {"lr": 1e-3, "max_steps": 4000, "max_seconds": 240.0, "max_epochs": None,
+                     "motion_scale": 100.0, "num_threads": 1, "grad_clip": 1.0},
+        "wav2vec2_path": None,
+    },
+    "paper": {
+        "model": {"feature_dim": 64, "period": 30, "n_head": 4, "num_layers": 1, "dropout": 0.1,
+                  "audio": {"kind": "wav2vec2", "config": "base"}},
+        "training": {"lr": 1e-4, "max_steps": None, "max_seconds": None, "max_epochs": 100,
+                     "motion_scale": 1.0, "num_threads": None, "grad_clip": None},
+        "wav2vec2_path": "${BLENDVOCA_WAV2VEC2:-~/models/wav2vec2-base-960h}",
+    },
+}
+
+_MODEL_KEYS = ("feature_dim", "period", "n_head", "num_layers", "dropout", "audio")
+_TRAIN_KEYS = ("lr", "max_steps", "max_seconds", "max_epochs", "motion_scale", "num_threads", "grad_clip")
+
+
+def resolve_config(preset: str, presets: dict = PRESETS, **overrides) -> dict:
+    """The nested config of ``preset`` with flat ``overrides`` (model, training or top-level keys)."""
+    if preset not in presets:
+        raise ValueError(f"unknown preset {preset!r}; expected one of {sorted(presets)}")
+    cfg = copy.deepcopy(presets[preset])
+    for key, value in overrides.items():
+        if key in cfg.get("model", {}) or key in _MODEL_KEYS and "model" in cfg:
+            cfg["model"][key] = value
+        elif key in cfg.get("training", {}):
+            cfg["training"][key] = value
+        elif key in cfg:
+            cfg[key] = value
+        else:
+            known = sorted(set(cfg) | set(cfg.get("model", {})) | set(cfg.get("training", {})))
+            raise ValueError(f"unknown config key {key!r}; expected one of {known}")
+    return cfg

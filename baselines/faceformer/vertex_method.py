@@ -1,0 +1,146 @@
+"""The benchmark side shared by the FaceFormer and CodeTalker plug-ins.
+
+Both are vertex methods (``output = "vertices"``) with a one-hot style over the
+training speakers: sample ``s`` of an utterance is the animation in the style of
+training speaker ``(seed + s) mod n_styles``, so ``S`` samples are ``S`` styles (the
+papers' evaluation protocol of one animation per training-speaker condition).
+Networks run at 30 fps; the results are resampled to the benchmark's 60 fps.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from baselines.faceformer.sequences import motion_frames, speaker_templates, to_benchmark_rate
+from benchmark.methods.base import Budget, Method
+
+__all__ = ["StyleVertexMethod", "style_indices", "training_limits"]
+
+
+def style_indices(samples: int, seed: int, n_styles: int) -> list[int]:
+    """Style (training speaker index) of each sample: ``(seed + s) mod n_styles``."""
+    if n_styles < 1:
+        raise ValueError(f"style_indices: expected at least one style, got {n_styles}")
+    return [(int(seed) + s) % n_styles for s in range(int(samples))]
+
+
+def training_limits(budget: Budget, default_steps, default_seconds) -> tuple[float, float]:
+    """``(max_steps, max_seconds)`` from the budget, else the preset (``inf`` for none; an epoch count
+    of the preset then applies)."""
+    steps = budget.max_steps if budget.max_steps is not None else default_steps
+    seconds = budget.max_seconds if budget.max_seconds is not None else default_seconds
+    if budget.max_steps is not None and budget.max_seconds is None:
+        seconds = None
+    return (math.inf if steps is None else int(steps)), (math.inf if seconds is None else float(seconds))
+
+
+class StyleVertexMethod(Method):
+    """Base of the FaceFormer and CodeTalker plug-ins (see the module docstring).
+
+    Subclasses provide ``name``, ``checkpoint_file``, :meth:`build_network`,
+    :meth:`fit` and :meth:`predict_motion`; the network lives in ``self.network``,
+    the style speakers in ``self.subjects`` and every speaker's template in
+    ``self.templates``.
+    """
+
+    stochastic = True
+    output = "vertices"
+    checkpoint_file = "model.pt"
+
+    def __init__(self, **config):
+        super().__init__(**config)
+        self.network = None
+        self.subjects: list[str] = []
+        self.templates: dict[str, np.ndarray] = {}
+        self.history: dict = {}
+
+    # -- subclass hooks -------------------------------------------------------------
+    def build_network(self, num_subjects: int, vertice_dim: int) -> None:
+        """Create ``self.network`` (untrained)."""
+        raise NotImplementedError
+
+    def fit(self, train, val, *, seed: int, budget: Budget) -> dict:
+        """Train ``self.network`` on :class:`~baselines.faceformer.sequences.MotionSequence` lists; return a history."""
+        raise NotImplementedError
+
+    def predict_motion(self, audio: np.ndarray, template: np.ndarray, style: int, num_frames: int) -> np.ndarray:
+        """``(num_frames, V*3)`` float vertices at 30 fps in metres for one style."""
+        raise NotImplementedError
+
+    def network_state(self) -> dict:
+        """What :meth:`save` stores besides the config (default: the state_dict)."""
+        return {"state_dict": self.network.state_dict()}
+
+    def restore_network(self, payload: dict) -> None:
+        """Rebuild ``self.network`` from :meth:`network_state`'s payload."""
+        self.build_network(len(payload["subjects"]), int(next(iter(payload["templates"].values())).size))
+        self.network.load_state_dict(payload["state_dict"])
+
+    # -- the contract -------------------------------------------------------------------
+    def train(self, dataset, *, seed: int, budget: Budget) -> None:
+        """Train on the train split's vertex sequences (styles = its speakers)."""
+        from baselines.faceformer.sequences import motion_sequences
+
+        self.templates = speaker_templates(dataset)
+        if self.network is not None and self.subjects:
+            return  # weights given (e.g. the authors' checkpoint): nothing to train
+        self.subjects = list(dataset.split("train"))
+        if not self.subjects:
+            raise ValueError(f"{type(self).__name__}.train: the dataset has no training speakers")
+        train = motion_sequences(dataset, "train")
+        val = motion_sequences(dataset, "val") if dataset.split("val") else []
+        self.build_network(len(self.subjects), int(train[0].template.size))
+        torch.manual_seed(int(seed))
+        self.history = self.fit(train, val, seed=int(seed), budget=budget)
+
+    def style_index(self, subject: str) -> int:
+        """One-hot index of a training speaker."""
+        if subject not in self.subjects:
+            raise KeyError(f"{self.name}: {subject!r} is not a training speaker; expected one of {self.subjects}")
+        return self.subjects.index(subject)
+
+    def generate(self, utterance, *, samples: int = 1, seed: int = 0):
+        """``(S, T, V, 3)`` float64 metres at 60 fps: sample ``s`` in the style of speaker ``(seed + s) mod n``."""
+        if self.network is None:
+            raise RuntimeError(f"{self.name}: generate before train or load")
+        if utterance.subject not in self.templates:
+            raise KeyError(f"{self.name}: no template for subject {utterance.subject!r} "
+                           f"(known: {sorted(self.templates)[:6]}...); train or load on this dataset first")
+        template = self.templates[utterance.subject]
+        frames30 = motion_frames(utterance.num_frames)
+        out = []
+        for style in style_indices(samples, seed, len(self.subjects)):
+            motion = self.predict_motion(utterance.audio, template, style, frames30)
+            out.append(to_benchmark_rate(motion, utterance.num_frames).reshape(utterance.num_frames, -1, 3))
+        return np.stack(out)
+
+    def save(self, directory) -> None:
+        """Config, weights, style speakers and templates into ``directory``."""
+        from blendvoca.io.atomic import atomic_write
+
+        super().save(directory)
+        payload = {**self.network_state(), "subjects": list(self.subjects),
+                   "templates": {k: torch.from_numpy(np.asarray(v)) for k, v in self.templates.items()},
+                   "history": self.history}
+        with atomic_write(Path(directory) / self.checkpoint_file) as f:
+            torch.save(payload, f)
+
+    @classmethod
+    def load(cls, directory):
+        """Rebuild from :meth:`save`'s output."""
+        method = super().load(directory)
+        path = Path(directory) / cls.checkpoint_file
+        if not path.is_file():
+            raise FileNotFoundError(f"{cls.__name__}.load: expected {path} (written by save), not found")
+        payload = torch.load(path, map_location="cpu", weights_only=False)
+        payload["templates"] = {k: v.numpy() for k, v in payload["templates"].items()}
+        method.subjects = list(payload["subjects"])
+        method.templates = payload["templates"]
+        method.history = payload.get("history", {})
+        method.restore_network(payload)
+        method.network.eval()
+        return method

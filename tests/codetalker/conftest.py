@@ -1,0 +1,12 @@
+"""FaceFormer/CodeTalker tests run torch on one thread (the 2 CI cores are shared)."""
+
+import pytest
+import torch
+
+
+@pytest.fixture(autouse=True)
+def _one_torch_thread():
+    before = torch.get_num_threads()
+    torch.set_num_threads(1)
+    yield
+    torch.set_num_threads(before)
