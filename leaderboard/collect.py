@@ -138,8 +138,11 @@ def tables_by_manifest(results: list[dict]) -> list[Table]:
 
 def column_decimals(values) -> int:
     """Decimals shown for a metric column (1 to 4): three significant digits of its
-    largest value, and at least two of its smallest non-zero one."""
+    largest value, and at least two of its smallest non-zero one (numerical zeros, below
+    1e-6 of the largest, are ignored)."""
     finite = [abs(v) for v in values if v is not None and math.isfinite(v) and v != 0]
+    if finite:  # values below 1e-6 of the column's largest are numerical zeros (e.g. FD -5e-7)
+        finite = [v for v in finite if v >= 1e-6 * max(finite)]
     if not finite:
         return 2
     largest = 2 - math.floor(math.log10(max(finite)))

@@ -32,6 +32,12 @@ def _latex_unit(unit: str) -> str:
     return "".join(_latex_escape(p) if i % 2 == 0 else f"$^{{{p}}}$" for i, p in enumerate(parts))
 
 
+def _number(value: float, decimals: int) -> str:
+    """``value`` at ``decimals`` places; values that round to zero print as 0, never -0."""
+    text = f"{value:.{decimals}f}"
+    return text[1:] if text.startswith("-") and float(text) == 0 else text
+
+
 def _cell_texts(rows: list, column: Column, decimals: int):
     """Per row: (mean text, interval text or None) or None when the row lacks the metric."""
     out = []
@@ -41,8 +47,8 @@ def _cell_texts(rows: list, column: Column, decimals: int):
             out.append(None)
             continue
         mean, _std, ci = value
-        interval = None if ci is None else f"[{ci[0]:.{decimals}f}, {ci[1]:.{decimals}f}]"
-        out.append((f"{mean:.{decimals}f}", interval))
+        interval = None if ci is None else f"[{_number(ci[0], decimals)}, {_number(ci[1], decimals)}]"
+        out.append((_number(mean, decimals), interval))
     return out
 
 

@@ -51,6 +51,7 @@ def test_ranking_respects_direction_and_ties():
     assert ranks([1.0, 2.0], None, 2) == [None, None]
     assert column_decimals([1234.0]) == 1 and column_decimals([1.23]) == 2 and column_decimals([0.0123]) == 4
     assert column_decimals([14.9, 0.034]) == 3 and column_decimals([5.0, 0.0]) == 2 and column_decimals([]) == 2
+    assert column_decimals([6270.3, 7.55, -5e-7]) == 1  # a numerical zero does not ask for 4 decimals
 
 
 def test_grouped_by_manifest_references_apart_columns_in_table_1_order():

@@ -117,13 +117,14 @@ def test_vertex_output_method_is_fitted_and_scored_on_its_own_vertices(built_dat
     assert replay["metrics"]["lve"]["mean"] < 0.02 and replay["metrics"]["mve"]["mean"] < 0.02  # mm
     # a 1 mm shift of every vertex is a 1 mm mean vertex error
     assert abs(shifted["metrics"]["mve"]["mean"] - np.sqrt(3.0)) < 0.05
-    # the fitted tracks are the build's ground truth (the build fitted the same meshes the same way)
+    # the fitted tracks are the build's ground truth (the build fitted the same meshes the same way;
+    # the replay's float32 vertices move the head-pose estimate and the fit by ~1e-5)
     from benchmark.data import open_blendvoca
 
     ds = open_blendvoca(built_dataset)
     run = read_run(tmp_path / "results" / f"{replay['tracks']}.json")
     for subject, sentence in run.keys:
-        np.testing.assert_allclose(run.tracks(subject, sentence)[0], ds.coeffs(subject, sentence), atol=2e-6)
+        np.testing.assert_allclose(run.tracks(subject, sentence)[0], ds.coeffs(subject, sentence), atol=1e-4)
         assert run.vertices(subject, sentence).shape == (1, *ds.vertices(subject, sentence).shape)
     assert len(run.keys) == replay["dataset"]["num_sentences"]
 
