@@ -1,5 +1,6 @@
 """Blendshape names: the ARKit shapes of the reference rig (51: all but tongueOut), BlendVOCA's 32 speech shapes and their
-left/right mirror pairs.
+left/right mirror pairs, and the orders and spellings other tools use for the 52 ARKit shapes
+(ARKit's own order, Live Link Face's CSV columns in PascalCase).
 
 `BLENDVOCA_NAMES` is the column order of every BlendVOCA coefficient file; it equals
 the asset ``arkit-blendshape-names`` (``tests/test_names.py`` checks that).
@@ -39,6 +40,54 @@ BLENDVOCA_NAMES: tuple[str, ...] = (
     "mouthUpperUpRight", "cheekPuff", "cheekSquintLeft", "cheekSquintRight",
     "noseSneerLeft", "noseSneerRight",
 )
+
+
+# The 52 shapes in the order of ARKit's ARFaceAnchor.BlendShapeLocation as Unreal's
+# EARFaceBlendShape lists them (eyes, jaw, mouth, brows, cheeks, nose, tongue): the order
+# of Live Link Face's network packets and of Audio2Face-3D's ARKit blendshape export.
+ARKIT_FACE_ORDER: tuple[str, ...] = (
+    "eyeBlinkLeft", "eyeLookDownLeft", "eyeLookInLeft", "eyeLookOutLeft", "eyeLookUpLeft",
+    "eyeSquintLeft", "eyeWideLeft", "eyeBlinkRight", "eyeLookDownRight", "eyeLookInRight",
+    "eyeLookOutRight", "eyeLookUpRight", "eyeSquintRight", "eyeWideRight", "jawForward",
+    "jawLeft", "jawRight", "jawOpen", "mouthClose", "mouthFunnel", "mouthPucker", "mouthLeft",
+    "mouthRight", "mouthSmileLeft", "mouthSmileRight", "mouthFrownLeft", "mouthFrownRight",
+    "mouthDimpleLeft", "mouthDimpleRight", "mouthStretchLeft", "mouthStretchRight",
+    "mouthRollLower", "mouthRollUpper", "mouthShrugLower", "mouthShrugUpper", "mouthPressLeft",
+    "mouthPressRight", "mouthLowerDownLeft", "mouthLowerDownRight", "mouthUpperUpLeft",
+    "mouthUpperUpRight", "browDownLeft", "browDownRight", "browInnerUp", "browOuterUpLeft",
+    "browOuterUpRight", "cheekPuff", "cheekSquintLeft", "cheekSquintRight", "noseSneerLeft",
+    "noseSneerRight", "tongueOut",
+)
+
+# Live Link Face's CSV export: the same 52 shapes in PascalCase, except that the app
+# writes JawRight before JawLeft and MouthRight before MouthLeft; then head and eye
+# rotations. Columns: Timecode, BlendShapeCount, these 52, these 9 (63 in all).
+LIVELINK_SHAPE_COLUMNS: tuple[str, ...] = tuple(
+    n[0].upper() + n[1:]
+    for n in ARKIT_FACE_ORDER[:15] + ("jawRight", "jawLeft") + ARKIT_FACE_ORDER[17:21]
+    + ("mouthRight", "mouthLeft") + ARKIT_FACE_ORDER[23:]
+)
+LIVELINK_ROTATION_COLUMNS: tuple[str, ...] = (
+    "HeadYaw", "HeadPitch", "HeadRoll", "LeftEyeYaw", "LeftEyePitch", "LeftEyeRoll",
+    "RightEyeYaw", "RightEyePitch", "RightEyeRoll",
+)
+LIVELINK_HEADER: tuple[str, ...] = ("Timecode", "BlendShapeCount") + LIVELINK_SHAPE_COLUMNS + LIVELINK_ROTATION_COLUMNS
+
+_BY_LOWER = {n.lower(): n for n in ARKIT_FACE_ORDER}
+
+
+def arkit_name(name: str) -> str | None:
+    """The camelCase ARKit name that ``name`` spells in any case (``JawOpen``,
+    ``jawopen`` -> ``jawOpen``), or None when it is no ARKit shape."""
+    return _BY_LOWER.get(str(name).strip().lower())
+
+
+def pascal_name(name: str) -> str:
+    """Live Link Face's PascalCase spelling of an ARKit name (``jawOpen`` -> ``JawOpen``)."""
+    canonical = arkit_name(name)
+    if canonical is None:
+        raise ValueError(f"pascal_name: {name!r} is not an ARKit blendshape name; expected one of {ARKIT_FACE_ORDER[:3]}...")
+    return canonical[0].upper() + canonical[1:]
 
 
 def _mirror_name(name: str) -> str | None:

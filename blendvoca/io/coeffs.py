@@ -1,8 +1,10 @@
 """Blendshape coefficient tracks as CSV, the way SAiD and its tools read them:
 header = blendshape names, one row per frame at 60 fps, no index column.
 
-Columns are always mapped by name (Live Link Face, for one, orders jawRight before
-jawLeft), never by position.
+Columns are always mapped by name, never by position, and names match in any case:
+Live Link Face's exports (``Timecode``, ``BlendShapeCount``, the 52 shapes in
+PascalCase with ``JawRight`` before ``JawLeft``, then head and eye rotations) read
+into camelCase ARKit columns; their timecode, count and rotation columns are ignored.
 """
 
 from __future__ import annotations
@@ -15,24 +17,47 @@ from pathlib import Path
 import numpy as np
 
 from blendvoca.io.atomic import atomic_write
+from blendvoca.names import LIVELINK_ROTATION_COLUMNS, arkit_name
+
+# Columns that carry no blendshape weight: Live Link Face's timecode, shape count and
+# head/eye rotations.
+IGNORED_COLUMNS: frozenset[str] = frozenset(c.lower() for c in ("Timecode", "BlendShapeCount") + LIVELINK_ROTATION_COLUMNS)
 
 
-def read_coeffs_csv(path, names: Sequence[str] | None = None) -> tuple[np.ndarray, tuple[str, ...]]:
-    """Read a coefficient CSV.
+def _column_name(header: str) -> str | None:
+    """The ARKit name a header cell stands for, the cell itself when it is no ARKit
+    name, or None for a column to ignore."""
+    if header.lower() in IGNORED_COLUMNS:
+        return None
+    return arkit_name(header) or header
+
+
+def read_coeffs_csv(path, names: Sequence[str] | None = None, *,
+                    missing: str = "error") -> tuple[np.ndarray, tuple[str, ...]]:
+    """Read a coefficient CSV (BlendVOCA/SAiD layout or a Live Link Face export).
 
     Parameters
     ----------
     path : path-like
     names : sequence of str, optional
-        Wanted columns, in the wanted order. Columns of the file that are not in
-        ``names`` are ignored (Live Link Face exports carry head rotation and a
-        timecode column); a wanted name that is missing raises.
+        Wanted columns, in the wanted order (ARKit names in any case). Columns of the
+        file that are not in ``names`` are ignored. Without ``names``, every column
+        but the ignored Live Link ones, which must then all be ARKit names.
+    missing : {"error", "zero"}
+        A wanted name the file lacks raises, or (``"zero"``) reads as a column of 0.
 
     Returns
     -------
     coeffs : (T, K) float64 ndarray
-    names : tuple of str, the column names of ``coeffs``
+    names : tuple of str, the (camelCase ARKit) column names of ``coeffs``
+
+    Raises
+    ------
+    ValueError
+        Naming the file, and the missing or unknown columns, or the row and frame of a bad value.
     """
+    if missing not in ("error", "zero"):
+        raise ValueError(f"read_coeffs_csv: missing must be 'error' or 'zero', got {missing!r}")
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"coefficient file not found: {path}")
@@ -43,22 +68,43 @@ def read_coeffs_csv(path, names: Sequence[str] | None = None) -> tuple[np.ndarra
         except StopIteration:
             raise ValueError(f"{path}: empty file; expected a header row of blendshape names") from None
         rows = [row for row in reader if row]
-    if len(set(header)) != len(header):
-        raise ValueError(f"{path}: repeated column names in the header: {header}")
-    wanted = tuple(header) if names is None else tuple(names)
-    missing = [n for n in wanted if n not in header]
-    if missing:
-        raise ValueError(f"{path}: missing columns {missing}; the header has {header}")
-    columns = [header.index(n) for n in wanted]
-    data = np.empty((len(rows), len(wanted)), dtype=np.float64)
+    mapped = [_column_name(h) for h in header]
+    kept = [m for m in mapped if m is not None]
+    repeated = sorted({m for m in kept if kept.count(m) > 1})
+    if repeated:
+        raise ValueError(f"{path}: repeated columns in the header (names match in any case): {repeated}")
+    unknown = [h for h, m in zip(header, mapped) if m is not None and arkit_name(m) is None]
+    if names is None:
+        if unknown:
+            raise ValueError(f"{path}: unknown columns {unknown}; expected ARKit blendshape names "
+                             "(any case) plus optionally Live Link Face's Timecode, BlendShapeCount and rotation columns")
+        wanted = tuple(kept)
+    else:
+        wanted = tuple(arkit_name(n) or str(n) for n in names)
+    absent = [n for n in wanted if n not in kept]
+    if absent and missing == "error":
+        extra = f"; columns with no ARKit name: {unknown}" if unknown else ""
+        raise ValueError(f"{path}: missing columns {absent}; the header has {header}{extra}")
+    columns = [mapped.index(n) if n in kept else -1 for n in wanted]
+    data = np.zeros((len(rows), len(wanted)), dtype=np.float64)
+    present = [(k, c) for k, c in enumerate(columns) if c >= 0]
     for t, row in enumerate(rows):
         if len(row) != len(header):
             raise ValueError(f"{path}: row {t + 2} has {len(row)} fields, the header has {len(header)}")
         try:
-            data[t] = [float(row[c]) for c in columns]
+            for k, c in present:
+                data[t, k] = float(row[c])
         except ValueError as error:
             raise ValueError(f"{path}: row {t + 2} (frame {t}): {error}") from None
     return data, wanted
+
+
+def missing_columns(path, names: Sequence[str]) -> tuple[str, ...]:
+    """Which of ``names`` (ARKit names, any case) a coefficient CSV's header lacks."""
+    with open(path, newline="", encoding="utf-8-sig") as f:
+        header = next(csv.reader(f), [])
+    have = {_column_name(h.strip()) for h in header}
+    return tuple(n for n in names if (arkit_name(n) or n) not in have)
 
 
 def format_coeffs_csv(coeffs: np.ndarray, names: Sequence[str]) -> str:

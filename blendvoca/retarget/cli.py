@@ -46,7 +46,14 @@ def retarget_files(
     lm_s = load_index_list("arkit-landmarks") if source_landmarks is None else read_index_list(source_landmarks)
     V, F = read_mesh(target)
     lm_t = read_index_list(target_landmarks)
-    keep = None if crop is None else read_index_list(crop)
+    if crop is None:
+        from .crop import default_crop
+
+        keep, note = default_crop(F, len(V))
+        if note:
+            print(note)
+    else:
+        keep = read_index_list(crop)
     plan = plan_retarget(source.neutral, source.faces, V, F, lm_s, lm_t, crop=keep, falloff=falloff)
     rig = Rig(V, retargeted_deltas(plan, source.deltas), names, F)
     out = Path(out)
@@ -85,7 +92,8 @@ def main(argv=None) -> int:
     parser.add_argument("--out", type=Path, required=True, help="output folder")
     parser.add_argument("--source-rig", type=Path, help="source rig folder (Neutral.obj + <name>.obj); default ARKit reference")
     parser.add_argument("--source-landmarks", type=Path, help="68 landmark indices on the source neutral")
-    parser.add_argument("--crop", type=Path, help="vertex indices of the target kept during the transfer")
+    parser.add_argument("--crop", type=Path, help="vertex indices of the target kept during the transfer "
+                        "(default: FLAME's head crop on a FLAME-topology target, else the whole mesh)")
     parser.add_argument("--shapes", choices=("speech", "all"), default="speech")
     parser.add_argument("--falloff", type=float, default=0.02,
                         help="distance (target units) over which re-attached vertices blend back to rest")

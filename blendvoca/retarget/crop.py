@@ -215,3 +215,52 @@ def reattached_deltas(
         (-L).tocsc(), B, known, np.ascontiguousarray(Y), sp.csc_matrix((0, len(V))), np.zeros((0, 3 * K)), True
     )
     return Z.reshape(len(V), K, 3).transpose(1, 0, 2).copy()
+
+
+FLAME_VERTEX_COUNT = 5023
+FLAME_FACE_COUNT = 9976
+
+
+def is_flame_topology(faces: np.ndarray, n_vertices: int) -> bool:
+    """Whether a mesh has FLAME's topology: 5023 vertices and the triangles of the
+    FLAME sample mesh (asset ``flame-sample``), in any order and winding.
+
+    With the asset absent, the vertex and face counts alone decide.
+    """
+    faces = np.asarray(faces, dtype=np.int64)
+    if n_vertices != FLAME_VERTEX_COUNT or faces.shape != (FLAME_FACE_COUNT, 3):
+        return False
+    from blendvoca.assets import AssetError, resolve
+    from blendvoca.io.mesh import read_ply
+
+    try:
+        reference = read_ply(resolve("flame-sample", download_missing=False))[1]
+    except (AssetError, FileNotFoundError, OSError):
+        return True
+    key = lambda f: np.unique(np.sort(f, axis=1), axis=0)  # noqa: E731 - a one-line helper
+    return reference.shape == faces.shape and np.array_equal(key(reference), key(faces))
+
+
+def default_crop(faces: np.ndarray, n_vertices: int) -> tuple[np.ndarray | None, str | None]:
+    """The crop to use when none is given, and a note saying what was chosen.
+
+    A FLAME-topology target gets FLAME's head crop (asset ``flame-head-idx``: face,
+    scalp and ears without the neck and eyeballs), so jaw shapes do not drag the neck.
+
+    Returns
+    -------
+    keep : (N,) int64 ndarray or None (no crop: the whole mesh takes part)
+    note : str or None, a line for the user
+    """
+    if not is_flame_topology(faces, n_vertices):
+        return None, None
+    from blendvoca.assets import AssetError, load_index_list
+
+    try:
+        keep = load_index_list("flame-head-idx")
+    except (AssetError, FileNotFoundError, OSError) as error:
+        return None, ("warning: the target has FLAME's topology but the FLAME head crop (asset flame-head-idx) "
+                      f"is unavailable ({error}); jaw shapes will drag the neck. Pass --crop FLAME_head_idx.txt "
+                      "(python -m blendvoca.assets fetch flame-head-idx)")
+    return keep, (f"note: the target has FLAME's topology: using the FLAME head crop ({len(keep)} of "
+                  f"{n_vertices} vertices, asset flame-head-idx); pass --crop to choose another")

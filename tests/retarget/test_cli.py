@@ -33,3 +33,47 @@ def test_cli_retargets_onto_a_moved_copy(assets_dir, tmp_path):
     assert "jawOpen" in (out / "report.md").read_text()
     image = matplotlib.image.imread(out / "contact_sheet.png")
     assert image.ndim == 3 and image.shape[0] > 200 and image.std() > 0.05
+
+
+def test_flame_target_gets_the_head_crop_without_crop(assets_dir, monkeypatch):
+    from blendvoca.io.mesh import read_ply
+    from blendvoca.retarget.crop import default_crop, is_flame_topology
+
+    V, F = read_ply(assets_dir / "voca" / "FLAME_sample.ply")
+    assert is_flame_topology(F[:, ::-1][np.random.default_rng(0).permutation(len(F))], len(V))
+    keep, note = default_crop(F, len(V))
+    expected = np.loadtxt(assets_dir / "said" / "FLAME_head_idx.txt", dtype=np.int64)
+    np.testing.assert_array_equal(np.sort(keep), np.sort(expected))
+    assert "FLAME head crop" in note and "--crop" in note
+    assert not is_flame_topology(F[:-1], len(V)) and default_crop(F[:-1], len(V)) == (None, None)
+    # without the crop asset: a warning that says how to pass it
+    import blendvoca.assets
+
+    def unavailable(asset_id, **kwargs):
+        raise blendvoca.assets.AssetError(f"asset {asset_id!r} is not present locally")
+
+    monkeypatch.setattr(blendvoca.assets, "load_index_list", unavailable)
+    keep, note = default_crop(F, len(V))
+    assert keep is None and "drag the neck" in note and "--crop" in note
+
+
+def test_cli_passes_the_flame_crop(assets_dir, tmp_path, monkeypatch, capsys):
+    import pytest
+
+    import blendvoca.retarget.cli as cli
+
+    seen = {}
+
+    class Stop(Exception):
+        pass
+
+    def plan(*args, crop=None, **kwargs):
+        seen["crop"] = crop
+        raise Stop
+
+    monkeypatch.setattr(cli, "plan_retarget", plan)
+    with pytest.raises(Stop):
+        main(["--target", str(assets_dir / "voca" / "FLAME_sample.ply"),
+              "--target-landmarks", str(assets_dir / "said" / "FLAME_landmarks.txt"), "--out", str(tmp_path / "o")])
+    assert len(seen["crop"]) == len(np.loadtxt(assets_dir / "said" / "FLAME_head_idx.txt"))
+    assert "using the FLAME head crop" in capsys.readouterr().out

@@ -1,0 +1,168 @@
+"""Put a coefficient track on a character: export to the formats animation tools read,
+and read them back.
+
+=============  ==========================================  ==================
+format         what                                        needs a rig
+=============  ==========================================  ==================
+``livelink``   Live Link Face CSV (Unreal, MetaHuman)      no
+``arkit-json`` the 52 ARKit weights per frame, JSON        no
+``a2f-json``   Audio2Face-3D blendshape weights JSON       no
+``glb``        glTF 2.0 mesh + morph targets + animation   yes
+``usd``        UsdSkel blend shapes + SkelAnimation        yes
+``csv``        BlendVOCA/SAiD CSV (rig or BlendVOCA names) no
+=============  ==========================================  ==================
+
+``export_track(out, coeffs, names, fmt)`` writes one; ``read_track(path)`` reads any
+back as ``(coeffs, names, fps)``. Columns are always matched by name; shapes a target
+lacks are 0 and reported in the returned :class:`~blendvoca.export.align.AlignedTrack`.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from blendvoca.export.align import AlignedTrack, align_track
+
+FORMATS: tuple[str, ...] = ("livelink", "arkit-json", "a2f-json", "glb", "usd", "csv")
+NEEDS_RIG: frozenset[str] = frozenset({"glb", "usd"})
+SUFFIX: dict[str, str] = {"livelink": ".csv", "arkit-json": ".json", "a2f-json": ".json", "glb": ".glb",
+                          "usd": ".usda", "csv": ".csv"}
+
+
+def export_track(out, coeffs, names: Sequence[str], fmt: str, *, rig=None, fps: float = 60.0,
+                 audio=None) -> AlignedTrack:
+    """Write a ``(T, K)`` track in format ``fmt``.
+
+    Parameters
+    ----------
+    out : path-like
+    coeffs : (T, K) array_like at ``fps``
+    names : K ARKit names (any case), the columns of ``coeffs``
+    fmt : one of :data:`FORMATS`
+    rig : blendvoca.rig.Rig, needed by ``glb`` and ``usd``
+    fps : float
+    audio : path of the sound, optional (``a2f-json`` names it as ``trackPath``, ``usd``
+        references it)
+
+    Returns
+    -------
+    AlignedTrack : the track as written (its ``notes()`` say what was 0 or left out)
+    """
+    if fmt not in FORMATS:
+        raise ValueError(f"export_track: unknown format {fmt!r}; expected one of {FORMATS}")
+    if fmt in NEEDS_RIG and rig is None:
+        raise ValueError(f"export_track: format {fmt!r} needs a rig (the mesh and its blendshapes)")
+    if fps <= 0:
+        raise ValueError(f"export_track: fps must be positive, got {fps}")
+    if fmt == "livelink":
+        from blendvoca.export.livelink import write_livelink_csv
+
+        return write_livelink_csv(out, coeffs, names, fps)
+    if fmt == "arkit-json":
+        from blendvoca.export.arkit_json import write_arkit_json
+
+        return write_arkit_json(out, coeffs, names, fps)
+    if fmt == "a2f-json":
+        from blendvoca.export.a2f_json import write_a2f_json
+
+        return write_a2f_json(out, coeffs, names, fps, "" if audio is None else str(Path(audio).resolve()))
+    if fmt == "glb":
+        from blendvoca.export.glb import write_glb
+
+        return write_glb(out, rig, coeffs, names, fps)
+    if fmt == "usd":
+        from blendvoca.export.usd import write_usd
+
+        return write_usd(out, rig, coeffs, names, fps, audio=audio)
+    from blendvoca.io.coeffs import write_coeffs_csv
+    from blendvoca.names import BLENDVOCA_NAMES
+
+    aligned = align_track(coeffs, names, rig.names if rig is not None else BLENDVOCA_NAMES, where="csv")
+    write_coeffs_csv(out, aligned.coeffs, aligned.names)
+    return aligned
+
+
+def detect_format(path) -> str:
+    """The format of an exported file, from its suffix and (CSV/JSON) its first bytes."""
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix == ".glb":
+        return "glb"
+    if suffix in (".usd", ".usda", ".usdc"):
+        return "usd"
+    if suffix == ".json":
+        with open(path, encoding="utf-8") as f:
+            doc = json.load(f)
+        if "weightMat" in doc:
+            return "a2f-json"
+        if "blendShapeNames" in doc:
+            return "arkit-json"
+        raise ValueError(f"{path}: a JSON file that is neither ARKit (blendShapeNames) nor Audio2Face (weightMat) weights")
+    if suffix == ".csv":
+        with open(path, encoding="utf-8-sig") as f:
+            first = f.readline()
+        return "livelink" if first.split(",")[0].strip() == "Timecode" else "csv"
+    raise ValueError(f"{path}: unknown suffix {suffix!r}; expected .csv, .json, .glb, .usd, .usda or .usdc")
+
+
+def read_track(path, fmt: str | None = None, *, fps: float = 60.0) -> tuple[np.ndarray, tuple[str, ...], float]:
+    """Read any exported track back.
+
+    Parameters
+    ----------
+    path : path-like
+    fmt : one of :data:`FORMATS`, default from :func:`detect_format`
+    fps : the rate of CSV files (which do not store one)
+
+    Returns
+    -------
+    coeffs : (T, K) float64, names : K camelCase ARKit names, fps : float
+    """
+    fmt = fmt or detect_format(path)
+    if fmt == "livelink":
+        from blendvoca.export.livelink import read_livelink_csv
+
+        coeffs, names, _ = read_livelink_csv(path, fps)
+        return coeffs, names, fps
+    if fmt == "arkit-json":
+        from blendvoca.export.arkit_json import read_arkit_json
+
+        return read_arkit_json(path)
+    if fmt == "a2f-json":
+        from blendvoca.export.a2f_json import read_a2f_json
+
+        return read_a2f_json(path)
+    if fmt == "glb":
+        from blendvoca.export.glb import read_glb
+
+        glb = read_glb(path)
+        rate = 1.0 / float(np.median(np.diff(glb.times))) if len(glb.times) > 1 else fps
+        return glb.weights, glb.names, rate
+    if fmt == "usd":
+        from blendvoca.export.usd import read_usd
+
+        usd = read_usd(path)
+        return usd.weights, usd.names, usd.fps
+    if fmt == "csv":
+        from blendvoca.io.coeffs import read_coeffs_csv
+
+        coeffs, names = read_coeffs_csv(path)
+        return coeffs, names, fps
+    raise ValueError(f"read_track: unknown format {fmt!r}; expected one of {FORMATS}")
+
+
+def load_rig(path):
+    """A rig from a ``.npz`` (blendvoca.rig.Rig) or a SAiD folder (Neutral.obj + <name>.obj)."""
+    from blendvoca.rig import Rig
+
+    path = Path(path)
+    if path.is_dir():
+        return Rig.load_said_folder(path)
+    return Rig.load(path)
+
+
+__all__ = ["FORMATS", "AlignedTrack", "align_track", "detect_format", "export_track", "load_rig", "read_track"]

@@ -1,0 +1,93 @@
+"""Map a coefficient track's columns onto the shapes a target format or rig carries."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from blendvoca.names import arkit_name
+
+
+@dataclass(frozen=True)
+class AlignedTrack:
+    """A track with one column per target shape.
+
+    Attributes
+    ----------
+    coeffs : (T, K) float64 ndarray, columns in ``names`` order
+    names : tuple of K str, the target's shape names
+    missing : tuple of str, target shapes the track lacks (their column is 0)
+    dropped : tuple of str, track columns the target has no shape for
+    """
+
+    coeffs: np.ndarray
+    names: tuple[str, ...]
+    missing: tuple[str, ...]
+    dropped: tuple[str, ...]
+
+    def notes(self) -> list[str]:
+        """Human-readable notes on missing and dropped shapes (empty when none)."""
+        out = []
+        if self.missing:
+            out.append(f"note: the track has no column for {len(self.missing)} shapes of the target; they are 0: "
+                       + ", ".join(self.missing))
+        if self.dropped:
+            out.append(f"note: the target has no shape for {len(self.dropped)} track columns; they are left out: "
+                       + ", ".join(self.dropped))
+        return out
+
+
+def check_track(coeffs, names: Sequence[str], *, where: str) -> tuple[np.ndarray, tuple[str, ...]]:
+    """A ``(T, K)`` finite float64 track and its camelCase ARKit column names.
+
+    Raises
+    ------
+    ValueError
+        Naming ``where``, the expected and the received shape, or the unknown names or first bad frame.
+    """
+    coeffs = np.asarray(coeffs, dtype=np.float64)
+    names = tuple(str(n) for n in names)
+    if coeffs.ndim != 2 or coeffs.shape[1] != len(names):
+        raise ValueError(f"{where}: expected a (T, {len(names)}) track for {len(names)} names, got shape {coeffs.shape}")
+    if len(coeffs) == 0:
+        raise ValueError(f"{where}: the track has no frames")
+    unknown = [n for n in names if arkit_name(n) is None]
+    if unknown:
+        raise ValueError(f"{where}: unknown blendshape names {unknown}; expected ARKit names (any case)")
+    canonical = tuple(arkit_name(n) for n in names)
+    repeated = sorted({n for n in canonical if canonical.count(n) > 1})
+    if repeated:
+        raise ValueError(f"{where}: blendshape names repeated: {repeated}")
+    if not np.all(np.isfinite(coeffs)):
+        t, k = np.argwhere(~np.isfinite(coeffs))[0]
+        raise ValueError(f"{where}: NaN/inf at frame {t}, column {names[k]!r}")
+    return coeffs, canonical
+
+
+def align_track(coeffs, names: Sequence[str], target: Sequence[str], *, where: str = "track") -> AlignedTrack:
+    """Reorder a track's columns to ``target`` by name; target shapes it lacks are 0.
+
+    Parameters
+    ----------
+    coeffs : (T, K) array_like
+    names : K ARKit names (any case), the track's columns
+    target : K' ARKit names, the wanted columns
+
+    Returns
+    -------
+    AlignedTrack with ``coeffs`` of shape (T, K')
+    """
+    coeffs, names = check_track(coeffs, names, where=where)
+    target = tuple(arkit_name(n) or n for n in target)
+    index = {n: i for i, n in enumerate(names)}
+    out = np.zeros((len(coeffs), len(target)), dtype=np.float64)
+    missing = []
+    for k, n in enumerate(target):
+        if n in index:
+            out[:, k] = coeffs[:, index[n]]
+        else:
+            missing.append(n)
+    dropped = tuple(n for n in names if n not in set(target))
+    return AlignedTrack(out, target, tuple(missing), dropped)
