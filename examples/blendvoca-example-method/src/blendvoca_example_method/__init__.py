@@ -7,12 +7,10 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmark.methods import Method
+from benchmark.methods import AUDIO_RATE as RATE
+from benchmark.methods import FPS, Method
 
 __all__ = ["EnergyJawMethod", "energy_envelope"]
-
-FPS = 60
-RATE = 16000
 
 
 def energy_envelope(audio, num_frames: int, *, rate: int = RATE, fps: int = FPS) -> np.ndarray:
