@@ -15,17 +15,14 @@ from __future__ import annotations
 
 import json
 import math
-import re
 import shutil
 from pathlib import Path
 
 import numpy as np
 
-from leaderboard.site import metric_view as metric_registry
 
 __all__ = ["SiteRun", "load_site_runs", "with_dataset", "write_site_data"]
 
-_SAMPLE_CSV = re.compile(r"^(sentence\d+)-(\d+)\.csv$")
 _DECIMALS = 4
 
 
@@ -58,18 +55,13 @@ class SiteRun:
 
     def tracks(self) -> dict[tuple[str, str], list[Path]]:
         """``{(subject, sentence): [csv of sample 0, 1, ...]}`` stored with the run (empty if none)."""
-        rel = self.result.get("tracks")
-        if not rel:
+        from benchmark.runs import read_run
+
+        try:
+            stored = read_run(self.path)
+        except (ValueError, FileNotFoundError):
             return {}
-        root = (self.path.parent / rel).resolve()
-        found: dict[tuple[str, str], list[tuple[int, Path]]] = {}
-        if root.is_dir():
-            for subject_dir in sorted(p for p in root.iterdir() if p.is_dir()):
-                for csv in subject_dir.iterdir():
-                    m = _SAMPLE_CSV.match(csv.name)
-                    if m:
-                        found.setdefault((subject_dir.name, m.group(1)), []).append((int(m.group(2)), csv))
-        return {key: [p for _, p in sorted(v)] for key, v in sorted(found.items())}
+        return {key: stored.track_paths(*key) for key in stored.keys}
 
 
 def load_site_runs(results_dir) -> list[SiteRun]:
@@ -105,59 +97,50 @@ def _write_json(path: Path, data) -> None:
     path.write_text(json.dumps(data, separators=(",", ":"), sort_keys=True) + "\n")
 
 
-def _metric_specs(runs) -> dict:
-    """``{metric: {label, unit, higher_is_better, group}}`` over all runs, registry order."""
-    specs = {}
-    for run in runs:
-        for name, fields in run.result["metrics"].items():
-            spec = metric_registry.describe(name, fields)
-            specs.setdefault(name, spec)
-    order = {name: i for i, name in enumerate(metric_registry.metric_order(specs))}
-    return dict(sorted(specs.items(), key=lambda kv: order[kv[0]]))
+def _column_spec(column) -> dict:
+    return {"label": column.label, "unit": column.unit, "higher_is_better": column.higher_is_better,
+            "group": column.group}
+
+
+def _row_data(row, run: SiteRun) -> dict:
+    return {
+        "run": run.id,
+        "label": row.label,
+        "reference": row.reference,
+        "output": row.output,
+        "samples": row.samples,
+        "has_tracks": bool(run.tracks()) and run.dataset_root is not None,
+        "metrics": {
+            name: {"mean": _number(mean), "std": _number(std),
+                   "ci95": [_number(v) for v in ci95] if ci95 else None,
+                   "n": run.result["metrics"][name].get("n")}
+            for name, (mean, std, ci95) in row.metrics.items()
+        },
+    }
 
 
 def leaderboard_data(runs) -> dict:
-    """The leaderboard page's tables: one per dataset manifest, methods and references apart."""
-    best_rows = metric_registry.best_rows
+    """The leaderboard page's tables, as ``leaderboard.collect`` arranges them: one per
+    dataset manifest, columns grouped in the registry's order, methods and reference
+    rows apart, best marks by ``leaderboard.collect.best_rows``."""
+    from leaderboard.collect import best_rows, tables_by_manifest
 
-    groups: dict[str, list[SiteRun]] = {}
-    for run in runs:
-        groups.setdefault(run.result["dataset"]["manifest_hash"], []).append(run)
     tables = []
-    for manifest_hash in sorted(groups):
-        group = groups[manifest_hash]
-        specs = _metric_specs(group)
-        rows = []
-        for run in group:
-            protocol = run.result.get("protocol", {})
-            rows.append({
-                "run": run.id,
-                "label": run.label,
-                "reference": run.reference,
-                "output": run.result["method"].get("output", "coefficients"),
-                "samples": int(protocol.get("samples") or 1),
-                "has_tracks": bool(run.tracks()) and run.dataset_root is not None,
-                "metrics": {
-                    name: {"mean": _number(f.get("mean")), "std": _number(f.get("std")),
-                           "ci95": [_number(v) for v in f["ci95"]] if f.get("ci95") else None,
-                           "n": f.get("n")}
-                    for name, f in run.result["metrics"].items()
-                },
-            })
-        best = best_rows([r["metrics"] for r in rows if not r["reference"]], specs)
-        methods = [r for r in rows if not r["reference"]]
-        for row, marks in zip(methods, best):
-            row["best"] = sorted(marks)
-        dataset = group[0].result["dataset"]
+    for table in tables_by_manifest([run.result for run in runs]):
+        methods = [_row_data(row, runs[row.source]) for row in table.rows]
+        for row in methods:
+            row["best"] = []
+        for column in table.columns:
+            for index in best_rows(table.rows, column):
+                methods[index]["best"].append(column.name)
         tables.append({
-            "manifest_hash": manifest_hash,
-            "split": dataset.get("split", "test"),
-            "num_sentences": dataset.get("num_sentences"),
-            "num_subjects": dataset.get("num_subjects"),
-            "metrics": specs,
-            "groups": metric_registry.grouped(list(specs), specs),
-            "methods": sorted(methods, key=lambda r: r["label"].lower()),
-            "references": sorted((r for r in rows if r["reference"]), key=lambda r: r["label"].lower()),
+            "manifest_hash": table.manifest_hash,
+            "split": table.split,
+            "num_sentences": table.num_sentences,
+            "metrics": {column.name: _column_spec(column) for column in table.columns},
+            "groups": [{"name": group, "metrics": [c.name for c in columns]} for group, columns in table.groups],
+            "methods": methods,
+            "references": [_row_data(row, runs[row.source]) for row in table.references],
         })
     return {"tables": tables}
 
@@ -185,11 +168,19 @@ def run_page_data(run: SiteRun) -> dict:
         "dataset": result["dataset"],
         "protocol": result.get("protocol", {}),
         "provenance": {k: result.get(k) for k in ("versions", "git", "hardware", "date", "timings") if k in result},
-        "metrics": _metric_specs([run]),
+        "metrics": _run_metric_specs(run),
         "per_sentence": _per_sentence(result),
         "sentences": [{"subject": s, "sentence": q, "samples": len(paths)} for (s, q), paths in tracks.items()],
         "tracks_note": _tracks_note(run),
     }
+
+
+def _run_metric_specs(run: SiteRun) -> dict:
+    """``{metric: {label, unit, higher_is_better, group}}`` of one run, in table order."""
+    from leaderboard.collect import tables_by_manifest
+
+    (table,) = tables_by_manifest([run.result])
+    return {column.name: _column_spec(column) for column in table.columns}
 
 
 def _tracks_note(run: SiteRun) -> str | None:

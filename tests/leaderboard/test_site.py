@@ -52,7 +52,11 @@ def results_dir(tmp_path_factory, built_dataset):
 
     dataset = open_blendvoca(built_dataset)
     results = tmp_path_factory.mktemp("results")
-    _write_run(results, "ground-truth", dataset, reference=True, samples=1, transform=lambda gt, k: gt, lve=0.0)
+    from benchmark.run import run_method
+
+    # Two rows as benchmark.run stores them, two written by hand with known scores.
+    for name, samples in (("ground-truth", 1), ("random", 3)):
+        run_method(name, built_dataset, samples=samples, results_dir=results, progress=False)
     _write_run(results, "late", dataset, reference=False, samples=3, lve=1.5,
                transform=lambda gt, k: np.clip(np.roll(gt, 3 * (k + 1), axis=0), 0, 1))
     _write_run(results, "still", dataset, reference=False, samples=1, lve=3.0,
@@ -69,7 +73,10 @@ def test_site_data_files(site, results_dir):
     board = json.loads((site / "data" / "leaderboard.json").read_text())
     (table,) = board["tables"]
     assert [r["run"] for r in table["methods"]] == ["late", "still"]
-    assert [r["run"] for r in table["references"]] == ["ground-truth"]
+    references = {r["label"]: r for r in table["references"]}
+    assert sorted(references) == ["ground-truth", "random"]
+    assert references["random"]["samples"] == 3 and references["ground-truth"]["has_tracks"]
+    assert all(m["ci95"] is not None for m in references["random"]["metrics"].values())
     assert table["methods"][0]["best"] == ["lve"]  # intervals [1.4, 1.6] and [2.9, 3.1] do not overlap
     run = json.loads((site / "data" / "runs" / "late.json").read_text())
     assert len(run["per_sentence"]) == len(run["sentences"]) > 0
@@ -135,12 +142,13 @@ def served(site):
     server.shutdown()
 
 
-def test_leaderboard_page_rows_and_sorting(browser, served):
+def test_leaderboard_page_rows_and_sorting(browser, served, results_dir):
     assert open_page(browser, served + "index.html") == []
     runs = browser.execute_script("return [...document.querySelectorAll('tbody.methods tr')].map(r => r.dataset.run)")
     refs = browser.execute_script("return [...document.querySelectorAll('tbody.references tr[data-run]')]"
                                   ".map(r => r.dataset.run)")
-    assert sorted(runs + refs) == ["ground-truth", "late", "still"] and refs == ["ground-truth"]
+    assert runs == ["late", "still"] and len(refs) == 2
+    assert sorted(runs + refs) == sorted(p.stem for p in results_dir.glob("*.json"))  # one row per stored run
     header = browser.find_element("css selector", "th[data-metric='lve']")
     header.click()  # descending first
     assert browser.execute_script("return [...document.querySelectorAll('tbody.methods tr')]"
