@@ -41,6 +41,8 @@ class Row:
     samples: int
     metrics: dict = field(default_factory=dict)
     output: str = "coefficients"
+    #: Position of the row's result in the list given to :func:`tables_by_manifest`.
+    source: int | None = None
 
 
 @dataclass
@@ -90,12 +92,13 @@ def tables_by_manifest(results: list[dict]) -> list[Table]:
     ValueError
         Two results on one manifest disagree on a metric's direction or unit.
     """
-    groups: dict[str, list[dict]] = {}
-    for result in results:
-        groups.setdefault(result["dataset"]["manifest_hash"], []).append(result)
+    groups: dict[str, list[tuple[int, dict]]] = {}
+    for index, result in enumerate(results):
+        groups.setdefault(result["dataset"]["manifest_hash"], []).append((index, result))
     tables = []
     for manifest_hash in sorted(groups):
-        group = groups[manifest_hash]
+        sources = [index for index, _ in groups[manifest_hash]]
+        group = [result for _, result in groups[manifest_hash]]
         specs: dict[str, tuple] = {}
         columns: dict[str, Column] = {}
         for result in group:
@@ -109,7 +112,7 @@ def tables_by_manifest(results: list[dict]) -> list[Table]:
                 columns.setdefault(name, _column(name, fields))
         labels = [r["method"].get("label") or r["method"]["name"] for r in group]
         rows = []
-        for result, label in zip(group, labels):
+        for source, result, label in zip(sources, group, labels):
             protocol = result["protocol"]
             if labels.count(label) > 1:
                 label = f"{label} (S={protocol.get('samples')}, seed {protocol.get('seed')})"
@@ -119,6 +122,7 @@ def tables_by_manifest(results: list[dict]) -> list[Table]:
                 samples=int(protocol.get("samples") or 1),
                 metrics={k: (v["mean"], v.get("std"), v.get("ci95")) for k, v in result["metrics"].items()},
                 output=result["method"].get("output", "coefficients"),
+                source=source,
             ))
         rows.sort(key=lambda r: (r.label.lower(), r.label))
         splits = sorted({r["dataset"].get("split", "test") for r in group})

@@ -1,0 +1,313 @@
+"""The data files of the results site, computed from stored runs.
+
+Everything the pages show is written here as JSON next to copies of the audio and
+one GLB rig per speaker, so the pages only fetch and draw:
+
+    data/leaderboard.json                         tables (one per dataset), rows, intervals
+    data/runs/<run>.json                          one run: provenance, per-sentence scores
+    data/sentences/<subject>/<sentence>.json      ground truth: coefficients, lip motion, envelope (dB, scaled to [0, 1])
+    data/tracks/<run>/<subject>/<sentence>-<k>.json   one generated sample: coefficients, lip motion
+    data/audio/<subject>/<sentence>.wav           the sentence's speech
+    data/rigs/<subject>.glb                       the speaker's rig, one morph target per shape
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import shutil
+from pathlib import Path
+
+import numpy as np
+
+
+__all__ = ["SiteRun", "load_site_runs", "with_dataset", "write_site_data"]
+
+_DECIMALS = 4
+
+
+class SiteRun:
+    """One stored run as the site sees it: the result and the tracks it stored."""
+
+    def __init__(self, path: Path, result: dict):
+        self.path = Path(path)
+        self.result = result
+        self.id = self.path.stem
+
+    @property
+    def label(self) -> str:
+        method = self.result["method"]
+        return method.get("label") or method["name"]
+
+    @property
+    def reference(self) -> bool:
+        return bool(self.result["method"].get("reference", False))
+
+    @property
+    def dataset_root(self) -> Path | None:
+        """The BlendVOCA build the run was scored on, if it is on this machine."""
+        path = self.result.get("dataset", {}).get("path")
+        return Path(path) if path and Path(path).is_dir() else None
+
+    @property
+    def manifest_hash(self) -> str:
+        return self.result["dataset"]["manifest_hash"]
+
+    def tracks(self) -> dict[tuple[str, str], list[Path]]:
+        """``{(subject, sentence): [csv of sample 0, 1, ...]}`` stored with the run (empty if none)."""
+        from benchmark.runs import read_run
+
+        try:
+            stored = read_run(self.path)
+        except (ValueError, FileNotFoundError):
+            return {}
+        return {key: stored.track_paths(*key) for key in stored.keys}
+
+
+def load_site_runs(results_dir) -> list[SiteRun]:
+    """Every result JSON in ``results_dir`` (schema-checked), sorted by file name."""
+    from benchmark.results import read_result
+
+    results_dir = Path(results_dir)
+    if not results_dir.is_dir():
+        raise FileNotFoundError(f"leaderboard.site: results folder {results_dir} does not exist")
+    runs = [SiteRun(path, read_result(path)) for path in sorted(results_dir.glob("*.json"))]
+    if not runs:
+        raise FileNotFoundError(f"leaderboard.site: {results_dir} holds no result *.json files")
+    return runs
+
+
+def _round(values) -> list:
+    """Nested lists of floats at the site's precision (JSON has no NaN: None)."""
+    arr = np.asarray(values, dtype=np.float64)
+    out = np.round(arr, _DECIMALS).tolist()
+    if not np.isfinite(arr).all():
+        def clean(x):
+            return [clean(v) for v in x] if isinstance(x, list) else (x if math.isfinite(x) else None)
+        out = clean(out)
+    return out
+
+
+def _number(x):
+    return None if x is None or not math.isfinite(float(x)) else float(x)
+
+
+def _write_json(path: Path, data) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(data, separators=(",", ":"), sort_keys=True) + "\n")
+
+
+def _column_spec(column) -> dict:
+    return {"label": column.label, "unit": column.unit, "higher_is_better": column.higher_is_better,
+            "group": column.group}
+
+
+def _row_data(row, run: SiteRun) -> dict:
+    return {
+        "run": run.id,
+        "label": row.label,
+        "reference": row.reference,
+        "output": row.output,
+        "samples": row.samples,
+        "has_tracks": bool(run.tracks()) and run.dataset_root is not None,
+        "metrics": {
+            name: {"mean": _number(mean), "std": _number(std),
+                   "ci95": [_number(v) for v in ci95] if ci95 else None,
+                   "n": run.result["metrics"][name].get("n")}
+            for name, (mean, std, ci95) in row.metrics.items()
+        },
+    }
+
+
+def leaderboard_data(runs) -> dict:
+    """The leaderboard page's tables, as ``leaderboard.collect`` arranges them: one per
+    dataset manifest, columns grouped in the registry's order, methods and reference
+    rows apart, best marks by ``leaderboard.collect.best_rows``."""
+    from leaderboard.collect import best_rows, tables_by_manifest
+
+    tables = []
+    for table in tables_by_manifest([run.result for run in runs]):
+        methods = [_row_data(row, runs[row.source]) for row in table.rows]
+        for row in methods:
+            row["best"] = []
+        for column in table.columns:
+            for index in best_rows(table.rows, column):
+                methods[index]["best"].append(column.name)
+        tables.append({
+            "manifest_hash": table.manifest_hash,
+            "split": table.split,
+            "num_sentences": table.num_sentences,
+            "metrics": {column.name: _column_spec(column) for column in table.columns},
+            "groups": [{"name": group, "metrics": [c.name for c in columns]} for group, columns in table.groups],
+            "methods": methods,
+            "references": [_row_data(row, runs[row.source]) for row in table.references],
+        })
+    return {"tables": tables}
+
+
+def _per_sentence(result) -> list[dict]:
+    """Per-sentence rows as ``{subject, sentence, metrics: {name: value}}``."""
+    rows = []
+    for entry in result.get("per_sentence") or []:
+        values = entry.get("metrics")
+        if values is None:
+            values = {k: v for k, v in entry.items() if k not in ("subject", "sentence")}
+        rows.append({"subject": entry["subject"], "sentence": entry["sentence"],
+                     "metrics": {k: _number(v) if isinstance(v, (int, float)) else None for k, v in values.items()}})
+    return rows
+
+
+def run_page_data(run: SiteRun) -> dict:
+    """The method page's data for one run (tracks only when its dataset is here)."""
+    result = run.result
+    tracks = run.tracks() if run.dataset_root is not None else {}
+    return {
+        "run": run.id,
+        "label": run.label,
+        "method": result["method"],
+        "dataset": result["dataset"],
+        "protocol": result.get("protocol", {}),
+        "provenance": {k: result.get(k) for k in ("versions", "git", "hardware", "date", "timings") if k in result},
+        "metrics": _run_metric_specs(run),
+        "per_sentence": _per_sentence(result),
+        "sentences": [{"subject": s, "sentence": q, "samples": len(paths)} for (s, q), paths in tracks.items()],
+        "tracks_note": _tracks_note(run),
+    }
+
+
+def _run_metric_specs(run: SiteRun) -> dict:
+    """``{metric: {label, unit, higher_is_better, group}}`` of one run, in table order."""
+    from leaderboard.collect import tables_by_manifest
+
+    (table,) = tables_by_manifest([run.result])
+    return {column.name: _column_spec(column) for column in table.columns}
+
+
+def _tracks_note(run: SiteRun) -> str | None:
+    """Why a run's tracks cannot be shown, or None."""
+    if not run.result.get("tracks"):
+        return "This run stored no tracks."
+    if run.dataset_root is None:
+        return (f"The dataset this run was scored on ({run.result['dataset'].get('path')}) is not on the machine "
+                f"that made this site; rebuild the site with --data DIR pointing at a copy to see its tracks.")
+    return None
+
+
+class _SentenceData:
+    """Ground truth, rigs and lip vertex sets of one dataset, cached per subject."""
+
+    def __init__(self, root: Path):
+        from benchmark.data import open_blendvoca
+
+        self.dataset = open_blendvoca(root)
+        self._rigs = {}
+
+    def rig(self, subject):
+        if subject not in self._rigs:
+            from benchmark.metrics.regions import lip_vertices
+
+            rig = self.dataset.rig(subject)
+            names = tuple(self.dataset.names)
+            rig = rig.select(names) if tuple(rig.names) != names else rig
+            self._rigs[subject] = (rig, lip_vertices(rig.deltas, rig.names))
+        return self._rigs[subject]
+
+    def lip_motion_mm(self, subject, coeffs) -> np.ndarray:
+        """Mean lip-vertex displacement per frame (mm) of the rig driven by ``coeffs``."""
+        from benchmark.lipsync.geometric import mouth_activity
+        from benchmark.metrics.vertex import rig_vertices
+
+        rig, lips = self.rig(subject)
+        vertices = rig_vertices(rig.neutral, rig.deltas, coeffs)
+        return 1000.0 * mouth_activity(vertices, rig.neutral, lips)
+
+
+def with_dataset(runs, data) -> list[SiteRun]:
+    """``runs`` with ``dataset.path`` set to ``data`` for every run scored on that build
+    (same manifest hash), so a site can be made where the data lives elsewhere.
+
+    Raises
+    ------
+    ValueError
+        No run was scored on ``data``.
+    """
+    from benchmark.data import open_blendvoca
+
+    data = Path(data).expanduser().resolve()
+    digest = open_blendvoca(data).manifest_hash
+    matched = [run for run in runs if run.manifest_hash == digest]
+    if not matched:
+        raise ValueError(f"leaderboard.site: --data {data} (manifest {digest[:12]}) is not the dataset of any run "
+                         f"(their manifests: {sorted({r.manifest_hash[:12] for r in runs})})")
+    for run in matched:
+        run.result = {**run.result, "dataset": {**run.result["dataset"], "path": str(data)}}
+    return runs
+
+
+def write_site_data(runs, data_dir, *, max_samples: int = 3, progress: bool = True) -> dict:
+    """Write every data file of the site into ``data_dir``.
+
+    Parameters
+    ----------
+    runs : list of SiteRun
+    data_dir : path-like
+    max_samples : int
+        Samples of a stochastic run offered for playback.
+
+    Returns
+    -------
+    dict
+        Counts of what was written (``runs``, ``sentences``, ``tracks``, ``rigs``).
+    """
+    from benchmark.lipsync.envelope import speech_envelope
+    from blendvoca.export.glb import write_glb
+    from blendvoca.io.coeffs import read_coeffs_csv
+
+    data_dir = Path(data_dir)
+    _write_json(data_dir / "leaderboard.json", leaderboard_data(runs))
+    counts = {"runs": 0, "sentences": 0, "tracks": 0, "rigs": 0}
+    datasets: dict[Path, _SentenceData] = {}
+    done_sentences, done_rigs = set(), set()
+    work = [(run, key, paths) for run in runs if run.dataset_root is not None for key, paths in run.tracks().items()]
+    try:
+        from tqdm import tqdm
+
+        work = tqdm(work, desc="site: tracks", unit="sentence", disable=not progress)
+    except ImportError:
+        pass
+    for run in runs:
+        _write_json(data_dir / "runs" / f"{run.id}.json", run_page_data(run))
+        counts["runs"] += 1
+    for run, (subject, sentence), paths in work:
+        root = run.dataset_root
+        data = datasets.get(root) or datasets.setdefault(root, _SentenceData(root))
+        names = tuple(data.dataset.names)
+        if (root, subject, sentence) not in done_sentences:
+            gt = data.dataset.coeffs(subject, sentence)
+            audio, rate = data.dataset.audio(subject, sentence)
+            envelope = speech_envelope(audio, rate=rate, fps=60.0, num_frames=gt.shape[0])
+            _write_json(data_dir / "sentences" / subject / f"{sentence}.json", {
+                "subject": subject, "sentence": sentence, "fps": 60, "names": list(names),
+                "coeffs": _round(gt), "lip_motion_mm": _round(data.lip_motion_mm(subject, gt)),
+                "envelope": _round((envelope - envelope.min()) / max(float(np.ptp(envelope)), 1e-12)),
+                "duration": audio.shape[0] / rate,
+            })
+            src = root / "audio" / subject / f"{sentence}.wav"
+            (data_dir / "audio" / subject).mkdir(parents=True, exist_ok=True)
+            shutil.copyfile(src, data_dir / "audio" / subject / f"{sentence}.wav")
+            done_sentences.add((root, subject, sentence))
+            counts["sentences"] += 1
+        if (root, subject) not in done_rigs:
+            rig, _ = data.rig(subject)
+            (data_dir / "rigs").mkdir(parents=True, exist_ok=True)
+            write_glb(data_dir / "rigs" / f"{subject}.glb", rig, np.zeros((1, len(rig.names))), rig.names)
+            done_rigs.add((root, subject))
+            counts["rigs"] += 1
+        for k, csv in enumerate(paths[:max_samples]):
+            coeffs, _ = read_coeffs_csv(csv, names=names)
+            coeffs = np.asarray(coeffs, dtype=np.float64)
+            _write_json(data_dir / "tracks" / run.id / subject / f"{sentence}-{k}.json", {
+                "coeffs": _round(coeffs), "lip_motion_mm": _round(data.lip_motion_mm(subject, coeffs)),
+            })
+            counts["tracks"] += 1
+    return counts

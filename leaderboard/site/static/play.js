@@ -1,0 +1,194 @@
+// Playback page: the ground truth and chosen runs side by side on the speaker's rig
+// (glTF morph targets), front and side views, driven by the audio element's clock.
+import * as THREE from "three";
+import { GLTFLoader } from "../vendor/jsm/loaders/GLTFLoader.js";
+import { el, fetchJSON, param } from "./site.js";
+
+const FPS = 60;
+const canvas = document.getElementById("player-canvas");
+const audio = document.getElementById("audio");
+const scrub = document.getElementById("scrub");
+const timeLabel = document.getElementById("time");
+const renderer = new THREE.WebGLRenderer({ canvas, antialias: true, preserveDrawingBuffer: true });
+renderer.setPixelRatio(1);
+renderer.setScissorTest(true);
+
+const leaderboard = await fetchJSON("data/leaderboard.json");
+const runs = leaderboard.tables.flatMap((t) => [...t.methods, ...t.references]).filter((r) => r.has_tracks);
+const runPages = Object.fromEntries(await Promise.all(
+  runs.map(async (r) => [r.run, await fetchJSON(`data/runs/${encodeURIComponent(r.run)}.json`)])));
+
+// Sentences: every sentence any run stored.
+const sentences = new Map();
+for (const page of Object.values(runPages)) {
+  for (const s of page.sentences) sentences.set(`${s.subject}/${s.sentence}`, s);
+}
+const sentenceSelect = document.getElementById("sentence");
+for (const key of [...sentences.keys()].sort()) sentenceSelect.append(el("option", { value: key, text: key }));
+const wantedSentence = param("subject") && param("sentence") ? `${param("subject")}/${param("sentence")}` : null;
+if (wantedSentence && sentences.has(wantedSentence)) sentenceSelect.value = wantedSentence;
+
+const wantedRuns = (param("runs") || "").split(",").filter(Boolean);
+const choices = document.getElementById("run-choices");
+for (const r of runs) {
+  const box = el("input", { type: "checkbox", value: r.run, "data-run": r.run });
+  box.checked = wantedRuns.length ? wantedRuns.includes(r.run) : !r.reference && r === runs.find((x) => !x.reference);
+  choices.append(el("label", {}, box, ` ${r.label} `));
+}
+if (param("samples")) document.getElementById("samples").value = param("samples");
+
+const loader = new GLTFLoader();
+const rigCache = new Map();
+async function rigMesh(subject) {
+  if (!rigCache.has(subject)) {
+    rigCache.set(subject, loader.loadAsync(`data/rigs/${subject}.glb`).then((gltf) => {
+      let mesh = null;
+      gltf.scene.traverse((node) => { if (node.isMesh && !mesh) mesh = node; });
+      mesh.geometry.computeVertexNormals();
+      return mesh;
+    }));
+  }
+  return rigCache.get(subject);
+}
+
+let panels = [];
+let frames = 1;
+let rigNames = [];
+
+function makePanel(template, title, track) {
+  const scene = new THREE.Scene();
+  scene.background = new THREE.Color(0xf6f6f6);
+  const mesh = template.clone();
+  mesh.material = new THREE.MeshStandardMaterial({ color: 0xd9a58c, roughness: 0.8, metalness: 0.0 });
+  scene.add(mesh);
+  scene.add(new THREE.HemisphereLight(0xffffff, 0x444444, 1.6));
+  const light = new THREE.DirectionalLight(0xffffff, 1.8);
+  light.position.set(0.3, 0.4, 1.0);
+  scene.add(light);
+  const dictionary = mesh.morphTargetDictionary || {};
+  const columns = track.names.map((name) => dictionary[name]);
+  return { scene, mesh, title, track, columns };
+}
+
+function cameras(template, aspect) {
+  template.geometry.computeBoundingBox();
+  const box = template.geometry.boundingBox;
+  const center = box.getCenter(new THREE.Vector3());
+  const size = box.getSize(new THREE.Vector3());
+  // Frame the face: the lower two thirds of the head fill the view, the mouth near the centre.
+  center.y -= 0.12 * size.y;
+  const distance = 0.75 * size.y / (2 * Math.tan((25 / 2) * Math.PI / 180));
+  const front = new THREE.PerspectiveCamera(25, aspect, distance / 100, distance * 10);
+  front.position.set(center.x, center.y, center.z + distance);
+  front.lookAt(center);
+  const side = new THREE.PerspectiveCamera(25, aspect, distance / 100, distance * 10);
+  side.position.set(center.x + distance, center.y, center.z);
+  side.lookAt(center);
+  return { front, side };
+}
+
+let views = null;
+
+function currentFrame() {
+  return Math.max(0, Math.min(frames - 1, Math.floor(audio.currentTime * FPS + 1e-6)));
+}
+
+function render(frame = currentFrame()) {
+  const width = canvas.width, height = canvas.height;
+  const cellWidth = Math.floor(width / Math.max(1, panels.length));
+  const cellHeight = Math.floor(height / 2);
+  renderer.setSize(width, height, false);
+  panels.forEach((panel, i) => {
+    const weights = panel.track.coeffs[Math.min(frame, panel.track.coeffs.length - 1)];
+    panel.columns.forEach((target, c) => {
+      if (target !== undefined) panel.mesh.morphTargetInfluences[target] = weights[c];
+    });
+    views.front.aspect = views.side.aspect = cellWidth / cellHeight;
+    views.front.updateProjectionMatrix();
+    views.side.updateProjectionMatrix();
+    renderer.setViewport(i * cellWidth, cellHeight, cellWidth, cellHeight);
+    renderer.setScissor(i * cellWidth, cellHeight, cellWidth, cellHeight);
+    renderer.render(panel.scene, views.front);
+    renderer.setViewport(i * cellWidth, 0, cellWidth, cellHeight);
+    renderer.setScissor(i * cellWidth, 0, cellWidth, cellHeight);
+    renderer.render(panel.scene, views.side);
+  });
+  timeLabel.textContent = `${audio.currentTime.toFixed(2)} s — frame ${frame} — ${panels.map((p) => p.title).join(" | ")}`;
+  window.player.frame = frame;
+}
+
+async function load() {
+  const [subject, sentence] = sentenceSelect.value.split("/");
+  const gt = await fetchJSON(`data/sentences/${subject}/${sentence}.json`);
+  const template = await rigMesh(subject);
+  rigNames = gt.names;
+  frames = gt.coeffs.length;
+  const samples = Number(document.getElementById("samples").value) || 1;
+  const chosen = [...choices.querySelectorAll("input:checked")].map((box) => box.value);
+  const newPanels = [makePanel(template, "ground truth", { names: gt.names, coeffs: gt.coeffs })];
+  for (const runId of chosen) {
+    const entry = runPages[runId].sentences.find((s) => s.subject === subject && s.sentence === sentence);
+    if (!entry) continue;
+    const label = runs.find((r) => r.run === runId).label;
+    for (let k = 0; k < Math.min(samples, entry.samples); k++) {
+      let track;
+      try {
+        track = await fetchJSON(`data/tracks/${encodeURIComponent(runId)}/${subject}/${sentence}-${k}.json`);
+      } catch (error) {
+        break;  // fewer samples were exported for the site than the run stored
+      }
+      newPanels.push(makePanel(template, entry.samples > 1 ? `${label} #${k}` : label,
+        { names: gt.names, coeffs: track.coeffs }));
+    }
+  }
+  panels = newPanels;
+  views = cameras(template, 1);
+  audio.src = `data/audio/${subject}/${sentence}.wav`;
+  await new Promise((resolve) => {
+    if (audio.readyState >= 1) resolve();
+    else audio.addEventListener("loadedmetadata", resolve, { once: true });
+  });
+  document.getElementById("title").textContent = `Playback: ${subject} / ${sentence}`;
+  render(0);
+}
+
+function tick() {
+  render();
+  scrub.value = String(Math.round(1000 * audio.currentTime / Math.max(audio.duration || 1, 1e-6)));
+  if (!audio.paused) requestAnimationFrame(tick);
+}
+
+window.player = {
+  frame: 0,
+  // Seek to `seconds` and draw that frame (used by the controls and by tests).
+  seek(seconds) {
+    return new Promise((resolve) => {
+      const done = () => { render(); resolve(window.player.frame); };
+      if (Math.abs(audio.currentTime - seconds) < 1e-4) { done(); return; }
+      audio.addEventListener("seeked", done, { once: true });
+      audio.currentTime = seconds;
+    });
+  },
+  panels: () => panels.map((p) => p.title),
+  duration: () => audio.duration,
+};
+
+document.getElementById("play").addEventListener("click", async () => {
+  if (audio.paused) { await audio.play(); requestAnimationFrame(tick); } else audio.pause();
+});
+audio.addEventListener("pause", () => { document.getElementById("play").textContent = "play"; });
+audio.addEventListener("play", () => { document.getElementById("play").textContent = "pause"; });
+scrub.addEventListener("input", () => {
+  window.player.seek((Number(scrub.value) / 1000) * (audio.duration || 0));
+});
+sentenceSelect.addEventListener("change", load);
+choices.addEventListener("change", load);
+document.getElementById("samples").addEventListener("change", load);
+
+if (sentences.size) {
+  await load();
+} else {
+  canvas.replaceWith(el("p", { class: "note", id: "no-playback",
+    text: "No run in this site stored tracks on a dataset available where the site was made (see the method pages)." }));
+}
+document.body.dataset.ready = "true";

@@ -1,0 +1,210 @@
+"""The results browser: data files, the local server, and the pages in headless Chromium."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import urllib.request
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from leaderboard.site import SITE_MARKER, build_site
+from leaderboard.site.serve import serve_site
+
+from .browser import chromium_driver, open_page
+
+COMMITTED_RESULTS = Path(__file__).resolve().parents[2] / "leaderboard" / "results"
+
+
+def _write_run(results, name, dataset, *, reference, samples, transform, lve):
+    """A stored run in the benchmark's layout: result JSON + ``<tracks>/<subject>/sentenceNN-<k>.csv``."""
+    from benchmark.results import build_result
+    from blendvoca.io.coeffs import write_coeffs_csv
+
+    tracks = results / f"{name}.tracks"
+    per_sentence = []
+    for subject in dataset.split("test"):
+        for sentence in dataset.sentences(subject):
+            gt = dataset.coeffs(subject, sentence)
+            (tracks / subject).mkdir(parents=True, exist_ok=True)
+            for k in range(samples):
+                write_coeffs_csv(tracks / subject / f"{sentence}-{k}.csv", transform(gt, k), dataset.names)
+            per_sentence.append({"subject": subject, "sentence": sentence, "lve": lve + 0.1 * len(per_sentence)})
+    metric = {"mean": lve, "std": 0.1, "ci95": [lve - 0.1, lve + 0.1], "n": len(per_sentence),
+              "higher_is_better": False, "unit": "mm", "label": "LVE", "group": "vertex"}
+    result = build_result(
+        method={"name": name, "label": name, "class": "tests:Fake", "stochastic": samples > 1,
+                "reference": reference, "config": {}, "output": "coefficients"},
+        dataset={"manifest_hash": dataset.manifest_hash, "path": str(dataset.root), "split": "test",
+                 "num_subjects": len(dataset.split("test")), "num_sentences": len(per_sentence)},
+        protocol={"samples": samples, "seed": 0, "budget": {}, "clip": False, "n_clipped": 0, "checkpoint": None},
+        metrics={"lve": metric}, timings={})
+    result["per_sentence"] = per_sentence
+    result["tracks"] = tracks.name
+    (results / f"{name}.json").write_text(json.dumps(result, indent=1))
+
+
+@pytest.fixture(scope="module")
+def results_dir(tmp_path_factory, built_dataset):
+    from benchmark.data import open_blendvoca
+
+    dataset = open_blendvoca(built_dataset)
+    results = tmp_path_factory.mktemp("results")
+    from benchmark.run import run_method
+
+    # Two rows as benchmark.run stores them, two written by hand with known scores.
+    for name, samples in (("ground-truth", 1), ("random", 3)):
+        run_method(name, built_dataset, samples=samples, results_dir=results, progress=False)
+    _write_run(results, "late", dataset, reference=False, samples=3, lve=1.5,
+               transform=lambda gt, k: np.clip(np.roll(gt, 3 * (k + 1), axis=0), 0, 1))
+    _write_run(results, "still", dataset, reference=False, samples=1, lve=3.0,
+               transform=lambda gt, k: np.zeros_like(gt))
+    return results
+
+
+@pytest.fixture(scope="module")
+def site(tmp_path_factory, results_dir):
+    return build_site(results_dir, tmp_path_factory.mktemp("site") / "site", max_samples=2, progress=False)
+
+
+def test_site_data_files(site, results_dir):
+    board = json.loads((site / "data" / "leaderboard.json").read_text())
+    (table,) = board["tables"]
+    assert [r["run"] for r in table["methods"]] == ["late", "still"]
+    references = {r["label"]: r for r in table["references"]}
+    assert sorted(references) == ["ground-truth", "random"]
+    assert references["random"]["samples"] == 3 and references["ground-truth"]["has_tracks"]
+    assert all(m["ci95"] is not None for m in references["random"]["metrics"].values())
+    assert table["methods"][0]["best"] == ["lve"]  # intervals [1.4, 1.6] and [2.9, 3.1] do not overlap
+    run = json.loads((site / "data" / "runs" / "late.json").read_text())
+    assert len(run["per_sentence"]) == len(run["sentences"]) > 0
+    first = run["sentences"][0]
+    assert first["samples"] == 3
+    track_dir = site / "data" / "tracks" / "late" / first["subject"]
+    assert sorted(p.name for p in track_dir.glob(f"{first['sentence']}-*.json")) == [
+        f"{first['sentence']}-0.json", f"{first['sentence']}-1.json"]  # max_samples=2
+    gt = json.loads((site / "data" / "sentences" / first["subject"] / f"{first['sentence']}.json").read_text())
+    assert len(gt["coeffs"]) == len(gt["lip_motion_mm"]) == len(gt["envelope"])
+    assert 0 <= min(gt["envelope"]) and max(gt["envelope"]) == 1
+    assert (site / "data" / "rigs" / f"{first['subject']}.glb").is_file()
+    assert (site / "vendor" / "three.module.js").is_file() and (site / SITE_MARKER).is_file()
+
+
+def test_out_folder_is_never_a_users(tmp_path, results_dir):
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "notes.txt").write_text("keep me")
+    with pytest.raises(ValueError, match="not a site written by this tool"):
+        build_site(results_dir, mine, progress=False)
+    assert (mine / "notes.txt").read_text() == "keep me"
+    again = build_site(results_dir, tmp_path / "site", progress=False)
+    build_site(results_dir, again, progress=False)  # a previous site is replaced
+    assert not list(tmp_path.glob(".*.tmp"))
+
+
+def test_cli_errors_are_one_line(tmp_path, capsys):
+    from leaderboard.site.__main__ import main
+
+    assert main(["--results", str(tmp_path / "none"), "--out", str(tmp_path / "s")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("error: ") and "does not exist" in err[0]
+
+
+def test_server_answers_byte_ranges(site):
+    server, url = serve_site(site, port=0, background=True)
+    try:
+        wav = next((site / "data" / "audio").rglob("*.wav"))
+        rel = wav.relative_to(site).as_posix()
+        request = urllib.request.Request(url + rel, headers={"Range": "bytes=4-11"})
+        with urllib.request.urlopen(request) as response:
+            assert response.status == 206
+            assert response.headers["Content-Range"] == f"bytes 4-11/{wav.stat().st_size}"
+            assert response.read() == wav.read_bytes()[4:12]
+        with urllib.request.urlopen(url + rel) as response:
+            assert response.status == 200 and response.read() == wav.read_bytes()
+    finally:
+        server.shutdown()
+
+
+@pytest.fixture(scope="module")
+def browser():
+    driver = chromium_driver()
+    yield driver
+    driver.quit()
+
+
+@pytest.fixture(scope="module")
+def served(site):
+    server, url = serve_site(site, port=0, background=True)
+    yield url
+    server.shutdown()
+
+
+def test_leaderboard_page_rows_and_sorting(browser, served, results_dir):
+    assert open_page(browser, served + "index.html") == []
+    runs = browser.execute_script("return [...document.querySelectorAll('tbody.methods tr')].map(r => r.dataset.run)")
+    refs = browser.execute_script("return [...document.querySelectorAll('tbody.references tr[data-run]')]"
+                                  ".map(r => r.dataset.run)")
+    assert runs == ["late", "still"] and len(refs) == 2
+    assert sorted(runs + refs) == sorted(p.stem for p in results_dir.glob("*.json"))  # one row per stored run
+    header = browser.find_element("css selector", "th[data-metric='lve']")
+    header.click()  # descending first
+    assert browser.execute_script("return [...document.querySelectorAll('tbody.methods tr')]"
+                                  ".map(r => r.dataset.run)") == ["still", "late"]
+    header.click()
+    assert browser.execute_script("return [...document.querySelectorAll('tbody.methods tr')]"
+                                  ".map(r => r.dataset.run)") == ["late", "still"]
+    assert browser.find_elements("css selector", ".chart[data-metric='lve'] circle")
+
+
+def test_method_page_scores_and_plots(browser, served):
+    assert open_page(browser, served + "method.html?run=late") == []
+    rows = browser.find_elements("css selector", "#per-sentence-table tbody tr")
+    assert len(rows) == browser.execute_script("return (await (await fetch('data/runs/late.json')).json())"
+                                               ".per_sentence.length")
+    browser.find_element("id", "worst-first").click()
+    values = browser.execute_script("return [...document.querySelectorAll('#per-sentence-table tbody tr')]"
+                                    ".map(r => Number(r.cells[2].dataset.value))")
+    assert values == sorted(values, reverse=True)  # LVE: lower is better, worst (largest) first
+    assert browser.find_elements("css selector", "#coefficient-plot polyline")
+    assert browser.find_elements("css selector", "#lip-plot polyline")
+
+
+def test_playback_moves_the_mouth_in_sync_with_the_audio(browser, served, site):
+    run = json.loads((site / "data" / "runs" / "late.json").read_text())
+    first = run["sentences"][0]
+    url = f"{served}play.html?subject={first['subject']}&sentence={first['sentence']}&runs=late&samples=2"
+    assert open_page(browser, url) == []
+    assert browser.execute_script("return window.player.panels()") == ["ground truth", "late #0", "late #1"]
+    gt = json.loads((site / "data" / "sentences" / first["subject"] / f"{first['sentence']}.json").read_text())
+    assert browser.execute_script("return window.player.duration()") == pytest.approx(gt["duration"], abs=0.01)
+
+    def canvas_at(seconds):
+        return browser.execute_async_script(
+            "const done = arguments[arguments.length - 1];"
+            "window.player.seek(arguments[0]).then(() => done("
+            "[window.player.frame, document.getElementById('player-canvas').toDataURL()]));", seconds)
+
+    jaw = gt["names"].index("jawOpen")
+    opening = [f[jaw] for f in gt["coeffs"]]
+    closed, opened = int(np.argmin(opening)), int(np.argmax(opening))
+    frame_a, image_a = canvas_at((closed + 0.5) / 60)
+    frame_b, image_b = canvas_at((opened + 0.5) / 60)
+    assert (frame_a, frame_b) == (closed, opened)
+    assert image_a != image_b
+    assert [e for e in browser.get_log("browser") if e["level"] == "SEVERE"] == []
+
+
+def test_site_from_the_committed_results_loads(browser, tmp_path):
+    site = build_site(COMMITTED_RESULTS, tmp_path / "site", progress=False)
+    server, url = serve_site(site, port=0, background=True)
+    try:
+        assert open_page(browser, url + "index.html") == []
+        shown = browser.execute_script("return document.querySelectorAll('tr[data-run]').length")
+        assert shown == len(list(COMMITTED_RESULTS.glob("*.json")))
+        assert open_page(browser, url + "play.html") == []
+    finally:
+        server.shutdown()
+        shutil.rmtree(site)
