@@ -9,7 +9,6 @@ folder holding ``<subject>/<sentence>-<k>.csv`` (sample k from 0, SAiD CSV layou
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -42,26 +41,30 @@ def locate_sentence(result_json, subject: str, sentence: str, sample: int = 0) -
     ValueError
         When the JSON lacks ``tracks`` or ``dataset.path``.
     """
+    from benchmark.runs import read_run
+
     result_json = Path(result_json)
     if not result_json.is_file():
         raise FileNotFoundError(f"result file not found: {result_json}")
-    with open(result_json, encoding="utf-8") as f:
-        result = json.load(f)
-    if "tracks" not in result:
-        raise ValueError(f"{result_json}: no 'tracks' key; this result stores no generated tracks (protocol v2 runs do)")
+    stored = read_run(result_json)  # the run layout's owner: tracks folder, dataset.path
+    result = stored.result
     dataset = result.get("dataset") or {}
-    if not isinstance(dataset, dict) or "path" not in dataset:
+    if not isinstance(dataset, dict) or not dataset.get("path"):
         raise ValueError(f"{result_json}: no 'dataset.path'; expected the BlendVOCA build root the run used")
-    tracks = (result_json.parent / result["tracks"]).resolve()
     root = Path(dataset["path"])
     if not root.is_absolute():
         root = (result_json.parent / root).resolve()
-    generated = tracks / subject / f"{sentence}-{sample}.csv"
-    if not generated.is_file():
-        have = sorted(p.name for p in (tracks / subject).glob("*.csv")) if (tracks / subject).is_dir() else []
-        subjects = sorted(p.name for p in tracks.iterdir() if p.is_dir()) if tracks.is_dir() else []
-        raise FileNotFoundError(f"{result_json}: no track {generated}; the run has "
-                                + (f"{have[:8]} for {subject}" if have else f"subjects {subjects}"))
+    try:
+        samples = stored.track_paths(subject, sentence)
+    except KeyError:
+        have = sorted({q for s, q in stored.keys if s == subject})
+        raise FileNotFoundError(f"{result_json}: no track of {subject}/{sentence}; the run has "
+                                + (f"{have[:8]} for {subject}" if have else
+                                   f"subjects {sorted({s for s, _ in stored.keys})}")) from None
+    if not 0 <= sample < len(samples):
+        raise FileNotFoundError(f"{result_json}: no sample {sample} of {subject}/{sentence}; the run has "
+                                f"{[p.name for p in samples]}")
+    generated = samples[sample]
     method = result.get("method")
     if isinstance(method, dict):
         method = method.get("name")

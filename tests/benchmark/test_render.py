@@ -231,10 +231,19 @@ def _stored_run(tmp_path, dataset, subject, sentence, generated):
     from blendvoca.io.coeffs import write_coeffs_csv
     from blendvoca.names import BLENDVOCA_NAMES
 
+    from benchmark.results import build_result
+
     results = tmp_path / "R"
     write_coeffs_csv(results / "run-tracks" / subject / f"{sentence}-0.csv", generated, BLENDVOCA_NAMES)
-    (results / "run.json").write_text(json.dumps({"method": "open-jaw", "tracks": "run-tracks",
-                                                  "dataset": {"path": str(dataset)}}))
+    result = build_result(
+        method={"name": "open-jaw", "label": "open-jaw", "class": "tests:OpenJaw", "stochastic": False,
+                "reference": False, "config": {}, "output": "coefficients"},
+        dataset={"manifest_hash": "0" * 64, "path": str(dataset), "split": "test", "num_subjects": 1,
+                 "num_sentences": 1},
+        protocol={"samples": 1, "seed": 0, "budget": {}, "clip": False, "n_clipped": 0, "checkpoint": None},
+        metrics={"lve": {"mean": 1.0, "std": None, "higher_is_better": False, "unit": "mm"}}, timings={},
+        tracks="run-tracks")
+    (results / "run.json").write_text(json.dumps(result))
     return results / "run.json"
 
 
