@@ -125,8 +125,8 @@ def _vertex_metrics(ground_truth, generated, rigs, names) -> dict:
             neutral = np.asarray(rig.neutral, dtype=np.float64)
             deltas = _rig_deltas(rig, names)
             cache[subject] = (neutral, deltas, regions.lip_vertices(deltas, names),
-                              regions.upper_face_vertices(neutral), regions.lower_face_vertices(neutral))
-        neutral, deltas, lip, upper, lower = cache[subject]
+                              regions.upper_face_vertices(neutral))
+        neutral, deltas, lip, upper = cache[subject]
         gt_v = vertex.rig_vertices(neutral, deltas, ground_truth[(subject, sentence)])
         preds = np.stack([vertex.rig_vertices(neutral, deltas, t) for t in tracks])
         lve, lve_sq, mve, fdd = [], [], [], []
@@ -142,8 +142,7 @@ def _vertex_metrics(ground_truth, generated, rigs, names) -> dict:
         per_seq["mve"].append(np.mean(mve))
         per_seq["fdd"].append(np.mean(fdd))
         if len(preds) >= 2:
-            div = vertex.pairwise_distance_by_region(preds, {"apd": None, "upd": upper, "lpd": lower, "mpd": lip})
-            for name, value in div.items():
+            for name, value in vertex.diversity_metrics(preds, upper, lip).items():
                 per_seq[name].append(value)
     spec = {"lve": (False, "mm"), "lve_squared": (False, "mm^2"), "mve": (False, "mm"), "fdd": (False, "mm^2"),
             "apd": (True, "mm"), "upd": (True, "mm"), "lpd": (True, "mm"), "mpd": (True, "mm")}
