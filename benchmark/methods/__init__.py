@@ -59,6 +59,7 @@ BUILTIN_METHODS = {
     "regression": "baselines.regression.plugin:RegressionMethod",
     "mesh-adapter": "baselines.mesh_adapter.plugin:MeshAdapterMethod",
     "said": "baselines.said.plugin:SAiDMethod",
+    "cdface": "baselines.cdface.plugin:CDFaceMethod",
 }
 
 for _name, _target in BUILTIN_METHODS.items():
