@@ -143,14 +143,19 @@ def lip_losses(preds, target, mask, codes, quantized, *, lambda_d: float, lambda
     return parts
 
 
-def upper_face_losses(preds, target, codes, quantized, *, lambda_d: float, lambda_rc: float, lambda_rg: float) -> dict:
+def upper_face_losses(preds, target, codes, quantized, *, lambda_d: float, lambda_rc: float, lambda_rg: float,
+                      repeats: int = 1) -> dict:
     """Eq. 16 with Eq. 9/10: diversity and best-of-N reconstruction over the N^u
     upper-face samples of each lip sample, summed over the N^l lip samples.
 
     Parameters
     ----------
-    preds : (N^l, N^u, B, T, D_u) Tensor; target : (B, T, D_u)
-    codes, quantized : (N^l, N^u, B, T, C)
+    preds : (G, N^u, B, T, D_u) Tensor; target : (B, T, D_u)
+        ``G`` groups of N^u samples, one per lip sample.
+    codes, quantized : (G, N^u, B, T, C)
+    repeats : int
+        How many lip samples each group stands for (``N^l`` when all lip samples
+        share one upper-face group, as under teacher forcing of the lip context).
 
     Returns
     -------
@@ -162,5 +167,6 @@ def upper_face_losses(preds, target, codes, quantized, *, lambda_d: float, lambd
     diversity = sum((diversity_loss(group) for group in preds), zero) if preds.shape[1] > 1 else zero
     reconstruction = sum((best_of_n_reconstruction(group, target) for group in preds), zero)
     regularizer = code_regularizer(codes.flatten(0, 1), quantized.flatten(0, 1))
+    diversity, reconstruction, regularizer = diversity * repeats, reconstruction * repeats, regularizer * repeats
     total = lambda_d * diversity + lambda_rc * reconstruction + lambda_rg * regularizer
     return {"total": total, "diversity": diversity, "reconstruction": reconstruction, "regularizer": regularizer}

@@ -76,6 +76,9 @@ class CDFaceModel(nn.Module):
         self.style = nn.Embedding(int(num_styles), m["width"])
         common = dict(width=m["width"], layers=m["query_layers"], heads=m["heads"], self_context=m["self_context"],
                       audio_half_width=m["audio_half_width"], period=m["period"], dropout=m["dropout"])
+        if m["upper_context"] not in ("ground-truth", "predicted"):
+            raise ValueError(f"CDFaceModel: expected upper_context 'ground-truth' or 'predicted', got {m['upper_context']!r}")
+        self.upper_context = m["upper_context"]
         self.lip_query = PartQuery(lip_dim, self.lip_vq.latent_dim, m["num_lip_samples"], **common)
         self.upper_query = PartQuery(upper_dim, self.upper_vq.latent_dim, m["num_upper_samples"],
                                      context_dim=lip_dim, **common)
@@ -111,7 +114,8 @@ class CDFaceModel(nn.Module):
         Returns
         -------
         dict with ``lip_codes`` / ``lip_quantized`` (N^l, B, W, C_l), ``lips`` (N^l, B, W, 3 V_l),
-        ``upper_codes`` / ``upper_quantized`` (N^l, N^u, B, W, C_u), ``upper`` (N^l, N^u, B, W, 3 V_u).
+        ``upper_codes`` / ``upper_quantized`` (G, N^u, B, W, C_u), ``upper`` (G, N^u, B, W, 3 V_u) with
+        ``G = N^l`` (``upper_context="predicted"``) or 1 (``"ground-truth"``: the N^l groups are equal).
         """
         b, w, _ = lips.shape
         nl, nu = self.num_lip_samples, self.num_upper_samples
@@ -121,14 +125,23 @@ class CDFaceModel(nn.Module):
         z_l = self.lip_query(shift_right(lips, first_lips), memory, st, offset=offset)  # (N^l, B, W, C)
         q_l, _, _ = self.lip_vq.quantized(z_l)
         x_l = self.lip_vq.decode(q_l.flatten(0, 1), offset=offset.repeat(nl)).view(nl, b, w, -1)
-        first = None if first_lips is None else first_lips.repeat(nl, 1)
-        context = shift_right(x_l.detach().flatten(0, 1), first)  # the lip sample each upper group pairs with
-        past_u = shift_right(upper, first_upper).repeat(nl, 1, 1)
-        z_u = self.upper_query(past_u, memory.repeat(nl, 1, 1), st.repeat(nl, 1), context=context,
-                               offset=offset.repeat(nl))  # (N^u, N^l B, W, C)
-        z_u = z_u.view(nu, nl, b, w, -1).transpose(0, 1)
+        if self.upper_context == "predicted":
+            # each upper-face group reads the past of the lip sample it pairs with (Eq. 8)
+            first = None if first_lips is None else first_lips.repeat(nl, 1)
+            context = shift_right(x_l.detach().flatten(0, 1), first)
+            groups = nl
+        else:
+            # teacher forcing of the lip context too: every group reads the ground-truth
+            # lips, so the N^l groups are equal and one is computed
+            context = shift_right(lips, first_lips)
+            groups = 1
+        past_u = shift_right(upper, first_upper).repeat(groups, 1, 1)
+        z_u = self.upper_query(past_u, memory.repeat(groups, 1, 1), st.repeat(groups, 1), context=context,
+                               offset=offset.repeat(groups))  # (N^u, groups B, W, C)
+        z_u = z_u.view(nu, groups, b, w, -1).transpose(0, 1)
         q_u, _, _ = self.upper_vq.quantized(z_u)
-        x_u = self.upper_vq.decode(q_u.reshape(nl * nu * b, w, -1), offset=offset.repeat(nl * nu)).view(nl, nu, b, w, -1)
+        x_u = self.upper_vq.decode(q_u.reshape(groups * nu * b, w, -1),
+                                   offset=offset.repeat(groups * nu)).view(groups, nu, b, w, -1)
         return {"lip_codes": z_l, "lip_quantized": q_l, "lips": x_l,
                 "upper_codes": z_u, "upper_quantized": q_u, "upper": x_u}
 

@@ -2,7 +2,7 @@
 
 ``cpu-demo`` (default) trains in a few minutes on 2 CPU cores: log-mel audio
 features (no pretrained weights), small transformers, motion in millimetres,
-windows of 64 frames, each stage bounded in seconds. ``paper`` follows the
+windows of 48 frames, each stage bounded in seconds. ``paper`` follows the
 paper where it says (wav2vec 2.0 audio encoder, N^l = 5 lip samples, the VOCASET
 loss weights and epsilon, 200 VQ epochs and 50 querying epochs, AdamW, motion in
 metres) and CodeTalker's VOCASET sizes where it does not (the paper builds its
@@ -30,6 +30,9 @@ PRESETS: dict[str, dict[str, dict]] = {
             "width": 64, "query_layers": 1, "heads": 4, "audio_layers": 1, "audio_self_half_width": 30,
             "self_context": 60, "audio_half_width": 2, "period": 60,
             "num_lip_samples": 5, "num_upper_samples": 5, "dropout": 0.0,
+            # past lips the upper face reads in training: "ground-truth" (teacher forcing)
+            # or "predicted" (each lip sample's own output, N^l times the cost)
+            "upper_context": "ground-truth",
         },
         "loss": {
             # Eq. 15/16 weights as the paper's VOCASET setting
@@ -40,11 +43,11 @@ PRESETS: dict[str, dict[str, dict]] = {
             "epsilon": 0.0035,
         },
         "training": {
-            "window": 64, "batch_size": 4, "lr": 1e-3, "weight_decay": 1e-2, "grad_clip": 1.0,
+            "window": 48, "batch_size": 2, "lr": 1e-3, "weight_decay": 1e-2, "grad_clip": 1.0,
             "vq_epochs": None, "query_epochs": None,
             "vq_max_steps": 4000, "query_max_steps": 4000,
             # seconds per stage: lip prior, upper-face prior, code querying
-            "vq_max_seconds": 50.0, "query_max_seconds": 170.0,
+            "vq_max_seconds": 60.0, "query_max_seconds": 480.0,
             "num_threads": 1,
         },
     },
@@ -58,6 +61,7 @@ PRESETS: dict[str, dict[str, dict]] = {
             "width": 1024, "query_layers": 6, "heads": 4, "audio_layers": 1, "audio_self_half_width": None,
             "self_context": None, "audio_half_width": 0, "period": 25,
             "num_lip_samples": 5, "num_upper_samples": 5, "dropout": 0.1,
+            "upper_context": "ground-truth",
         },
         "loss": {
             "lambda_d_lips": 0.02, "lambda_d_upper": 0.02, "lambda_rc_lips": 1.0, "lambda_rc_upper": 1.0,

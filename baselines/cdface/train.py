@@ -26,7 +26,7 @@ __all__ = ["SentenceData", "WindowSampler", "load_sentences", "moving_vertices",
            "train_cdface"]
 
 #: Share of a total time budget given to the lip prior, the upper-face prior and the querying model.
-STAGE_SHARES = (0.15, 0.15, 0.70)
+STAGE_SHARES = (0.1, 0.1, 0.8)
 
 
 @dataclass
@@ -219,7 +219,8 @@ def train_cdface(cdface, sentences, *, seed: int = 0, max_steps=None, max_second
                              lambda_rg=loss_cfg["lambda_rg"])
             up = upper_face_losses(out["upper"], b["upper"], out["upper_codes"], out["upper_quantized"],
                                    lambda_d=loss_cfg["lambda_d_upper"], lambda_rc=loss_cfg["lambda_rc_upper"],
-                                   lambda_rg=loss_cfg["lambda_rg"])
+                                   lambda_rg=loss_cfg["lambda_rg"],
+                                   repeats=model.num_lip_samples // out["upper"].shape[0])
             return {"total": lip["total"] + up["total"], **{f"lips_{k}": v for k, v in lip.items() if k != "total"},
                     **{f"upper_{k}": v for k, v in up.items() if k != "total"}}
 
