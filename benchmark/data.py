@@ -235,7 +235,8 @@ class BlendVOCADataset:
 
     def faces(self) -> np.ndarray:
         """Triangles of the source topology, ``(F, 3)`` int64."""
-        return np.asarray(self.corpus.faces(), dtype=np.int64)
+        faces = self.corpus.faces
+        return np.asarray(faces() if callable(faces) else faces, dtype=np.int64)
 
     def __repr__(self) -> str:
         return f"BlendVOCADataset({str(self.root)!r}, subjects={len(self.subjects)})"

@@ -2,33 +2,98 @@
 
 ``evaluate_split(generated, dataset, split="test")`` where
 ``generated[(subject, sentence)]`` is an ``(S, T, 32)`` array (S samples, 60 fps,
-BlendVOCA column order) returns ``{metric: {"mean", "std", "higher_is_better",
-"unit"}}``. See docs/metrics.md for the definitions and the window protocol.
+BlendVOCA column order) returns :class:`Scores`: a dict ``{metric: entry}`` with
+``entry = {"mean", "std", "ci95": [lo, hi], "n", "higher_is_better", "unit",
+"label", "group"}`` (plus ``"sample_std"`` for S >= 2), built from the metric
+registry (:mod:`benchmark.metrics.registry`), and ``Scores.per_sentence``, one row
+per scored sentence. Intervals: :mod:`benchmark.metrics.bootstrap`. See
+docs/metrics.md for the definitions and the window protocol.
 """
 
 from __future__ import annotations
 
 import warnings
+import zlib
 from collections.abc import Hashable, Mapping
 from os import PathLike
 
 import numpy as np
 from tqdm import tqdm
 
+from benchmark.metrics.bootstrap import BOOTSTRAP_RESAMPLES, mean_ci, statistic_ci
 from benchmark.metrics.multimodality import PAIRS_PER_WINDOW
+from benchmark.metrics.registry import metric_info, ordered_metrics
 from benchmark.metrics.windows import GT_DROP_LAST, window_starts
 
-MetricDict = dict
+__all__ = [
+    "FD_RESAMPLES",
+    "Scores",
+    "WIND_RESAMPLES",
+    "evaluate_split",
+    "latent_metrics",
+    "lipsync_metrics",
+    "metric_entry",
+    "own_vertex_metrics",
+    "sentence_vertex_values",
+    "vertex_metrics",
+]
+
+#: Bootstrap resamples of FD (closed form per resample: cheap).
+FD_RESAMPLES = 200
+#: Bootstrap resamples of WInD (one GMM fit of the generated set per resample).
+WIND_RESAMPLES = 20
+#: Largest number of windows a WInD resample is fitted on (a seeded subsample beyond it).
+WIND_RESAMPLE_WINDOWS = 20000
+#: Windows encoded per progress step.
+_ENCODE_CHUNK = 4096
 
 
-def _entry(mean, std, higher_is_better: bool, unit: str) -> dict:
-    return {"mean": float(mean), "std": None if std is None else float(std),
-            "higher_is_better": bool(higher_is_better), "unit": unit}
+class Scores(dict):
+    """``{metric: entry}`` in table order, with :attr:`per_sentence` rows
+    (``{"subject", "sentence", metric: value, ...}`` for the per-sentence metrics)."""
+
+    def __init__(self, metrics=(), per_sentence=None):
+        super().__init__(metrics)
+        self.per_sentence = list(per_sentence or [])
 
 
-def _spread(values) -> tuple[float, float | None]:
-    values = np.asarray(values, dtype=np.float64)
-    return float(values.mean()), (float(values.std(ddof=1)) if len(values) > 1 else None)
+def metric_entry(name: str, mean, std=None, *, ci95=None, n=None, sample_std=None, **extra) -> dict:
+    """A result entry for the registered metric ``name`` (label, unit, direction and group from the registry)."""
+    info = metric_info(name)
+    mean = float(mean)
+    entry = {"mean": mean, "std": None if std is None else float(std),
+             "ci95": [mean, mean] if ci95 is None else [float(ci95[0]), float(ci95[1])],
+             "n": None if n is None else int(n), "higher_is_better": info.higher_is_better, "unit": info.unit,
+             "label": info.label, "group": info.group}
+    if sample_std is not None:
+        entry["sample_std"] = float(sample_std)
+    entry.update(extra)
+    return entry
+
+
+def _sentence_entries(values: dict, *, seed: int, resamples: int) -> tuple[dict, dict]:
+    """Entries of per-sentence metrics from ``values[name][key] = (S,) per-sample values (or a scalar)``.
+
+    Returns ``(entries, {key: {name: sentence value}})``; ``sample_std`` is the std over
+    sample indices of the per-sample means over sentences (stochastic methods).
+    """
+    entries, rows = {}, {}
+    for name, per_key in values.items():
+        if not per_key:
+            continue
+        keys = list(per_key)
+        arrays = [np.atleast_1d(np.asarray(per_key[k], dtype=np.float64)) for k in keys]
+        sentence = np.array([a.mean() for a in arrays])
+        for k, v in zip(keys, sentence):
+            rows.setdefault(k, {})[name] = float(v)
+        std = float(sentence.std(ddof=1)) if len(sentence) > 1 else None
+        sample_std = None
+        lengths = {len(a) for a in arrays}
+        if len(lengths) == 1 and lengths.pop() >= 2:
+            sample_std = float(np.stack(arrays).mean(axis=0).std(ddof=1))
+        entries[name] = metric_entry(name, sentence.mean(), std, n=len(sentence), sample_std=sample_std,
+                                     ci95=mean_ci(sentence, resamples=resamples, seed=seed + zlib.crc32(name.encode())))
+    return entries, rows
 
 
 def _resolve_extractor(extractor):
@@ -59,22 +124,43 @@ def _check_generated(generated: Mapping, keys: list, channels: int) -> dict:
     return out
 
 
+def _encoded(extractor, windows, desc: str, progress: bool) -> np.ndarray:
+    from benchmark.features import encode_windows
+
+    chunks = range(0, len(windows), _ENCODE_CHUNK)
+    return np.concatenate([encode_windows(extractor, windows[i:i + _ENCODE_CHUNK])
+                           for i in tqdm(chunks, desc=desc, unit="chunk", disable=not progress)])
+
+
 def latent_metrics(ground_truth: Mapping[Hashable, np.ndarray], generated: Mapping[Hashable, np.ndarray], extractor,
                    *, samples_for_multimodality: int = PAIRS_PER_WINDOW, wind_components: int = 5,
-                   wind_repeats: int = 10, seed: int = 0) -> dict:
-    """FD, WInD and multimodality over VAE features of 120-frame windows.
+                   wind_repeats: int = 10, seed: int = 0, fd_resamples: int = FD_RESAMPLES,
+                   wind_resamples: int = WIND_RESAMPLES, progress: bool = False) -> dict:
+    """FD, WInD and multimodality over VAE features of 120-frame windows, with bootstrap intervals.
 
     Parameters
     ----------
     ground_truth : key -> (T, C); generated : key -> (S, T, C)
     extractor : feature extractor (see :func:`benchmark.features.encode_windows`)
+    fd_resamples, wind_resamples : int
+        Bootstrap resamples over the generated sentences (the ground-truth set is fixed).
 
     Returns
     -------
-    dict of metric entries (multimodality only when some window has >= 2 samples).
+    dict of metric entries (multimodality only when some window has >= 2 samples);
+    ``n`` = number of generated sentences, ``windows`` = generated windows.
     """
-    from benchmark.features import encode_windows
-    from benchmark.metrics import cut_windows, frechet_distance, multimodality, paired_samples, wind
+    from benchmark.metrics import (
+        cut_windows,
+        feature_statistics,
+        frechet_distance,
+        frechet_distance_from_stats,
+        gmm_components,
+        multimodality,
+        paired_samples,
+        wind,
+        wind_from_gmms,
+    )
 
     windows = cut_windows(ground_truth, generated)
     if len(windows.real) < 2 or len(windows.fake) < 2:
@@ -82,71 +168,99 @@ def latent_metrics(ground_truth: Mapping[Hashable, np.ndarray], generated: Mappi
             f"latent_metrics: need >= 2 windows on each side, got {len(windows.real)} ground-truth and "
             f"{len(windows.fake)} generated (sequences shorter than 120 frames give none)"
         )
-    real = encode_windows(extractor, windows.real)
-    fake = encode_windows(extractor, windows.fake)
-    out = {"fd": _entry(frechet_distance(fake, real), None, False, "latent^2")}
+    real = _encoded(extractor, windows.real, "encode ground-truth windows", progress)
+    fake = _encoded(extractor, windows.fake, "encode generated windows", progress)
+    sentence_of = {}
+    owner = np.array([sentence_of.setdefault(key, len(sentence_of)) for key, _, _ in windows.fake_keys])
+    n = len(sentence_of)
+    members = [np.flatnonzero(owner == i) for i in range(n)]
+    extra = {"windows": int(len(fake))}
+
+    # FD: per-sentence sums make each resample's mean and covariance closed-form
+    mu_r, sigma_r = feature_statistics(real)
+    counts = np.array([len(m) for m in members], dtype=np.float64)
+    sums = np.stack([fake[m].sum(axis=0) for m in members])
+    outers = np.stack([fake[m].T @ fake[m] for m in members])
+
+    def fd_of(rows):
+        total = counts[rows].sum()
+        mu = sums[rows].sum(axis=0) / total
+        sigma = (outers[rows].sum(axis=0) - total * np.outer(mu, mu)) / (total - 1)
+        return frechet_distance_from_stats(mu, sigma, mu_r, sigma_r)
+
+    fd = frechet_distance(fake, real)
+    bar = (lambda it: tqdm(it, desc="FD bootstrap", unit="resample", disable=not progress))
+    out = {"fd": metric_entry("fd", fd, None, n=n, ci95=statistic_ci(fd_of, n, fd, resamples=fd_resamples,
+                                                                       seed=seed, progress=bar), **extra)}
+
     k = min(wind_components, len(real), len(fake))
     w_mean, w_std = wind(fake, real, n_components=k, repeats=wind_repeats, seed=seed)
-    out["wind"] = _entry(w_mean, w_std, False, "latent^2")
-    a, b = paired_samples(fake, windows.fake_groups(), samples_for_multimodality)
-    if len(a):
-        dists = np.linalg.norm(a - b, axis=1)
-        out["multimodality"] = _entry(multimodality(a, b), dists.std(ddof=1) if len(dists) > 1 else None, True, "latent")
+    real_gmm = gmm_components(real, k, seed)
+
+    thin = np.random.default_rng(np.random.SeedSequence([seed, 0x57]))
+
+    def wind_of(rows):
+        picked = np.concatenate([members[i] for i in rows])
+        if len(picked) > WIND_RESAMPLE_WINDOWS:
+            picked = thin.choice(picked, WIND_RESAMPLE_WINDOWS, replace=False)
+        return wind_from_gmms(gmm_components(fake[picked], min(k, len(picked)), seed), real_gmm)
+
+    bar = (lambda it: tqdm(it, desc="WInD bootstrap", unit="resample", disable=not progress))
+    out["wind"] = metric_entry("wind", w_mean, w_std, n=n, ci95=statistic_ci(
+        wind_of, n, w_mean, resamples=wind_resamples, seed=seed + 1, progress=bar), **extra)
+
+    groups = windows.fake_groups()
+    sums_d, counts_d, all_d = np.zeros(n), np.zeros(n), []
+    for i, m in enumerate(members):
+        a, b = paired_samples(fake[m], [groups[j] for j in m], samples_for_multimodality)
+        if len(a):
+            d = np.linalg.norm(a - b, axis=1)
+            sums_d[i], counts_d[i] = d.sum(), len(d)
+            all_d.append(d)
+    if all_d:
+        dists = np.concatenate(all_d)
+        value = multimodality(*paired_samples(fake, groups, samples_for_multimodality))
+
+        def mm_of(rows):
+            return sums_d[rows].sum() / max(counts_d[rows].sum(), 1.0)
+
+        out["multimodality"] = metric_entry(
+            "multimodality", value, dists.std(ddof=1) if len(dists) > 1 else None, n=n,
+            ci95=statistic_ci(mm_of, n, value, resamples=BOOTSTRAP_RESAMPLES, seed=seed + 2), **extra)
     return out
 
 
-def vertex_metrics(ground_truth, generated, rigs: Mapping, names) -> dict:
-    """LVE, MVE, FDD and the diversity measures through each speaker's rig.
+def sentence_vertex_values(preds, gt_v, neutral, lip, upper) -> dict:
+    """LVE, LVE², MVE, |FDD| per sample and, for S >= 2, the diversity measures of one sentence.
 
     Parameters
     ----------
-    ground_truth : (subject, sentence) -> (T, C); generated : same keys -> (S, T, C)
-    rigs : subject -> rig with ``neutral``, ``deltas``, ``names``
-    names : column names of the tracks
+    preds : (S, T, V, 3) ndarray
+    gt_v : (T, V, 3) ndarray
+    neutral : (V, 3) ndarray
+    lip, upper : int ndarrays
+        Lip and upper-face vertex indices.
 
     Returns
     -------
-    dict of metric entries; spread = std over sequences.
+    dict
+        ``lve``, ``lve_squared``, ``mve``, ``fdd``: (S,) arrays; ``apd``, ``upd``,
+        ``lpd``, ``mpd``: floats (S >= 2 only).
     """
-    from threadpoolctl import threadpool_limits
+    from benchmark.metrics import vertex
 
-    with threadpool_limits(limits=1):  # small matrix products: one BLAS thread is faster here
-        return _vertex_metrics(ground_truth, generated, rigs, names)
-
-
-def _vertex_metrics(ground_truth, generated, rigs, names) -> dict:
-    from benchmark.metrics import regions, vertex
-
-    per_seq = {k: [] for k in ("lve", "lve_squared", "mve", "fdd", "apd", "upd", "lpd", "mpd")}
-    cache = {}
-    for (subject, sentence), tracks in generated.items():
-        if subject not in cache:
-            rig = rigs[subject]
-            neutral = np.asarray(rig.neutral, dtype=np.float64)
-            deltas = _rig_deltas(rig, names)
-            cache[subject] = (neutral, deltas, regions.lip_vertices(deltas, names),
-                              regions.upper_face_vertices(neutral))
-        neutral, deltas, lip, upper = cache[subject]
-        gt_v = vertex.rig_vertices(neutral, deltas, ground_truth[(subject, sentence)])
-        preds = np.stack([vertex.rig_vertices(neutral, deltas, t) for t in tracks])
-        lve, lve_sq, mve, fdd = [], [], [], []
-        for p in preds:
-            lve.append(vertex.lip_vertex_error(p, gt_v, lip))
-            lve_sq.append(vertex.lip_vertex_error(p, gt_v, lip, squared=True))
-            mve.append(vertex.mean_vertex_error(p, gt_v))
-            # |FDD| per sequence: CodeTalker's signed mean lets too-lively and
-            # too-still sequences cancel, and a ranking needs "closer to 0 is better".
-            fdd.append(abs(vertex.upper_face_dynamics_deviation(p, gt_v, neutral, upper)))
-        per_seq["lve"].append(np.mean(lve))
-        per_seq["lve_squared"].append(np.mean(lve_sq))
-        per_seq["mve"].append(np.mean(mve))
-        per_seq["fdd"].append(np.mean(fdd))
-        if len(preds) >= 2:
-            for name, value in vertex.diversity_metrics(preds, upper, lip).items():
-                per_seq[name].append(value)
-    spec = {"lve": (False, "mm"), "lve_squared": (False, "mm^2"), "mve": (False, "mm"), "fdd": (False, "mm^2"),
-            "apd": (True, "mm"), "upd": (True, "mm"), "lpd": (True, "mm"), "mpd": (True, "mm")}
-    return {k: _entry(*_spread(v), *spec[k]) for k, v in per_seq.items() if v}
+    out = {"lve": [], "lve_squared": [], "mve": [], "fdd": []}
+    for p in preds:
+        out["lve"].append(vertex.lip_vertex_error(p, gt_v, lip))
+        out["lve_squared"].append(vertex.lip_vertex_error(p, gt_v, lip, squared=True))
+        out["mve"].append(vertex.mean_vertex_error(p, gt_v))
+        # |FDD| per sequence: CodeTalker's signed mean lets too-lively and
+        # too-still sequences cancel, and a ranking needs "closer to 0 is better".
+        out["fdd"].append(abs(vertex.upper_face_dynamics_deviation(p, gt_v, neutral, upper)))
+    out = {k: np.asarray(v, dtype=np.float64) for k, v in out.items()}
+    if len(preds) >= 2:
+        out.update(vertex.diversity_metrics(preds, upper, lip))
+    return out
 
 
 def _rig_deltas(rig, names) -> np.ndarray:
@@ -159,39 +273,154 @@ def _rig_deltas(rig, names) -> np.ndarray:
     return np.asarray(rig.deltas, dtype=np.float64)[[rig_names.index(n) for n in names]]
 
 
-def lipsync_metrics(generated, rigs: Mapping, audio: Mapping, names, *, syncnet=None, max_lag: int = 15,
-                    progress: bool = False) -> dict:
-    """Geometric (weight-free) and, with a SyncNet model, SyncNet AV offset/confidence.
+def _rig_regions(rig, names):
+    from benchmark.metrics import regions
 
-    Offsets are averaged as absolute values (opposite errors must not cancel):
-    geometric in 60 fps frames over every sample, SyncNet in 25 fps frames over
-    the first sample of each sentence.
+    neutral = np.asarray(rig.neutral, dtype=np.float64)
+    deltas = _rig_deltas(rig, names)
+    return neutral, deltas, regions.lip_vertices(deltas, names), regions.upper_face_vertices(neutral)
+
+
+def _by_metric(per_key: dict) -> dict:
+    values = {}
+    for key, sentence in per_key.items():
+        for name, value in sentence.items():
+            values.setdefault(name, {})[key] = value
+    return values
+
+
+def _vertex_values(ground_truth, generated, rigs, names, progress=False) -> dict:
+    from threadpoolctl import threadpool_limits
+
+    from benchmark.metrics import vertex
+
+    cache, per_key = {}, {}
+    with threadpool_limits(limits=1):  # small matrix products: one BLAS thread is faster here
+        for (subject, sentence), tracks in tqdm(generated.items(), desc="vertex metrics", unit="sentence",
+                                                disable=not progress):
+            if subject not in cache:
+                cache[subject] = _rig_regions(rigs[subject], names)
+            neutral, deltas, lip, upper = cache[subject]
+            gt_v = vertex.rig_vertices(neutral, deltas, ground_truth[(subject, sentence)])
+            preds = np.stack([vertex.rig_vertices(neutral, deltas, t) for t in tracks])
+            per_key[(subject, sentence)] = sentence_vertex_values(preds, gt_v, neutral, lip, upper)
+    return _by_metric(per_key)
+
+
+def _own_vertex_values(generated_vertices, ground_truth_vertices, rigs, names, progress=False) -> dict:
+    from threadpoolctl import threadpool_limits
+
+    cache, per_key = {}, {}
+    with threadpool_limits(limits=1):
+        for subject, sentence in tqdm(list(generated_vertices), disable=not progress, desc="vertex metrics (own)",
+                                      unit="sentence"):
+            if subject not in cache:
+                cache[subject] = _rig_regions(rigs[subject], names)
+            neutral, _deltas, lip, upper = cache[subject]
+            preds = np.asarray(generated_vertices[(subject, sentence)], dtype=np.float64)
+            gt_v = np.asarray(ground_truth_vertices(subject, sentence), dtype=np.float64)
+            if preds.shape[1:] != gt_v.shape or gt_v.shape[1:] != neutral.shape:
+                raise ValueError(f"own_vertex_metrics {subject}/{sentence}: expected vertices (S, {gt_v.shape[0]}, "
+                                 f"{neutral.shape[0]}, 3) like the source meshes {gt_v.shape} and the rig "
+                                 f"{neutral.shape}, got {preds.shape}")
+            per_key[(subject, sentence)] = sentence_vertex_values(preds, gt_v, neutral, lip, upper)
+    return _by_metric(per_key)
+
+
+def vertex_metrics(ground_truth, generated, rigs: Mapping, names, *, seed: int = 0,
+                   resamples: int = BOOTSTRAP_RESAMPLES) -> dict:
+    """LVE, MVE, FDD and the diversity measures through each speaker's rig.
+
+    Parameters
+    ----------
+    ground_truth : (subject, sentence) -> (T, C); generated : same keys -> (S, T, C)
+    rigs : subject -> rig with ``neutral``, ``deltas``, ``names``
+    names : column names of the tracks
+
+    Returns
+    -------
+    dict of metric entries; spread = std over sentences.
     """
-    from benchmark.lipsync import geometric_sync, mouth_activity, syncnet_sync_track
-    from benchmark.metrics import regions, vertex
+    return _sentence_entries(_vertex_values(ground_truth, generated, rigs, names), seed=seed, resamples=resamples)[0]
 
-    geo_off, geo_conf, sn_off, sn_conf = [], [], [], []
-    for (subject, sentence), tracks in tqdm(generated.items(), disable=not progress, desc="lip sync"):
-        rig = rigs[subject]
-        neutral = np.asarray(rig.neutral, dtype=np.float64)
-        deltas = _rig_deltas(rig, names)
-        lip = regions.lip_vertices(deltas, names)
-        samples, rate = audio[(subject, sentence)]
+
+def own_vertex_metrics(generated_vertices: Mapping, ground_truth_vertices, rigs: Mapping, names, *,
+                       seed: int = 0, resamples: int = BOOTSTRAP_RESAMPLES, progress: bool = False) -> dict:
+    """LVE, MVE, FDD and the diversity measures of a vertex-output method's own vertices.
+
+    Parameters
+    ----------
+    generated_vertices : mapping (subject, sentence) -> (S, T, V, 3)
+        The method's vertices (metres, the speaker's topology).
+    ground_truth_vertices : callable (subject, sentence) -> (T, V, 3)
+        The source meshes (``dataset.vertices``).
+    rigs : subject -> rig
+        Define the lip region (from the rig's mouth shapes) and the face regions.
+    names : column names of the rig's shapes
+
+    Returns
+    -------
+    dict of metric entries; spread = std over sentences.
+    """
+    values = _own_vertex_values(generated_vertices, ground_truth_vertices, rigs, names, progress)
+    return _sentence_entries(values, seed=seed, resamples=resamples)[0]
+
+
+def _lipsync_values(generated, rigs, audio, names, *, syncnet=None, sync_expert=None, max_lag=15,
+                    progress=False) -> dict:
+    from benchmark.lipsync import geometric_sync, mouth_activity, syncnet_sync_track
+    from benchmark.metrics import vertex
+
+    values = {name: {} for name in ("av_offset_geometric", "av_confidence_geometric", "av_offset_syncnet",
+                                    "av_confidence_syncnet", "av_offset_expert", "av_confidence_expert")}
+    cache = {}
+    for key, tracks in tqdm(generated.items(), disable=not progress, desc="lip sync", unit="sentence"):
+        subject = key[0]
+        if subject not in cache:
+            cache[subject] = _rig_regions(rigs[subject], names)
+        neutral, deltas, lip, _upper = cache[subject]
+        samples, rate = audio[key]
+        geo = []
         for s, track in enumerate(tracks):
             verts = vertex.rig_vertices(neutral, deltas, track)
-            est = geometric_sync(mouth_activity(verts, neutral, lip), samples, rate, 60.0, max_lag)
-            geo_off.append(abs(est.offset))
-            geo_conf.append(est.confidence)
+            geo.append(geometric_sync(mouth_activity(verts, neutral, lip), samples, rate, 60.0, max_lag))
             if syncnet is not None and s == 0:
-                est = syncnet_sync_track(syncnet, verts, rig.faces, samples, rate)
-                sn_off.append(abs(est.offset))
-                sn_conf.append(est.confidence)
-    out = {"av_offset_geometric": _entry(*_spread(geo_off), False, "frames@60fps"),
-           "av_confidence_geometric": _entry(*_spread(geo_conf), True, "correlation")}
-    if sn_off:
-        out["av_offset_syncnet"] = _entry(*_spread(sn_off), False, "frames@25fps")
-        out["av_confidence_syncnet"] = _entry(*_spread(sn_conf), True, "distance")
-    return out
+                est = syncnet_sync_track(syncnet, verts, rigs[subject].faces, samples, rate)
+                values["av_offset_syncnet"][key] = abs(est.offset)
+                values["av_confidence_syncnet"][key] = est.confidence
+        values["av_offset_geometric"][key] = [abs(e.offset) for e in geo]
+        values["av_confidence_geometric"][key] = [e.confidence for e in geo]
+        if sync_expert is not None:
+            est = [sync_expert.sync(track, samples) for track in tracks]
+            values["av_offset_expert"][key] = [abs(e.offset) for e in est]
+            values["av_confidence_expert"][key] = [e.confidence for e in est]
+    return {k: v for k, v in values.items() if v}
+
+
+def lipsync_metrics(generated, rigs: Mapping, audio: Mapping, names, *, syncnet=None, sync_expert=None,
+                    max_lag: int = 15, seed: int = 0, resamples: int = BOOTSTRAP_RESAMPLES,
+                    progress: bool = False) -> dict:
+    """Geometric (weight-free) and, with the models, SyncNet and sync-expert AV offset/confidence.
+
+    Offsets are averaged as absolute values (opposite errors must not cancel):
+    geometric and expert in 60 fps frames over every sample, SyncNet in 25 fps
+    frames over the first sample of each sentence.
+    """
+    values = _lipsync_values(generated, rigs, audio, names, syncnet=syncnet, sync_expert=sync_expert,
+                             max_lag=max_lag, progress=progress)
+    return _sentence_entries(values, seed=seed, resamples=resamples)[0]
+
+
+def _load_models(syncnet, sync_expert):
+    if syncnet is True or isinstance(syncnet, (str, PathLike)):
+        from benchmark.lipsync import load_syncnet
+
+        syncnet = load_syncnet(None if syncnet is True else syncnet)
+    if isinstance(sync_expert, (str, PathLike)):
+        from benchmark.lipsync import load_expert
+
+        sync_expert = load_expert(sync_expert)
+    return syncnet, sync_expert
 
 
 def evaluate_split(
@@ -205,10 +434,15 @@ def evaluate_split(
     wind_repeats: int = 10,
     seed: int = 0,
     syncnet=None,
+    sync_expert=None,
     vertex: bool = True,
     lipsync: bool = True,
+    vertices: Mapping | None = None,
+    resamples: int = BOOTSTRAP_RESAMPLES,
+    fd_resamples: int = FD_RESAMPLES,
+    wind_resamples: int = WIND_RESAMPLES,
     progress: bool = False,
-) -> dict:
+) -> Scores:
     """Score generated tracks against a split's ground truth.
 
     Parameters
@@ -218,30 +452,42 @@ def evaluate_split(
         columns ``dataset.names``. Keys outside the split are ignored; split
         sentences without an entry are not scored.
     dataset : benchmark.data.BlendVOCADataset (or any object with ``split``,
-        ``sentences``, ``coeffs``, ``audio``, ``rig``, ``names``)
+        ``sentences``, ``coeffs``, ``audio``, ``rig``, ``names``; ``vertices``
+        with ``vertices=``)
     split : str
     extractor : feature extractor, path to a VAE state_dict, or None for the
         published VAE (asset ``said-vae``).
     samples_for_multimodality : int
         Pairs per window for multimodality (36).
     wind_components, wind_repeats, seed : int
-        WInD mixture size, number of repeated fits and first seed.
+        WInD mixture size, number of repeated fits and first seed (also seeds the
+        bootstrap).
     syncnet : SyncNet module, path to weights, True (the manifest asset
         ``syncnet-weights``), or None (skip SyncNet).
+    sync_expert : object with ``sync(coeffs (T, 32), audio (N,)) -> .offset, .confidence``,
+        a path for ``benchmark.lipsync.load_expert``, or None (skip).
     vertex, lipsync : bool
         Compute vertex-space and lip-sync metrics.
+    vertices : mapping (subject, sentence) -> (S, T, V, 3), optional
+        The own vertices of an ``output = "vertices"`` method (``generated`` then
+        holds their rig fits): the vertex metrics compare them with the source
+        meshes ``dataset.vertices(subject, sentence)`` instead of comparing rig
+        reconstructions of the tracks.
+    resamples, fd_resamples, wind_resamples : int
+        Bootstrap resamples of the per-sentence metrics, FD and WInD.
     progress : bool
+        tqdm bars for every stage.
 
     Returns
     -------
-    dict
-        ``{name: {"mean": float, "std": float | None, "higher_is_better": bool,
-        "unit": str}}`` with names ``fd``, ``wind``, ``multimodality`` (S >= 2),
-        ``lve``, ``lve_squared``, ``mve``, ``fdd``, ``apd``/``upd``/``lpd``/``mpd``
-        (S >= 2), ``av_offset_geometric``, ``av_confidence_geometric``,
-        ``av_offset_syncnet``, ``av_confidence_syncnet`` (with ``syncnet``).
-        The latent metrics are left out (with a warning) when the split's
-        ground truth has fewer than 2 windows of 120 frames.
+    Scores
+        ``{name: {"mean", "std", "ci95", "n", "higher_is_better", "unit", "label",
+        "group"[, "sample_std"]}}`` in table order with names ``fd``, ``wind``,
+        ``multimodality`` (S >= 2), ``lve``, ``lve_squared``, ``mve``, ``fdd``,
+        ``apd``/``upd``/``lpd``/``mpd`` (S >= 2), ``av_offset_geometric``,
+        ``av_confidence_geometric``, the SyncNet and expert ones when given; and
+        ``per_sentence`` rows. The latent metrics are left out (with a warning)
+        when the split's ground truth has fewer than 2 windows of 120 frames.
     """
     names = tuple(dataset.names)
     keys = [(subject, sentence) for subject in dataset.split(split) for sentence in dataset.sentences(subject)]
@@ -250,24 +496,45 @@ def evaluate_split(
     generated = _check_generated(generated, keys, len(names))
     ground_truth = {k: dataset.coeffs(*k) for k in keys}
     n_real = sum(len(window_starts(len(v), drop_last=GT_DROP_LAST)) for v in ground_truth.values())
+    results = {}
     if n_real >= 2:
-        results = latent_metrics(ground_truth, generated, _resolve_extractor(extractor),
-                                 samples_for_multimodality=samples_for_multimodality, wind_components=wind_components,
-                                 wind_repeats=wind_repeats, seed=seed)
+        results.update(latent_metrics(ground_truth, generated, _resolve_extractor(extractor),
+                                      samples_for_multimodality=samples_for_multimodality,
+                                      wind_components=wind_components, wind_repeats=wind_repeats, seed=seed,
+                                      fd_resamples=fd_resamples, wind_resamples=wind_resamples, progress=progress))
     else:
         # sentences shorter than 122 frames give no 120-frame window: no latent metric
         warnings.warn(f"evaluate_split: split {split!r} has {n_real} ground-truth windows of 120 frames; "
                       "FD, WInD and multimodality are not computed", stacklevel=2)
-        results = {}
+    values = {}
     if vertex or lipsync:
         rigs = {s: dataset.rig(s) for s in {k[0] for k in generated}}
-    if vertex:
-        results.update(vertex_metrics(ground_truth, generated, rigs, names))
+    if vertex and vertices is not None:
+        values.update(_own_vertex_values(_Subset(vertices, list(generated)), dataset.vertices, rigs, names, progress))
+    elif vertex:
+        values.update(_vertex_values(ground_truth, generated, rigs, names, progress))
     if lipsync:
-        if syncnet is True or isinstance(syncnet, (str, PathLike)):
-            from benchmark.lipsync import load_syncnet
-
-            syncnet = load_syncnet(None if syncnet is True else syncnet)
+        syncnet, sync_expert = _load_models(syncnet, sync_expert)
         audio = {k: dataset.audio(*k) for k in generated}
-        results.update(lipsync_metrics(generated, rigs, audio, names, syncnet=syncnet, progress=progress))
-    return results
+        values.update(_lipsync_values(generated, rigs, audio, names, syncnet=syncnet, sync_expert=sync_expert,
+                                      progress=progress))
+    entries, rows = _sentence_entries(values, seed=seed, resamples=resamples)
+    results.update(entries)
+    per_sentence = [{"subject": k[0], "sentence": k[1], **rows.get(k, {})} for k in keys if k in generated]
+    return Scores({name: results[name] for name in ordered_metrics(list(results))}, per_sentence)
+
+
+class _Subset(Mapping):
+    """The entries ``keys`` of a (lazily reading) mapping."""
+
+    def __init__(self, mapping, keys):
+        self._mapping, self._keys = mapping, keys
+
+    def __getitem__(self, key):
+        return self._mapping[key]
+
+    def __iter__(self):
+        return iter(self._keys)
+
+    def __len__(self):
+        return len(self._keys)

@@ -7,7 +7,9 @@ Schema (``schema_version`` 1)::
       "method":   {"name", "label", "class", "stochastic", "reference", "config"},
       "dataset":  {"manifest_hash", "path", "split", "num_sentences", "num_subjects"},
       "protocol": {"samples", "seed", "budget", "clip", "n_clipped"},
-      "metrics":  {metric: {"mean", "std", "higher_is_better", "unit"}},
+      "metrics":  {metric: {"mean", "std", "ci95", "n", "higher_is_better", "unit", "label", "group"}},
+      "per_sentence": [{"subject", "sentence", metric: value, ...}],
+      "tracks":   "<run>"   (stored tracks folder, relative to the JSON; benchmark.runs)
       "provenance": {"date", "git_revision", "git_dirty", "python", "platform",
                      "versions": {package: version}, "hardware": {...}},
       "timings":  {"train_s", "load_s", "generate_s", "evaluate_s", "total_s"}
@@ -133,6 +135,13 @@ def _clean_metrics(metrics) -> dict:
         hib = fields["higher_is_better"]
         if hib is not None and not isinstance(hib, bool):
             raise ValueError(f"result metric {name!r}: higher_is_better must be true, false or null, got {hib!r}")
+        ci95 = fields.get("ci95")
+        if ci95 is not None:
+            if (not isinstance(ci95, (list, tuple)) or len(ci95) != 2
+                    or not all(isinstance(v, (int, float)) and math.isfinite(v) for v in ci95)):
+                raise ValueError(f"result metric {name!r}: ci95 must be [low, high] of finite numbers, got {ci95!r}")
+            if not ci95[0] <= mean <= ci95[1]:
+                raise ValueError(f"result metric {name!r}: ci95 {list(ci95)} does not bracket the mean {mean}")
         extra = {k: v for k, v in fields.items() if k not in METRIC_FIELDS}
         out[str(name)] = {"mean": mean, "std": std, "higher_is_better": hib, "unit": fields.get("unit") or "",
                           **extra}
@@ -140,7 +149,8 @@ def _clean_metrics(metrics) -> dict:
 
 
 def build_result(*, method: dict, dataset: dict, protocol: dict, metrics: dict, timings: dict,
-                 provenance: dict | None = None) -> dict:
+                 provenance: dict | None = None, tracks: str | None = None,
+                 per_sentence: list | None = None) -> dict:
     """Assemble and check a result record.
 
     Parameters
@@ -158,6 +168,10 @@ def build_result(*, method: dict, dataset: dict, protocol: dict, metrics: dict, 
         Seconds per stage.
     provenance : dict, optional
         Defaults to the current date, git revision, versions and hardware.
+    tracks : str, optional
+        The stored tracks folder, relative to the JSON's folder (``benchmark.runs``).
+    per_sentence : list of dict, optional
+        One ``{"subject", "sentence", metric: value, ...}`` row per scored sentence.
 
     Returns
     -------
@@ -184,6 +198,10 @@ def build_result(*, method: dict, dataset: dict, protocol: dict, metrics: dict, 
         "provenance": dict(provenance),
         "timings": {k: (None if v is None else round(float(v), 3)) for k, v in timings.items()},
     }
+    if tracks is not None:
+        result["tracks"] = str(tracks)
+    if per_sentence is not None:
+        result["per_sentence"] = list(per_sentence)
     result["method"].setdefault("label", result["method"].get("name"))
     check_result(result)
     return result

@@ -21,18 +21,28 @@ from benchmark.methods import (
     AUDIO_RATE,
     Budget,
     MethodError,
+    OUTPUT_COEFFICIENTS,
+    OUTPUT_KINDS,
+    OUTPUT_VERTICES,
     MethodOutputError,
     UnknownMethodError,
     Utterance,
     get_method,
     validated_tracks,
+    validated_vertices,
 )
 from benchmark.methods.base import CONFIG_FILE
-from benchmark.results import build_result, write_result
+from benchmark.methods.contract import COEFFICIENT_NAMES
+from benchmark.results import build_result, result_filename, write_result
+from benchmark.runs import TrackWriter, tracks_folder_name
 
 __all__ = [
     "DEFAULT_RESULTS_DIR",
+    "MethodTimeout",
+    "UsageError",
+    "check_results_dir",
     "default_data_root",
+    "default_results_dir",
     "generated_tracks",
     "main",
     "make_method",
@@ -43,8 +53,24 @@ __all__ = [
     "sentence_seed",
 ]
 
-#: Where results go unless ``--results`` says otherwise.
-DEFAULT_RESULTS_DIR = Path(__file__).resolve().parent.parent / "leaderboard" / "results"
+def default_results_dir() -> Path:
+    """Where results go unless ``--results`` says otherwise: ``$BLENDVOCA_RESULTS``, else
+    ``$XDG_DATA_HOME/blendvoca/results`` (``~/.local/share/blendvoca/results``), never
+    inside the installed package. The committed leaderboard's folder is passed explicitly."""
+    if os.environ.get("BLENDVOCA_RESULTS"):
+        return Path(os.environ["BLENDVOCA_RESULTS"]).expanduser()
+    base = os.environ.get("XDG_DATA_HOME") or Path.home() / ".local" / "share"
+    return Path(base).expanduser() / "blendvoca" / "results"
+
+
+#: Kept for callers of the old constant: the user results folder at import time.
+DEFAULT_RESULTS_DIR = default_results_dir()
+#: Extra seconds over ``Budget.max_seconds`` before the runner stops a training run.
+TRAIN_GRACE_S = 60.0
+
+
+class UsageError(ValueError):
+    """A user mistake on the command line (exit status 2, one ``error:`` line)."""
 
 
 def parse_budget(text: str | None = None, *, max_steps: int | None = None,
@@ -134,8 +160,13 @@ def prepared_method(name: str, config: dict, dataset, *, seed: int, budget: Budg
         return method, timings
     method = make_method(name, config)
     start = time.perf_counter()
+    limit = None if budget.max_seconds is None else budget.max_seconds * 1.1 + TRAIN_GRACE_S
     try:
-        method.train(dataset, seed=seed, budget=budget)
+        with _TimeLimit(limit, f"method {name!r}: train (budget {budget.max_seconds:g} s + grace)"
+                        if limit else ""):
+            method.train(dataset, seed=seed, budget=budget)
+    except MethodTimeout:
+        raise
     except Exception as exc:
         raise MethodError(f"method {name!r}: train failed: {type(exc).__name__}: {exc}") from exc
     timings["train_s"] = time.perf_counter() - start
@@ -152,8 +183,44 @@ def sentence_seed(seed: int, index: int) -> int:
     return int(np.random.SeedSequence([int(seed), int(index)]).generate_state(1)[0] & 0x7FFFFFFF)
 
 
+class _TimeLimit:
+    """Raise :class:`MethodTimeout` in the main thread once ``seconds`` have passed (SIGALRM; a no-op
+    where signals are unavailable, i.e. off the main thread or on Windows)."""
+
+    def __init__(self, seconds: float | None, what: str):
+        self.seconds, self.what = seconds, what
+        self._armed = False
+
+    def _fire(self, signum, frame):
+        raise MethodTimeout(f"{self.what}: exceeded the limit of {self.seconds:g} s")
+
+    def __enter__(self):
+        import signal
+        import threading
+
+        if (self.seconds is not None and self.seconds > 0 and hasattr(signal, "setitimer")
+                and threading.current_thread() is threading.main_thread()):
+            self._previous = signal.signal(signal.SIGALRM, self._fire)
+            signal.setitimer(signal.ITIMER_REAL, float(self.seconds))
+            self._armed = True
+        return self
+
+    def __exit__(self, *exc):
+        if self._armed:
+            import signal
+
+            signal.setitimer(signal.ITIMER_REAL, 0)
+            signal.signal(signal.SIGALRM, self._previous)
+        return False
+
+
+class MethodTimeout(MethodError):
+    """A method's ``generate`` or ``train`` ran past the limit the runner enforces."""
+
+
 def generated_tracks(method, dataset, *, split: str = "test", samples: int = 1, seed: int = 0,
-                     clip: bool = False, name: str | None = None, progress: bool = True):
+                     clip: bool = False, name: str | None = None, progress: bool = True, store=None,
+                     vertices_out=None, time_limit: float | None = None):
     """Ask ``method`` for every sentence of ``split`` and check each answer.
 
     Parameters
@@ -167,21 +234,33 @@ def generated_tracks(method, dataset, *, split: str = "test", samples: int = 1, 
     seed : int
     clip : bool
         Clip values outside [0, 1] instead of refusing them.
+    store : benchmark.runs.TrackWriter, optional
+        Receives every scored track (and a vertex method's own vertices).
+    vertices_out : dict, optional
+        Filled with a vertex method's own ``(S, T, V, 3)`` vertices per key (memory
+        permitting; the runner reads them back from ``store`` instead).
+    time_limit : float, optional
+        Seconds one ``generate`` call may take (stopped with :class:`MethodTimeout`).
 
     Returns
     -------
     generated : dict
-        ``{(subject, sentence): (S, T, 32) float64 ndarray}``, ``T`` = ground-truth frames.
+        ``{(subject, sentence): (S, T, 32) float64 ndarray}``, ``T`` = ground-truth
+        frames; for ``output = "vertices"`` methods the tracks fitted to their
+        vertices with the speaker's rig (:mod:`benchmark.vertex_fit`).
     n_clipped : int
 
     Raises
     ------
     MethodError
-        ``generate`` raised (message names method, subject and sentence).
+        ``generate`` raised or ran past ``time_limit`` (message names method, subject and sentence).
     MethodOutputError
         The output broke the contract (shape, frames, NaN, range).
     """
     name = name or getattr(method, "name", type(method).__name__)
+    kind = getattr(method, "output", OUTPUT_COEFFICIENTS)
+    if kind not in OUTPUT_KINDS:
+        raise MethodOutputError(f"method {name!r}: output must be one of {OUTPUT_KINDS}, got {kind!r}")
     num_samples = int(samples) if getattr(method, "stochastic", False) else 1
     names = tuple(getattr(dataset, "names", ()) or ())
     num_coeffs = len(names) if names else 32
@@ -200,16 +279,33 @@ def generated_tracks(method, dataset, *, split: str = "test", samples: int = 1, 
             raise ValueError(f"dataset audio for {subject}/{sentence}: expected {AUDIO_RATE} Hz, got {rate}")
         num_frames = int(np.asarray(dataset.coeffs(subject, sentence)).shape[0])
         utterance = Utterance(subject=subject, sentence=sentence, split=split, audio=audio, num_frames=num_frames)
+        where = f"method {name!r}, subject {subject!r}, sentence {sentence!r}"
         try:
-            output = method.generate(utterance, samples=num_samples, seed=sentence_seed(seed, index))
+            with _TimeLimit(time_limit, f"{where}: generate"):
+                output = method.generate(utterance, samples=num_samples, seed=sentence_seed(seed, index))
+        except MethodTimeout:
+            raise
         except Exception as exc:
-            raise MethodError(f"method {name!r}, subject {subject!r}, sentence {sentence!r}: generate failed: "
-                              f"{type(exc).__name__}: {exc}") from exc
-        tracks, clipped = validated_tracks(output, method=name, subject=subject, sentence=sentence,
-                                           num_frames=num_frames, samples=num_samples, num_coeffs=num_coeffs,
-                                           clip=clip)
+            raise MethodError(f"{where}: generate failed: {type(exc).__name__}: {exc}") from exc
+        if kind == OUTPUT_VERTICES:
+            rig = dataset.rig(subject)
+            verts = validated_vertices(output, method=name, subject=subject, sentence=sentence, num_frames=num_frames,
+                                       samples=num_samples, num_vertices=int(np.asarray(rig.neutral).shape[0]))
+            from benchmark.vertex_fit import fitted_sample_tracks
+
+            tracks = fitted_sample_tracks(verts, rig, names or rig.names)
+            if store is not None:
+                store.write_vertices(subject, sentence, verts, rig.neutral)
+            if vertices_out is not None:
+                vertices_out[(subject, sentence)] = verts
+        else:
+            tracks, clipped = validated_tracks(output, method=name, subject=subject, sentence=sentence,
+                                               num_frames=num_frames, samples=num_samples, num_coeffs=num_coeffs,
+                                               clip=clip)
+            n_clipped += clipped
+        if store is not None:
+            store.write_tracks(subject, sentence, tracks)
         generated[(subject, sentence)] = tracks
-        n_clipped += clipped
     return generated, n_clipped
 
 
@@ -237,16 +333,44 @@ def default_data_root(*, progress: bool = True) -> Path:
     return root
 
 
-def _open_default(root):
-    from benchmark.data import open_blendvoca
-
-    return open_blendvoca(root)
-
-
-def _evaluate_default(generated, dataset, split="test"):
+def _evaluate_default(generated, dataset, split="test", **kw):
     from benchmark.evaluate import evaluate_split
 
-    return evaluate_split(generated, dataset, split=split)
+    return evaluate_split(generated, dataset, split=split, **kw)
+
+
+def _open_default(root, vocaset=None):
+    from benchmark.data import open_blendvoca
+
+    return open_blendvoca(root, vocaset=vocaset)
+
+
+def _check_evaluation_assets(syncnet, sync_expert) -> None:
+    """UsageError unless the VAE (and the given SyncNet / expert files) are in place."""
+    from blendvoca.assets import find_local
+
+    if find_local("said-vae") is None:
+        raise UsageError("the evaluation needs the VAE feature extractor (asset 'said-vae'); "
+                         "run `python -m blendvoca.assets fetch said-vae` or set BLENDVOCA_ASSETS")
+    for flag, value in (("--syncnet-weights", syncnet), ("--sync-expert", sync_expert)):
+        if isinstance(value, (str, os.PathLike)) and not Path(value).expanduser().exists():
+            raise UsageError(f"{flag} {value}: no such file")
+
+
+def check_results_dir(path) -> Path:
+    """``path`` as a results folder: created if missing; UsageError if it is a file or not writable."""
+    import tempfile
+
+    path = Path(path).expanduser()
+    if path.exists() and not path.is_dir():
+        raise UsageError(f"--results {path}: expected a folder, got a file")
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        with tempfile.NamedTemporaryFile(dir=path, prefix=".write-test-"):
+            pass
+    except OSError as exc:
+        raise UsageError(f"--results {path}: not writable ({exc.strerror or exc})") from None
+    return path
 
 
 def run_method(
@@ -256,7 +380,7 @@ def run_method(
     samples: int = 10,
     seed: int = 0,
     budget: Budget | None = None,
-    results_dir=DEFAULT_RESULTS_DIR,
+    results_dir=None,
     config: dict | None = None,
     split: str = "test",
     checkpoint=None,
@@ -264,6 +388,10 @@ def run_method(
     evaluate=None,
     open_dataset=None,
     progress: bool = True,
+    generate_time_limit: float | None = None,
+    vocaset=None,
+    syncnet=None,
+    sync_expert=None,
 ) -> Path:
     """Train or load ``method_name``, generate on ``split``, score it and write the result.
 
@@ -279,8 +407,9 @@ def run_method(
         Training and sampling seed.
     budget : Budget, optional
         Training limits (default: none, the method's own defaults).
-    results_dir : path-like
-        Where the result JSON is written.
+    results_dir : path-like, optional
+        Where the result JSON and its tracks folder are written (default:
+        :func:`default_results_dir`).
     config : dict, optional
         Method constructor kwargs.
     checkpoint : path-like, optional
@@ -292,6 +421,20 @@ def run_method(
         ``benchmark.evaluate.evaluate_split``.
     open_dataset : callable, optional
         ``open_dataset(root) -> dataset``; default ``benchmark.data.open_blendvoca``.
+    generate_time_limit : float, optional
+        Seconds one ``generate`` call may take before the run stops with an error.
+    vocaset : path-like, optional
+        The source VOCASET corpus (for ``dataset.vertices``) when the build's
+        recorded one is elsewhere.
+    syncnet, sync_expert : path-like or model, optional
+        SyncNet weights and a learned sync expert for the lip-sync metrics (loaded
+        lazily by ``benchmark.evaluate``).
+
+    Notes
+    -----
+    Step budgets make runs deterministic: the same seed gives the same metric
+    values. A time budget depends on the machine; the result records
+    ``protocol.deterministic = false`` for it.
 
     Returns
     -------
@@ -301,38 +444,83 @@ def run_method(
     total_start = time.perf_counter()
     budget = budget or Budget()
     config = dict(config or {})
-    if int(samples) < 1:
-        raise ValueError(f"samples: expected >= 1, got {samples}")
-    evaluate = evaluate or _evaluate_default
-    open_dataset = open_dataset or _open_default
+    if isinstance(samples, bool) or int(samples) != samples or int(samples) < 1:
+        raise UsageError(f"--samples: expected an integer >= 1, got {samples!r}")
+    if generate_time_limit is not None and not generate_time_limit > 0:
+        raise UsageError(f"--generate-time-limit: expected seconds > 0, got {generate_time_limit!r}")
+    custom_evaluate = evaluate is not None
+    if evaluate is None:
+        def evaluate(generated, dataset, split="test", **kw):
+            if syncnet is not None or sync_expert is not None:
+                kw.update(syncnet=syncnet, sync_expert=sync_expert)
+            return _evaluate_default(generated, dataset, split=split, progress=progress, **kw)
+    if open_dataset is None:
+        def open_dataset(root):
+            return _open_default(root, vocaset=vocaset) if vocaset is not None else _open_default(root)
     if data_root is None:
         data_root = default_data_root(progress=progress)
-    dataset = open_dataset(data_root)
+    try:
+        dataset = open_dataset(data_root)
+    except (ValueError, FileNotFoundError) as exc:
+        raise UsageError(f"--data {data_root}: {exc}") from None
+    results_dir = check_results_dir(default_results_dir() if results_dir is None else results_dir)
+    splits = getattr(dataset, "splits", None)
+    if splits is not None and split not in splits:
+        raise UsageError(f"--split: expected one of {sorted(splits)}, got {split!r}")
+    cls = get_method(method_name)
+    if getattr(cls, "output", OUTPUT_COEFFICIENTS) == OUTPUT_VERTICES and hasattr(dataset, "corpus_root"):
+        try:  # the vertex metrics compare with the source meshes: fail now, not after training
+            dataset.corpus_root()
+        except FileNotFoundError as exc:
+            raise UsageError(str(exc)) from None
+    if not custom_evaluate:
+        _check_evaluation_assets(syncnet, sync_expert)
+    try:
+        make_method(method_name, config)
+    except MethodError as exc:
+        raise UsageError(f"--config: {exc}") from None
 
     method, timings = prepared_method(method_name, config, dataset, seed=seed, budget=budget, checkpoint=checkpoint)
-    start = time.perf_counter()
-    generated, n_clipped = generated_tracks(method, dataset, split=split, samples=samples, seed=seed, clip=clip,
-                                            name=method_name, progress=progress)
-    timings["generate_s"] = time.perf_counter() - start
-    start = time.perf_counter()
-    metrics = evaluate(generated, dataset, split=split)
-    timings["evaluate_s"] = time.perf_counter() - start
+    stochastic = bool(getattr(method, "stochastic", False))
+    kind = getattr(method, "output", OUTPUT_COEFFICIENTS)
+    label = getattr(method, "label", None) or method_name
+    filename = result_filename({"method": {"name": method_name, "label": label},
+                                "dataset": {"manifest_hash": str(dataset.manifest_hash)},
+                                "protocol": {"samples": int(samples) if stochastic else 1, "seed": int(seed)}})
+    names = tuple(getattr(dataset, "names", ()) or COEFFICIENT_NAMES)
+    store = TrackWriter(Path(results_dir) / tracks_folder_name(filename), names)
+    try:
+        start = time.perf_counter()
+        generated, n_clipped = generated_tracks(method, dataset, split=split, samples=samples, seed=seed, clip=clip,
+                                                name=method_name, progress=progress, store=store,
+                                                time_limit=generate_time_limit)
+        timings["generate_s"] = time.perf_counter() - start
+        start = time.perf_counter()
+        if kind == OUTPUT_VERTICES:
+            metrics = evaluate(generated, dataset, split=split, vertices=store.stored_vertices())
+        else:
+            metrics = evaluate(generated, dataset, split=split)
+        timings["evaluate_s"] = time.perf_counter() - start
+    except BaseException:
+        store.discard()
+        raise
     timings["total_s"] = time.perf_counter() - total_start
 
     try:
         method_config = method.config()
         json.dumps(method_config)
     except Exception as exc:
+        store.discard()
         raise MethodError(f"method {method_name!r}: config() must return a JSON-serialisable dict ({exc})") from exc
-    stochastic = bool(getattr(method, "stochastic", False))
     cls = type(method)
     result = build_result(
         method={
             "name": method_name,
-            "label": getattr(method, "label", None) or method_name,
+            "label": label,
             "class": f"{cls.__module__}:{cls.__qualname__}",
             "stochastic": stochastic,
             "reference": bool(getattr(method, "reference", False)),
+            "output": kind,
             "config": method_config,
         },
         dataset={
@@ -349,61 +537,104 @@ def run_method(
             "clip": bool(clip),
             "n_clipped": int(n_clipped),
             "checkpoint": None if checkpoint is None else str(checkpoint),
+            "deterministic": budget.max_seconds is None,
+            "generate_time_limit": generate_time_limit,
         },
-        metrics=metrics,
+        metrics=dict(metrics),
         timings=timings,
+        tracks=tracks_folder_name(filename),
+        per_sentence=_per_sentence_rows(metrics, generated),
     )
-    return write_result(result, results_dir)
+    store.commit()
+    return write_result(result, results_dir, filename)
+
+
+def _per_sentence_rows(metrics, generated) -> list:
+    """One row per scored sentence: the evaluation's rows (``Scores.per_sentence``) or, for an
+    evaluation that gives none, the sentence's subject and name."""
+    rows = {(r["subject"], r["sentence"]): r for r in getattr(metrics, "per_sentence", None) or []}
+    return [dict(rows.get(key, {"subject": key[0], "sentence": key[1]})) for key in generated]
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with the project's CLI convention: a user mistake is one ``error:`` line, exit 2."""
+
+    def error(self, message):
+        print(f"error: {message}", file=sys.stderr)
+        raise SystemExit(2)
 
 
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="python -m benchmark.run", description=__doc__.split("\n\n")[0])
+    p = _Parser(prog="python -m benchmark.run", description=__doc__.split("\n\n")[0])
     p.add_argument("--method", required=False, help="registered or installed method name")
     p.add_argument("--data", default=None, help="BlendVOCA build (default: the bundled-default build)")
+    p.add_argument("--vocaset", default=None, metavar="DIR",
+                   help="source VOCASET corpus for dataset.vertices (default: the one the build recorded)")
     p.add_argument("--samples", type=int, default=10, help="samples per sentence for stochastic methods")
     p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--budget", default=None, help="training budget: '500' steps, '300s', 'steps=500,seconds=300'")
+    p.add_argument("--budget", default=None,
+                   help="training budget: '500' steps (deterministic), '300s' (recorded as non-deterministic), "
+                        "'steps=500,seconds=300'")
     p.add_argument("--max-steps", type=int, default=None)
     p.add_argument("--max-seconds", type=float, default=None)
-    p.add_argument("--results", default=str(DEFAULT_RESULTS_DIR), help="result directory")
+    p.add_argument("--results", default=None,
+                   help="result folder (default: $BLENDVOCA_RESULTS or ~/.local/share/blendvoca/results)")
     p.add_argument("--preset", default=None, help="passed to the method config as preset=...")
     p.add_argument("--config", action="append", default=[], metavar="KEY=VALUE",
                    help="method config entry (repeatable; VALUE parsed as JSON when possible)")
     p.add_argument("--split", default="test")
     p.add_argument("--checkpoint", default=None, help="load the trained method from here, or train and save here")
     p.add_argument("--clip", action="store_true", help="clip out-of-range coefficients instead of failing")
+    p.add_argument("--generate-time-limit", type=float, default=None, metavar="SECONDS",
+                   help="stop the run when one generate call takes longer")
+    p.add_argument("--syncnet-weights", default=None, metavar="PATH",
+                   help="SyncNet weights: adds the SyncNet AV offset/confidence (renders every sentence)")
+    p.add_argument("--sync-expert", default=None, metavar="PATH",
+                   help="learned sync expert (benchmark.lipsync.load_expert): adds av_offset/confidence_expert")
     p.add_argument("--list", action="store_true", help="list the available methods and exit")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     return p
 
 
 def main(argv=None) -> int:
-    args = _parser().parse_args(argv)
+    parser = _parser()
+    args = parser.parse_args(argv)
     if args.list:
         from benchmark.methods import available_methods
 
         print("\n".join(available_methods()))
         return 0
     if not args.method:
-        _parser().error("--method is required (or --list)")
+        parser.error("--method is required (or --list)")
+    for flag, value in (("--data", args.data), ("--vocaset", args.vocaset)):
+        if value is not None and not Path(value).expanduser().is_dir():
+            parser.error(f"{flag} {value}: no such folder")
     try:
         budget = parse_budget(args.budget, max_steps=args.max_steps, max_seconds=args.max_seconds)
         config = parse_config(args.config, preset=args.preset)
         path = run_method(args.method, args.data, samples=args.samples, seed=args.seed, budget=budget,
                           results_dir=args.results, config=config, split=args.split, checkpoint=args.checkpoint,
-                          clip=args.clip, progress=not args.quiet)
-    except UnknownMethodError as exc:  # unknown method: the message lists close matches
+                          clip=args.clip, progress=not args.quiet, generate_time_limit=args.generate_time_limit,
+                          vocaset=args.vocaset, syncnet=args.syncnet_weights, sync_expert=args.sync_expert)
+    except (UnknownMethodError, UsageError) as exc:  # unknown method: the message lists close matches
         print(f"error: {exc}", file=sys.stderr)
         return 2
-    except (MethodError, MethodOutputError) as exc:
+    except (TypeError, ValueError) as exc:
+        if isinstance(exc, MethodOutputError):
+            print(f"error: the method misbehaved, no result written: {exc}", file=sys.stderr)
+            return 3
+        print(f"error: {exc}", file=sys.stderr)  # --budget / --config / data problems
+        return 2
+    except MethodError as exc:
         print(f"error: the method misbehaved, no result written: {exc}", file=sys.stderr)
         return 3
     if not args.quiet:
         result = json.loads(Path(path).read_text())
         for metric, fields in result["metrics"].items():
             arrow = {True: "↑", False: "↓"}.get(fields["higher_is_better"], " ")
-            std = "" if fields["std"] is None else f" ± {fields['std']:.4g}"
-            print(f"  {metric:<28} {arrow} {fields['mean']:.4g}{std} {fields['unit']}".rstrip(), file=sys.stderr)
+            ci = fields.get("ci95")
+            ci = "" if not ci else f" [{ci[0]:.4g}, {ci[1]:.4g}]"
+            print(f"  {metric:<28} {arrow} {fields['mean']:.4g}{ci} {fields['unit']}".rstrip(), file=sys.stderr)
     print(path)
     return 0
 

@@ -1,4 +1,10 @@
-"""Reading result files and arranging them into per-dataset tables."""
+"""Reading result files and arranging them into per-dataset tables.
+
+Columns are the metrics of the results, grouped and ordered by the metric registry
+(:mod:`benchmark.metrics.registry`: lip sync, distribution, vertex, diversity, as in
+the SAiD paper's Table 1); rows are the methods, and the reference rows (ground
+truth, corpus meshes, mean, static, random) apart, never ranked.
+"""
 
 from __future__ import annotations
 
@@ -6,19 +12,35 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from benchmark.metrics.registry import METRICS, ordered_metrics
 from benchmark.results import read_result
 
-__all__ = ["Row", "Table", "column_decimals", "load_results", "ranks", "tables_by_manifest"]
+__all__ = ["Column", "Row", "Table", "best_rows", "column_decimals", "load_results", "ranks", "tables_by_manifest"]
+
+#: Group of metrics the registry does not know.
+OTHER_GROUP = "other"
+
+
+@dataclass(frozen=True)
+class Column:
+    """One metric column."""
+
+    name: str
+    label: str
+    unit: str
+    higher_is_better: bool | None
+    group: str
 
 
 @dataclass
 class Row:
-    """One method's line: label and ``{metric: (mean, std or None)}``."""
+    """One method's line: ``metrics[name] = (mean, std or None, ci95 [lo, hi] or None)``."""
 
     label: str
     reference: bool
     samples: int
     metrics: dict = field(default_factory=dict)
+    output: str = "coefficients"
 
 
 @dataclass
@@ -28,8 +50,19 @@ class Table:
     manifest_hash: str
     split: str
     num_sentences: int | None
-    metrics: list  # [(name, higher_is_better, unit)] sorted by name
-    rows: list  # [Row], references first, then methods, each sorted by label
+    columns: list  # [Column] in registry order
+    rows: list  # [Row] methods, sorted by label
+    references: list  # [Row] reference rows, sorted by label
+
+    @property
+    def groups(self) -> list:
+        """``[(group, [Column])]`` in table order."""
+        out = []
+        for column in self.columns:
+            if not out or out[-1][0] != column.group:
+                out.append((column.group, []))
+            out[-1][1].append(column)
+        return out
 
 
 def load_results(results_dir) -> list[dict]:
@@ -38,6 +71,14 @@ def load_results(results_dir) -> list[dict]:
     if not results_dir.is_dir():
         raise FileNotFoundError(f"results directory {results_dir} does not exist")
     return [read_result(path) for path in sorted(results_dir.glob("*.json"))]
+
+
+def _column(name: str, fields: dict) -> Column:
+    info = METRICS.get(name)
+    if info is not None:
+        return Column(name, info.label, info.unit, info.higher_is_better, info.group)
+    return Column(name, fields.get("label") or name, fields.get("unit") or "", fields["higher_is_better"],
+                  OTHER_GROUP)
 
 
 def tables_by_manifest(results: list[dict]) -> list[Table]:
@@ -55,15 +96,17 @@ def tables_by_manifest(results: list[dict]) -> list[Table]:
     tables = []
     for manifest_hash in sorted(groups):
         group = groups[manifest_hash]
-        metrics: dict[str, tuple] = {}
+        specs: dict[str, tuple] = {}
+        columns: dict[str, Column] = {}
         for result in group:
             for name, fields in result["metrics"].items():
                 spec = (fields["higher_is_better"], fields.get("unit") or "")
-                if metrics.setdefault(name, spec) != spec:
+                if specs.setdefault(name, spec) != spec:
                     raise ValueError(
-                        f"manifest {manifest_hash}: metric {name!r} has direction/unit {metrics[name]} in one result "
+                        f"manifest {manifest_hash}: metric {name!r} has direction/unit {specs[name]} in one result "
                         f"and {spec} in {result['method'].get('label')!r}"
                     )
+                columns.setdefault(name, _column(name, fields))
         labels = [r["method"].get("label") or r["method"]["name"] for r in group]
         rows = []
         for result, label in zip(group, labels):
@@ -74,17 +117,21 @@ def tables_by_manifest(results: list[dict]) -> list[Table]:
                 label=label,
                 reference=bool(result["method"].get("reference", False)),
                 samples=int(protocol.get("samples") or 1),
-                metrics={k: (v["mean"], v.get("std")) for k, v in result["metrics"].items()},
+                metrics={k: (v["mean"], v.get("std"), v.get("ci95")) for k, v in result["metrics"].items()},
+                output=result["method"].get("output", "coefficients"),
             ))
-        rows.sort(key=lambda r: (not r.reference, r.label.lower(), r.label))
+        rows.sort(key=lambda r: (r.label.lower(), r.label))
         splits = sorted({r["dataset"].get("split", "test") for r in group})
         counts = sorted({r["dataset"].get("num_sentences") for r in group if r["dataset"].get("num_sentences")})
+        known = ordered_metrics([n for n in columns if n in METRICS])
+        other = sorted(n for n in columns if n not in METRICS)
         tables.append(Table(
             manifest_hash=manifest_hash,
             split="/".join(splits),
             num_sentences=counts[0] if len(counts) == 1 else None,
-            metrics=[(name, hib, unit) for name, (hib, unit) in sorted(metrics.items())],
-            rows=rows,
+            columns=[columns[n] for n in known + other],
+            rows=[r for r in rows if not r.reference],
+            references=[r for r in rows if r.reference],
         ))
     return tables
 
@@ -116,3 +163,27 @@ def ranks(values, higher_is_better, decimals: int) -> list:
     shown = [None if v is None else round(v, decimals) for v in values]
     distinct = sorted({v for v in shown if v is not None}, reverse=bool(higher_is_better))
     return [None if v is None else distinct.index(v) + 1 for v in shown]
+
+
+def best_rows(rows: list, column: Column) -> set:
+    """Indices of the rows marked best in ``column``: the method with the best mean,
+    when its 95 % interval does not overlap the runner-up's (every other method's
+    interval then lies beyond it too, or is further away in mean). Nothing is marked
+    with fewer than two methods, without a direction, or when an interval is missing.
+
+    Non-overlap of two 95 % intervals is a conservative test of a difference (it
+    implies p < 0.05 for independent estimates) that needs nothing but the result
+    files; a paired test would need both runs' per-sentence rows.
+    """
+    if column.higher_is_better is None:
+        return set()
+    scored = [(i, row.metrics[column.name]) for i, row in enumerate(rows) if column.name in row.metrics]
+    if len(scored) < 2:
+        return set()
+    sign = -1.0 if column.higher_is_better else 1.0
+    scored.sort(key=lambda item: sign * item[1][0])
+    (best, (_, _, ci_best)), (_, (_, _, ci_next)) = scored[0], scored[1]
+    if ci_best is None or ci_next is None:
+        return set()
+    separated = ci_best[0] > ci_next[1] if column.higher_is_better else ci_best[1] < ci_next[0]
+    return {best} if separated else set()

@@ -1,8 +1,14 @@
-"""Vertex sequence -> BlendVOCA coefficient track through the speaker's rig."""
+"""Vertex sequence -> BlendVOCA coefficient track through the speaker's rig.
+
+The fit itself is :func:`benchmark.vertex_fit.adapted_coefficients` (shared with the
+runner's vertex-output methods); this module resolves the adapter's vertex subset.
+"""
 
 from __future__ import annotations
 
 import numpy as np
+
+from benchmark.vertex_fit import adapted_coefficients
 
 __all__ = ["adapted_coefficients", "resolve_vertex_subset"]
 
@@ -12,56 +18,7 @@ def resolve_vertex_subset(subset):
     if subset is None:
         return None
     if subset == "flame-head":
-        from blendvoca.assets import load_index_list
+        from benchmark.vertex_fit import FLAME_NUM_VERTICES, rig_fit_vertices
 
-        return load_index_list("flame-head-idx")
+        return rig_fit_vertices(FLAME_NUM_VERTICES)
     return np.asarray(subset, dtype=np.int64)
-
-
-def adapted_coefficients(frames, neutral, deltas, *, fps: float = 60.0, template: str = "absolute",
-                         delta: float | None = 0.1, vertex_subset=None) -> np.ndarray:
-    """The coefficient track that best reproduces a vertex sequence with a rig.
-
-    Parameters
-    ----------
-    frames : (T, V, 3) ndarray
-        The method's output at ``fps``: absolute positions, or offsets from the
-        speaker's neutral when ``template == "offsets"``.
-    neutral : (V, 3) ndarray
-        Rig neutral (the speaker's template).
-    deltas : (K, V, 3) ndarray
-        Rig blendshape offsets, in the output column order.
-    fps : float
-        Frame rate of ``frames``; the track is fitted at 60 fps after linear
-        resampling.
-    template : {"absolute", "offsets"}
-    delta : float or None
-        Rate bound ``|u[t+1] - u[t]| <= delta`` of the QP (None: bounds only).
-    vertex_subset : (M,) int ndarray, optional
-        Vertices used in the fit.
-
-    Returns
-    -------
-    (T60, K) float64 ndarray in [0, 1]
-    """
-    from blendvoca.fit import fit_coefficients, resample_sequence
-
-    frames = np.asarray(frames, dtype=np.float64)
-    neutral = np.asarray(neutral, dtype=np.float64)
-    if frames.ndim != 3 or frames.shape[1:] != neutral.shape:
-        raise ValueError(
-            f"adapted_coefficients: expected frames (T, {neutral.shape[0]}, 3) matching the rig's topology, "
-            f"got {frames.shape}"
-        )
-    if template == "offsets":
-        frames = frames + neutral[None]
-    elif template != "absolute":
-        raise ValueError(f"adapted_coefficients: template must be 'absolute' or 'offsets', got {template!r}")
-    if fps != 60.0:
-        frames = resample_sequence(frames, fps, 60.0)
-    kwargs = {"vertex_subset": vertex_subset}
-    if delta is None:
-        kwargs["rate"] = False
-    else:
-        kwargs["delta"] = delta
-    return np.asarray(fit_coefficients(neutral, deltas, frames, **kwargs), dtype=np.float64)

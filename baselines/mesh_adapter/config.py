@@ -9,6 +9,7 @@ Example (``voca.yaml``)::
     delta: 0.1                 # rate bound of the QP per 60 fps frame
     vertex_subset: null        # null (all vertices), "flame-head" (the 4580-vertex crop) or a list of indices
     max_frame_mismatch: 6      # frames padded/cropped to match the ground-truth length
+    reference: false           # true: a reference row (e.g. the corpus meshes), shown but never ranked
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ from pathlib import Path
 __all__ = ["TEMPLATE_MODES", "AdapterConfig", "adapter_config", "read_adapter_config"]
 
 TEMPLATE_MODES = ("absolute", "offsets")
-_KEYS = ("name", "vertices", "fps", "template", "delta", "vertex_subset", "max_frame_mismatch")
+_KEYS = ("name", "vertices", "fps", "template", "delta", "vertex_subset", "max_frame_mismatch", "reference")
 
 
 @dataclass(frozen=True)
@@ -33,6 +34,7 @@ class AdapterConfig:
     delta: float | None = 0.1
     vertex_subset: str | list | None = None
     max_frame_mismatch: int = 6
+    reference: bool = False
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -74,6 +76,7 @@ def adapter_config(mapping: dict, *, base_dir=None, where: str = "mesh-adapter c
         delta=None if delta is None else float(delta),
         vertex_subset=subset,
         max_frame_mismatch=int(mapping.get("max_frame_mismatch", 6)),
+        reference=bool(mapping.get("reference", False)),
     )
 
 

@@ -73,8 +73,9 @@ def exported_corpus_meshes(vocaset_root, out_dir, *, split: str = "test", fps: i
         "fps": fps,
         "template": "offsets" if offsets else "absolute",
         "delta": 0.1,
-        "vertex_subset": None,
+        "vertex_subset": "flame-head",  # the build's fit: the 4580-vertex head crop
         "max_frame_mismatch": 6,
+        "reference": True,  # the source meshes themselves: a reference row, never ranked
     }
     path = out_dir / "adapter.yaml"
     path.write_text(yaml.safe_dump(config, sort_keys=False))

@@ -50,6 +50,7 @@ class MeshAdapterMethod(TrackLookupMethod):
             raise ValueError("mesh-adapter: expected config=PATH.yaml (--config config=PATH.yaml) or inline "
                              "settings such as vertices=DIR, got neither")
         self.label = self.adapter.name
+        self.reference = self.adapter.reference
         self.max_frame_mismatch = self.adapter.max_frame_mismatch
 
     def config(self) -> dict:

@@ -24,7 +24,7 @@ from .registry import (
     register_lazy,
     unregister,
 )
-from .validate import MethodError, MethodOutputError, validated_tracks
+from .validate import MethodError, MethodOutputError, validated_tracks, validated_vertices
 
 __all__ = [
     "AUDIO_RATE",
@@ -48,6 +48,7 @@ __all__ = [
     "register_lazy",
     "unregister",
     "validated_tracks",
+    "validated_vertices",
 ]
 
 #: Methods shipped with the project, as lazy ``"module:Class"`` targets.

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["MethodError", "MethodOutputError", "validated_tracks"]
+__all__ = ["MethodError", "MethodOutputError", "validated_tracks", "validated_vertices"]
 
 
 class MethodError(RuntimeError):
@@ -103,3 +103,63 @@ def validated_tracks(
             f"first at sample {s}, frame {t}, coefficient {k}: {tracks[s, t, k]:.6g}; pass clip=True (--clip) to clip them"
         )
     return tracks, 0
+
+
+def validated_vertices(output, *, method: str, subject: str, sentence: str | None, num_frames: int, samples: int,
+                       num_vertices: int):
+    """The generated vertices as float64, after checking them against the contract.
+
+    Parameters
+    ----------
+    output : array-like
+        What ``Method.generate`` returned for an ``output = "vertices"`` method;
+        expected ``(samples, num_frames, num_vertices, 3)`` metres.
+    method, subject, sentence : str
+        Named in error messages.
+    num_frames : int
+        Expected ``T`` (60 fps frames).
+    samples : int
+        Expected ``S``.
+    num_vertices : int
+        Vertices of the speaker's topology (5023 for FLAME).
+
+    Returns
+    -------
+    (S, T, V, 3) float64 ndarray
+
+    Raises
+    ------
+    MethodOutputError
+        Not an array of numbers, wrong shape, NaN/inf values, or coordinates larger
+        than 10 m (the output is not in metres).
+    """
+    where = _where(method, subject, sentence)
+    expected = (samples, num_frames, num_vertices, 3)
+    if output is None:
+        raise MethodOutputError(f"{where}: generate returned None, expected a {expected} vertex array")
+    try:
+        verts = np.asarray(output.detach().cpu().numpy() if hasattr(output, "detach") else output)
+    except Exception as exc:
+        raise MethodOutputError(f"{where}: generate returned {type(output).__name__}, which is not an array ({exc})") from exc
+    if verts.dtype == object or not np.issubdtype(verts.dtype, np.number) or np.issubdtype(verts.dtype, np.complexfloating):
+        raise MethodOutputError(f"{where}: expected a real-valued vertex array, got dtype {verts.dtype}")
+    if verts.ndim != 4:
+        raise MethodOutputError(f"{where}: expected vertices of shape (S, T, V, 3) = {expected}, got {verts.ndim}-d "
+                                f"shape {verts.shape}")
+    for axis, (got, want, what) in enumerate(zip(verts.shape, expected,
+                                                 ("sample(s)", "frames at 60 fps", "vertices (the speaker's topology)",
+                                                  "coordinates"))):
+        if got != want:
+            raise MethodOutputError(f"{where}: expected {want} {what} (axis {axis}), got {got} (shape {verts.shape}, "
+                                    f"expected {expected})")
+    verts = verts.astype(np.float64)
+    bad = ~np.isfinite(verts)
+    if bad.any():
+        s, t, v, _ = np.argwhere(bad)[0]
+        raise MethodOutputError(f"{where}: {int(bad.sum())} non-finite vertex coordinate(s) (NaN or inf), first at "
+                                f"sample {s}, frame {t}, vertex {v}")
+    largest = float(np.abs(verts).max())
+    if largest > 10.0:
+        raise MethodOutputError(f"{where}: vertex coordinates up to {largest:.4g}; expected metres (a head is ~0.2 m), "
+                                f"convert millimetres or centimetres before returning")
+    return verts

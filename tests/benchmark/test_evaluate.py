@@ -4,7 +4,7 @@ import pytest
 from benchmark.data import open_blendvoca
 from benchmark.evaluate import evaluate_split
 
-KEYS = {"mean", "std", "higher_is_better", "unit"}
+KEYS = {"mean", "std", "ci95", "n", "higher_is_better", "unit", "label", "group"}
 
 
 @pytest.fixture(scope="module")
@@ -24,9 +24,12 @@ def ground_truth(ds, split="test"):
 
 
 def test_ground_truth_scores_perfectly(dataset, vae):
-    res = evaluate_split(ground_truth(dataset), dataset, extractor=vae, wind_repeats=2)
+    res = evaluate_split(ground_truth(dataset), dataset, extractor=vae, wind_repeats=2, wind_resamples=2)
     for entry in res.values():
-        assert set(entry) == KEYS
+        assert KEYS <= set(entry) <= KEYS | {"windows", "sample_std"}
+        assert entry["ci95"][0] <= entry["mean"] <= entry["ci95"][1]
+    assert res["lve"]["n"] == len(res.per_sentence) == sum(len(dataset.sentences(s)) for s in dataset.split("test"))
+    assert all(row["lve"] == 0 for row in res.per_sentence)
     # generated windows are the ground-truth windows plus 2 extra starts per sentence
     assert res["fd"]["mean"] < 0.5
     assert res["lve"]["mean"] == 0 and res["mve"]["mean"] == 0 and res["fdd"]["mean"] == 0
@@ -39,8 +42,8 @@ def test_worse_method_scores_worse_and_samples_give_diversity(dataset, vae):
     rng = np.random.default_rng(0)
     gt = ground_truth(dataset)
     noisy = {k: np.clip(v + rng.normal(scale=0.1, size=(3, *v.shape[1:])), 0, 1) for k, v in gt.items()}
-    res = evaluate_split(noisy, dataset, extractor=vae, wind_repeats=2, lipsync=False)
-    base = evaluate_split(gt, dataset, extractor=vae, wind_repeats=2, lipsync=False)
+    res = evaluate_split(noisy, dataset, extractor=vae, wind_repeats=2, wind_resamples=2, lipsync=False)
+    base = evaluate_split(gt, dataset, extractor=vae, wind_repeats=2, wind_resamples=2, lipsync=False)
     assert res["fd"]["mean"] > base["fd"]["mean"]
     assert res["lve"]["mean"] > 0 and res["mve"]["mean"] > 0
     assert res["multimodality"]["mean"] > 0 and res["multimodality"]["higher_is_better"]
@@ -55,7 +58,7 @@ def test_worse_method_scores_worse_and_samples_give_diversity(dataset, vae):
 def test_any_extractor_and_bad_input(dataset):
     gt = ground_truth(dataset)
     # a trivial extractor: per-window coefficient means (D = 32)
-    res = evaluate_split(gt, dataset, extractor=lambda w: w.mean(axis=1), wind_repeats=1, vertex=False, lipsync=False)
+    res = evaluate_split(gt, dataset, extractor=lambda w: w.mean(axis=1), wind_repeats=1, wind_resamples=2, vertex=False, lipsync=False)
     assert res["fd"]["mean"] < 1e-3 and res["wind"]["std"] == 0.0
     with pytest.raises(ValueError, match="no generated track"):
         evaluate_split({("x", "y"): np.zeros((1, 200, 32))}, dataset, extractor=lambda w: w.mean(axis=1))
@@ -73,7 +76,7 @@ def test_on_the_built_synthetic_dataset(built_dataset, vae):
     gt = ground_truth(ds)
     assert gt
     with pytest.warns(UserWarning, match="windows of 120 frames"):
-        res = evaluate_split(gt, ds, extractor=vae, wind_repeats=2)
+        res = evaluate_split(gt, ds, extractor=vae, wind_repeats=2, wind_resamples=2)
     assert "fd" not in res
     assert res["lve"]["mean"] == 0 and res["mve"]["mean"] == 0
     assert res["av_offset_geometric"]["mean"] <= 3
@@ -82,5 +85,5 @@ def test_on_the_built_synthetic_dataset(built_dataset, vae):
     cut = {k: v[0] for k, v in long.items()}
     from benchmark.evaluate import latent_metrics
 
-    lat = latent_metrics(cut, long, vae, wind_repeats=2)
+    lat = latent_metrics(cut, long, vae, wind_repeats=2, wind_resamples=2)
     assert lat["fd"]["mean"] == pytest.approx(0.0, abs=0.5)

@@ -16,21 +16,31 @@ PROV = {"date": "2026-01-01T00:00:00+00:00", "git_revision": None, "versions": {
 
 
 def _result(label, manifest, metrics, reference=False, seed=0, samples=1):
+    """metrics: name -> (mean, std, higher_is_better, unit[, (lo, hi)])."""
+    entries = {}
+    for k, (m, s, hib, u, *ci) in metrics.items():
+        entries[k] = {"mean": m, "std": s, "higher_is_better": hib, "unit": u}
+        if ci:
+            entries[k]["ci95"] = list(ci[0])
     return build_result(
         method={"name": label, "label": label, "reference": reference, "config": {}},
         dataset={"manifest_hash": manifest, "split": "test", "num_sentences": 80},
         protocol={"samples": samples, "seed": seed},
-        metrics={k: {"mean": m, "std": s, "higher_is_better": hib, "unit": u} for k, (m, s, hib, u) in metrics.items()},
-        timings={}, provenance=PROV)
+        metrics=entries, timings={}, provenance=PROV)
 
 
 def _three():
     return [
-        _result("alpha", "h1", {"fd": (2.0, 0.1, False, ""), "sync": (5.0, 1.0, True, "")}),
-        _result("beta", "h1", {"fd": (1.0, 0.2, False, ""), "sync": (6.0, 1.0, True, "")}),
-        _result("gamma", "h1", {"fd": (3.0, 0.3, False, ""), "sync": (7.0, 1.0, True, "")}),
-        _result("ground-truth", "h1", {"fd": (0.0, 0.0, False, ""), "sync": (9.0, 1.0, True, "")}, reference=True),
-        _result("alpha", "h2_other_data", {"fd": (0.5, 0.1, False, "")}),
+        _result("alpha", "h1", {"fd": (2.0, 0.1, False, "latent^2", (1.9, 2.1)),
+                                "av_confidence_geometric": (5.0, 1.0, True, "correlation", (4.0, 6.0))}),
+        _result("beta", "h1", {"fd": (1.0, 0.2, False, "latent^2", (0.8, 1.2)),
+                               "av_confidence_geometric": (6.0, 1.0, True, "correlation", (5.0, 7.0))}),
+        _result("gamma", "h1", {"fd": (3.0, 0.3, False, "latent^2", (2.5, 3.5)),
+                                "av_confidence_geometric": (7.0, 1.0, True, "correlation", (6.5, 7.5))}),
+        _result("ground-truth", "h1", {"fd": (0.0, 0.0, False, "latent^2", (0.0, 0.0)),
+                                       "av_confidence_geometric": (9.0, 1.0, True, "correlation", (8.0, 9.5))},
+                reference=True),
+        _result("alpha", "h2_other_data", {"fd": (0.5, 0.1, False, "latent^2", (0.4, 0.6))}),
     ]
 
 
@@ -43,36 +53,48 @@ def test_ranking_respects_direction_and_ties():
     assert column_decimals([14.9, 0.034]) == 3 and column_decimals([5.0, 0.0]) == 2 and column_decimals([]) == 2
 
 
-def test_grouped_by_manifest_and_references_first():
+def test_grouped_by_manifest_references_apart_columns_in_table_1_order():
     tables = tables_by_manifest(_three())
     assert [t.manifest_hash for t in tables] == ["h1", "h2_other_data"]
-    assert [r.label for r in tables[0].rows] == ["ground-truth", "alpha", "beta", "gamma"]
+    assert [r.label for r in tables[0].rows] == ["alpha", "beta", "gamma"]
+    assert [r.label for r in tables[0].references] == ["ground-truth"]
     assert [r.label for r in tables[1].rows] == ["alpha"]
+    # lip sync before the distribution metrics, as in the paper
+    assert [(g, [c.name for c in cols]) for g, cols in tables[0].groups] == [
+        ("lip sync", ["av_confidence_geometric"]), ("distribution", ["fd"])]
 
 
-def test_markdown_bold_and_underline():
+def test_best_only_where_intervals_do_not_overlap():
     md = rendered_tables(_three())["leaderboard.md"]
     table1 = md.split("## Dataset")[1]
-    assert "| beta | **1.00 ± 0.20** | <u>6.00 ± 1.00</u> | 1 |" in table1
-    assert "| alpha | <u>2.00 ± 0.10</u> | 5.00 ± 1.00 | 1 |" in table1
-    assert "| gamma | 3.00 ± 0.30 | **7.00 ± 1.00** | 1 |" in table1
-    # the reference row is never highlighted even though it is best
-    assert "| ground-truth *(reference)* | 0.00 ± 0.00 | 9.00 ± 1.00 | 1 |" in table1
-    assert "| fd ↓ | sync ↑ |" in table1
+    distribution = table1.split("### Distribution")[1]
+    lipsync = table1.split("### Lip sync")[1].split("###")[0]
+    # FD: beta [0.8, 1.2] is clear of alpha [1.9, 2.1]: bold
+    assert "| beta | **1.00** [0.80, 1.20] | 1 |" in distribution
+    assert "| alpha | 2.00 [1.90, 2.10] | 1 |" in distribution
+    # AV confidence: gamma is best but its interval overlaps beta's: nothing bold
+    assert "**" not in lipsync
+    # the reference row is apart and never highlighted even though it is best
+    assert "| *reference rows (not ranked)* |" in distribution
+    assert "| *ground-truth* | 0.00 [0.00, 0.00] | 1 |" in distribution
+    assert "| Method | FD (latent^2) ↓ | S |" in distribution
     # a lone method on other data is not highlighted, and other data never mixes in
     table2 = md.split("## Dataset")[2]
     assert "**" not in table2 and "beta" not in table2
 
 
-def test_latex_escapes_and_highlights():
-    results = [_result("a_b & c", "h", {"lve_%": (1.0, 0.1, False, "mm")}),
-               _result("d", "h", {"lve_%": (2.0, 0.1, False, "mm")})]
+def test_latex_escapes_highlights_and_fits_the_page():
+    results = [_result("a_b & c", "h", {"lve": (1.0, 0.1, False, "mm", (0.9, 1.1))}),
+               _result("d", "h", {"lve": (2.0, 0.1, False, "mm", (1.9, 2.1))})]
     tex = rendered_tables(results)["leaderboard.tex"]
-    assert r"a\_b \& c & $\mathbf{1.00 \pm 0.10}$ & 1 \\" in tex
-    assert r"d & $\underline{2.00 \pm 0.10}$ & 1 \\" in tex
-    assert r"lve\_\% (mm) $\downarrow$" in tex
+    assert r"a\_b \& c & $\mathbf{1.00}$ {\scriptsize $[0.90, 1.10]$} & 1 \\" in tex
+    assert r"d & $2.00$ {\scriptsize $[1.90, 2.10]$} & 1 \\" in tex
+    assert r"LVE (mm) $\downarrow$" in tex and r"\resizebox{\linewidth}{!}" in tex
     tex = rendered_tables([_result("a", "h", {"fdd": (1.0, 0.1, False, "mm^2")})])["leaderboard.tex"]
-    assert r"fdd (mm$^{2}$) $\downarrow$" in tex
+    assert r"FDD (abs.) (mm$^{2}$) $\downarrow$" in tex
+    # an unregistered metric goes last, under its own name
+    tex = rendered_tables([_result("a", "h", {"lve_%": (1.0, 0.1, False, "mm")})])["leaderboard.tex"]
+    assert r"lve\_\% (mm) $\downarrow$" in tex
 
 
 def test_conflicting_metric_direction_refused():

@@ -1,6 +1,7 @@
 """The example plug-in, installed as a separate package, is found by name and scored."""
 
 import importlib.util
+import os
 import json
 import shutil
 import subprocess
@@ -67,3 +68,19 @@ def test_example_listed_by_cli_in_a_fresh_process(installed):
     assert proc.returncode == 0, proc.stderr
     assert "example-energy" in proc.stdout.split()
     assert ENTRY_POINT_GROUP == "blendvoca.methods"
+
+
+def test_example_passes_check_method_and_its_own_tests(installed):
+    from benchmark.testing import check_method
+
+    report = check_method(get_method("example-energy"))
+    assert report.name == "example-energy" and report.samples == 2
+    # the plug-in's own test suite (which uses benchmark.testing) passes in a fresh process
+    repo = Path(__file__).resolve().parents[2]
+    env = {"PYTHONPATH": f"{installed}:{repo}", "PATH": "/usr/bin:/bin"}
+    for key in ("BLENDVOCA_ASSETS", "BLENDVOCA_CACHE", "HOME"):
+        if key in os.environ:
+            env[key] = os.environ[key]
+    proc = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", str(EXAMPLE / "tests")],
+                          capture_output=True, text=True, env=env, cwd=EXAMPLE, check=False)
+    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-2000:]

@@ -23,8 +23,8 @@ def _vertex_only(generated, dataset, split="test"):
 
 
 def _run(name, built_dataset, tmp_path, **kw):
-    path = run_method(name, built_dataset, results_dir=tmp_path / "results", evaluate=_vertex_only,
-                      progress=False, **kw)
+    path = run_method(name, built_dataset, results_dir=tmp_path / "results",
+                      evaluate=kw.pop("evaluate", _vertex_only), progress=False, **kw)
     return json.loads(path.read_text())
 
 
@@ -42,3 +42,96 @@ def test_reference_rows_and_mesh_adapter_on_real_build(built_dataset, synthetic_
         # the corpus meshes are what the build fitted: the adapter must land near ground truth
         assert adapted["metrics"]["lve"]["mean"] < 0.25 * static["metrics"]["lve"]["mean"], fps
         assert adapted["metrics"]["mve"]["mean"] < 0.25 * static["metrics"]["mve"]["mean"], fps
+
+
+def _replay_class():
+    """A vertex-output method that replays the source meshes (plus ``offset`` metres on every coordinate)."""
+    import numpy as np
+
+    from benchmark.methods import Method
+
+    class CorpusReplay(Method):
+        name = "corpus-replay"
+        output = "vertices"
+
+        def __init__(self, offset=0.0):
+            super().__init__(offset=offset)
+
+        def train(self, dataset, *, seed, budget):
+            self._dataset = dataset
+
+        def generate(self, utterance, *, samples=1, seed=0):
+            frames = self._dataset.vertices(utterance.subject, utterance.sentence)
+            return (frames + self._config["offset"])[None].astype(np.float32)
+
+    return CorpusReplay
+
+
+def test_dataset_vertices_and_template_from_the_recorded_corpus(built_dataset, synthetic_corpus, tmp_path,
+                                                                monkeypatch):
+    import numpy as np
+
+    from benchmark.data import open_blendvoca
+    from blendvoca.vocaset import open_vocaset
+
+    ds = open_blendvoca(built_dataset)
+    corpus = open_vocaset(synthetic_corpus)
+    subject = ds.split("test")[0]
+    sentence = ds.sentences(subject)[0]
+    frames = ds.vertices(subject, sentence)
+    assert frames.shape == (ds.coeffs(subject, sentence).shape[0], 5023, 3) and frames.dtype == np.float64
+    np.testing.assert_array_equal(frames, corpus.frames(subject, sentence))
+    np.testing.assert_array_equal(ds.template(subject), corpus.template(subject))
+    np.testing.assert_allclose(ds.template(subject), ds.rig(subject).neutral)
+    assert ds.faces().shape[1] == 3 and ds.faces().max() == 5022
+    # an explicit corpus wins over the recorded one
+    assert open_blendvoca(built_dataset, vocaset=synthetic_corpus).corpus_root() == synthetic_corpus
+    # an unreachable corpus is a clear error naming the remedy
+    copy = tmp_path / "copy"
+    copy.mkdir()
+    for name in ("blendshape_coeffs", "splits.json"):
+        (copy / name).symlink_to(built_dataset / name)
+    manifest = json.loads((built_dataset / "manifest.json").read_text())
+    manifest.setdefault("inputs", {}).setdefault("vocaset", {})["path"] = str(tmp_path / "gone")
+    (copy / "manifest.json").write_text(json.dumps(manifest))
+    monkeypatch.delenv("BLENDVOCA_VOCASET", raising=False)
+    with pytest.raises(FileNotFoundError, match="--vocaset"):
+        open_blendvoca(copy, vocaset=tmp_path / "nowhere").vertices(subject, sentence)
+
+
+def test_vertex_output_method_is_fitted_and_scored_on_its_own_vertices(built_dataset, tmp_path):
+    import numpy as np
+
+    from benchmark.methods import register, unregister
+    from benchmark.runs import read_run
+
+    register("corpus-replay")(_replay_class())
+    try:
+        replay = _run("corpus-replay", built_dataset, tmp_path, evaluate=_vertex_and_own)
+        shifted = _run("corpus-replay", built_dataset, tmp_path / "b", evaluate=_vertex_and_own,
+                       config={"offset": 0.001})
+    finally:
+        unregister("corpus-replay")
+    assert replay["method"]["output"] == "vertices"
+    # the source meshes against themselves: only the float16 rounding of the stored offsets remains
+    assert replay["metrics"]["lve"]["mean"] < 0.02 and replay["metrics"]["mve"]["mean"] < 0.02  # mm
+    # a 1 mm shift of every vertex is a 1 mm mean vertex error
+    assert abs(shifted["metrics"]["mve"]["mean"] - np.sqrt(3.0)) < 0.05
+    # the fitted tracks are the build's ground truth (the build fitted the same meshes the same way)
+    from benchmark.data import open_blendvoca
+
+    ds = open_blendvoca(built_dataset)
+    run = read_run(tmp_path / "results" / f"{replay['tracks']}.json")
+    for subject, sentence in run.keys:
+        np.testing.assert_allclose(run.tracks(subject, sentence)[0], ds.coeffs(subject, sentence), atol=2e-6)
+        assert run.vertices(subject, sentence).shape == (1, *ds.vertices(subject, sentence).shape)
+    assert len(run.keys) == replay["dataset"]["num_sentences"]
+
+
+def _vertex_and_own(generated, dataset, split="test", vertices=None):
+    from benchmark.evaluate import own_vertex_metrics
+
+    if vertices is None:
+        return _vertex_only(generated, dataset, split)
+    rigs = {s: dataset.rig(s) for s, _ in generated}
+    return own_vertex_metrics({k: vertices[k] for k in generated}, dataset.vertices, rigs, dataset.names)

@@ -87,7 +87,10 @@ def test_misbehaving_plugin_caught_and_no_result_file(mode, error, pattern, data
 
 
 def test_bad_config_reported(dataset, tmp_path):
-    with pytest.raises(MethodError, match="construction with config"):
+    from benchmark.run import UsageError
+
+    # a config the constructor refuses is a user mistake, reported before any training
+    with pytest.raises(UsageError, match="construction with config"):
         _run("test-broken", dataset, tmp_path, config={"nope": 1})
 
 
@@ -95,21 +98,27 @@ def test_cli_reports_misbehaviour_without_traceback(dataset, tmp_path, monkeypat
     import benchmark.run as run_mod
 
     monkeypatch.setattr(run_mod, "_open_default", lambda root: dataset)
-    monkeypatch.setattr(run_mod, "_evaluate_default", fake_evaluate)
-    rc = main(["--method", "test-broken", "--data", "x", "--config", "mode=nan", "--results",
+    monkeypatch.setattr(run_mod, "_evaluate_default", lambda *a, progress=True, **kw: fake_evaluate(*a, **kw))
+    data = str(tmp_path)
+    rc = main(["--method", "test-broken", "--data", data, "--config", "mode=nan", "--results",
                str(tmp_path / "r"), "--quiet"])
     assert rc == 3
     assert "non-finite" in capsys.readouterr().err
     assert not (tmp_path / "r").exists() or not any((tmp_path / "r").iterdir())
-    rc = main(["--method", "grund-truth", "--data", "x", "--quiet"])
+    rc = main(["--method", "grund-truth", "--data", data, "--results", str(tmp_path / "r"), "--quiet"])
     assert rc == 2 and "ground-truth" in capsys.readouterr().err
-    rc = main(["--method", "test-broken", "--data", "x", "--results", str(tmp_path / "r"),
+    rc = main(["--method", "test-broken", "--data", data, "--results", str(tmp_path / "r"),
                "--samples", "2", "--seed", "5"])
     assert rc == 0
     assert "coeff_mse" in capsys.readouterr().err  # the metric summary
-    (path,) = (tmp_path / "r").iterdir()
+    (path,) = (tmp_path / "r").glob("*.json")
     result = json.loads(path.read_text())
     assert result["protocol"]["samples"] == 2 and result["protocol"]["seed"] == 5
+    # the stored tracks: one CSV per sentence and sample, in the folder the JSON names
+    tracks = sorted(p.relative_to(tmp_path / "r" / result["tracks"]).as_posix()
+                    for p in (tmp_path / "r" / result["tracks"]).rglob("*.csv"))
+    assert tracks == [f"{s}/sentence{q:02d}-{k}.csv" for s in ("D", "E") for q in (1, 2) for k in (0, 1)]
+    assert sorted(p.name for p in (tmp_path / "r").iterdir()) == [result["tracks"], path.name]
 
 
 def test_result_file_contents(dataset, tmp_path):
@@ -120,7 +129,8 @@ def test_result_file_contents(dataset, tmp_path):
     assert r["dataset"]["manifest_hash"] == dataset.manifest_hash
     assert r["dataset"]["num_sentences"] == 4 and r["dataset"]["num_subjects"] == 2
     assert r["protocol"] == {"samples": 4, "seed": 3, "budget": {"max_steps": 5, "max_seconds": None},
-                             "clip": False, "n_clipped": 0, "checkpoint": None}
+                             "clip": False, "n_clipped": 0, "checkpoint": None, "deterministic": True,
+                             "generate_time_limit": None}
     assert set(r["metrics"]) == {"coeff_mse", "sync"}
     assert r["metrics"]["coeff_mse"]["higher_is_better"] is False
     assert {"train_s", "generate_s", "evaluate_s", "total_s"} <= set(r["timings"])
@@ -194,3 +204,43 @@ def test_default_data_root_builds_once_into_the_cache(tmp_path, monkeypatch):
     assert default_data_root(progress=False) == root and len(calls) == 1  # built once
     monkeypatch.setenv("BLENDVOCA_DATA", str(tmp_path / "mine"))
     assert default_data_root() == tmp_path / "mine"
+
+
+class _Slow(Method):
+    """Ignores its budget in train / sleeps in generate, as configured."""
+
+    def __init__(self, where="generate"):
+        super().__init__(where=where)
+
+    def train(self, dataset, *, seed, budget):
+        if self._config["where"] == "train":
+            import time
+
+            end = time.perf_counter() + 30
+            while time.perf_counter() < end:  # never looks at the budget
+                time.sleep(0.01)
+
+    def generate(self, utterance, *, samples=1, seed=0):
+        if self._config["where"] == "generate":
+            import time
+
+            time.sleep(30)
+        return np.full((samples, utterance.num_frames, 32), 0.5)
+
+
+def test_runner_enforces_generate_time_limit_and_training_budget(dataset, tmp_path, monkeypatch):
+    import benchmark.run as run_mod
+    from benchmark.run import MethodTimeout
+
+    register("test-slow")(_Slow)
+    try:
+        with pytest.raises(MethodTimeout, match="sentence 'sentence01'.*limit of 0.3 s"):
+            _run("test-slow", dataset, tmp_path, generate_time_limit=0.3)
+        monkeypatch.setattr(run_mod, "TRAIN_GRACE_S", 0.2)
+        with pytest.raises(MethodTimeout, match="train"):
+            _run("test-slow", dataset, tmp_path, config={"where": "train"}, budget=Budget(max_seconds=0.1))
+        # a time budget is recorded as non-deterministic
+        path = _run("test-slow", dataset, tmp_path, config={"where": "nowhere"}, budget=Budget(max_seconds=5))
+        assert json.loads(path.read_text())["protocol"]["deterministic"] is False
+    finally:
+        unregister("test-slow")

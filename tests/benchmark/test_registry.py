@@ -1,0 +1,52 @@
+"""The metric registry is the one source of metric metadata: evaluate's entries and docs/metrics.md follow it."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from benchmark.evaluate import metric_entry
+from benchmark.metrics.bootstrap import bootstrap_indices, mean_ci, statistic_ci
+from benchmark.metrics.registry import GROUPS, METRICS, markdown_table, metric_info, ordered_metrics
+
+DOCS = Path(__file__).resolve().parents[2] / "docs" / "metrics.md"
+
+
+def test_docs_table_is_the_registry():
+    assert markdown_table() in DOCS.read_text(), "docs/metrics.md's metric table differs from the registry; " \
+        "paste benchmark.metrics.registry.markdown_table() into it"
+
+
+def test_order_follows_the_papers_table_1():
+    order = ordered_metrics(["wind", "lve", "fd", "multimodality", "av_confidence_syncnet", "av_offset_syncnet",
+                             "apd", "custom"])
+    assert order == ["av_offset_syncnet", "av_confidence_syncnet", "multimodality", "fd", "wind", "lve", "apd",
+                     "custom"]
+    assert [METRICS[n].group for n in ordered_metrics(list(METRICS))] == sorted(
+        (METRICS[n].group for n in METRICS), key=GROUPS.index)
+    with pytest.raises(KeyError, match="registered"):
+        metric_info("nope")
+
+
+def test_entries_carry_registry_metadata():
+    entry = metric_entry("lve", 1.5, 0.2, ci95=[1.2, 1.8], n=40)
+    assert entry == {"mean": 1.5, "std": 0.2, "ci95": [1.2, 1.8], "n": 40, "higher_is_better": False, "unit": "mm",
+                     "label": "LVE", "group": "vertex"}
+
+
+def test_bootstrap_is_seeded_brackets_the_mean_and_covers_at_the_nominal_rate():
+    rng = np.random.default_rng(0)
+    values = rng.normal(size=40)
+    assert mean_ci(values, seed=3) == mean_ci(values, seed=3)
+    assert mean_ci(values, seed=3) != mean_ci(values, seed=4)
+    lo, hi = mean_ci(values)
+    assert lo <= values.mean() <= hi
+    assert mean_ci([2.0]) == [2.0, 2.0]
+    # coverage of the true mean (0) by the percentile interval, over independent test sets
+    hits = [lo <= 0 <= hi for lo, hi in (mean_ci(rng.normal(size=40), resamples=400, seed=i) for i in range(300))]
+    assert 0.88 <= np.mean(hits) <= 0.99
+    # a statistic's interval contains the point estimate even when resampling biases it
+    idx = bootstrap_indices(10, 5, seed=1)
+    assert idx.shape == (5, 10) and idx.min() >= 0 and idx.max() < 10
+    distinct = statistic_ci(lambda rows: len(set(rows.tolist())), 10, 10.0, resamples=200)
+    assert distinct[1] == 10.0 and distinct[0] < 10.0
