@@ -12,7 +12,10 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["LIP_PAIR_LANDMARKS", "closure_mask", "flame_lip_pair", "lip_distance"]
+__all__ = ["FLAME_NUM_VERTICES", "LIP_PAIR_LANDMARKS", "closure_mask", "flame_lip_pair", "lip_distance", "lip_pair_for"]
+
+#: Vertex count of the FLAME topology (VOCASET, BlendVOCA).
+FLAME_NUM_VERTICES = 5023
 
 #: Inner upper-lip and lower-lip midpoints in the 68-point landmark scheme.
 LIP_PAIR_LANDMARKS = (62, 66)
@@ -24,6 +27,36 @@ def flame_lip_pair() -> tuple[int, int]:
 
     landmarks = load_index_list("flame-landmarks")
     return int(landmarks[LIP_PAIR_LANDMARKS[0]]), int(landmarks[LIP_PAIR_LANDMARKS[1]])
+
+
+def lip_pair_for(template, lip_vertices) -> tuple[int, int]:
+    """The upper/lower lip vertex pair of a topology.
+
+    FLAME (5023 vertices): :func:`flame_lip_pair`. Any other mesh: among the lip
+    vertices near the mid-sagittal plane (within a tenth of the lips' width of
+    their median x), the highest and the lowest (+y up).
+
+    Parameters
+    ----------
+    template : (V, 3) array_like
+    lip_vertices : (L,) int array_like
+
+    Returns
+    -------
+    (int, int)
+    """
+    template = np.asarray(template, dtype=np.float64)
+    if template.shape[0] == FLAME_NUM_VERTICES:
+        return flame_lip_pair()
+    lips = np.asarray(lip_vertices, dtype=np.int64)
+    if lips.size < 2:
+        raise ValueError(f"lip_pair_for: expected at least 2 lip vertices, got {lips.size}")
+    x = template[lips, 0]
+    near = lips[np.abs(x - np.median(x)) <= 0.1 * max(np.ptp(x), 1e-12)]
+    if near.size < 2:
+        near = lips
+    y = template[near, 1]
+    return int(near[np.argmax(y)]), int(near[np.argmin(y)])
 
 
 def lip_distance(vertices, pair) -> np.ndarray:

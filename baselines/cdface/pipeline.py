@@ -173,7 +173,7 @@ class CDFace:
             "config": self.config,
             "parts": {"lips": self.parts.lips, "upper": self.parts.upper, "num_vertices": self.parts.num_vertices},
             "styles": self.styles,
-            "templates": {k: v.astype(np.float32) for k, v in self.templates.items()},
+            "templates": dict(self.templates),
             "state_dict": self.model.state_dict(),
         }
         with atomic_write(Path(path), "wb") as fh:
@@ -189,4 +189,6 @@ class CDFace:
         parts = FaceParts(**payload["parts"])
         obj = cls(payload["config"], parts, payload["styles"], payload["templates"])
         obj.model.load_state_dict(payload["state_dict"])
+        obj.model.eval()
+        obj.model.requires_grad_(False)
         return obj

@@ -16,13 +16,10 @@ from benchmark.methods.contract import OUTPUT_VERTICES
 CHECKPOINT_FILE = "cdface.pt"
 
 
-def dataset_parts(dataset, subjects, active=None):
-    """Face parts from the mean template of ``subjects``, every rig's lip vertices in the lip part,
-    only the ``active`` vertices modelled (default all)."""
-    from baselines.cdface.parts import face_parts
+def dataset_lips(dataset, subjects):
+    """Union of every rig's :func:`benchmark.metrics.regions.lip_vertices` (None without rigs)."""
     from benchmark.metrics.regions import lip_vertices
 
-    templates = np.stack([dataset.template(s) for s in subjects])
     lips = []
     for s in subjects:
         try:
@@ -30,7 +27,16 @@ def dataset_parts(dataset, subjects, active=None):
         except (FileNotFoundError, KeyError, ValueError):
             continue
         lips.append(lip_vertices(np.asarray(rig.deltas), list(rig.names)))
-    return face_parts(templates.mean(axis=0), np.unique(np.concatenate(lips)) if lips else None, active)
+    return np.unique(np.concatenate(lips)) if lips else None
+
+
+def dataset_parts(dataset, subjects, active=None):
+    """Face parts from the mean template of ``subjects``, every rig's lip vertices in the lip part,
+    only the ``active`` vertices modelled (default all)."""
+    from baselines.cdface.parts import face_parts
+
+    templates = np.stack([dataset.template(s) for s in subjects])
+    return face_parts(templates.mean(axis=0), dataset_lips(dataset, subjects), active)
 
 
 class CDFaceMethod(Method):
@@ -76,7 +82,7 @@ class CDFaceMethod(Method):
 
     def train(self, dataset, *, seed: int, budget: Budget) -> None:
         """Train the two part priors and the querying model on the train split within ``budget``."""
-        from baselines.cdface.closure import flame_lip_pair
+        from baselines.cdface.closure import lip_pair_for
         from baselines.cdface.pipeline import CDFace
         from baselines.cdface.train import load_sentences, moving_vertices, prepare_sentences, train_cdface
 
@@ -89,7 +95,7 @@ class CDFaceMethod(Method):
         parts = dataset_parts(dataset, everyone, active)
         self.cdface = CDFace(self.resolved, parts, train, {s: dataset.template(s) for s in everyone})
         sentences = prepare_sentences(self.cdface, loaded, epsilon=self.resolved["loss"]["epsilon"],
-                                      lip_pair=flame_lip_pair())
+                                      lip_pair=lip_pair_for(dataset.template(train[0]), dataset_lips(dataset, train)))
         del loaded
         train_cdface(self.cdface, sentences, seed=seed, max_steps=budget.max_steps, max_seconds=budget.max_seconds)
 

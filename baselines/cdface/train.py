@@ -197,6 +197,7 @@ def train_cdface(cdface, sentences, *, seed: int = 0, max_steps=None, max_second
     rng = np.random.default_rng(int(seed))
     torch.manual_seed(int(seed))
     model = cdface.model
+    model.requires_grad_(True)
     history = {}
     with torch_threads(training["num_threads"]):
         for key, vq, part in (("lip_vq", model.lip_vq, "lips"), ("upper_vq", model.upper_vq, "upper")):
@@ -227,4 +228,5 @@ def train_cdface(cdface, sentences, *, seed: int = 0, max_steps=None, max_second
         sampler = WindowSampler(sentences, training["window"], training["batch_size"], rng)
         history["query"] = _run_stage("query", model.query_parameters(), query_loss, sampler, *limits[2], training, progress)
         model.eval()
+        model.requires_grad_(False)  # trained: inference only, as after CDFace.load
     return history
