@@ -96,7 +96,8 @@ class CDFaceModel(nn.Module):
         for module in (self.audio, self.style, self.lip_query, self.upper_query):
             yield from module.parameters()
 
-    def teacher_forced(self, lips, upper, features, style, *, offset=None, first_lips=None, first_upper=None) -> dict:
+    def teacher_forced(self, lips, upper, features, style, *, offset=None, first_lips=None, first_upper=None,
+                       past_dropout: float = 0.0) -> dict:
         """All samples of every frame of a batch, past motion from the ground truth.
 
         Parameters
@@ -110,6 +111,10 @@ class CDFaceModel(nn.Module):
             Sentence frame index of each window's first frame.
         first_lips, first_upper : (B, 3 V) Tensor, optional
             Ground truth of the frame before each window (zeros: none).
+        past_dropout : float
+            Probability of zeroing a frame's past motion (training only): the
+            model cannot lean on the ground-truth past alone and must read the
+            audio, which keeps its own auto-regressive rollout from stalling.
 
         Returns
         -------
@@ -122,20 +127,23 @@ class CDFaceModel(nn.Module):
         offset = torch.zeros(b, dtype=torch.int64) if offset is None else offset
         memory = self.audio(features)
         st = self.style(style)
-        z_l = self.lip_query(shift_right(lips, first_lips), memory, st, offset=offset)  # (N^l, B, W, C)
+        keep = torch.ones(b, w, 1)
+        if past_dropout > 0:
+            keep = (torch.rand(b, w, 1) >= past_dropout).to(lips.dtype)
+        z_l = self.lip_query(shift_right(lips, first_lips) * keep, memory, st, offset=offset)  # (N^l, B, W, C)
         q_l, _, _ = self.lip_vq.quantized(z_l)
         x_l = self.lip_vq.decode(q_l.flatten(0, 1), offset=offset.repeat(nl)).view(nl, b, w, -1)
         if self.upper_context == "predicted":
             # each upper-face group reads the past of the lip sample it pairs with (Eq. 8)
             first = None if first_lips is None else first_lips.repeat(nl, 1)
-            context = shift_right(x_l.detach().flatten(0, 1), first)
+            context = shift_right(x_l.detach().flatten(0, 1), first) * keep.repeat(nl, 1, 1)
             groups = nl
         else:
             # teacher forcing of the lip context too: every group reads the ground-truth
             # lips, so the N^l groups are equal and one is computed
-            context = shift_right(lips, first_lips)
+            context = shift_right(lips, first_lips) * keep
             groups = 1
-        past_u = shift_right(upper, first_upper).repeat(groups, 1, 1)
+        past_u = (shift_right(upper, first_upper) * keep).repeat(groups, 1, 1)
         z_u = self.upper_query(past_u, memory.repeat(groups, 1, 1), st.repeat(groups, 1), context=context,
                                offset=offset.repeat(groups))  # (N^u, groups B, W, C)
         z_u = z_u.view(nu, groups, b, w, -1).transpose(0, 1)

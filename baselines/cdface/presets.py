@@ -2,7 +2,7 @@
 
 ``cpu-demo`` (default) trains in a few minutes on 2 CPU cores: log-mel audio
 features (no pretrained weights), small transformers, motion in millimetres,
-windows of 48 frames, each stage bounded in seconds. ``paper`` follows the
+windows of 48 frames, each stage bounded in seconds (120 + 120 + 360). ``paper`` follows the
 paper where it says (wav2vec 2.0 audio encoder, N^l = 5 lip samples, the VOCASET
 loss weights and epsilon, 200 VQ epochs and 50 querying epochs, AdamW, motion in
 metres) and CodeTalker's VOCASET sizes where it does not (the paper builds its
@@ -43,11 +43,14 @@ PRESETS: dict[str, dict[str, dict]] = {
             "epsilon": 0.0035,
         },
         "training": {
-            "window": 48, "batch_size": 2, "lr": 1e-3, "weight_decay": 1e-2, "grad_clip": 1.0,
+            "window": 48, "batch_size": 2, "vq_batch_size": 8, "lr": 1e-3, "weight_decay": 1e-2, "grad_clip": 1.0,
             "vq_epochs": None, "query_epochs": None,
             "vq_max_steps": 4000, "query_max_steps": 4000,
             # seconds per stage: lip prior, upper-face prior, code querying
-            "vq_max_seconds": 60.0, "query_max_seconds": 480.0,
+            "vq_max_seconds": 120.0, "query_max_seconds": 360.0,
+            # zero a frame's ground-truth past with this probability: without it the
+            # short run learns to copy the past and its own rollout stalls
+            "past_dropout": 0.5,
             "num_threads": 1,
         },
     },
@@ -68,10 +71,11 @@ PRESETS: dict[str, dict[str, dict]] = {
             "lambda_rg": 1.0, "epsilon": 0.005,
         },
         "training": {
-            "window": None, "batch_size": 1, "lr": 1e-4, "weight_decay": 1e-2, "grad_clip": None,
+            "window": None, "batch_size": 1, "vq_batch_size": 1, "lr": 1e-4, "weight_decay": 1e-2, "grad_clip": None,
             "vq_epochs": 200, "query_epochs": 50,
             "vq_max_steps": None, "query_max_steps": None,
             "vq_max_seconds": None, "query_max_seconds": None,
+            "past_dropout": 0.0,
             "num_threads": None,
         },
     },

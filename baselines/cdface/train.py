@@ -26,7 +26,7 @@ __all__ = ["SentenceData", "WindowSampler", "load_sentences", "moving_vertices",
            "train_cdface"]
 
 #: Share of a total time budget given to the lip prior, the upper-face prior and the querying model.
-STAGE_SHARES = (0.1, 0.1, 0.8)
+STAGE_SHARES = (0.2, 0.2, 0.6)
 
 
 @dataclass
@@ -202,7 +202,7 @@ def train_cdface(cdface, sentences, *, seed: int = 0, max_steps=None, max_second
     with torch_threads(training["num_threads"]):
         for key, vq, part in (("lip_vq", model.lip_vq, "lips"), ("upper_vq", model.upper_vq, "upper")):
             vq.train()
-            sampler = WindowSampler(sentences, training["window"], training["batch_size"], rng)
+            sampler = WindowSampler(sentences, training["window"], training["vq_batch_size"], rng)
             steps, seconds = limits[0 if key == "lip_vq" else 1]
             history[key] = _run_stage(key, vq.parameters(), lambda b, vq=vq, part=part: vq_loss(vq, b[part], b["offset"]),
                                       sampler, steps, seconds, training, progress)
@@ -214,7 +214,8 @@ def train_cdface(cdface, sentences, *, seed: int = 0, max_steps=None, max_second
 
         def query_loss(b):
             out = model.teacher_forced(b["lips"], b["upper"], b["features"], b["style"], offset=b["offset"],
-                                       first_lips=b["first_lips"], first_upper=b["first_upper"])
+                                       first_lips=b["first_lips"], first_upper=b["first_upper"],
+                                       past_dropout=training["past_dropout"])
             lip = lip_losses(out["lips"], b["lips"], b["mask"], out["lip_codes"], out["lip_quantized"],
                              lambda_d=loss_cfg["lambda_d_lips"], lambda_rc=loss_cfg["lambda_rc_lips"],
                              lambda_rg=loss_cfg["lambda_rg"])

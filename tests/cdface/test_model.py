@@ -150,3 +150,14 @@ def test_face_parts_keep_the_lips_in_the_lip_part():
     assert np.all(back[:, ~active] == 0)
     with pytest.raises(ValueError, match="disjoint"):
         FaceParts(lips=[0, 1], upper=[1, 2], num_vertices=3)
+
+
+def test_past_dropout_one_ignores_the_past():
+    m = _tiny_model()
+    lips, upper, feats, style = torch.randn(1, 10, 12), torch.randn(1, 10, 9), torch.randn(1, 10, 8), torch.tensor([0])
+    with torch.no_grad():
+        a = m.teacher_forced(lips, upper, feats, style, past_dropout=1.0)
+        b = m.teacher_forced(lips + 1.0, upper - 1.0, feats, style, past_dropout=1.0)
+        c = m.teacher_forced(lips + 1.0, upper - 1.0, feats, style)
+    assert torch.equal(a["lip_codes"], b["lip_codes"]) and torch.equal(a["upper_codes"], b["upper_codes"])
+    assert not torch.equal(a["lip_codes"], c["lip_codes"])
