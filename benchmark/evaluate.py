@@ -230,7 +230,7 @@ def latent_metrics(ground_truth: Mapping[Hashable, np.ndarray], generated: Mappi
     return out
 
 
-def sentence_vertex_values(preds, gt_v, neutral, lip, upper, lower) -> dict:
+def sentence_vertex_values(preds, gt_v, neutral, lip, upper) -> dict:
     """LVE, LVE², MVE, |FDD| per sample and, for S >= 2, the diversity measures of one sentence.
 
     Parameters
@@ -238,8 +238,8 @@ def sentence_vertex_values(preds, gt_v, neutral, lip, upper, lower) -> dict:
     preds : (S, T, V, 3) ndarray
     gt_v : (T, V, 3) ndarray
     neutral : (V, 3) ndarray
-    lip, upper, lower : int ndarrays
-        Lip, upper-face and lower-face vertex indices.
+    lip, upper : int ndarrays
+        Lip and upper-face vertex indices.
 
     Returns
     -------
@@ -259,8 +259,7 @@ def sentence_vertex_values(preds, gt_v, neutral, lip, upper, lower) -> dict:
         out["fdd"].append(abs(vertex.upper_face_dynamics_deviation(p, gt_v, neutral, upper)))
     out = {k: np.asarray(v, dtype=np.float64) for k, v in out.items()}
     if len(preds) >= 2:
-        div = vertex.pairwise_distance_by_region(preds, {"apd": None, "upd": upper, "lpd": lower, "mpd": lip})
-        out.update({name: float(value) for name, value in div.items()})
+        out.update(vertex.diversity_metrics(preds, upper, lip))
     return out
 
 
@@ -279,8 +278,7 @@ def _rig_regions(rig, names):
 
     neutral = np.asarray(rig.neutral, dtype=np.float64)
     deltas = _rig_deltas(rig, names)
-    return (neutral, deltas, regions.lip_vertices(deltas, names), regions.upper_face_vertices(neutral),
-            regions.lower_face_vertices(neutral))
+    return neutral, deltas, regions.lip_vertices(deltas, names), regions.upper_face_vertices(neutral)
 
 
 def _by_metric(per_key: dict) -> dict:
@@ -302,10 +300,10 @@ def _vertex_values(ground_truth, generated, rigs, names, progress=False) -> dict
                                                 disable=not progress):
             if subject not in cache:
                 cache[subject] = _rig_regions(rigs[subject], names)
-            neutral, deltas, lip, upper, lower = cache[subject]
+            neutral, deltas, lip, upper = cache[subject]
             gt_v = vertex.rig_vertices(neutral, deltas, ground_truth[(subject, sentence)])
             preds = np.stack([vertex.rig_vertices(neutral, deltas, t) for t in tracks])
-            per_key[(subject, sentence)] = sentence_vertex_values(preds, gt_v, neutral, lip, upper, lower)
+            per_key[(subject, sentence)] = sentence_vertex_values(preds, gt_v, neutral, lip, upper)
     return _by_metric(per_key)
 
 
@@ -318,14 +316,14 @@ def _own_vertex_values(generated_vertices, ground_truth_vertices, rigs, names, p
                                       unit="sentence"):
             if subject not in cache:
                 cache[subject] = _rig_regions(rigs[subject], names)
-            neutral, _deltas, lip, upper, lower = cache[subject]
+            neutral, _deltas, lip, upper = cache[subject]
             preds = np.asarray(generated_vertices[(subject, sentence)], dtype=np.float64)
             gt_v = np.asarray(ground_truth_vertices(subject, sentence), dtype=np.float64)
             if preds.shape[1:] != gt_v.shape or gt_v.shape[1:] != neutral.shape:
                 raise ValueError(f"own_vertex_metrics {subject}/{sentence}: expected vertices (S, {gt_v.shape[0]}, "
                                  f"{neutral.shape[0]}, 3) like the source meshes {gt_v.shape} and the rig "
                                  f"{neutral.shape}, got {preds.shape}")
-            per_key[(subject, sentence)] = sentence_vertex_values(preds, gt_v, neutral, lip, upper, lower)
+            per_key[(subject, sentence)] = sentence_vertex_values(preds, gt_v, neutral, lip, upper)
     return _by_metric(per_key)
 
 
@@ -380,7 +378,7 @@ def _lipsync_values(generated, rigs, audio, names, *, syncnet=None, sync_expert=
         subject = key[0]
         if subject not in cache:
             cache[subject] = _rig_regions(rigs[subject], names)
-        neutral, deltas, lip, _upper, _lower = cache[subject]
+        neutral, deltas, lip, _upper = cache[subject]
         samples, rate = audio[key]
         geo = []
         for s, track in enumerate(tracks):

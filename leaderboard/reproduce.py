@@ -39,6 +39,9 @@ class PlanEntry:
     note: str = ""
 
 
+#: CDFace's cpu-demo stages stop at a step count only (no time limits: deterministic).
+CDFACE_STEPS_ONLY = {"preset": "cpu-demo", "vq_max_seconds": None, "query_max_seconds": None}
+
 #: The rows, in scoring order (cheap references first).
 PLAN = (
     PlanEntry("ground-truth", note="upper reference: the build's own tracks"),
@@ -55,6 +58,10 @@ PLAN = (
     PlanEntry("codetalker", config={"preset": "cpu-demo"}, samples=8, max_steps=2000,
               note="CodeTalker cpu-demo (VQ-VAE 64 = 4 x 16, 128 codes), 800 + 1200 steps (stage 1 + 2), "
                    "8 samples = 8 training-speaker styles"),
+    PlanEntry("cdface", config=CDFACE_STEPS_ONLY, samples=5, max_steps=1500,
+              note="CDFace cpu-demo preset, 1500 steps per stage, 5 samples (the paper's S)"),
+    PlanEntry("cdface", config={**CDFACE_STEPS_ONLY, "control": "lips"}, samples=5, max_steps=1500,
+              note="CDFace lips fixed, upper face varied (the paper's Table III setting)"),
 )
 
 
@@ -122,7 +129,8 @@ def reproduce(work, results_dir, tables_dir, *, only=None, force: bool = False, 
                 exported_corpus_meshes(work / "synth", meshes, fps=60, progress=progress)
             name, config = "mesh-adapter", {"config": str(meshes / "adapter.yaml")}
         cls = get_method(name)
-        label = cls(**config).label if name == "mesh-adapter" else (getattr(cls, "label", None) or name)
+        # the label may depend on the config (mesh-adapter's source, cdface's control)
+        label = getattr(cls(**config), "label", None) or name
         samples = entry.samples if cls.stochastic else 1
         expected = results_dir / result_filename({"method": {"name": name, "label": label},
                                                   "dataset": {"manifest_hash": dataset.manifest_hash},

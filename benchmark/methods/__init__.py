@@ -62,6 +62,7 @@ BUILTIN_METHODS = {
     "said": "baselines.said.plugin:SAiDMethod",
     "faceformer": "baselines.faceformer.plugin:FaceFormerMethod",
     "codetalker": "baselines.codetalker.plugin:CodeTalkerMethod",
+    "cdface": "baselines.cdface.plugin:CDFaceMethod",
 }
 
 for _name, _target in BUILTIN_METHODS.items():

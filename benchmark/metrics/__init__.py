@@ -11,20 +11,23 @@ from benchmark.metrics.multimodality import multimodality, paired_samples
 from benchmark.metrics.regions import lip_vertices, lower_face_vertices, nose_tip_index, upper_face_vertices
 from benchmark.metrics.vertex import (
     average_pairwise_distance,
+    diversity_metrics,
     lip_vertex_error,
     mean_vertex_error,
     motion_dynamics,
-    pairwise_distance_by_region,
+    minimum_pairwise_distance,
+    pairwise_distances,
     rig_vertices,
+    sequence_distance,
     upper_face_dynamics_deviation,
 )
 from benchmark.metrics.wind import gmm_components, transport_cost, wind, wind_from_gmms, wind_scores
 from benchmark.metrics.windows import Windows, cut_windows, slice_windows, window_starts
 
 __all__ = [
-    "Windows", "average_pairwise_distance", "cut_windows", "feature_statistics", "frechet_distance",
+    "Windows", "average_pairwise_distance", "cut_windows", "diversity_metrics", "feature_statistics", "frechet_distance",
     "frechet_distance_from_stats", "gmm_components", "lip_vertex_error", "lip_vertices",
-    "lower_face_vertices", "mean_vertex_error", "motion_dynamics", "multimodality", "nose_tip_index",
-    "paired_samples", "pairwise_distance_by_region", "rig_vertices", "slice_windows", "transport_cost", "upper_face_dynamics_deviation",
+    "lower_face_vertices", "mean_vertex_error", "minimum_pairwise_distance", "motion_dynamics", "multimodality", "nose_tip_index",
+    "paired_samples", "pairwise_distances", "rig_vertices", "sequence_distance", "slice_windows", "transport_cost", "upper_face_dynamics_deviation",
     "upper_face_vertices", "wind", "wind_from_gmms", "wind_scores", "window_starts",
 ]

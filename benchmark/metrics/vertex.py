@@ -119,51 +119,134 @@ def upper_face_dynamics_deviation(pred, gt, neutral, upper_idx) -> float:
     return motion_dynamics(gt, neutral, upper_idx) - motion_dynamics(pred, neutral, upper_idx)
 
 
-def pairwise_distance_by_region(samples, regions: dict) -> dict:
-    """Average pairwise distance of S samples over several vertex subsets at once.
-
-    Parameters
-    ----------
-    samples : (S, T, V, 3) array_like, metres, S >= 2
-    regions : dict name -> (N,) int indices, or None for all vertices
-
-    Returns
-    -------
-    dict name -> float (mm), each as :func:`average_pairwise_distance`.
-    """
+def _check_samples(samples, where: str) -> np.ndarray:
     samples = np.asarray(samples, dtype=np.float64)
-    if samples.ndim != 4 or samples.shape[3] != 3 or samples.shape[0] < 2:
-        raise ValueError(f"pairwise_distance_by_region: expected samples (S >= 2, T, V, 3), got {samples.shape}")
-    sums = {name: 0.0 for name in regions}
-    pairs = list(combinations(range(samples.shape[0]), 2))
-    for i, j in pairs:
-        per_vertex = np.sqrt(_sq_norm(samples[i] - samples[j])).mean(axis=0) * MM  # (V,)
-        for name, idx in regions.items():
-            sums[name] += float(per_vertex.mean() if idx is None else per_vertex[np.asarray(idx, dtype=np.int64)].mean())
-    return {name: total / len(pairs) for name, total in sums.items()}
+    if samples.ndim != 4 or samples.shape[3] != 3 or samples.shape[0] < 2 or samples.shape[1] < 1:
+        raise ValueError(f"{where}: expected samples (S >= 2, T >= 1, V, 3) in metres, got {samples.shape}")
+    return samples
 
 
-def average_pairwise_distance(samples, idx=None) -> float:
-    """Diversity of S samples of one sequence (mm).
+def sequence_distance(a, b, idx=None) -> float:
+    """Length-normalised distance between two mesh sequences (mm).
 
-    Mean over unordered sample pairs of the mean (over frames and vertices of
-    ``idx``) L2 distance between the two samples. With ``idx`` = all vertices this
-    is APD; upper-face, lower-face and lip vertices give UPD, LPD and MPD.
+    ``||A - B||_F / sqrt(T N)``: the root mean square, over the T frames and the
+    N vertices of ``idx``, of the per-vertex Euclidean distance. The paper's
+    unnormalised norm ``||A - B||`` (Frobenius over all T x N x 3 entries) is this
+    value times ``sqrt(T N)``.
 
     Parameters
     ----------
-    samples : (S, T, V, 3) array_like, metres, S >= 2
+    a, b : (T, V, 3) array_like, metres
     idx : (N,) int array_like, optional
+        Vertex subset (default all V).
 
     Returns
     -------
     float, mm
     """
+    a = np.asarray(a, dtype=np.float64)
+    b = np.asarray(b, dtype=np.float64)
+    if a.ndim != 3 or a.shape[2] != 3 or a.shape != b.shape or a.shape[0] < 1:
+        raise ValueError(f"sequence_distance: expected two (T >= 1, V, 3) sequences of one shape, got {a.shape} and {b.shape}")
+    return float(pairwise_distances(np.stack([a, b]), idx)[0, 1])
+
+
+def pairwise_distances(samples, idx=None) -> np.ndarray:
+    """Distances between every two of S samples of one sequence (mm).
+
+    Entry ``(i, j)`` is :func:`sequence_distance` of samples i and j:
+    ``||X_i - X_j||_F / sqrt(T N)`` over the vertices of ``idx``.
+
+    Parameters
+    ----------
+    samples : (S, T, V, 3) array_like, metres
+    idx : (N,) int array_like, optional
+        Vertex subset (default all V).
+
+    Returns
+    -------
+    (S, S) float64 ndarray, mm, symmetric with a zero diagonal.
+    """
     samples = np.asarray(samples, dtype=np.float64)
-    if samples.ndim != 4 or samples.shape[3] != 3 or samples.shape[0] < 2:
-        raise ValueError(f"average_pairwise_distance: expected samples (S >= 2, T, V, 3), got {samples.shape}")
+    if samples.ndim != 4 or samples.shape[3] != 3 or samples.shape[1] < 1:
+        raise ValueError(f"pairwise_distances: expected samples (S, T >= 1, V, 3) in metres, got {samples.shape}")
     if idx is not None:
-        samples = samples[:, :, np.asarray(idx, dtype=np.int64)]
-    dists = [np.sqrt(_sq_norm(samples[i] - samples[j])).mean() * MM
-             for i, j in combinations(range(samples.shape[0]), 2)]
-    return float(np.mean(dists))
+        idx = np.asarray(idx, dtype=np.int64)
+        if idx.ndim != 1 or idx.size == 0 or idx.min() < 0 or idx.max() >= samples.shape[2]:
+            raise ValueError(f"pairwise_distances: expected a non-empty vertex index list in [0, {samples.shape[2]}), "
+                             f"got {idx.size} indices" + (f" in [{idx.min()}, {idx.max()}]" if idx.size else ""))
+        samples = samples[:, :, idx]
+    s, t, n, _ = samples.shape
+    out = np.zeros((s, s))
+    for i, j in combinations(range(s), 2):
+        diff = samples[i] - samples[j]
+        out[i, j] = out[j, i] = np.sqrt(np.einsum("tvc,tvc->", diff, diff) / (t * n)) * MM
+    return out
+
+
+def average_pairwise_distance(samples, idx=None) -> float:
+    """APD of S samples of one sequence (Eq. 18 of CDFace), mm.
+
+    ``1 / (S (S - 1)) sum_i sum_{j != i} d(X_i, X_j)`` = the mean over the
+    S (S - 1) / 2 unordered pairs, with ``d`` the length-normalised distance of
+    :func:`sequence_distance`. On the upper-face vertices it is UPD, on the lip
+    vertices LPD (``benchmark.metrics.regions``).
+
+    Parameters
+    ----------
+    samples : (S, T, V, 3) array_like, metres, S >= 2
+    idx : (N,) int array_like, optional
+        Vertex subset (default all V).
+
+    Returns
+    -------
+    float, mm
+    """
+    dists = pairwise_distances(_check_samples(samples, "average_pairwise_distance"), idx)
+    return float(dists[np.triu_indices(len(dists), 1)].mean())
+
+
+def minimum_pairwise_distance(samples, idx=None) -> float:
+    """MPD of S samples of one sequence (Eq. 19 of CDFace), mm.
+
+    ``min_{i != j} d(X_i, X_j)``: the distance of the two most similar samples
+    (lower means two samples nearly repeat each other), with ``d`` as in
+    :func:`sequence_distance`.
+
+    Parameters
+    ----------
+    samples : (S, T, V, 3) array_like, metres, S >= 2
+    idx : (N,) int array_like, optional
+        Vertex subset (default all V).
+
+    Returns
+    -------
+    float, mm
+    """
+    dists = pairwise_distances(_check_samples(samples, "minimum_pairwise_distance"), idx)
+    return float(dists[np.triu_indices(len(dists), 1)].min())
+
+
+def diversity_metrics(samples, upper_idx, lip_idx) -> dict:
+    """APD, UPD, LPD and MPD of S samples of one sequence at once (mm).
+
+    Parameters
+    ----------
+    samples : (S, T, V, 3) array_like, metres, S >= 2
+    upper_idx, lip_idx : (N,) int array_like
+        Upper-face and lip vertices.
+
+    Returns
+    -------
+    dict with ``apd`` (all vertices), ``upd`` (upper face), ``lpd`` (lips) and
+    ``mpd`` (minimum pairwise distance over all vertices), each a float in mm.
+    """
+    samples = _check_samples(samples, "diversity_metrics")
+    upper = np.triu_indices(samples.shape[0], 1)
+    full = pairwise_distances(samples)[upper]
+    return {
+        "apd": float(full.mean()),
+        "upd": float(pairwise_distances(samples, upper_idx)[upper].mean()),
+        "lpd": float(pairwise_distances(samples, lip_idx)[upper].mean()),
+        "mpd": float(full.min()),
+    }

@@ -49,8 +49,10 @@ def test_worse_method_scores_worse_and_samples_give_diversity(dataset, vae):
     assert res["multimodality"]["mean"] > 0 and res["multimodality"]["higher_is_better"]
     for name in ("apd", "upd", "lpd", "mpd"):
         assert res[name]["mean"] > 0
-    # diversity is larger where the rig moves more: lips vs upper face
-    assert res["mpd"]["mean"] > res["upd"]["mean"]
+    # diversity is larger where the rig moves more: lips vs upper face; the
+    # closest pair is no farther apart than the average pair
+    assert res["lpd"]["mean"] > res["upd"]["mean"]
+    assert res["mpd"]["mean"] <= res["apd"]["mean"]
 
 
 def test_any_extractor_and_bad_input(dataset):

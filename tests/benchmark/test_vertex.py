@@ -3,10 +3,14 @@ import pytest
 
 from benchmark.metrics import (
     average_pairwise_distance,
+    diversity_metrics,
     lip_vertex_error,
     mean_vertex_error,
+    minimum_pairwise_distance,
     motion_dynamics,
+    pairwise_distances,
     rig_vertices,
+    sequence_distance,
     upper_face_dynamics_deviation,
 )
 
@@ -49,27 +53,74 @@ def test_fdd_closed_form():
     assert upper_face_dynamics_deviation(gt, gt, neutral, [0, 1]) == 0.0
 
 
-def test_pairwise_distance():
-    base = np.zeros((1, 4, 2, 3))
-    samples = np.concatenate([base, base + [0.001, 0, 0], base + [0.003, 0, 0]])
-    # pairs: 1, 3, 2 mm
+def _offset_samples(offsets_mm, t=4, v=2):
+    """Samples that are one zero sequence shifted rigidly by ``offsets_mm`` along x."""
+    samples = np.zeros((len(offsets_mm), t, v, 3))
+    samples[:, :, :, 0] = np.asarray(offsets_mm, dtype=np.float64)[:, None, None] / 1000.0
+    return samples
+
+
+def test_apd_and_mpd_closed_form():
+    samples = _offset_samples([0.0, 1.0, 3.0])
+    # pairs 1, 3 and 2 mm: every vertex of every frame moves by the same amount
     assert average_pairwise_distance(samples) == pytest.approx(2.0)
+    assert minimum_pairwise_distance(samples) == pytest.approx(1.0)
+    np.testing.assert_allclose(pairwise_distances(samples), [[0, 1, 3], [1, 0, 2], [3, 2, 0]], atol=1e-12)
     assert average_pairwise_distance(samples[:1].repeat(3, 0)) == 0.0
+    assert minimum_pairwise_distance(np.concatenate([samples, samples[:1]])) == 0.0  # a repeated sample
     with pytest.raises(ValueError, match="S >= 2"):
         average_pairwise_distance(samples[:1])
+    with pytest.raises(ValueError, match="S >= 2"):
+        minimum_pairwise_distance(samples[:1])
+
+
+def test_apd_is_the_paper_double_sum_and_length_normalised():
+    rng = np.random.default_rng(3)
+    samples = rng.normal(scale=0.002, size=(4, 6, 5, 3))
+    s, t, v, _ = samples.shape
+    # Eq. 18 with the unnormalised Frobenius norm, divided by sqrt(T V)
+    paper = sum(np.linalg.norm(samples[i] - samples[j]) for i in range(s) for j in range(s) if i != j) / (s * (s - 1))
+    assert average_pairwise_distance(samples) == pytest.approx(paper / np.sqrt(t * v) * 1000.0)
+    # Eq. 19
+    paper_min = min(np.linalg.norm(samples[i] - samples[j]) for i in range(s) for j in range(s) if i != j)
+    assert minimum_pairwise_distance(samples) == pytest.approx(paper_min / np.sqrt(t * v) * 1000.0)
+    # a sequence played twice has the same normalised distances
+    doubled = np.concatenate([samples, samples], axis=1)
+    assert average_pairwise_distance(doubled) == pytest.approx(average_pairwise_distance(samples))
+    assert sequence_distance(samples[0], samples[1]) == pytest.approx(pairwise_distances(samples)[0, 1])
+
+
+def test_rms_over_frames_and_vertices():
+    # one vertex of two moves by 3 mm in one frame of two: sqrt(9 / 4) = 1.5 mm
+    samples = np.zeros((2, 2, 2, 3))
+    samples[1, 0, 0, 2] = 0.003
+    assert average_pairwise_distance(samples) == pytest.approx(1.5)
+    assert average_pairwise_distance(samples, [0]) == pytest.approx(np.sqrt(9 / 2))
+    assert average_pairwise_distance(samples, [1]) == 0.0
+
+
+def test_upd_lpd_on_vertex_subsets():
+    # vertices 0, 1: "upper face", 2, 3: "lips"; samples differ by 2 mm on the upper
+    # face and 5 mm on the lips except sample 2, whose lips equal sample 0's
+    samples = np.zeros((3, 5, 4, 3))
+    samples[1, :, :2, 1] = 0.002
+    samples[2, :, :2, 1] = -0.002
+    samples[1, :, 2:, 1] = 0.005
+    upper, lips = [0, 1], [2, 3]
+    assert average_pairwise_distance(samples, upper) == pytest.approx((2 + 2 + 4) / 3)
+    assert average_pairwise_distance(samples, lips) == pytest.approx((5 + 0 + 5) / 3)
+    assert minimum_pairwise_distance(samples, lips) == 0.0
+    div = diversity_metrics(samples, upper, lips)
+    assert div["upd"] == pytest.approx(average_pairwise_distance(samples, upper))
+    assert div["lpd"] == pytest.approx(average_pairwise_distance(samples, lips))
+    assert div["apd"] == pytest.approx(average_pairwise_distance(samples))
+    assert div["mpd"] == pytest.approx(minimum_pairwise_distance(samples))
+    # sample pair (0, 2): 2 mm on two of four vertices -> sqrt(4 * 2 / 4)
+    assert div["mpd"] == pytest.approx(np.sqrt(2.0))
+    with pytest.raises(ValueError, match="vertex index"):
+        average_pairwise_distance(samples, [7])
 
 
 def test_shape_errors():
     with pytest.raises(ValueError, match="equal V"):
         mean_vertex_error(np.zeros((2, 3, 3)), np.zeros((2, 4, 3)))
-
-
-def test_region_distances_match_single_calls():
-    from benchmark.metrics import pairwise_distance_by_region
-
-    rng = np.random.default_rng(1)
-    samples = rng.normal(scale=0.001, size=(3, 5, 7, 3))
-    regions = {"all": None, "some": [0, 3, 4]}
-    got = pairwise_distance_by_region(samples, regions)
-    assert got["all"] == pytest.approx(average_pairwise_distance(samples))
-    assert got["some"] == pytest.approx(average_pairwise_distance(samples, [0, 3, 4]))

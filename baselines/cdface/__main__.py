@@ -1,0 +1,7 @@
+"""``python -m baselines.cdface`` is ``python -m baselines.cdface.generate``."""
+
+import sys
+
+from baselines.cdface.generate import main
+
+sys.exit(main())

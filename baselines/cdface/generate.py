@@ -1,0 +1,109 @@
+"""``python -m baselines.cdface``: CDFace samples for any WAV, diverse or with the lips fixed.
+
+::
+
+    python -m baselines.cdface --checkpoint CKPT --audio speech.wav --out samples.npy \\
+        [--samples 5] [--seed 0] [--control lips [--reference ref.npy]] \\
+        [--subject NAME | --template neutral.obj] [--style NAME] [--obj-dir DIR]
+
+``CKPT`` is ``cdface.pt`` or the directory ``benchmark.run --checkpoint`` saved it
+in. The output is ``(S, T, V, 3)`` float32 vertices in metres at 60 fps (T from
+the audio length). ``--control lips`` gives every sample the same lips (one lip
+sample, or the lip codes of ``--reference``, a ``(T, V, 3)`` ``.npy`` on the same
+topology) and varies the upper face. ``--obj-dir`` also writes one OBJ per frame,
+``DIR/sample_K/frame_NNNNN.obj``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from benchmark.methods.contract import AUDIO_RATE, FPS
+
+CHECKPOINT_FILE = "cdface.pt"
+
+
+def checkpoint_file(path) -> Path:
+    """``cdface.pt`` itself, or inside the directory ``path``."""
+    path = Path(path).expanduser()
+    if path.is_dir():
+        path = path / CHECKPOINT_FILE
+    if not path.is_file():
+        raise FileNotFoundError(f"--checkpoint: expected cdface.pt or a directory holding it, got {path} (not found)")
+    return path
+
+
+def generate_file(audio_path, out_path, *, checkpoint, samples=1, seed=0, control="none", reference=None,
+                  subject=None, template=None, style=None, obj_dir=None, progress=True) -> Path:
+    """Write the samples of one WAV to ``out_path`` (``.npy``, atomically); return the path."""
+    from baselines.cdface.pipeline import CDFace
+    from blendvoca.io.atomic import atomic_write
+    from blendvoca.io.audio import load_audio
+    from blendvoca.io.mesh import read_obj, write_obj
+
+    cdface = CDFace.load(checkpoint_file(checkpoint))
+    audio = load_audio(audio_path, AUDIO_RATE)
+    if audio.size == 0:
+        raise ValueError(f"--audio {audio_path}: no samples")
+    num_frames = max(1, int(round(audio.shape[0] / AUDIO_RATE * FPS)))
+    faces = None
+    if template is not None:
+        template, faces = read_obj(template)
+    elif subject is None:
+        if len(cdface.templates) != 1:
+            raise ValueError(f"give --subject (one of {sorted(cdface.templates)}) or --template")
+        subject = next(iter(cdface.templates))
+    ref = None
+    if reference is not None:
+        ref = np.load(reference)
+    verts = cdface.generate(audio, num_frames, subject=subject, template=template, samples=samples, seed=seed,
+                            control=control, reference=ref, style=style, progress=progress)
+    out_path = Path(out_path)
+    with atomic_write(out_path, "wb") as fh:
+        np.save(fh, verts.astype(np.float32))
+    if obj_dir is not None:
+        if faces is None:
+            raise ValueError("--obj-dir needs the triangles of --template (an OBJ)")
+        for k, sample in enumerate(verts):
+            for t, frame in enumerate(sample):
+                write_obj(Path(obj_dir) / f"sample_{k}" / f"frame_{t:05d}.obj", frame, faces)
+    return out_path
+
+
+def main(argv=None) -> int:
+    """Command line entry point (see the module docstring)."""
+    p = argparse.ArgumentParser(prog="python -m baselines.cdface", description=__doc__.split("\n\n")[0])
+    p.add_argument("--checkpoint", required=True, help="cdface.pt or its directory")
+    p.add_argument("--audio", required=True, help="input WAV (any rate, mono or stereo)")
+    p.add_argument("--out", required=True, help="output .npy, (S, T, V, 3) float32 metres")
+    p.add_argument("--samples", type=int, default=5)
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--control", choices=("none", "lips"), default="none")
+    p.add_argument("--reference", default=None, help="(T, V, 3) .npy whose lips every sample gets (--control lips)")
+    p.add_argument("--subject", default=None, help="speaker whose stored template is animated")
+    p.add_argument("--template", default=None, help="neutral mesh OBJ on the training topology")
+    p.add_argument("--style", default=None, help="training speaker whose style token is used (default the first)")
+    p.add_argument("--obj-dir", default=None, help="also write one OBJ per frame here (needs --template)")
+    p.add_argument("--quiet", action="store_true")
+    args = p.parse_args(argv)
+    if args.samples < 1:
+        p.error(f"--samples: expected >= 1, got {args.samples}")
+    if args.reference is not None and args.control != "lips":
+        p.error("--reference fixes the lips: add --control lips")
+    try:
+        path = generate_file(args.audio, args.out, checkpoint=args.checkpoint, samples=args.samples, seed=args.seed,
+                             control=args.control, reference=args.reference, subject=args.subject,
+                             template=args.template, style=args.style, obj_dir=args.obj_dir, progress=not args.quiet)
+    except (FileNotFoundError, ValueError, OSError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    print(path)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,123 @@
+"""The ``cdface`` method of the benchmark (``python -m benchmark.run --method cdface``).
+
+Registered lazily by ``benchmark.methods`` as ``"baselines.cdface.plugin:CDFaceMethod"``.
+Only this module imports the benchmark.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from benchmark.methods.base import Budget, Method
+from benchmark.methods.contract import OUTPUT_VERTICES
+
+CHECKPOINT_FILE = "cdface.pt"
+
+
+def dataset_lips(dataset, subjects):
+    """Union of every rig's :func:`benchmark.metrics.regions.lip_vertices` (None without rigs)."""
+    from benchmark.metrics.regions import lip_vertices
+
+    lips = []
+    for s in subjects:
+        try:
+            rig = dataset.rig(s)
+        except (FileNotFoundError, KeyError, ValueError):
+            continue
+        lips.append(lip_vertices(np.asarray(rig.deltas), list(rig.names)))
+    return np.unique(np.concatenate(lips)) if lips else None
+
+
+def dataset_parts(dataset, subjects, active=None):
+    """Face parts from the mean template of ``subjects``, every rig's lip vertices in the lip part,
+    only the ``active`` vertices modelled (default all)."""
+    from baselines.cdface.parts import face_parts
+
+    templates = np.stack([dataset.template(s) for s in subjects])
+    return face_parts(templates.mean(axis=0), dataset_lips(dataset, subjects), active)
+
+
+class CDFaceMethod(Method):
+    """CDFace: diverse code querying over separate lip and upper-face VQ priors (stochastic, vertices).
+
+    Parameters
+    ----------
+    preset : {"cpu-demo", "paper"}, default "cpu-demo"
+    control : {"none", "lips"}, default "none"
+        ``"lips"``: every sample of a sentence shares one lip sample (lip codes
+        fixed) and only the upper face varies (the paper's controlled synthesis).
+    style : str, optional
+        Training speaker whose style token animates every speaker (default the first).
+    resolved : dict, optional
+        Ignored: the resolved config that :meth:`config` reports.
+    **overrides
+        Flat keys of :func:`baselines.cdface.presets.resolve_config`.
+    """
+
+    name = "cdface"
+    stochastic = True
+    output = OUTPUT_VERTICES
+
+    def __init__(self, preset: str = "cpu-demo", control: str = "none", style: str | None = None,
+                 resolved: dict | None = None, **overrides):
+        from baselines.cdface.pipeline import CONTROL_MODES
+        from baselines.cdface.presets import resolve_config
+
+        if control not in CONTROL_MODES:
+            raise ValueError(f"cdface: expected control in {CONTROL_MODES}, got {control!r}")
+        kwargs = {"preset": preset, "control": control, **overrides}
+        if style is not None:
+            kwargs["style"] = style
+        super().__init__(**kwargs)
+        self.preset, self.control, self.style, self.overrides = preset, control, style, dict(overrides)
+        self.resolved = resolve_config(preset, **overrides)
+        self.label = "cdface (lips fixed)" if control == "lips" else None
+        self.cdface = None
+
+    def config(self) -> dict:
+        """Constructor arguments plus the resolved nested config."""
+        return {**super().config(), "resolved": self.resolved}
+
+    def train(self, dataset, *, seed: int, budget: Budget) -> None:
+        """Train the two part priors and the querying model on the train split within ``budget``."""
+        from baselines.cdface.closure import lip_pair_for
+        from baselines.cdface.pipeline import CDFace
+        from baselines.cdface.train import load_sentences, moving_vertices, prepare_sentences, train_cdface
+
+        train = list(dataset.split("train"))
+        if not train:
+            raise ValueError("cdface: the dataset has no training speakers")
+        everyone = [s for split in ("train", "val", "test") for s in dataset.split(split)]
+        loaded = load_sentences(dataset, train)
+        active = moving_vertices(loaded, self.resolved["model"]["active_threshold"])
+        parts = dataset_parts(dataset, everyone, active)
+        self.cdface = CDFace(self.resolved, parts, train, {s: dataset.template(s) for s in everyone})
+        sentences = prepare_sentences(self.cdface, loaded, epsilon=self.resolved["loss"]["epsilon"],
+                                      lip_pair=lip_pair_for(dataset.template(train[0]), dataset_lips(dataset, train)))
+        del loaded
+        train_cdface(self.cdface, sentences, seed=seed, max_steps=budget.max_steps, max_seconds=budget.max_seconds)
+
+    def generate(self, utterance, *, samples=1, seed=0):
+        """``(S, T, 5023, 3)`` vertices in metres on the speaker's template."""
+        if self.cdface is None:
+            raise RuntimeError("cdface: train or load the method before generate")
+        return self.cdface.generate(utterance.audio, utterance.num_frames, subject=utterance.subject,
+                                    samples=int(samples), seed=int(seed), control=self.control, style=self.style)
+
+    def save(self, directory) -> None:
+        """Write the config and the checkpoint ``cdface.pt`` into ``directory``."""
+        if self.cdface is None:
+            raise RuntimeError("cdface: nothing to save before training")
+        super().save(directory)
+        self.cdface.save(Path(directory) / CHECKPOINT_FILE)
+
+    @classmethod
+    def load(cls, directory) -> CDFaceMethod:
+        """Rebuild from :meth:`save`'s output."""
+        from baselines.cdface.pipeline import CDFace
+
+        method = super().load(directory)
+        method.cdface = CDFace.load(Path(directory) / CHECKPOINT_FILE)
+        return method

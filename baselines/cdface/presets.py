@@ -1,0 +1,133 @@
+"""Presets of CDFace and flat overrides of them.
+
+``cpu-demo`` (default) trains in a few minutes on 2 CPU cores: log-mel audio
+features (no pretrained weights), small transformers, motion in millimetres,
+windows of 48 frames, each stage bounded in seconds (120 + 120 + 360). ``paper`` follows the
+paper where it says (wav2vec 2.0 audio encoder, N^l = 5 lip samples, the VOCASET
+loss weights and epsilon, 200 VQ epochs and 50 querying epochs, AdamW, motion in
+metres) and CodeTalker's VOCASET sizes where it does not (the paper builds its
+priors on CodeTalker's and gives no sizes); it wants a GPU.
+"""
+
+from __future__ import annotations
+
+import copy
+import difflib
+import os
+
+DEFAULT_PRESET = "cpu-demo"
+
+PRESETS: dict[str, dict[str, dict]] = {
+    "cpu-demo": {
+        "model": {
+            "encoder": {"kind": "logmel", "n_mels": 80},
+            # displacements are multiplied by this inside the model (1000: millimetres)
+            "motion_scale": 1000.0,
+            # model only the vertices whose displacement std exceeds this (metres) in training
+            "active_threshold": 1e-5,
+            "vq_hidden": 64, "vq_layers": 1, "vq_heads": 4, "num_codes": 4, "code_dim": 16,
+            "codebook_size": 64, "vq_half_width": 4,
+            "width": 64, "query_layers": 1, "heads": 4, "audio_layers": 1, "audio_self_half_width": 30,
+            "self_context": 60, "audio_half_width": 2, "period": 60,
+            "num_lip_samples": 5, "num_upper_samples": 5, "dropout": 0.0,
+            # past lips the upper face reads in training: "ground-truth" (teacher forcing)
+            # or "predicted" (each lip sample's own output, N^l times the cost)
+            "upper_context": "ground-truth",
+        },
+        "loss": {
+            # Eq. 15/16 weights as the paper's VOCASET setting
+            "lambda_d_lips": 0.02, "lambda_d_upper": 0.02, "lambda_rc_lips": 1.0, "lambda_rc_upper": 1.0,
+            "lambda_rg": 1.0,
+            # the synthetic corpus opens the mouth less than VOCASET (at most ~13 mm):
+            # 3.5 mm keeps every bilabial closure of its ground truth in the mask
+            "epsilon": 0.0035,
+        },
+        "training": {
+            "window": 48, "batch_size": 2, "vq_batch_size": 8, "lr": 1e-3, "weight_decay": 1e-2, "grad_clip": 1.0,
+            "vq_epochs": None, "query_epochs": None,
+            "vq_max_steps": 4000, "query_max_steps": 4000,
+            # seconds per stage: lip prior, upper-face prior, code querying
+            "vq_max_seconds": 120.0, "query_max_seconds": 360.0,
+            # zero a frame's ground-truth past with this probability: without it the
+            # short run learns to copy the past and its own rollout stalls
+            "past_dropout": 0.5,
+            "num_threads": 1,
+        },
+    },
+    "paper": {
+        "model": {
+            "encoder": {"kind": "wav2vec2", "path": "${BLENDVOCA_WAV2VEC2:-~/models/wav2vec2-base-960h}"},
+            "motion_scale": 1.0,
+            "active_threshold": None,
+            "vq_hidden": 1024, "vq_layers": 6, "vq_heads": 8, "num_codes": 16, "code_dim": 64,
+            "codebook_size": 256, "vq_half_width": None,
+            "width": 1024, "query_layers": 6, "heads": 4, "audio_layers": 1, "audio_self_half_width": None,
+            "self_context": None, "audio_half_width": 0, "period": 25,
+            "num_lip_samples": 5, "num_upper_samples": 5, "dropout": 0.1,
+            "upper_context": "ground-truth",
+        },
+        "loss": {
+            "lambda_d_lips": 0.02, "lambda_d_upper": 0.02, "lambda_rc_lips": 1.0, "lambda_rc_upper": 1.0,
+            "lambda_rg": 1.0, "epsilon": 0.005,
+        },
+        "training": {
+            "window": None, "batch_size": 1, "vq_batch_size": 1, "lr": 1e-4, "weight_decay": 1e-2, "grad_clip": None,
+            "vq_epochs": 200, "query_epochs": 50,
+            "vq_max_steps": None, "query_max_steps": None,
+            "vq_max_seconds": None, "query_max_seconds": None,
+            "past_dropout": 0.0,
+            "num_threads": None,
+        },
+    },
+}
+
+
+def _expand_path(value: str) -> str:
+    if value.startswith("${") and value.endswith("}") and ":-" in value:
+        var, default = value[2:-1].split(":-", 1)
+        value = os.environ.get(var, default)
+    return os.path.expanduser(value)
+
+
+def resolve_config(preset: str = DEFAULT_PRESET, **overrides) -> dict:
+    """Nested config of ``preset`` with flat ``overrides`` applied.
+
+    Parameters
+    ----------
+    preset : {"cpu-demo", "paper"}
+    **overrides
+        Any key of any section (``width=128``, ``epsilon=0.005``, ``num_lip_samples=3``);
+        ``encoder`` may be a spec dict or a kind string, ``wav2vec2_path`` sets the
+        wav2vec 2.0 directory.
+
+    Returns
+    -------
+    dict ``{"preset", "model", "loss", "training"}``
+    """
+    if preset not in PRESETS:
+        close = difflib.get_close_matches(str(preset), PRESETS, n=3)
+        raise ValueError(f"CDFace preset: expected one of {sorted(PRESETS)}, got {preset!r}"
+                         + (f" (did you mean {close}?)" if close else ""))
+    config = copy.deepcopy(PRESETS[preset])
+    overrides = dict(overrides)
+    path = overrides.pop("wav2vec2_path", None)
+    if isinstance(overrides.get("encoder"), str):
+        kind = overrides["encoder"]
+        overrides["encoder"] = {"kind": kind, "path": path} if kind == "wav2vec2" else {"kind": kind}
+    elif path is not None:
+        overrides.setdefault("encoder", {"kind": "wav2vec2", "path": path})
+    sections = {key: section for section, values in config.items() for key in values}
+    for key, value in overrides.items():
+        if key not in sections:
+            close = difflib.get_close_matches(key, sections, n=3)
+            raise ValueError(f"CDFace config: unknown key {key!r}"
+                             + (f" (did you mean {close}?)" if close else f"; known keys: {sorted(sections)}"))
+        config[sections[key]][key] = copy.deepcopy(value)
+    encoder = config["model"]["encoder"]
+    if encoder.get("kind") == "wav2vec2":
+        if not encoder.get("path"):
+            raise ValueError("CDFace config: the wav2vec2 encoder needs a local directory "
+                             "(wav2vec2_path=... or BLENDVOCA_WAV2VEC2)")
+        encoder["path"] = _expand_path(str(encoder["path"]))
+    config["preset"] = preset
+    return config

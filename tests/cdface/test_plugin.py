@@ -1,0 +1,48 @@
+import numpy as np
+import pytest
+
+from tests.cdface.test_model import TINY, _tiny_cdface
+
+PLUGIN_TINY = {k: v for k, v in TINY.items() if k != "encoder"} | {"encoder": "logmel", "vq_max_seconds": None,
+                                                                     "query_max_seconds": None}
+
+
+def test_cdface_passes_the_method_check():
+    from baselines.cdface.plugin import CDFaceMethod
+    from benchmark.testing import check_method
+
+    check_method(CDFaceMethod, max_steps=2, samples=3, **PLUGIN_TINY)
+
+
+def test_registered_stochastic_vertex_method():
+    from benchmark.methods import get_method
+
+    cls = get_method("cdface")
+    assert cls.stochastic and cls.output == "vertices"
+    with pytest.raises(ValueError, match="control"):
+        cls(control="eyes")
+    assert cls(control="lips").config()["control"] == "lips"
+
+
+def test_cli_writes_samples_for_any_wav(tmp_path, capsys):
+    from baselines.cdface.generate import main
+    from blendvoca.io.audio import write_wav
+    from blendvoca.io.mesh import write_obj
+
+    cdface, template = _tiny_cdface()
+    cdface.save(tmp_path / "cdface.pt")
+    wav = tmp_path / "speech.wav"
+    write_wav(wav, np.random.default_rng(0).normal(scale=0.1, size=8000).astype(np.float32), 22050)
+    out = tmp_path / "out.npy"
+    assert main(["--checkpoint", str(tmp_path), "--audio", str(wav), "--out", str(out), "--samples", "3",
+                 "--subject", "A", "--control", "lips", "--quiet"]) == 0
+    verts = np.load(out)
+    assert verts.shape == (3, 22, 7, 3)  # 8000 samples at 22.05 kHz = 0.363 s = 22 frames
+    np.testing.assert_array_equal(verts[0, :, :4], verts[2, :, :4])  # lips fixed
+    obj = tmp_path / "neutral.obj"
+    write_obj(obj, template, np.array([[0, 1, 2], [3, 4, 5]]))
+    assert main(["--checkpoint", str(tmp_path / "cdface.pt"), "--audio", str(wav), "--out", str(out), "--samples", "2",
+                 "--template", str(obj), "--obj-dir", str(tmp_path / "objs"), "--quiet"]) == 0
+    assert len(list((tmp_path / "objs" / "sample_1").glob("*.obj"))) == 22
+    assert main(["--checkpoint", str(tmp_path / "nope"), "--audio", str(wav), "--out", str(out)]) == 2
+    assert "error: --checkpoint" in capsys.readouterr().err
