@@ -561,6 +561,8 @@ def run_method(
             "checkpoint": None if checkpoint is None else str(checkpoint),
             "deterministic": budget.max_seconds is None,
             "generate_time_limit": generate_time_limit,
+            **({"lipsync_models": lipsync_models_provenance(syncnet, sync_expert)}
+               if syncnet is not None or sync_expert is not None else {}),
         },
         metrics=dict(metrics),
         timings=timings,
@@ -569,6 +571,22 @@ def run_method(
     )
     store.commit()
     return write_result(result, results_dir, filename)
+
+
+def lipsync_models_provenance(syncnet=None, sync_expert=None) -> dict:
+    """What a result records of the lip-sync models it was scored with: the files and,
+    for the learned expert, the data it was trained on."""
+    out = {}
+    if syncnet is not None:
+        out["syncnet"] = {"path": str(Path(syncnet).resolve()) if isinstance(syncnet, (str, os.PathLike)) else None}
+    if sync_expert is not None:
+        from benchmark.lipsync.expert import load_expert
+
+        path = sync_expert if isinstance(sync_expert, (str, os.PathLike)) else None
+        expert = load_expert(path) if path is not None else sync_expert
+        out["sync_expert"] = {"path": None if path is None else str(Path(path).resolve()),
+                              "trained_on": dict(getattr(expert, "trained_on", {}) or {})}
+    return out
 
 
 def _per_sentence_rows(metrics, generated) -> list:

@@ -1,0 +1,42 @@
+"""Adding model-based lip-sync metrics to a stored run equals scoring the run with them."""
+
+import json
+
+import numpy as np
+import pytest
+
+from benchmark.lipsync.expert import build_expert, save_expert
+from benchmark.rescore import main as rescore_main
+from benchmark.run import run_method
+from blendvoca.names import BLENDVOCA_NAMES
+
+
+def test_rescoring_a_stored_run_with_an_expert_equals_scoring_with_it(built_dataset, tmp_path):
+    import torch
+
+    torch.manual_seed(0)
+    expert_path = tmp_path / "expert.pt"
+    save_expert(build_expert({}, np.zeros(32), np.ones(32), BLENDVOCA_NAMES, {"data": "test"}), expert_path)
+    scored = run_method("random", built_dataset, samples=2, results_dir=tmp_path / "a", sync_expert=expert_path,
+                        progress=False)
+    plain = run_method("random", built_dataset, samples=2, results_dir=tmp_path / "b", progress=False)
+    assert "av_confidence_expert" not in json.loads(plain.read_text())["metrics"]
+    assert rescore_main([str(plain), "--sync-expert", str(expert_path), "--quiet"]) == 0
+    a, b = json.loads(scored.read_text()), json.loads(plain.read_text())
+    # the stored CSVs keep 1e-6 of each coefficient: the rescored values agree to that resolution
+    for name in ("av_offset_expert", "av_confidence_expert"):
+        for key in ("mean", "std", "sample_std"):
+            assert b["metrics"][name][key] == pytest.approx(a["metrics"][name][key], rel=1e-5, abs=1e-9)
+        assert b["metrics"][name]["ci95"] == pytest.approx(a["metrics"][name]["ci95"], rel=1e-5, abs=1e-9)
+    assert list(a["metrics"]) == list(b["metrics"])  # registry order
+    for row_a, row_b in zip(a["per_sentence"], b["per_sentence"]):
+        assert (row_b["subject"], row_b["sentence"]) == (row_a["subject"], row_a["sentence"])
+        numbers = {k: v for k, v in row_a.items() if k not in ("subject", "sentence")}
+        assert {k: row_b[k] for k in numbers} == pytest.approx(numbers, rel=1e-5, abs=1e-9)
+    assert a["protocol"]["lipsync_models"] == b["protocol"]["lipsync_models"]
+    assert a["protocol"]["lipsync_models"]["sync_expert"]["trained_on"] == {"data": "test"}
+
+
+def test_rescore_needs_a_model(tmp_path, capsys):
+    assert rescore_main([str(tmp_path / "x.json")]) == 2
+    assert capsys.readouterr().err.startswith("error: ")
