@@ -42,6 +42,9 @@ class PlanEntry:
 #: CDFace's cpu-demo stages stop at a step count only (no time limits: deterministic).
 CDFACE_STEPS_ONLY = {"preset": "cpu-demo", "vq_max_seconds": None, "query_max_seconds": None}
 
+#: Training steps of the learned lip-sync expert (benchmark.lipsync) scoring every row.
+EXPERT_STEPS = 1271
+
 #: The rows, in scoring order (cheap references first).
 PLAN = (
     PlanEntry("ground-truth", note="upper reference: the build's own tracks"),
@@ -118,6 +121,10 @@ def reproduce(work, results_dir, tables_dir, *, only=None, force: bool = False, 
     from benchmark.data import open_blendvoca
 
     dataset = open_blendvoca(root)
+    from benchmark.lipsync.expert_train import cached_expert
+
+    # the learned lip-sync expert, trained once on the build's training split (step budget: deterministic)
+    _, expert = cached_expert(root, max_seconds=None, max_steps=EXPERT_STEPS, progress=progress)
     paths = []
     for entry in _entries(only):
         name, config = entry.method, dict(entry.config)
@@ -143,7 +150,7 @@ def reproduce(work, results_dir, tables_dir, *, only=None, force: bool = False, 
         from benchmark.methods.base import Budget
 
         paths.append(run_method(name, root, samples=samples, seed=0, budget=Budget(max_steps=entry.max_steps),
-                                results_dir=results_dir, config=config, progress=progress))
+                                results_dir=results_dir, config=config, progress=progress, sync_expert=expert))
     for path in build_leaderboard(results_dir, tables_dir):
         _log(f"wrote {path}")
     return paths
