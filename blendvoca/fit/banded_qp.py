@@ -71,165 +71,181 @@ def _broadcast_bound(value, shape, name):
     return np.ascontiguousarray(array)
 
 
-def _diff(x):
-    return x[1:] - x[:-1]
-
-
-def _diff_t(y):
-    """``D^T y`` for the forward-difference operator D: (T-1, K) -> (T, K)."""
-    out = np.zeros((y.shape[0] + 1, y.shape[1]))
-    out[1:] += y
-    out[:-1] -= y
-    return out
+#: Interior-point starting point (scaled units: Hessian diagonal <= 1, coefficients in [0, 1]).
+START_SLACK = 0.1
+START_DUAL = 0.1
 
 
 class _Problem:
-    """The scaled QP with its constraint groups ``A_g x + s_g = b_g, s_g >= 0``.
+    """The scaled QP with its constraints ``A x + s = b, s >= 0`` in one flat vector.
 
-    Groups: ``lower`` (A = -I), ``upper`` (A = I), ``rate+`` (A = D),
-    ``rate-`` (A = -D); D is the forward difference over frames.
+    Constraint groups (each a contiguous slice of the flat vectors): ``lower``
+    (A = -I), ``upper`` (A = I), ``rate+`` (A = D), ``rate-`` (A = -D); D is the
+    forward difference over frames.  Slacks, multipliers and residuals of all
+    groups live in flat arrays so that every interior-point operation is a few
+    whole-array numpy calls.
     """
 
     def __init__(self, gram, rhs, lo, hi, delta):
         self.num_frames, self.k = rhs.shape
         self.g = gram
         self.c = rhs
-        self.groups = {}
-        if lo is not None:
-            self.groups["lower"] = -lo
-        if hi is not None:
-            self.groups["upper"] = hi
-        if delta is not None and self.num_frames > 1:
-            b_rate = np.full((self.num_frames - 1, self.k), delta)
-            self.groups["rate+"] = b_rate
-            self.groups["rate-"] = b_rate
-        # Upper banded storage (K + 1, T K) of kron(I_T, G), built once.
+        size = rhs.size
+        rate_size = (self.num_frames - 1) * self.k
+        self.slices = {}
+        parts = []
+        offset = 0
+        for name, bound, length in (
+            ("lower", None if lo is None else -lo, size),
+            ("upper", hi, size),
+            ("rate+", None if delta is None or self.num_frames < 2 else delta, rate_size),
+            ("rate-", None if delta is None or self.num_frames < 2 else delta, rate_size),
+        ):
+            if bound is None:
+                continue
+            self.slices[name] = slice(offset, offset + length)
+            parts.append(np.broadcast_to(np.asarray(bound, dtype=np.float64).ravel(), (length,)))
+            offset += length
+        self.b = np.concatenate(parts) if parts else np.zeros(0)
+        self.num_constraints = offset
+        # Upper banded storage (K + 1, T K) of kron(I_T, G), Fortran order for LAPACK.
         k = self.k
         block = np.zeros((k + 1, k))
         rows, cols = np.triu_indices(k)
         block[k + rows - cols, cols] = gram[rows, cols]
-        self.band_g = np.tile(block, (1, self.num_frames))
+        self.band_g = np.asfortranarray(np.tile(block, (1, self.num_frames)))
+        self._work = np.empty_like(self.band_g, order="F")
 
-    @staticmethod
-    def apply(name, x):
-        if name == "lower":
-            return -x
-        if name == "upper":
-            return x
-        if name == "rate+":
-            return _diff(x)
-        return -_diff(x)
+    @property
+    def groups(self):
+        """Names of the constraint groups present."""
+        return tuple(self.slices)
 
-    @staticmethod
-    def apply_t(name, y):
-        if name == "lower":
-            return -y
-        if name == "upper":
-            return y
-        if name == "rate+":
-            return _diff_t(y)
-        return -_diff_t(y)
+    def part(self, flat, name):
+        """View of group ``name`` of a flat constraint vector, shaped (T, K) or (T-1, K)."""
+        return flat[self.slices[name]].reshape(-1, self.k)
+
+    def apply(self, x):
+        """``A x`` as a flat vector."""
+        out = np.empty(self.num_constraints)
+        s = self.slices
+        if "lower" in s:
+            np.negative(x.ravel(), out=out[s["lower"]])
+        if "upper" in s:
+            out[s["upper"]] = x.ravel()
+        if "rate+" in s:
+            d = out[s["rate+"]].reshape(-1, self.k)
+            np.subtract(x[1:], x[:-1], out=d)
+            np.negative(d.ravel(), out=out[s["rate-"]])
+        return out
+
+    def apply_t(self, y):
+        """``A^T y`` as a (T, K) array."""
+        s = self.slices
+        out = np.zeros((self.num_frames, self.k))
+        if "lower" in s:
+            out -= self.part(y, "lower")
+        if "upper" in s:
+            out += self.part(y, "upper")
+        if "rate+" in s:
+            v = self.part(y, "rate+") - self.part(y, "rate-")
+            out[1:] += v
+            out[:-1] -= v
+        return out
 
     def factor(self, weights):
-        """Banded Cholesky of ``kron(I, G) + sum_g A_g^T diag(w_g) A_g``."""
+        """Banded Cholesky of ``kron(I, G) + A^T diag(weights) A`` (weights flat)."""
         k = self.k
-        ab = self.band_g.copy()
+        s = self.slices
+        ab = self._work
+        ab[...] = self.band_g
         diag = np.zeros((self.num_frames, k))
-        for name in ("lower", "upper"):
-            if name in weights:
-                diag += weights[name]
-        if "rate+" in weights:
-            v = weights["rate+"] + weights["rate-"]
+        if "lower" in s:
+            diag += self.part(weights, "lower")
+        if "upper" in s:
+            diag += self.part(weights, "upper")
+        if "rate+" in s:
+            v = self.part(weights, "rate+") + self.part(weights, "rate-")
             diag[:-1] += v
             diag[1:] += v
             ab[0, k:] = -v.ravel()
         # A tiny ridge keeps the factorization defined for a singular G with an
         # unconstrained coefficient; it is far below every tolerance used here.
-        ab[k] += diag.ravel() + 1e-13
-        chol, info = dpbtrf(np.asfortranarray(ab), lower=0, overwrite_ab=1)
+        diag += 1e-13
+        ab[k] += diag.ravel()
+        chol, info = dpbtrf(ab, lower=0, overwrite_ab=1)
         if info != 0:
             raise np.linalg.LinAlgError(f"banded Cholesky failed (info={info})")
         return chol
 
     def solve(self, chol, vec):
-        x, info = dpbtrs(chol, vec.ravel(), lower=0)
+        x, info = dpbtrs(chol, vec.ravel(), lower=0, overwrite_b=1)
         if info != 0:  # pragma: no cover - dpbtrs only fails on bad arguments
             raise np.linalg.LinAlgError(f"banded solve failed (info={info})")
         return x.reshape(self.num_frames, self.k)
 
-    def residual(self, name, x):
-        """``A_g x - b_g`` (<= 0 when feasible)."""
-        return self.apply(name, x) - self.groups[name]
+    def residual(self, x):
+        """``A x - b`` (<= 0 where feasible), flat."""
+        out = self.apply(x)
+        out -= self.b
+        return out
 
 
 def _step_to_boundary(values, steps):
-    """Largest alpha in (0, 1] with ``values + alpha * steps >= 0`` for all groups."""
-    alpha = 1.0
-    for v, d in zip(values, steps):
-        ratios = np.where(d < 0, v / np.where(d < 0, -d, 1.0), np.inf)
-        alpha = min(alpha, float(ratios.min()))
-    return alpha
+    """Largest alpha in (0, 1] with ``values + alpha * steps >= 0`` (flat arrays)."""
+    if steps.size == 0:
+        return 1.0
+    # values > 0: the binding ratio is the most negative steps / values.
+    worst = -float(np.min(steps / values))
+    return 1.0 if worst <= 1.0 else 1.0 / worst
 
 
-def _interior_point(prob, x, tol, max_iter):
+def _interior_point(prob, x, tol, max_iter, slacks=None, duals=None):
     """Mehrotra predictor-corrector iterations; returns x, slacks, duals, its, kkt."""
-    names = list(prob.groups)
-    slacks = {n: np.maximum(-prob.residual(n, x), 1e-2) for n in names}
-    duals = {n: np.ones_like(s) for n, s in slacks.items()}
-    num_constraints = sum(s.size for s in slacks.values())
+    if slacks is None:
+        # Slacks of the warm start kept away from zero, small uniform
+        # multipliers: the fewest iterations on speech tracks (scaled problem).
+        slacks = np.maximum(-prob.residual(x), START_SLACK)
+        duals = np.full_like(slacks, START_DUAL)
+    m = prob.num_constraints
     norm_c = 1.0 + float(np.max(np.abs(prob.c)))
     kkt = np.inf
     its = 0
     for its in range(max_iter + 1):
-        r_d = x @ prob.g - prob.c
-        for n in names:
-            r_d = r_d + prob.apply_t(n, duals[n])
-        r_p = {n: prob.residual(n, x) + slacks[n] for n in names}
-        gap = sum(float(np.vdot(slacks[n], duals[n])) for n in names)
-        mu = gap / num_constraints
-        kkt = max(
-            float(np.max(np.abs(r_d))) / norm_c,
-            max(float(np.max(np.abs(r))) for r in r_p.values()),
-            mu,
-        )
+        r_d = x @ prob.g - prob.c + prob.apply_t(duals)
+        r_p = prob.residual(x) + slacks
+        gap = float(slacks @ duals)
+        mu = gap / m
+        kkt = max(float(np.max(np.abs(r_d))) / norm_c, float(np.max(np.abs(r_p))), mu)
         if kkt <= tol or its == max_iter:
             break
+        inv_s = 1.0 / slacks
         try:
-            chol = prob.factor({n: duals[n] / slacks[n] for n in names})
+            chol = prob.factor(duals * inv_s)
         except np.linalg.LinAlgError:
             break
+        z_rp = duals * r_p
 
         def newton(r_c):
             # (G + A^T W A) dx = -r_d - A^T ((z r_p - r_c) / s); ds, dz follow.
-            rhs_x = -r_d
-            for n in names:
-                rhs_x = rhs_x - prob.apply_t(n, (duals[n] * r_p[n] - r_c[n]) / slacks[n])
-            dx = prob.solve(chol, rhs_x)
-            ds = {n: -r_p[n] - prob.apply(n, dx) for n in names}
-            dz = {n: -(r_c[n] + duals[n] * ds[n]) / slacks[n] for n in names}
+            dx = prob.solve(chol, -r_d - prob.apply_t((z_rp - r_c) * inv_s))
+            ds = -r_p - prob.apply(dx)
+            dz = -(r_c + duals * ds) * inv_s
             return dx, ds, dz
 
-        r_c = {n: slacks[n] * duals[n] for n in names}
+        r_c = slacks * duals
         _, ds_a, dz_a = newton(r_c)
-        alpha_a = min(
-            _step_to_boundary(slacks.values(), ds_a.values()),
-            _step_to_boundary(duals.values(), dz_a.values()),
-        )
-        gap_a = sum(
-            float(np.vdot(slacks[n] + alpha_a * ds_a[n], duals[n] + alpha_a * dz_a[n]))
-            for n in names
-        )
+        alpha_a = min(_step_to_boundary(slacks, ds_a), _step_to_boundary(duals, dz_a))
+        gap_a = float((slacks + alpha_a * ds_a) @ (duals + alpha_a * dz_a))
         sigma = (gap_a / gap) ** 3 if gap > 0 else 0.0
-        r_c = {n: r_c[n] + ds_a[n] * dz_a[n] - sigma * mu for n in names}
+        r_c += ds_a * dz_a - sigma * mu
         dx, ds, dz = newton(r_c)
         alpha = min(
-            1.0,
-            0.995 * _step_to_boundary(slacks.values(), ds.values()),
-            0.995 * _step_to_boundary(duals.values(), dz.values()),
+            1.0, 0.995 * _step_to_boundary(slacks, ds), 0.995 * _step_to_boundary(duals, dz)
         )
         x = x + alpha * dx
-        slacks = {n: slacks[n] + alpha * ds[n] for n in names}
-        duals = {n: duals[n] + alpha * dz[n] for n in names}
+        slacks = slacks + alpha * ds
+        duals = duals + alpha * dz
     return x, slacks, duals, its, kkt
 
 
@@ -249,39 +265,33 @@ def _polish(prob, active, multipliers, *, rho=1e5, max_alm=40, max_rounds=10, fe
     -------
     x : (T, K) ndarray or None
         The certified optimum, or None when no certified point was found.
-    multipliers : dict
+    multipliers : (m,) ndarray
     rounds : int
     """
-    names = list(prob.groups)
     dual_tol = 1e-10 * (1.0 + float(np.max(np.abs(prob.c))))
     for rounds in range(1, max_rounds + 1):
-        weights = {n: rho * active[n] for n in names}
+        weights = rho * active
         try:
             chol = prob.factor(weights)
         except np.linalg.LinAlgError:
             return None, multipliers, rounds
-        lam = {n: np.where(active[n], np.maximum(multipliers[n], 0.0), 0.0) for n in names}
+        lam = np.where(active, np.maximum(multipliers, 0.0), 0.0)
+        wb = weights * prob.b
         x = None
         for _ in range(max_alm):
-            rhs = prob.c.copy()
-            for n in names:
-                rhs -= prob.apply_t(n, lam[n] - weights[n] * prob.groups[n])
-            x = prob.solve(chol, rhs)
-            eq_violation = 0.0
-            for n in names:
-                r = np.where(active[n], prob.residual(n, x), 0.0)
-                lam[n] = lam[n] + rho * r
-                eq_violation = max(eq_violation, float(np.max(np.abs(r))))
-            if eq_violation <= 1e-14:
+            x = prob.solve(chol, prob.c - prob.apply_t(lam - wb))
+            r = prob.residual(x)
+            r[~active] = 0.0
+            lam += rho * r
+            if float(np.max(np.abs(r), initial=0.0)) <= 1e-14:
                 break
-        violated = {n: (~active[n]) & (prob.residual(n, x) > feas_tol) for n in names}
-        negative = {n: active[n] & (lam[n] < -dual_tol) for n in names}
+        residual = prob.residual(x)
+        violated = ~active & (residual > feas_tol)
+        negative = active & (lam < -dual_tol)
         multipliers = lam
-        if not any(v.any() for v in violated.values()) and not any(
-            v.any() for v in negative.values()
-        ):
+        if not violated.any() and not negative.any():
             return x, lam, rounds
-        active = {n: (active[n] | violated[n]) & ~negative[n] for n in names}
+        active = (active | violated) & ~negative
     return None, multipliers, max_rounds
 
 
@@ -355,7 +365,7 @@ def solve_banded_qp(
     if hi is not None:
         x0 = np.minimum(x0, hi)
     if not prob.groups:
-        x = prob.solve(prob.factor({}), prob.c)
+        x = prob.solve(prob.factor(np.zeros(0)), prob.c)
         return QPSolution(x, 0, True, None, None, None, 0.0, "banded-ipm")
 
     total_its = 0
@@ -369,9 +379,9 @@ def solve_banded_qp(
         # certificate fails, tighten the interior point and guess again.
         for tighter in (tol, tol * 1e-3, tol * 1e-6):
             if tighter < tol:
-                x, slacks, duals, its, kkt = _interior_point(prob, x, tighter, max_iter)
+                x, slacks, duals, its, kkt = _interior_point(prob, x, tighter, max_iter, slacks, duals)
                 total_its += its
-            active = {n: duals[n] > slacks[n] for n in prob.groups}
+            active = duals > slacks
             x_pol, lam, _ = _polish(prob, active, duals)
             if x_pol is not None:
                 x, multipliers, converged, solver = x_pol, lam, True, "banded-ipm+polish"
@@ -382,9 +392,10 @@ def solve_banded_qp(
         x = np.maximum(x, lo)
     if hi is not None:
         x = np.minimum(x, hi)
-    lower_mult = multipliers["lower"] * scale if "lower" in multipliers else None
-    upper_mult = multipliers["upper"] * scale if "upper" in multipliers else None
-    rate_mult = (
-        (multipliers["rate+"] - multipliers["rate-"]) * scale if "rate+" in multipliers else None
-    )
+
+    def scaled(name):
+        return prob.part(multipliers, name) * scale if name in prob.slices else None
+
+    lower_mult, upper_mult = scaled("lower"), scaled("upper")
+    rate_mult = scaled("rate+") - scaled("rate-") if "rate+" in prob.slices else None
     return QPSolution(x, total_its, converged, lower_mult, upper_mult, rate_mult, kkt, solver)
