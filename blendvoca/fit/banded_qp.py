@@ -221,7 +221,7 @@ def _active_set_guess(prob, x_free, x_clipped):
     """
     active = np.zeros(prob.num_constraints, dtype=bool)
     fixed = np.zeros(x_free.shape, dtype=bool)
-    for name, broken in (("lower", None), ("upper", None)):
+    for name in ("lower", "upper"):
         if name in prob.slices:
             part = prob.part(active, name)
             part[...] = prob.part(prob.residual(x_free), name) > 0.0
