@@ -8,6 +8,14 @@ out-of-range targets so that all three constraint kinds are active.
 
     python benchmarks/bench_fit.py                    # 120 and 240 frames, all methods
     python benchmarks/bench_fit.py --frames 240 --skip-published
+    python benchmarks/bench_fit.py --floor-only       # ratio to the least-squares floor
+
+The floor section times, in one process with one BLAS thread, the unconstrained
+least-squares fit of the same problem (``solve(B^T B, B^T (p - b0))`` for all
+frames, through the same entry point) and the constrained fit, and prints their
+ratio with a breakdown (normal equations, QP solve, banded factorizations).
+CPU time (``time.process_time``) and wall time are both shown: on a shared
+machine the CPU-time ratio is the steadier one.
 """
 
 from __future__ import annotations
@@ -72,6 +80,54 @@ def run_child(method, num_frames, threads):
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
+def _best(function, repeats):
+    """Smallest (cpu, wall) seconds of ``repeats`` calls."""
+    cpu, wall = [], []
+    for _ in range(repeats):
+        c, w = time.process_time(), time.perf_counter()
+        function()
+        cpu.append(time.process_time() - c)
+        wall.append(time.perf_counter() - w)
+    return min(cpu), min(wall)
+
+
+def floor_ratio(num_frames, repeats=7):
+    """Print the constrained fit against the least-squares floor, with a breakdown."""
+    from threadpoolctl import threadpool_limits
+
+    from blendvoca.fit import banded_qp, fit_coefficients, normal_equations, solve_banded_qp
+
+    neutral, deltas, frames = make_problem(num_frames)
+    counts = {"factor": 0, "solve": 0}
+    factor, solve = banded_qp._Problem.factor, banded_qp._Problem.solve
+
+    def counted_factor(self, weights):
+        counts["factor"] += 1
+        return factor(self, weights)
+
+    def counted_solve(self, chol, vec):
+        counts["solve"] += 1
+        return solve(self, chol, vec)
+
+    with threadpool_limits(1):
+        system = normal_equations(neutral, deltas, frames)
+        floor = _best(lambda: fit_coefficients(neutral, deltas, frames, bounds=False, rate=False), repeats)
+        fit = _best(lambda: fit_coefficients(neutral, deltas, frames, delta=0.1), repeats)
+        normal = _best(lambda: normal_equations(neutral, deltas, frames), repeats)
+        qp = _best(lambda: solve_banded_qp(system.gram, system.rhs, delta=0.1), repeats)
+        banded_qp._Problem.factor, banded_qp._Problem.solve = counted_factor, counted_solve
+        try:
+            sol = solve_banded_qp(system.gram, system.rhs, delta=0.1)
+        finally:
+            banded_qp._Problem.factor, banded_qp._Problem.solve = factor, solve
+    print(f"{num_frames:>6} frames  floor {1e3 * floor[0]:7.1f} ms cpu ({1e3 * floor[1]:7.1f} wall)  "
+          f"fit {1e3 * fit[0]:7.1f} ms cpu ({1e3 * fit[1]:7.1f} wall)  "
+          f"ratio {fit[0] / floor[0]:.2f} cpu / {fit[1] / floor[1]:.2f} wall")
+    print(f"        breakdown: normal equations {1e3 * normal[0]:.1f} ms, QP solve {1e3 * qp[0]:.1f} ms "
+          f"({sol.solver}, {sol.iterations} interior-point iterations, {counts['factor']} banded "
+          f"factorizations, {counts['solve']} banded solves)")
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--frames", type=int, nargs="+", default=[120, 240])
@@ -80,12 +136,20 @@ def main():
     parser.add_argument("--threads", type=int, default=1, help="BLAS threads in each measurement")
     parser.add_argument("--scaling", type=int, nargs="+", default=[120, 240, 480, 960],
                         help="frame counts for the linear-growth check of the banded method")
+    parser.add_argument("--floor-frames", type=int, nargs="+", default=[240, 960],
+                        help="frame counts of the ratio to the least-squares floor")
+    parser.add_argument("--floor-only", action="store_true", help="only the floor section")
     parser.add_argument("--child", default=None, help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.child:
         child(args.child, args.frames[0], args.threads)
         return
     print(f"problem: 4580 vertices, 32 shapes, delta 0.1; BLAS threads {args.threads}")
+    print("\nconstrained fit / unconstrained least squares of the same problem (one BLAS thread, same process)")
+    for num_frames in args.floor_frames:
+        floor_ratio(num_frames)
+    if args.floor_only:
+        return
     for num_frames in args.frames:
         results = {m: run_child(m, num_frames, args.threads) for m in args.methods}
         if not args.skip_published:
