@@ -23,7 +23,8 @@ PRESETS = {
                   "audio": {"kind": "logmel", "n_mels": 80, "hidden_size": 64, "layers": 3, "kernel": 5}},
         "training": {"stage1_lr": 1e-3, "stage1_epochs": None, "stage1_step_epochs": None, "stage1_fraction": 0.4,
                      "lr": 1e-3, "max_epochs": None, "max_steps": 4000, "max_seconds": 300.0,
-                     "quant_loss_weight": 1.0, "motion_scale": 100.0, "num_threads": 1, "grad_clip": 1.0},
+                     "quant_loss_weight": 1.0, "motion_scale": 100.0, "num_threads": 1, "grad_clip": 1.0,
+                     "own_input_prob": 0.5, "val_free_running": True},
         "wav2vec2_path": None,
     },
     "paper": {
@@ -33,7 +34,8 @@ PRESETS = {
                   "audio": {"kind": "wav2vec2", "config": "base"}},
         "training": {"stage1_lr": 1e-4, "stage1_epochs": 200, "stage1_step_epochs": 20, "stage1_fraction": None,
                      "lr": 1e-4, "max_epochs": 100, "max_steps": None, "max_seconds": None,
-                     "quant_loss_weight": 1.0, "motion_scale": 1.0, "num_threads": None, "grad_clip": None},
+                     "quant_loss_weight": 1.0, "motion_scale": 1.0, "num_threads": None, "grad_clip": None,
+                     "own_input_prob": 0.0, "val_free_running": False},
         "wav2vec2_path": "${BLENDVOCA_WAV2VEC2:-~/models/wav2vec2-base-960h}",
     },
 }
