@@ -108,11 +108,14 @@ class CodeTalker(nn.Module):
         """Frame features ``(B, T, fqn * zd)`` -> vectors ``(B, T * fqn, zd)``."""
         return feat.reshape(feat.shape[0], feat.shape[1] * self.face_quan_num, -1)
 
-    def forward(self, audio, template, vertice, one_hot):
+    def forward(self, audio, template, vertice, one_hot, vertice_input=None):
         """Teacher-forced pass: ``(prediction (B, T, V*3), motion_loss, reg_loss)``.
 
         ``motion_loss`` is the MSE of the decoded prediction, ``reg_loss`` the MSE between the
         predicted features and the VQ-VAE's quantized features of the ground truth.
+        ``vertice_input`` ``(B, T, V*3)``, optional, replaces ``vertice`` as the frames fed
+        back (frame ``t`` is the input of step ``t + 1``); default ``vertice`` (the authors'
+        teacher forcing).
         """
         template = template.unsqueeze(1)
         style = self.style(one_hot)
@@ -120,7 +123,8 @@ class CodeTalker(nn.Module):
         with torch.no_grad():
             feat_q_gt, _ = self.autoencoder.get_quant(vertice - template)
         feat_q_gt = feat_q_gt.permute(0, 2, 1)
-        previous = torch.cat([template, vertice[:, :-1]], dim=1) - template
+        fed = vertice if vertice_input is None else vertice_input
+        previous = torch.cat([template, fed[:, :-1]], dim=1) - template
         inputs = self.PPE(self.vertice_map(previous) + style)
         feat_out = self._codes(self.feat_map(decode_teacher_forced(self.transformer_decoder, inputs, memory, **self._kw())))
         feat_out_q, _, _ = self.autoencoder.quantize(feat_out)
@@ -129,9 +133,9 @@ class CodeTalker(nn.Module):
         loss_reg = torch.mean((feat_out - feat_q_gt.detach()) ** 2)
         return vertice_out, loss_motion, loss_reg
 
-    def loss(self, audio, template, vertice, one_hot) -> torch.Tensor:
+    def loss(self, audio, template, vertice, one_hot, vertice_input=None) -> torch.Tensor:
         """``motion_weight * motion_loss + reg_weight * reg_loss`` (the authors' stage-2 objective)."""
-        _, motion, reg = self(audio, template, vertice, one_hot)
+        _, motion, reg = self(audio, template, vertice, one_hot, vertice_input)
         return self.config["motion_weight"] * motion + self.config["reg_weight"] * reg
 
     def predict(self, audio, template, one_hot, num_frames: int | None = None, one_hot2=None, weight_of_one_hot=None):

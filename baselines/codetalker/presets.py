@@ -2,7 +2,9 @@
 
 ``cpu-demo`` shrinks both stages (VQ-VAE hidden 64 = 4 codes x 16, one transformer
 layer each; stage-2 width 64, log-mel front end) to train on 2 CPU cores in minutes,
-the budget split between the stages. ``paper`` is the authors' VOCASET setup
+the budget split between the stages; its stage 2 is fed its own predictions
+(``own_input_prob``) and keeps the weights by free-running validation
+(``val_free_running``), two departures from the authors' teacher forcing. ``paper`` is the authors' VOCASET setup
 (config/vocaset/stage1.yaml and stage2.yaml: VQ-VAE 1024 wide, 6+6 layers, 256 codes of
 64, 16 per frame, AdamW 1e-4 for 200 epochs with the rate halved every 20; stage 2
 1024 wide, 6 layers, Adam 1e-4 for 100 epochs, wav2vec 2.0 base-960h from a local
@@ -23,7 +25,8 @@ PRESETS = {
                   "audio": {"kind": "logmel", "n_mels": 80, "hidden_size": 64, "layers": 3, "kernel": 5}},
         "training": {"stage1_lr": 1e-3, "stage1_epochs": None, "stage1_step_epochs": None, "stage1_fraction": 0.4,
                      "lr": 1e-3, "max_epochs": None, "max_steps": 4000, "max_seconds": 300.0,
-                     "quant_loss_weight": 1.0, "motion_scale": 100.0, "num_threads": 1, "grad_clip": 1.0},
+                     "quant_loss_weight": 1.0, "motion_scale": 100.0, "num_threads": 1, "grad_clip": 1.0,
+                     "own_input_prob": 1.0, "val_free_running": True},
         "wav2vec2_path": None,
     },
     "paper": {
@@ -33,7 +36,8 @@ PRESETS = {
                   "audio": {"kind": "wav2vec2", "config": "base"}},
         "training": {"stage1_lr": 1e-4, "stage1_epochs": 200, "stage1_step_epochs": 20, "stage1_fraction": None,
                      "lr": 1e-4, "max_epochs": 100, "max_steps": None, "max_seconds": None,
-                     "quant_loss_weight": 1.0, "motion_scale": 1.0, "num_threads": None, "grad_clip": None},
+                     "quant_loss_weight": 1.0, "motion_scale": 1.0, "num_threads": None, "grad_clip": None,
+                     "own_input_prob": 0.0, "val_free_running": False},
         "wav2vec2_path": "${BLENDVOCA_WAV2VEC2:-~/models/wav2vec2-base-960h}",
     },
 }

@@ -6,6 +6,15 @@ rate halved every 20 epochs). Stage 2 freezes
 it and learns the speech-conditioned code query with teacher forcing: MSE of the
 decoded motion plus MSE between the predicted and the ground truth's quantized
 features, Adam.
+
+Two switchable departures (off in ``paper``, the authors' recipe; on in ``cpu-demo``):
+``own_input_prob`` > 0 feeds back, for each frame with that probability (ramped up from
+0 over the first half of a step-limited stage 2), the model's own quantized-and-decoded
+prediction of a first, gradient-free teacher-forced pass instead of the ground truth
+(two-pass scheduled sampling), so the decoder learns from inputs like those it sees
+when it runs on its own output; ``val_free_running`` selects the kept stage-2 weights
+by the MSE of the autoregressive ``predict`` on the validation sentences instead of the
+teacher-forced loss.
 """
 
 from __future__ import annotations
@@ -65,16 +74,35 @@ def train_stage2(model, train, val, subjects, *, training: dict, seed: int, max_
     items = [(sequence_tensors(s, scale=scale, normalise_audio=w2v), subjects.index(s.subject)) for s in train]
     val_items = [sequence_tensors(s, scale=scale, normalise_audio=w2v) for s in val]
 
+    steps = epochs_to_steps(training, len(items), max_steps, max_seconds)
+    own_prob = float(training.get("own_input_prob") or 0.0)
+    ramp = None if math.isinf(steps) else max(1.0, 0.5 * float(steps))
+    gen = torch.Generator().manual_seed(int(seed))
+    count = [0]
+
     def loss(item):
         (audio, template, verts), k = item
-        return model.loss(audio, template, verts, torch.eye(n)[k : k + 1])
+        one_hot = torch.eye(n)[k : k + 1]
+        fed = None
+        p = own_prob if ramp is None else own_prob * min(1.0, count[0] / ramp)
+        count[0] += 1
+        if p > 0:
+            with torch.no_grad():
+                own = model(audio, template, verts, one_hot)[0]
+            pick = (torch.rand(verts.shape[1], generator=gen) < p).view(1, -1, 1)
+            fed = torch.where(pick, own, verts)
+        return model.loss(audio, template, verts, one_hot, fed)
 
     def val_loss():
-        out = [float(model(a, t, v, torch.eye(n)[k : k + 1])[1]) for a, t, v in val_items for k in range(min(n, 2))]
+        if training.get("val_free_running"):
+            out = [float(torch.mean((model.predict(a, t, torch.eye(n)[k : k + 1], v.shape[1]) - v) ** 2))
+                   for a, t, v in val_items for k in range(min(n, 2))]
+        else:
+            out = [float(model(a, t, v, torch.eye(n)[k : k + 1])[1]) for a, t, v in val_items for k in range(min(n, 2))]
         return sum(out) / len(out)
 
     return fit_sequences(model, loss, items, val_loss if val_items else None, lr=training["lr"], seed=seed,
-                         max_steps=epochs_to_steps(training, len(items), max_steps, max_seconds),
+                         max_steps=steps,
                          max_seconds=max_seconds, num_threads=training.get("num_threads"),
                          grad_clip=training.get("grad_clip"), desc="CodeTalker stage 2", progress=progress,
                          loss_scale=scale**2)

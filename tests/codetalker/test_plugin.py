@@ -118,3 +118,46 @@ def test_paper_schedule_is_epochs_when_no_budget_is_given():
     assert training_limits(Budget(max_steps=7), t["max_steps"], t["max_seconds"]) == (7, math.inf)
     with pytest.raises(ValueError, match="unknown config key"):
         resolve_config("paper", widht=3)
+
+
+def test_fed_back_frames_replace_the_ground_truth_inputs_only():
+    """``vertice_input`` changes what is fed back, not the targets; its last frame is never fed."""
+    m = CodeTalkerMethod(**TINY)
+    torch.manual_seed(0)
+    m.build_network(2, 12)
+    net = m.network.eval()
+    torch.nn.init.normal_(net.feat_map.weight, std=0.5)  # zero at init would hide the inputs' effect
+    g = torch.Generator().manual_seed(1)
+    audio, tpl = torch.randn(1, 16000, generator=g) * 0.1, torch.randn(1, 12, generator=g)
+    target, fed = torch.randn(1, 30, 12, generator=g), torch.randn(1, 30, 12, generator=g)
+    one_hot = torch.eye(2)[:1]
+    with torch.no_grad():
+        pred_fed, _, _ = net(audio, tpl, fed, one_hot)
+        pred, motion, _ = net(audio, tpl, target, one_hot, vertice_input=fed)
+        torch.testing.assert_close(pred, pred_fed)
+        torch.testing.assert_close(motion, torch.mean((pred - target) ** 2))
+        torch.testing.assert_close(net(audio, tpl, target, one_hot, vertice_input=target)[0], net(audio, tpl, target, one_hot)[0])
+        last_changed = fed.clone()
+        last_changed[:, -1] += 1.0
+        torch.testing.assert_close(net(audio, tpl, target, one_hot, vertice_input=last_changed)[0], pred)
+        assert not torch.allclose(pred, net(audio, tpl, target, one_hot)[0])
+
+
+def test_own_input_feeding_is_switchable_and_seeded():
+    """``own_input_prob`` 0 is the authors' teacher forcing; > 0 trains differently, reproducibly."""
+    from baselines.codetalker.train import train_stage2
+    from baselines.faceformer.sequences import motion_sequences
+
+    ds = FakeBlendVOCA(0, train=2, sentences=1)
+    train, subjects = motion_sequences(ds, "train"), list(ds.split("train"))
+    weights = []
+    for prob in (0.0, 1.0, 1.0):
+        m = CodeTalkerMethod(**TINY, own_input_prob=prob, val_free_running=False)
+        torch.manual_seed(0)
+        m.build_network(len(subjects), int(train[0].template.size))
+        torch.nn.init.normal_(m.network.feat_map.weight, std=0.1)
+        train_stage2(m.network, train, [], subjects, training=m.settings["training"],
+                     seed=0, max_steps=4, max_seconds=float("inf"), progress=False)
+        weights.append(m.network.vertice_map.weight.detach().clone())
+    assert not torch.allclose(weights[0], weights[1])
+    torch.testing.assert_close(weights[1], weights[2])
