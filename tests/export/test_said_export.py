@@ -13,7 +13,7 @@ def checkpoint(tmp_path_factory):
     return said.save(tmp_path_factory.mktemp("said") / "said.pt")
 
 
-def test_generate_exports(tmp_path, checkpoint, small_rig):
+def test_generate_exports(tmp_path, checkpoint, small_rig, capsys):
     from baselines.said.generate import main
     from blendvoca.export import read_track
     from blendvoca.io.audio import write_wav
@@ -29,5 +29,7 @@ def test_generate_exports(tmp_path, checkpoint, small_rig):
         back, back_names, fps = read_track(tmp_path / out)
         assert fps == pytest.approx(60)
         np.testing.assert_allclose(back[:, [list(back_names).index(n) for n in names]], reference, atol=2e-6)
-    with pytest.raises(ValueError, match="--export usd needs --rig"):
-        main(["--audio", str(wav), "--out", str(tmp_path / "y.usda"), "--checkpoint", str(checkpoint), "--export", "usd"])
+    assert main(["--audio", str(wav), "--out", str(tmp_path / "y.usda"), "--checkpoint", str(checkpoint),
+                 "--export", "usd"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("error: ") and "--export usd needs --rig" in err[0]
