@@ -29,6 +29,7 @@ def test_generate_exports(tmp_path, checkpoint, small_rig, capsys):
         back, back_names, fps = read_track(tmp_path / out)
         assert fps == pytest.approx(60)
         np.testing.assert_allclose(back[:, [list(back_names).index(n) for n in names]], reference, atol=2e-6)
+    capsys.readouterr()
     assert main(["--audio", str(wav), "--out", str(tmp_path / "y.usda"), "--checkpoint", str(checkpoint),
                  "--export", "usd"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
