@@ -42,7 +42,7 @@ from .outdir import (
 from .state import STATE_DIR, is_up_to_date, read_record, record_path, write_record
 
 #: Bumped when a stage's algorithm changes its outputs (invalidates records).
-RIG_STAGE_VERSION = "1"
+RIG_STAGE_VERSION = "2"  # 2: one triangle correspondence per build, on the reference speaker
 FIT_STAGE_VERSION = "1"
 AUDIO_RATE = 16000
 #: Inner-lip landmarks (0-based) of the 68-point scheme: upper and lower lip middle.
@@ -137,8 +137,8 @@ def _retire(out: Path, record: dict | None) -> str:
     return f" (its previous outputs were removed: {', '.join(removed)})" if removed else ""
 
 
-def _worker_init(corpus_root, out, params):
-    """Per-process state: the corpus, static inputs, one BLAS thread."""
+def _worker_init(corpus_root, out, params, shared=None):
+    """Per-process state: the corpus, static inputs, the shared correspondence, one BLAS thread."""
     try:
         from threadpoolctl import threadpool_limits
 
@@ -154,15 +154,92 @@ def _worker_init(corpus_root, out, params):
         params=params,
         static=_static_inputs(params["shapes"]),
         rigs={},
+        shared=shared or {},
     )
 
 
-def _rig_key(template_digest, faces_digest, static, params):
+def _rig_key(template_digest, faces_digest, static, params, correspondence_template):
+    # The rig depends on the template the shared correspondence was computed on
+    # (the reference speaker's) as well as on the speaker's own template.
     return stage_key({
         "stage": "rig", "version": RIG_STAGE_VERSION, "shapes": static["shapes"],
         "template": template_digest, "faces": faces_digest, "assets": static["assets"],
+        "correspondence_template": correspondence_template,
         "params": {k: params[k] for k in ("shapes",)},
     })
+
+
+def _reference_rig(static, params):
+    """The ARKit reference rig, parsed once per process and only when a rig is (re)built."""
+    if "reference" not in static:
+        from blendvoca.rig import load_arkit_reference
+
+        static["reference"] = load_arkit_reference(params["shapes"])
+    return static["reference"]
+
+
+def _shared_correspondence(corpus, subjects, out, params):
+    """One triangle correspondence for the whole build, computed in the parent process.
+
+    It is computed on the first speaker (corpus order) whose template can be
+    read and reused for every speaker (one topology). Returns
+    ``{"template": digest, "correspondence": Correspondence or None}``; the
+    correspondence is computed only when some rig is out of date (a rerun with
+    nothing to do pays only for reading and hashing the templates). ``{}``
+    when no template can be read (every rig fails on its own then).
+    """
+    from blendvoca.retarget import correspondence_for_target
+
+    static = _static_inputs(params["shapes"])
+    faces = corpus.faces
+    faces_digest = array_digest(faces)
+    reference_template = reference_digest = None
+    stale = False
+    for subject in subjects:
+        try:
+            template = corpus.template(subject)
+        except Exception:  # that speaker's rig task reports it
+            stale = True
+            continue
+        digest = array_digest(template)
+        if reference_template is None:
+            reference_template, reference_digest = template, digest
+        key = _rig_key(digest, faces_digest, static, params, reference_digest)
+        if not is_up_to_date(out, read_record(record_path(out, "rigs", subject)), key):
+            stale = True
+        if stale and reference_template is not None:
+            break
+    if reference_template is None:
+        return {}
+    shared = {"template": reference_digest, "correspondence": None}
+    if stale:
+        try:
+            with _one_blas_thread():
+                reference = _reference_rig(static, params)
+                shared["correspondence"] = correspondence_for_target(
+                    reference.neutral, reference.faces, reference_template, faces,
+                    static["reference_landmarks"], static["flame_landmarks"], crop=static["head_index"])
+        except Exception:  # each rig task computes (and reports) its own then
+            shared["correspondence"] = None
+    return shared
+
+
+class _one_blas_thread:
+    """Context: one BLAS thread (as in the workers, so shared results match theirs bit for bit)."""
+
+    def __enter__(self):
+        try:
+            from threadpoolctl import threadpool_limits
+
+            self._limits = threadpool_limits(1)
+        except ImportError:  # pragma: no cover
+            self._limits = None
+        return self
+
+    def __exit__(self, *exc):
+        if self._limits is not None:
+            self._limits.unregister()
+        return False
 
 
 # ----------------------------------------------------------------------------- speaker stage
@@ -175,22 +252,24 @@ def _speaker_task(subject):
 
     from .speaker import head_faces, speaker_rig
 
-    corpus, out, params, static = (_WORKER[k] for k in ("corpus", "out", "params", "static"))
+    corpus, out, params, static, shared = (_WORKER[k] for k in ("corpus", "out", "params", "static", "shared"))
     path = record_path(out, "rigs", subject)
     try:
         template = corpus.template(subject)
         faces = corpus.faces
         inputs = {"template": array_digest(template), "faces": array_digest(faces)}
-        key = _rig_key(inputs["template"], inputs["faces"], static, params)
+        # Without a shared correspondence (no readable reference template) each rig uses its own.
+        reference_digest = shared.get("template", inputs["template"])
+        key = _rig_key(inputs["template"], inputs["faces"], static, params, reference_digest)
         record = read_record(path)
         if is_up_to_date(out, record, key):
             return {"subject": subject, "status": "skipped", "key": key}
-        if "reference" not in static:  # parsed only when a rig is (re)built
-            from blendvoca.rig import load_arkit_reference
-
-            static["reference"] = load_arkit_reference(params["shapes"])
-        rig = speaker_rig(static["reference"], template, faces, static["reference_landmarks"],
-                          static["flame_landmarks"], static["head_index"])
+        correspondence = shared.get("correspondence")
+        if correspondence is None and reference_digest != inputs["template"]:
+            raise BlendVOCAError(f"{subject}: the correspondence shared by all speakers could not be computed "
+                                 "on the reference speaker's template (see that speaker's rig failure)")
+        rig = speaker_rig(_reference_rig(static, params), template, faces, static["reference_landmarks"],
+                          static["flame_landmarks"], static["head_index"], correspondence=correspondence)
         _invalidate_manifest(out)
         head = static["head_index"]
         hfaces = head_faces(rig.faces, head, rig.num_vertices)
@@ -483,7 +562,8 @@ def _build(out, vocaset, corpus, params, *, workers, report, progress):
     clock = time.perf_counter()
     subjects = list(corpus.subjects)
     _retire_vanished(out, "rigs", {(s,) for s in subjects}, summary, {})
-    speaker_results = _run(subjects, _speaker_task, workers=workers, initargs=initargs,
+    shared = _shared_correspondence(corpus, subjects, out, params)
+    speaker_results = _run(subjects, _speaker_task, workers=workers, initargs=initargs + (shared,),
                            desc="speaker rigs", progress=progress)
     rig_keys = {}
     for result in speaker_results:
