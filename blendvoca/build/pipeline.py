@@ -20,6 +20,7 @@ from __future__ import annotations
 import json
 import os
 import sys
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -254,6 +255,7 @@ def _speaker_task(subject):
 
     corpus, out, params, static, shared = (_WORKER[k] for k in ("corpus", "out", "params", "static", "shared"))
     path = record_path(out, "rigs", subject)
+    clock = time.perf_counter()
     try:
         template = corpus.template(subject)
         faces = corpus.faces
@@ -268,8 +270,11 @@ def _speaker_task(subject):
         if correspondence is None and reference_digest != inputs["template"]:
             raise BlendVOCAError(f"{subject}: the correspondence shared by all speakers could not be computed "
                                  "on the reference speaker's template (see that speaker's rig failure)")
-        rig = speaker_rig(_reference_rig(static, params), template, faces, static["reference_landmarks"],
+        reference = _reference_rig(static, params)
+        read_s, clock = time.perf_counter() - clock, time.perf_counter()
+        rig = speaker_rig(reference, template, faces, static["reference_landmarks"],
                           static["flame_landmarks"], static["head_index"], correspondence=correspondence)
+        compute_s, clock = time.perf_counter() - clock, time.perf_counter()
         _invalidate_manifest(out)
         head = static["head_index"]
         hfaces = head_faces(rig.faces, head, rig.num_vertices)
@@ -283,7 +288,8 @@ def _speaker_task(subject):
         write_record(path, {"key": key, "status": "ok", "subject": subject, "inputs": inputs,
                             "files": {rel: file_digest(out / rel) for rel in sorted(files)}})
         assert isinstance(rig, Rig)
-        return {"subject": subject, "status": "built", "key": key}
+        return {"subject": subject, "status": "built", "key": key,
+                "seconds": {"compute": compute_s, "io": read_s + time.perf_counter() - clock}}
     except Exception as error:  # recorded, the build carries on
         if is_fatal_write_error(error):
             raise unwritable(error, out) from None
@@ -317,6 +323,7 @@ def _sentence_task(item):
     corpus, out, params, static = (_WORKER[k] for k in ("corpus", "out", "params", "static"))
     path = record_path(out, "sentences", subject, sentence)
     base = {"subject": subject, "sentence": sentence}
+    clock = time.perf_counter()
     try:
         frames = corpus.frames(subject, sentence)
         samples, rate = corpus.audio(subject, sentence)
@@ -331,15 +338,18 @@ def _sentence_task(item):
             return {**base, "status": "skipped"}
         _invalidate_manifest(out)
         rig = _load_rig(subject)
+        read_s, clock = time.perf_counter() - clock, time.perf_counter()
         coeffs, stats = sentence_fit(rig, frames, static["head_index"], delta=params["delta"])
         lips = static["flame_landmarks"][list(LIP_LANDMARKS)]
         stats["lip_aperture_mm"] = [round(float(v) * 1000.0, 6) for v in lip_aperture(frames, *lips)]
+        compute_s, clock = time.perf_counter() - clock, time.perf_counter()
         files = [f"blendshape_coeffs/{subject}/{sentence}.csv", f"audio/{subject}/{sentence}.wav"]
         write_coeffs_csv(out / files[0], coeffs, rig.names)
         write_wav(out / files[1], resample_audio(to_mono(samples), rate, AUDIO_RATE), AUDIO_RATE)
         write_record(path, {**base, "key": key, "status": "ok", "stats": stats, "inputs": inputs,
                             "files": {rel: file_digest(out / rel) for rel in files}})
-        return {**base, "status": "built"}
+        return {**base, "status": "built",
+                "seconds": {"compute": compute_s, "io": read_s + time.perf_counter() - clock}}
     except Exception as error:  # recorded, the build carries on
         if is_fatal_write_error(error):
             raise unwritable(error, out) from None
@@ -549,9 +559,16 @@ def _retire_vanished(out: Path, stage: str, current: set, summary, problems: dic
                                  "reason": f"{why}; built before{note or ' (no outputs left)'}"})
 
 
-def _build(out, vocaset, corpus, params, *, workers, report, progress):
-    import time
+def _task_seconds(results) -> dict:
+    """``{"compute": s, "io": s}`` summed over the built items' task results."""
+    seconds = {"compute": 0.0, "io": 0.0}
+    for result in results:
+        for kind, value in result.get("seconds", {}).items():
+            seconds[kind] += value
+    return seconds
 
+
+def _build(out, vocaset, corpus, params, *, workers, report, progress):
     remove_stale_temporaries(out)
     summary = BuildSummary(out)
     initargs = (str(vocaset), str(out), params)
@@ -562,7 +579,9 @@ def _build(out, vocaset, corpus, params, *, workers, report, progress):
     clock = time.perf_counter()
     subjects = list(corpus.subjects)
     _retire_vanished(out, "rigs", {(s,) for s in subjects}, summary, {})
+    shared_clock = time.perf_counter()
     shared = _shared_correspondence(corpus, subjects, out, params)
+    shared_s = time.perf_counter() - shared_clock
     speaker_results = _run(subjects, _speaker_task, workers=workers, initargs=initargs + (shared,),
                            desc="speaker rigs", progress=progress)
     rig_keys = {}
@@ -576,6 +595,9 @@ def _build(out, vocaset, corpus, params, *, workers, report, progress):
         rig_keys[result["subject"]] = result["key"]
 
     summary.seconds["rigs"] = time.perf_counter() - clock
+    stages = {"rigs": {**_task_seconds(speaker_results), "wall": summary.seconds["rigs"],
+                       "built": summary.built["speakers"]}}
+    stages["rigs"]["compute"] += shared_s  # the shared correspondence (reading the templates included)
     clock = time.perf_counter()
     items = [(s, q, rig_keys[s]) for s in subjects if s in rig_keys for q in corpus.sentences(s)]
     _retire_vanished(out, "sentences", {(s, q) for s in subjects for q in corpus.sentences(s)}, summary, problems)
@@ -601,9 +623,20 @@ def _build(out, vocaset, corpus, params, *, workers, report, progress):
                                  "reason": problem.message})
 
     summary.seconds["sentences"] = time.perf_counter() - clock
+    stages["fits"] = {**_task_seconds(sentence_results), "wall": summary.seconds["sentences"],
+                      "built": summary.built["sentences"]}
     clock = time.perf_counter()
-    _write_summary_files(out, corpus, vocaset, subjects, params, summary, report=report)
+    report_s = _write_summary_files(out, corpus, vocaset, subjects, params, summary, report=report)
     summary.seconds["summary"] = time.perf_counter() - clock
+    if report_s is not None or summary.built["speakers"] or summary.built["sentences"]:
+        # Something was done: the timings of this build (a no-op rerun leaves them as they are).
+        from .report import TIMINGS, write_timings
+
+        if report:
+            stages["summary"] = {"wall": summary.seconds["summary"], "report": report_s or 0.0}
+            write_timings(out, stages, workers=workers)
+        elif (out / TIMINGS).is_file():
+            (out / TIMINGS).unlink()  # this build writes no report; older timings would look current
     return summary
 
 
@@ -612,6 +645,7 @@ SUMMARY_OUTPUTS = ("coeffs_std.csv", "blendshape_residuals.pickle", "splits.json
 
 
 def _write_summary_files(out, corpus, vocaset, subjects, params, summary, *, report):
+    """Write the summary outputs unless up to date; return the seconds spent on the report (None: up to date)."""
     from blendvoca.io.coeffs import read_coeffs_csv
 
     from .manifest import write_manifest
@@ -627,7 +661,7 @@ def _write_summary_files(out, corpus, vocaset, subjects, params, summary, *, rep
                              "report": report, "version": blendvoca.__version__, "splits": corpus.splits})
     previous = read_record(summary_path)
     if is_up_to_date(out, previous, summary_key):
-        return
+        return None
     _invalidate_manifest(out)
     # The previous summary's own files go first: a report or coeffs_std.csv this build does not
     # write again must not stay behind looking current.
@@ -653,11 +687,15 @@ def _write_summary_files(out, corpus, vocaset, subjects, params, summary, *, rep
     write_blendshape_residuals(out, subjects)
     with atomic_write(out / "splits.json", "w", encoding="utf-8") as f:
         f.write(json.dumps(corpus.splits, indent=2, sort_keys=True) + "\n")
+    report_s = 0.0
     if report:
+        clock = time.perf_counter()
         write_report(out, records, names or (), summary.failures, params)
+        report_s = time.perf_counter() - clock
     files += [rel for rel in SUMMARY_OUTPUTS if (out / rel).is_file()]
     manifest = write_manifest(out, files=files, vocaset=vocaset, corpus=corpus, params=params, records=records,
                               failures=summary.failures, version=blendvoca.__version__)
     listed = json.loads(manifest.read_text(encoding="utf-8"))["files"]
     listed["manifest.json"] = file_digest(manifest)
     write_record(summary_path, {"key": summary_key, "status": "ok", "files": listed})
+    return report_s
