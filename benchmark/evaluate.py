@@ -20,7 +20,7 @@ from os import PathLike
 import numpy as np
 from tqdm import tqdm
 
-from benchmark.metrics.bootstrap import BOOTSTRAP_RESAMPLES, mean_ci, statistic_ci
+from benchmark.metrics.bootstrap import BOOTSTRAP_RESAMPLES, mean_ci, statistic_ci, statistics_ci
 from benchmark.metrics.multimodality import PAIRS_PER_WINDOW
 from benchmark.metrics.registry import metric_info, ordered_metrics
 from benchmark.metrics.windows import GT_DROP_LAST, window_starts
@@ -135,7 +135,7 @@ def _encoded(extractor, windows, desc: str, progress: bool) -> np.ndarray:
 def latent_metrics(ground_truth: Mapping[Hashable, np.ndarray], generated: Mapping[Hashable, np.ndarray], extractor,
                    *, samples_for_multimodality: int = PAIRS_PER_WINDOW, wind_components: int = 5,
                    wind_repeats: int = 10, seed: int = 0, fd_resamples: int = FD_RESAMPLES,
-                   wind_resamples: int = WIND_RESAMPLES, progress: bool = False) -> dict:
+                   wind_resamples: int = WIND_RESAMPLES, wind_workers: int = 2, progress: bool = False) -> dict:
     """FD, WInD and multimodality over VAE features of 120-frame windows, with bootstrap intervals.
 
     Parameters
@@ -144,6 +144,9 @@ def latent_metrics(ground_truth: Mapping[Hashable, np.ndarray], generated: Mappi
     extractor : feature extractor (see :func:`benchmark.features.encode_windows`)
     fd_resamples, wind_resamples : int
         Bootstrap resamples over the generated sentences (the ground-truth set is fixed).
+    wind_workers : int
+        Processes for the WInD mixture fits (repeats and bootstrap refits); each fit is
+        seeded and single-threaded, so the scores do not depend on it.
 
     Returns
     -------
@@ -156,6 +159,7 @@ def latent_metrics(ground_truth: Mapping[Hashable, np.ndarray], generated: Mappi
         frechet_distance,
         frechet_distance_from_stats,
         gmm_components,
+        gmm_components_many,
         multimodality,
         paired_samples,
         wind,
@@ -194,20 +198,25 @@ def latent_metrics(ground_truth: Mapping[Hashable, np.ndarray], generated: Mappi
                                                                        seed=seed, progress=bar), **extra)}
 
     k = min(wind_components, len(real), len(fake))
-    w_mean, w_std = wind(fake, real, n_components=k, repeats=wind_repeats, seed=seed)
+    w_mean, w_std = wind(fake, real, n_components=k, repeats=wind_repeats, seed=seed, workers=wind_workers)
     real_gmm = gmm_components(real, k, seed)
 
     thin = np.random.default_rng(np.random.SeedSequence([seed, 0x57]))
 
-    def wind_of(rows):
-        picked = np.concatenate([members[i] for i in rows])
-        if len(picked) > WIND_RESAMPLE_WINDOWS:
-            picked = thin.choice(picked, WIND_RESAMPLE_WINDOWS, replace=False)
-        return wind_from_gmms(gmm_components(fake[picked], min(k, len(picked)), seed), real_gmm)
+    def wind_of_all(rows):
+        # The windows of every resample first (the thinning draws stay in resample order),
+        # then the independent seeded fits, in parallel when wind_workers > 1.
+        jobs = []
+        for row in rows:
+            picked = np.concatenate([members[i] for i in row])
+            if len(picked) > WIND_RESAMPLE_WINDOWS:
+                picked = thin.choice(picked, WIND_RESAMPLE_WINDOWS, replace=False)
+            jobs.append((fake[picked], min(k, len(picked)), seed))
+        bar = (lambda it: tqdm(it, total=len(jobs), desc="WInD bootstrap", unit="resample", disable=not progress))
+        return [wind_from_gmms(gmm, real_gmm) for gmm in gmm_components_many(jobs, wind_workers, progress=bar)]
 
-    bar = (lambda it: tqdm(it, desc="WInD bootstrap", unit="resample", disable=not progress))
-    out["wind"] = metric_entry("wind", w_mean, w_std, n=n, ci95=statistic_ci(
-        wind_of, n, w_mean, resamples=wind_resamples, seed=seed + 1, progress=bar), **extra)
+    out["wind"] = metric_entry("wind", w_mean, w_std, n=n, ci95=statistics_ci(
+        wind_of_all, n, w_mean, resamples=wind_resamples, seed=seed + 1), **extra)
 
     groups = windows.fake_groups()
     sums_d, counts_d, all_d = np.zeros(n), np.zeros(n), []

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["BOOTSTRAP_RESAMPLES", "bootstrap_indices", "mean_ci", "statistic_ci"]
+__all__ = ["BOOTSTRAP_RESAMPLES", "bootstrap_indices", "mean_ci", "statistic_ci", "statistics_ci"]
 
 #: Resamples of the per-sentence means (cheap: vectorised).
 BOOTSTRAP_RESAMPLES = 1000
@@ -75,3 +75,27 @@ def statistic_ci(statistic, n: int, point: float, *, resamples: int, seed: int =
     rows = bootstrap_indices(n, resamples, seed)
     iterator = progress(rows) if progress is not None else rows
     return _interval([statistic(row) for row in iterator], float(point), level)
+
+
+def statistics_ci(statistics, n: int, point: float, *, resamples: int, seed: int = 0,
+                  level: float = 0.95) -> list[float]:
+    """`statistic_ci` with all resamples handed over at once (e.g. to compute them in parallel).
+
+    Parameters
+    ----------
+    statistics : callable ((resamples, n) int ndarray) -> (resamples,) floats
+        The metric recomputed on every row of sentence indices, in row order.
+    n, point, resamples, seed, level
+        As in `statistic_ci` (same rows for the same ``seed``, so the same interval).
+
+    Returns
+    -------
+    [low, high] : list of float
+    """
+    if n < 2:
+        return [float(point), float(point)]
+    rows = bootstrap_indices(n, resamples, seed)
+    values = list(statistics(rows))
+    if len(values) != len(rows):
+        raise ValueError(f"statistics_ci: expected {len(rows)} values, one per resample, got {len(values)}")
+    return _interval(values, float(point), level)

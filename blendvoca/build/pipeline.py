@@ -20,6 +20,7 @@ from __future__ import annotations
 import json
 import os
 import sys
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -42,7 +43,7 @@ from .outdir import (
 from .state import STATE_DIR, is_up_to_date, read_record, record_path, write_record
 
 #: Bumped when a stage's algorithm changes its outputs (invalidates records).
-RIG_STAGE_VERSION = "1"
+RIG_STAGE_VERSION = "2"  # 2: one triangle correspondence per build, on the reference speaker
 FIT_STAGE_VERSION = "1"
 AUDIO_RATE = 16000
 #: Inner-lip landmarks (0-based) of the 68-point scheme: upper and lower lip middle.
@@ -137,8 +138,8 @@ def _retire(out: Path, record: dict | None) -> str:
     return f" (its previous outputs were removed: {', '.join(removed)})" if removed else ""
 
 
-def _worker_init(corpus_root, out, params):
-    """Per-process state: the corpus, static inputs, one BLAS thread."""
+def _worker_init(corpus_root, out, params, shared=None):
+    """Per-process state: the corpus, static inputs, the shared correspondence, one BLAS thread."""
     try:
         from threadpoolctl import threadpool_limits
 
@@ -154,15 +155,92 @@ def _worker_init(corpus_root, out, params):
         params=params,
         static=_static_inputs(params["shapes"]),
         rigs={},
+        shared=shared or {},
     )
 
 
-def _rig_key(template_digest, faces_digest, static, params):
+def _rig_key(template_digest, faces_digest, static, params, correspondence_template):
+    # The rig depends on the template the shared correspondence was computed on
+    # (the reference speaker's) as well as on the speaker's own template.
     return stage_key({
         "stage": "rig", "version": RIG_STAGE_VERSION, "shapes": static["shapes"],
         "template": template_digest, "faces": faces_digest, "assets": static["assets"],
+        "correspondence_template": correspondence_template,
         "params": {k: params[k] for k in ("shapes",)},
     })
+
+
+def _reference_rig(static, params):
+    """The ARKit reference rig, parsed once per process and only when a rig is (re)built."""
+    if "reference" not in static:
+        from blendvoca.rig import load_arkit_reference
+
+        static["reference"] = load_arkit_reference(params["shapes"])
+    return static["reference"]
+
+
+def _shared_correspondence(corpus, subjects, out, params):
+    """One triangle correspondence for the whole build, computed in the parent process.
+
+    It is computed on the first speaker (corpus order) whose template can be
+    read and reused for every speaker (one topology). Returns
+    ``{"template": digest, "correspondence": Correspondence or None}``; the
+    correspondence is computed only when some rig is out of date (a rerun with
+    nothing to do pays only for reading and hashing the templates). ``{}``
+    when no template can be read (every rig fails on its own then).
+    """
+    from blendvoca.retarget import correspondence_for_target
+
+    static = _static_inputs(params["shapes"])
+    faces = corpus.faces
+    faces_digest = array_digest(faces)
+    reference_template = reference_digest = None
+    stale = False
+    for subject in subjects:
+        try:
+            template = corpus.template(subject)
+        except Exception:  # that speaker's rig task reports it
+            stale = True
+            continue
+        digest = array_digest(template)
+        if reference_template is None:
+            reference_template, reference_digest = template, digest
+        key = _rig_key(digest, faces_digest, static, params, reference_digest)
+        if not is_up_to_date(out, read_record(record_path(out, "rigs", subject)), key):
+            stale = True
+        if stale and reference_template is not None:
+            break
+    if reference_template is None:
+        return {}
+    shared = {"template": reference_digest, "correspondence": None}
+    if stale:
+        try:
+            with _one_blas_thread():
+                reference = _reference_rig(static, params)
+                shared["correspondence"] = correspondence_for_target(
+                    reference.neutral, reference.faces, reference_template, faces,
+                    static["reference_landmarks"], static["flame_landmarks"], crop=static["head_index"])
+        except Exception:  # each rig task computes (and reports) its own then
+            shared["correspondence"] = None
+    return shared
+
+
+class _one_blas_thread:
+    """Context: one BLAS thread (as in the workers, so shared results match theirs bit for bit)."""
+
+    def __enter__(self):
+        try:
+            from threadpoolctl import threadpool_limits
+
+            self._limits = threadpool_limits(1)
+        except ImportError:  # pragma: no cover
+            self._limits = None
+        return self
+
+    def __exit__(self, *exc):
+        if self._limits is not None:
+            self._limits.unregister()
+        return False
 
 
 # ----------------------------------------------------------------------------- speaker stage
@@ -175,22 +253,28 @@ def _speaker_task(subject):
 
     from .speaker import head_faces, speaker_rig
 
-    corpus, out, params, static = (_WORKER[k] for k in ("corpus", "out", "params", "static"))
+    corpus, out, params, static, shared = (_WORKER[k] for k in ("corpus", "out", "params", "static", "shared"))
     path = record_path(out, "rigs", subject)
+    clock = time.perf_counter()
     try:
         template = corpus.template(subject)
         faces = corpus.faces
         inputs = {"template": array_digest(template), "faces": array_digest(faces)}
-        key = _rig_key(inputs["template"], inputs["faces"], static, params)
+        # Without a shared correspondence (no readable reference template) each rig uses its own.
+        reference_digest = shared.get("template", inputs["template"])
+        key = _rig_key(inputs["template"], inputs["faces"], static, params, reference_digest)
         record = read_record(path)
         if is_up_to_date(out, record, key):
             return {"subject": subject, "status": "skipped", "key": key}
-        if "reference" not in static:  # parsed only when a rig is (re)built
-            from blendvoca.rig import load_arkit_reference
-
-            static["reference"] = load_arkit_reference(params["shapes"])
-        rig = speaker_rig(static["reference"], template, faces, static["reference_landmarks"],
-                          static["flame_landmarks"], static["head_index"])
+        correspondence = shared.get("correspondence")
+        if correspondence is None and reference_digest != inputs["template"]:
+            raise BlendVOCAError(f"{subject}: the correspondence shared by all speakers could not be computed "
+                                 "on the reference speaker's template (see that speaker's rig failure)")
+        reference = _reference_rig(static, params)
+        read_s, clock = time.perf_counter() - clock, time.perf_counter()
+        rig = speaker_rig(reference, template, faces, static["reference_landmarks"],
+                          static["flame_landmarks"], static["head_index"], correspondence=correspondence)
+        compute_s, clock = time.perf_counter() - clock, time.perf_counter()
         _invalidate_manifest(out)
         head = static["head_index"]
         hfaces = head_faces(rig.faces, head, rig.num_vertices)
@@ -204,7 +288,8 @@ def _speaker_task(subject):
         write_record(path, {"key": key, "status": "ok", "subject": subject, "inputs": inputs,
                             "files": {rel: file_digest(out / rel) for rel in sorted(files)}})
         assert isinstance(rig, Rig)
-        return {"subject": subject, "status": "built", "key": key}
+        return {"subject": subject, "status": "built", "key": key,
+                "seconds": {"compute": compute_s, "io": read_s + time.perf_counter() - clock}}
     except Exception as error:  # recorded, the build carries on
         if is_fatal_write_error(error):
             raise unwritable(error, out) from None
@@ -238,6 +323,7 @@ def _sentence_task(item):
     corpus, out, params, static = (_WORKER[k] for k in ("corpus", "out", "params", "static"))
     path = record_path(out, "sentences", subject, sentence)
     base = {"subject": subject, "sentence": sentence}
+    clock = time.perf_counter()
     try:
         frames = corpus.frames(subject, sentence)
         samples, rate = corpus.audio(subject, sentence)
@@ -252,15 +338,18 @@ def _sentence_task(item):
             return {**base, "status": "skipped"}
         _invalidate_manifest(out)
         rig = _load_rig(subject)
+        read_s, clock = time.perf_counter() - clock, time.perf_counter()
         coeffs, stats = sentence_fit(rig, frames, static["head_index"], delta=params["delta"])
         lips = static["flame_landmarks"][list(LIP_LANDMARKS)]
         stats["lip_aperture_mm"] = [round(float(v) * 1000.0, 6) for v in lip_aperture(frames, *lips)]
+        compute_s, clock = time.perf_counter() - clock, time.perf_counter()
         files = [f"blendshape_coeffs/{subject}/{sentence}.csv", f"audio/{subject}/{sentence}.wav"]
         write_coeffs_csv(out / files[0], coeffs, rig.names)
         write_wav(out / files[1], resample_audio(to_mono(samples), rate, AUDIO_RATE), AUDIO_RATE)
         write_record(path, {**base, "key": key, "status": "ok", "stats": stats, "inputs": inputs,
                             "files": {rel: file_digest(out / rel) for rel in files}})
-        return {**base, "status": "built"}
+        return {**base, "status": "built",
+                "seconds": {"compute": compute_s, "io": read_s + time.perf_counter() - clock}}
     except Exception as error:  # recorded, the build carries on
         if is_fatal_write_error(error):
             raise unwritable(error, out) from None
@@ -470,9 +559,16 @@ def _retire_vanished(out: Path, stage: str, current: set, summary, problems: dic
                                  "reason": f"{why}; built before{note or ' (no outputs left)'}"})
 
 
-def _build(out, vocaset, corpus, params, *, workers, report, progress):
-    import time
+def _task_seconds(results) -> dict:
+    """``{"compute": s, "io": s}`` summed over the built items' task results."""
+    seconds = {"compute": 0.0, "io": 0.0}
+    for result in results:
+        for kind, value in result.get("seconds", {}).items():
+            seconds[kind] += value
+    return seconds
 
+
+def _build(out, vocaset, corpus, params, *, workers, report, progress):
     remove_stale_temporaries(out)
     summary = BuildSummary(out)
     initargs = (str(vocaset), str(out), params)
@@ -483,7 +579,10 @@ def _build(out, vocaset, corpus, params, *, workers, report, progress):
     clock = time.perf_counter()
     subjects = list(corpus.subjects)
     _retire_vanished(out, "rigs", {(s,) for s in subjects}, summary, {})
-    speaker_results = _run(subjects, _speaker_task, workers=workers, initargs=initargs,
+    shared_clock = time.perf_counter()
+    shared = _shared_correspondence(corpus, subjects, out, params)
+    shared_s = time.perf_counter() - shared_clock
+    speaker_results = _run(subjects, _speaker_task, workers=workers, initargs=initargs + (shared,),
                            desc="speaker rigs", progress=progress)
     rig_keys = {}
     for result in speaker_results:
@@ -496,6 +595,9 @@ def _build(out, vocaset, corpus, params, *, workers, report, progress):
         rig_keys[result["subject"]] = result["key"]
 
     summary.seconds["rigs"] = time.perf_counter() - clock
+    stages = {"rigs": {**_task_seconds(speaker_results), "wall": summary.seconds["rigs"],
+                       "built": summary.built["speakers"]}}
+    stages["rigs"]["compute"] += shared_s  # the shared correspondence (reading the templates included)
     clock = time.perf_counter()
     items = [(s, q, rig_keys[s]) for s in subjects if s in rig_keys for q in corpus.sentences(s)]
     _retire_vanished(out, "sentences", {(s, q) for s in subjects for q in corpus.sentences(s)}, summary, problems)
@@ -521,9 +623,20 @@ def _build(out, vocaset, corpus, params, *, workers, report, progress):
                                  "reason": problem.message})
 
     summary.seconds["sentences"] = time.perf_counter() - clock
+    stages["fits"] = {**_task_seconds(sentence_results), "wall": summary.seconds["sentences"],
+                      "built": summary.built["sentences"]}
     clock = time.perf_counter()
-    _write_summary_files(out, corpus, vocaset, subjects, params, summary, report=report)
+    report_s = _write_summary_files(out, corpus, vocaset, subjects, params, summary, report=report)
     summary.seconds["summary"] = time.perf_counter() - clock
+    if report_s is not None or summary.built["speakers"] or summary.built["sentences"]:
+        # Something was done: the timings of this build (a no-op rerun leaves them as they are).
+        from .report import TIMINGS, write_timings
+
+        if report:
+            stages["summary"] = {"wall": summary.seconds["summary"], "report": report_s or 0.0}
+            write_timings(out, stages, workers=workers)
+        elif (out / TIMINGS).is_file():
+            (out / TIMINGS).unlink()  # this build writes no report; older timings would look current
     return summary
 
 
@@ -532,6 +645,7 @@ SUMMARY_OUTPUTS = ("coeffs_std.csv", "blendshape_residuals.pickle", "splits.json
 
 
 def _write_summary_files(out, corpus, vocaset, subjects, params, summary, *, report):
+    """Write the summary outputs unless up to date; return the seconds spent on the report (None: up to date)."""
     from blendvoca.io.coeffs import read_coeffs_csv
 
     from .manifest import write_manifest
@@ -547,7 +661,7 @@ def _write_summary_files(out, corpus, vocaset, subjects, params, summary, *, rep
                              "report": report, "version": blendvoca.__version__, "splits": corpus.splits})
     previous = read_record(summary_path)
     if is_up_to_date(out, previous, summary_key):
-        return
+        return None
     _invalidate_manifest(out)
     # The previous summary's own files go first: a report or coeffs_std.csv this build does not
     # write again must not stay behind looking current.
@@ -573,11 +687,15 @@ def _write_summary_files(out, corpus, vocaset, subjects, params, summary, *, rep
     write_blendshape_residuals(out, subjects)
     with atomic_write(out / "splits.json", "w", encoding="utf-8") as f:
         f.write(json.dumps(corpus.splits, indent=2, sort_keys=True) + "\n")
+    report_s = 0.0
     if report:
+        clock = time.perf_counter()
         write_report(out, records, names or (), summary.failures, params)
+        report_s = time.perf_counter() - clock
     files += [rel for rel in SUMMARY_OUTPUTS if (out / rel).is_file()]
     manifest = write_manifest(out, files=files, vocaset=vocaset, corpus=corpus, params=params, records=records,
                               failures=summary.failures, version=blendvoca.__version__)
     listed = json.loads(manifest.read_text(encoding="utf-8"))["files"]
     listed["manifest.json"] = file_digest(manifest)
     write_record(summary_path, {"key": summary_key, "status": "ok", "files": listed})
+    return report_s

@@ -113,7 +113,9 @@ def report_markdown(records: dict, names, failures, params, *, figures=()) -> st
                  "max is the largest vertex error in any frame.")
     lines.append("")
     subjects = sorted({s for s, _ in records})
-    lines += [f"Fitted sentences: {len(records)} of {len(subjects)} speakers; failures: {len(failures)}.", ""]
+    lines += [f"Fitted sentences: {len(records)} of {len(subjects)} speakers; failures: {len(failures)}.", "",
+              "Stage timings of the latest build that did work: [timings.md](timings.md) (not in the "
+              "manifest: they change from run to run).", ""]
     if failures:
         lines += ["## Failures", "", "| speaker | sentence | stage | reason |", "|---|---|---|---|"]
         for f in failures:
@@ -159,6 +161,48 @@ def _aggregate(records):
         for kind in ("lower", "upper", "rate")
     }
     return usage, activity
+
+
+#: Stage timings of the latest build that did work, relative to ``out``: not in the
+#: manifest (they change from run to run while the data outputs stay byte-identical).
+TIMINGS = "report/timings.md"
+
+
+def timings_markdown(stages: dict, *, workers: int) -> str:
+    """Return the stage timing table.
+
+    Parameters
+    ----------
+    stages : dict
+        ``{"rigs": {"wall", "built", "compute", "io"}, "fits": {...}, "summary": {"wall", "report"}}``,
+        seconds; ``compute`` and ``io`` summed over the items built (all worker processes).
+    workers : int
+    """
+    lines = ["# BlendVOCA build timings", "",
+             f"The latest build that did work, on {workers} worker process(es). Wall: the stage's elapsed "
+             "time; compute and I/O: summed over the items built in every worker (rigs: the deformation "
+             "transfer, plus the correspondence shared by all speakers computed once in the main process; "
+             "fits: the constrained fit; I/O: reading and hashing the inputs, writing the outputs and records).",
+             "", "| stage | items built | wall s | compute s | I/O s |", "|---|---|---|---|---|"]
+    for stage in ("rigs", "fits"):
+        st = stages[stage]
+        lines.append(f"| {stage} | {st['built']} | {st['wall']:.2f} | {st['compute']:.2f} | {st['io']:.2f} |")
+    st = stages["summary"]
+    lines.append(f"| report | - | {st['report']:.2f} | {st['report']:.2f} | - |")
+    lines.append(f"| summary I/O (coeffs_std, residuals, splits, manifest) | - | {st['wall'] - st['report']:.2f} "
+                 f"| - | {st['wall'] - st['report']:.2f} |")
+    total = sum(stages[k]["wall"] for k in ("rigs", "fits", "summary"))
+    lines += [f"| total | - | {total:.2f} | - | - |", ""]
+    return "\n".join(lines)
+
+
+def write_timings(out, stages: dict, *, workers: int) -> Path:
+    """Write `TIMINGS` (see `timings_markdown`); return its path."""
+    path = Path(out) / TIMINGS
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with atomic_write(path, "w", encoding="utf-8") as f:
+        f.write(timings_markdown(stages, workers=workers))
+    return path
 
 
 def write_report(out, records: dict, names, failures, params, *, num_tracks: int = 3) -> Path:

@@ -14,6 +14,7 @@ def speaker_rig(
     reference_landmarks: np.ndarray,
     template_landmarks: np.ndarray,
     head_index: np.ndarray,
+    correspondence=None,
 ) -> Rig:
     """Return the speaker's full-topology rig (neutral = the template).
 
@@ -31,6 +32,9 @@ def speaker_rig(
         The same landmarks on the full FLAME mesh.
     head_index : (4580,) ndarray of int
         FLAME vertices that take part in the transfer (the head crop).
+    correspondence : blendvoca.retarget.Correspondence, optional
+        Computed once on another speaker of the same topology
+        (`blendvoca.retarget.correspondence_for_target`); default: computed on ``template``.
 
     Returns
     -------
@@ -47,6 +51,7 @@ def speaker_rig(
         template_landmarks,
         crop=head_index,
         shapes=list(reference.names),
+        correspondence=correspondence,
     )
 
 

@@ -87,3 +87,16 @@ def test_on_the_built_synthetic_dataset(built_dataset, vae):
 
     lat = latent_metrics(cut, long, vae, wind_repeats=2, wind_resamples=2)
     assert lat["fd"]["mean"] == pytest.approx(0.0, abs=0.5)
+
+
+def test_wind_workers_do_not_change_the_scores(dataset, vae):
+    from benchmark.evaluate import latent_metrics
+
+    gt = ground_truth(dataset)
+    truth = {k: v[0] for k, v in gt.items()}
+    rng = np.random.default_rng(4)
+    generated = {k: np.clip(v + rng.normal(0, 0.05, v.shape), 0, 1) for k, v in gt.items()}
+    runs = [latent_metrics(truth, generated, vae, wind_repeats=3, wind_resamples=4, fd_resamples=2, wind_workers=w)
+            for w in (1, 2)]
+    assert runs[0]["wind"] == runs[1]["wind"]
+    assert runs[0] == runs[1]

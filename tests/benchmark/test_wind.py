@@ -59,3 +59,18 @@ def test_bad_input():
         wind(np.zeros((10, 2)), np.zeros((10, 2)), repeats=0)
     with pytest.raises(ValueError, match="sum to 1"):
         transport_cost(np.zeros((2, 2)), [0.5, 0.4], [0.5, 0.5])
+
+
+def test_parallel_fits_are_bit_identical_to_sequential():
+    from benchmark.metrics import gmm_components_many
+
+    rng = np.random.default_rng(5)
+    x = np.concatenate([rng.normal(size=(150, 6)), rng.normal(size=(150, 6)) + 3])
+    y = rng.normal(size=(200, 6)) * 1.3
+    jobs = [(x, 3, s) for s in range(3)] + [(y, 2, 7)]
+    sequential = [gmm_components(*job) for job in jobs]
+    for got, want in zip(gmm_components_many(jobs, workers=2), sequential, strict=True):
+        for a, b in zip(got, want, strict=True):
+            np.testing.assert_array_equal(a, b)
+    np.testing.assert_array_equal(wind_scores(x, y, 3, repeats=4, seed=2, workers=2),
+                                  wind_scores(x, y, 3, repeats=4, seed=2, workers=1))

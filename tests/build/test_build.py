@@ -13,6 +13,7 @@ import pytest
 from blendvoca.build import build_dataset, coeffs_std, head_faces, lip_aperture
 from blendvoca.build.__main__ import main
 from blendvoca.build.hashing import file_digest
+from blendvoca.build.report import TIMINGS
 from blendvoca.io.coeffs import read_coeffs_csv
 from blendvoca.names import BLENDVOCA_NAMES
 from blendvoca.rig import Rig
@@ -20,12 +21,14 @@ from blendvoca.vocaset import open_vocaset
 
 
 def _tree(root, skip_state=True):
-    """``{relpath: bytes}`` of every file under root (without the stage records)."""
+    """``{relpath: bytes}`` of every file under root (without the stage records and, being
+    volatile by design, without the stage timings, which no manifest lists)."""
     root = Path(root)
     return {
         p.relative_to(root).as_posix(): p.read_bytes()
         for p in sorted(root.rglob("*"))
         if p.is_file() and not (skip_state and p.relative_to(root).parts[0] == ".buildstate")
+        and not (skip_state and p.relative_to(root).as_posix() == TIMINGS)
     }
 
 
@@ -51,6 +54,12 @@ def test_layout_and_contents(built_dataset, synthetic_corpus):
     assert std_names == BLENDVOCA_NAMES and std.shape == (1, 32) and np.all(std >= 0)
     report = (built_dataset / "report" / "README.md").read_text()
     assert "RMSE" in report and (built_dataset / "report" / "tracks.png").is_file()
+    timings = (built_dataset / TIMINGS).read_text()
+    rows = {line.split(" | ")[0].lstrip("| "): line.split(" | ")[1:] for line in timings.splitlines()
+            if line.startswith("| ") and not line.startswith("| stage")}
+    assert set(rows) >= {"rigs", "fits", "report", "total"}
+    assert rows["rigs"][0] == str(len(corpus.subjects)) and rows["fits"][0] == str(len(corpus.items()))
+    assert TIMINGS not in json.loads((built_dataset / "manifest.json").read_text())["files"]
 
 
 def test_manifest_lists_every_output_with_its_digest(built_dataset):

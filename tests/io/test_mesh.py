@@ -37,6 +37,19 @@ def test_round_trip_keeps_vertex_order_and_values(tmp_path, mesh, suffix, binary
         np.testing.assert_allclose(V2, V, rtol=0, atol=1e-8)
 
 
+def test_obj_text_is_one_record_per_line_with_nine_significant_digits(tmp_path):
+    # An independent line-by-line rendering of the OBJ records gives the same bytes.
+    rng = np.random.default_rng(3)
+    V = rng.normal(size=(40, 3)) * 10.0 ** rng.integers(-6, 3, size=(40, 1))
+    F = rng.integers(0, 40, size=(70, 3))
+    write_obj(tmp_path / "m.obj", V, F)
+    expected = "".join("v {} {} {}\n".format(*(format(float(x), ".9g") for x in v)) for v in V)
+    expected += "".join(f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in F)
+    assert (tmp_path / "m.obj").read_bytes() == expected.encode()
+    write_obj(tmp_path / "empty.obj", np.zeros((0, 3)), np.zeros((0, 3), dtype=int))
+    assert (tmp_path / "empty.obj").read_bytes() == b"\n"
+
+
 def test_matches_trimesh_on_the_flame_template(assets_dir):
     path = assets_dir / "voca" / "FLAME_sample.ply"
     V, F = read_mesh(path)
