@@ -111,17 +111,3 @@ class CodeTalkerMethod(StyleVertexMethod):
         self.network = CodeTalker(payload["model_config"], payload["stage1_config"])
         self.network.load_state_dict(payload["state_dict"])
         self.motion_scale = float(payload["motion_scale"])
-
-    def predict_motion(self, audio, template, style, num_frames):
-        from baselines.faceformer.sequences import MotionSequence
-        from baselines.faceformer.train import sequence_tensors
-        from baselines.said.threads import torch_threads
-
-        net = self.network.eval()
-        w2v = net.config["audio"]["kind"] == "wav2vec2"
-        seq = MotionSequence("", "", np.asarray(audio, np.float32), np.zeros((1, template.size), np.float32),
-                             np.asarray(template, np.float32))
-        a, tpl, _ = sequence_tensors(seq, scale=self.motion_scale, normalise_audio=w2v)
-        with torch.no_grad(), torch_threads(self.settings["training"].get("num_threads")):
-            out = net.predict(a, tpl, torch.eye(len(self.subjects))[style : style + 1], num_frames)
-        return out[0].numpy() / self.motion_scale

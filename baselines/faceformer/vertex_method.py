@@ -41,8 +41,9 @@ def training_limits(budget: Budget, default_steps, default_seconds) -> tuple[flo
 class StyleVertexMethod(Method):
     """Base of the FaceFormer and CodeTalker plug-ins (see the module docstring).
 
-    Subclasses provide ``name``, ``checkpoint_file``, :meth:`build_network`,
-    :meth:`fit` and :meth:`predict_motion`; the network lives in ``self.network``,
+    Subclasses provide ``name``, ``checkpoint_file``, :meth:`build_network` and
+    :meth:`fit`, and set ``self.settings`` (the resolved preset) and ``self.motion_scale``;
+    the network lives in ``self.network``,
     the style speakers in ``self.subjects`` and every speaker's template in
     ``self.templates``.
     """
@@ -68,8 +69,21 @@ class StyleVertexMethod(Method):
         raise NotImplementedError
 
     def predict_motion(self, audio: np.ndarray, template: np.ndarray, style: int, num_frames: int) -> np.ndarray:
-        """``(num_frames, V*3)`` float vertices at 30 fps in metres for one style."""
-        raise NotImplementedError
+        """``(num_frames, V*3)`` float vertices at 30 fps in metres for one style: the network's
+        ``predict(audio, template, one_hot, num_frames)`` (both authors' signature) on the scaled motion."""
+        from baselines.faceformer.sequences import MotionSequence
+        from baselines.faceformer.train import sequence_tensors
+        from baselines.said.threads import torch_threads
+
+        net = self.network.eval()
+        w2v = net.config["audio"]["kind"] == "wav2vec2"
+        seq = MotionSequence("", "", np.asarray(audio, np.float32), np.zeros((1, template.size), np.float32),
+                             np.asarray(template, np.float32))
+        a, tpl, _ = sequence_tensors(seq, scale=self.motion_scale, normalise_audio=w2v)
+        one_hot = torch.eye(len(self.subjects))[style : style + 1]
+        with torch.no_grad(), torch_threads(self.settings["training"].get("num_threads")):
+            out = net.predict(a, tpl, one_hot, num_frames)
+        return out[0].numpy() / self.motion_scale
 
     def network_state(self) -> dict:
         """What :meth:`save` stores besides the config (default: the state_dict)."""
