@@ -161,6 +161,7 @@ def run_page_data(run: SiteRun) -> dict:
     """The method page's data for one run (tracks only when its dataset is here)."""
     result = run.result
     tracks = run.tracks() if run.dataset_root is not None else {}
+    specs = _run_metric_specs(run)
     return {
         "run": run.id,
         "label": run.label,
@@ -168,7 +169,8 @@ def run_page_data(run: SiteRun) -> dict:
         "dataset": result["dataset"],
         "protocol": result.get("protocol", {}),
         "provenance": {k: result.get(k) for k in ("versions", "git", "hardware", "date", "timings") if k in result},
-        "metrics": _run_metric_specs(run),
+        "metrics": specs,
+        "metric_order": list(specs),  # the JSON object's keys are written sorted
         "per_sentence": _per_sentence(result),
         "sentences": [{"subject": s, "sentence": q, "samples": len(paths)} for (s, q), paths in tracks.items()],
         "tracks_note": _tracks_note(run),

@@ -8,7 +8,7 @@ document.title = `${run.label} — BlendVOCA`;
 document.getElementById("title").textContent = `${run.label} (${run.method.output || "coefficients"} output)`;
 
 // Per-sentence table.
-const metricNames = Object.keys(run.metrics).filter((name) =>
+const metricNames = run.metric_order.filter((name) =>
   run.per_sentence.some((row) => row.metrics[name] !== undefined && row.metrics[name] !== null));
 const header = el("tr", {}, el("th", { class: "sortable label", "data-column": "0", text: "subject" }),
   el("th", { class: "sortable label", "data-column": "1", text: "sentence" }));

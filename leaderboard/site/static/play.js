@@ -114,6 +114,7 @@ function render(frame = currentFrame()) {
     renderer.render(panel.scene, views.side);
   });
   timeLabel.textContent = `${audio.currentTime.toFixed(2)} s — frame ${frame} — ${panels.map((p) => p.title).join(" | ")}`;
+  if (audio.duration) scrub.value = String(Math.round(1000 * audio.currentTime / audio.duration));
   window.player.frame = frame;
 }
 
@@ -154,7 +155,6 @@ async function load() {
 
 function tick() {
   render();
-  scrub.value = String(Math.round(1000 * audio.currentTime / Math.max(audio.duration || 1, 1e-6)));
   if (!audio.paused) requestAnimationFrame(tick);
 }
 

@@ -13,7 +13,7 @@ export function param(name) {
 
 export function fmt(value, digits = 3) {
   if (value === null || value === undefined || Number.isNaN(value)) return "";
-  if (value === 0) return "0";
+  if (Math.abs(value) < 1e-9) return "0";  // numerical zeros (e.g. FD of the ground truth) print as 0
   const magnitude = Math.floor(Math.log10(Math.abs(value)));
   const decimals = Math.max(0, Math.min(5, digits - 1 - magnitude));
   return value.toFixed(decimals);
@@ -83,7 +83,7 @@ export function svg(tag, attrs = {}) {
 
 // Line plot of several series over frames: series = [{values, color, label, dash}].
 export function linePlot(series, { width = 640, height = 200, fps = 60, title = "", yLabel = "" } = {}) {
-  const pad = { left: 48, right: 10, top: 22, bottom: 28 };
+  const pad = { left: 48, right: 10, top: 34, bottom: 28 };
   const root = svg("svg", { width, height, viewBox: `0 0 ${width} ${height}` });
   const all = series.flatMap((s) => s.values.filter((v) => v !== null));
   const length = Math.max(1, ...series.map((s) => s.values.length));
@@ -108,7 +108,7 @@ export function linePlot(series, { width = 640, height = 200, fps = 60, title = 
   root.append(caption);
   let legendX = width - pad.right;
   for (const s of [...series].reverse()) {
-    const label = svg("text", { x: legendX, y: 14, "text-anchor": "end", "font-size": 11, fill: s.color });
+    const label = svg("text", { x: legendX, y: 27, "text-anchor": "end", "font-size": 11, fill: s.color });
     label.textContent = s.label;
     root.append(label);
     legendX -= 12 + 6.5 * s.label.length;
