@@ -109,7 +109,9 @@ def train_said(
         timesteps and noise); without it the last EMA weights are kept.
     seed : int, default 0
     max_steps, max_seconds : optional
-        Stop at whichever comes first; default the config's training values.
+        Stop at whichever comes first; default the config's training values (with
+        ``max_steps`` alone, the config's time limit does not apply: a step budget is
+        deterministic).
     mirror : (K,) int ndarray, optional
         Mirror permutation of the columns for the swap augmentation; None disables it.
     progress : bool, default True
@@ -126,8 +128,9 @@ def train_said(
     if not train_pairs:
         raise ValueError("train_said: expected at least one training pair, got none")
     val_pairs = _check_pairs(val_pairs or [], k, "train_said val_pairs")
+    if max_seconds is None and max_steps is None:
+        max_seconds = cfg["max_seconds"]  # a step budget alone stays deterministic: no time cap then
     max_steps = cfg["max_steps"] if max_steps is None else max_steps
-    max_seconds = cfg["max_seconds"] if max_seconds is None else max_seconds
     if max_steps is None and max_seconds is None:
         raise ValueError("train_said: expected max_steps or max_seconds, got neither")
     max_steps = math.inf if max_steps is None else int(max_steps)

@@ -130,3 +130,13 @@ def test_v_loss_space_is_l1_plus_velocity_on_the_v_target():
     torch.testing.assert_close(got, want)
     with pytest.raises(ValueError, match="loss_space"):
         diffusion_loss(SAiD.from_preset(NAMES, prediction="epsilon", loss_space="v", **TINY), c, a)
+
+
+def test_a_step_budget_alone_ignores_the_presets_time_cap():
+    said = SAiD.from_preset(NAMES, **TINY)
+    said.config["training"]["max_seconds"] = 0.0  # a time cap that would stop at once
+    history = train_said(said, toy_pairs(3, 2), seed=1, max_steps=3, progress=False)
+    assert history["steps"] == 3
+    said = SAiD.from_preset(NAMES, **TINY)
+    said.config["training"]["max_seconds"] = 0.0
+    assert train_said(said, toy_pairs(3, 2), seed=1, progress=False)["steps"] == 0  # no budget: the preset's cap
