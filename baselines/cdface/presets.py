@@ -13,7 +13,8 @@ from __future__ import annotations
 
 import copy
 import difflib
-import os
+
+from baselines.said.presets import expand_path
 
 DEFAULT_PRESET = "cpu-demo"
 
@@ -82,13 +83,6 @@ PRESETS: dict[str, dict[str, dict]] = {
 }
 
 
-def _expand_path(value: str) -> str:
-    if value.startswith("${") and value.endswith("}") and ":-" in value:
-        var, default = value[2:-1].split(":-", 1)
-        value = os.environ.get(var, default)
-    return os.path.expanduser(value)
-
-
 def resolve_config(preset: str = DEFAULT_PRESET, **overrides) -> dict:
     """Nested config of ``preset`` with flat ``overrides`` applied.
 
@@ -128,6 +122,6 @@ def resolve_config(preset: str = DEFAULT_PRESET, **overrides) -> dict:
         if not encoder.get("path"):
             raise ValueError("CDFace config: the wav2vec2 encoder needs a local directory "
                              "(wav2vec2_path=... or BLENDVOCA_WAV2VEC2)")
-        encoder["path"] = _expand_path(str(encoder["path"]))
+        encoder["path"] = expand_path(str(encoder["path"]))
     config["preset"] = preset
     return config

@@ -25,10 +25,10 @@ def load_pretrained_wav2vec2(model, path) -> None:
     """Copy the weights of a local ``from_pretrained`` wav2vec 2.0 directory into ``model`` (a Wav2Vec2Model)."""
     from pathlib import Path
 
-    from baselines.said.presets import _expand_path
+    from baselines.said.presets import expand_path
     from baselines.wav2vec2.config import _transformers
 
-    path = Path(_expand_path(str(path))).expanduser()
+    path = Path(expand_path(str(path))).expanduser()
     if not (path / "config.json").is_file():
         raise FileNotFoundError(f"wav2vec 2.0: expected a local directory with config.json at {path}; "
                                 "download facebook/wav2vec2-base-960h there first (or set BLENDVOCA_WAV2VEC2)")

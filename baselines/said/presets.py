@@ -92,7 +92,7 @@ PRESETS: dict[str, dict[str, dict]] = {
 }
 
 
-def _expand_path(value: str) -> str:
+def expand_path(value: str) -> str:
     """Expand ``${VAR:-default}`` then ``~`` in a preset path."""
     if value.startswith("${") and value.endswith("}") and ":-" in value:
         var, default = value[2:-1].split(":-", 1)
@@ -138,6 +138,6 @@ def resolve_config(preset: str = DEFAULT_PRESET, **overrides) -> dict[str, dict]
     if encoder.get("kind") == "wav2vec2":
         if not encoder.get("path"):
             raise ValueError("SAiD config: the wav2vec2 encoder needs a local directory (wav2vec2_path=... or BLENDVOCA_WAV2VEC2)")
-        encoder["path"] = _expand_path(str(encoder["path"]))
+        encoder["path"] = expand_path(str(encoder["path"]))
     config["preset"] = preset
     return config
