@@ -16,6 +16,7 @@ import warnings
 import zlib
 from collections.abc import Hashable, Mapping
 from os import PathLike
+from pathlib import Path
 
 import numpy as np
 from tqdm import tqdm
@@ -132,10 +133,57 @@ def _encoded(extractor, windows, desc: str, progress: bool) -> np.ndarray:
                            for i in tqdm(chunks, desc=desc, unit="chunk", disable=not progress)])
 
 
+def _wind_cache_dir(wind_cache):
+    if wind_cache is True:
+        from blendvoca.assets import cache_dir
+
+        return cache_dir() / "wind-gmm"
+    return None if wind_cache in (None, False) else Path(wind_cache)
+
+
+def _wind_with_interval(fake, real, members, k, *, repeats, seed, resamples, workers, cache, progress):
+    """WInD mean and std over ``repeats`` seeded fit pairs (as :func:`benchmark.metrics.wind`)
+    and its bootstrap interval over the generated sentences ``members``.
+
+    Resample ``b`` refits the generated side on the windows of the resampled
+    sentences (a seeded subsample of `WIND_RESAMPLE_WINDOWS` beyond that) and
+    compares it with the ground truth's seed-``seed`` mixture. The ground-truth
+    fits are the same for every method scored on a split: they are looked up in
+    (and added to) ``cache`` (:func:`benchmark.metrics.cached_gmm_components_many`).
+    All fits are seeded and single-threaded: the result does not depend on
+    ``workers`` or on the cache.
+    """
+    from benchmark.metrics import cached_gmm_components_many, gmm_components_many, wind_from_gmms
+    from benchmark.metrics.bootstrap import bootstrap_indices
+
+    if repeats < 1:
+        raise ValueError(f"wind: repeats must be >= 1, got {repeats}")
+    n = len(members)
+    rows = bootstrap_indices(n, resamples, seed + 1) if n >= 2 else np.empty((0, n), dtype=np.int64)
+    # the windows of every resample first: the thinning draws stay in resample order
+    thin = np.random.default_rng(np.random.SeedSequence([seed, 0x57]))
+    resample_jobs = []
+    for row in rows:
+        picked = np.concatenate([members[i] for i in row])
+        if len(picked) > WIND_RESAMPLE_WINDOWS:
+            picked = thin.choice(picked, WIND_RESAMPLE_WINDOWS, replace=False)
+        resample_jobs.append((fake[picked], min(k, len(picked)), seed))
+    real_gmms = cached_gmm_components_many([(real, k, seed + r) for r in range(repeats)], cache, workers)
+    jobs = [(fake, k, seed + r) for r in range(repeats)] + resample_jobs
+    bar = (lambda it: tqdm(it, total=len(jobs), desc="WInD fits", unit="fit", disable=not progress))
+    fits = gmm_components_many(jobs, workers, progress=bar)
+    scores = np.array([wind_from_gmms(fits[r], real_gmms[r]) for r in range(repeats)])
+    w_mean, w_std = float(scores.mean()), float(np.std(scores, ddof=1)) if repeats > 1 else 0.0
+    resampled = [wind_from_gmms(gmm, real_gmms[0]) for gmm in fits[repeats:]]
+    ci = statistics_ci(lambda _rows: resampled, n, w_mean, resamples=resamples, seed=seed + 1)
+    return w_mean, w_std, ci
+
+
 def latent_metrics(ground_truth: Mapping[Hashable, np.ndarray], generated: Mapping[Hashable, np.ndarray], extractor,
                    *, samples_for_multimodality: int = PAIRS_PER_WINDOW, wind_components: int = 5,
                    wind_repeats: int = 10, seed: int = 0, fd_resamples: int = FD_RESAMPLES,
-                   wind_resamples: int = WIND_RESAMPLES, wind_workers: int = 2, progress: bool = False) -> dict:
+                   wind_resamples: int = WIND_RESAMPLES, wind_workers: int = 2, wind_cache=True,
+                   progress: bool = False) -> dict:
     """FD, WInD and multimodality over VAE features of 120-frame windows, with bootstrap intervals.
 
     Parameters
@@ -147,6 +195,10 @@ def latent_metrics(ground_truth: Mapping[Hashable, np.ndarray], generated: Mappi
     wind_workers : int
         Processes for the WInD mixture fits (repeats and bootstrap refits); each fit is
         seeded and single-threaded, so the scores do not depend on it.
+    wind_cache : True, path or None
+        Folder keeping the ground-truth mixture fits (the same for every method scored
+        on a split; True: ``<user cache>/wind-gmm``, None: no cache). The scores do not
+        depend on it.
 
     Returns
     -------
@@ -158,12 +210,8 @@ def latent_metrics(ground_truth: Mapping[Hashable, np.ndarray], generated: Mappi
         feature_statistics,
         frechet_distance,
         frechet_distance_from_stats,
-        gmm_components,
-        gmm_components_many,
         multimodality,
         paired_samples,
-        wind,
-        wind_from_gmms,
     )
 
     windows = cut_windows(ground_truth, generated)
@@ -198,25 +246,10 @@ def latent_metrics(ground_truth: Mapping[Hashable, np.ndarray], generated: Mappi
                                                                        seed=seed, progress=bar), **extra)}
 
     k = min(wind_components, len(real), len(fake))
-    w_mean, w_std = wind(fake, real, n_components=k, repeats=wind_repeats, seed=seed, workers=wind_workers)
-    real_gmm = gmm_components(real, k, seed)
-
-    thin = np.random.default_rng(np.random.SeedSequence([seed, 0x57]))
-
-    def wind_of_all(rows):
-        # The windows of every resample first (the thinning draws stay in resample order),
-        # then the independent seeded fits, in parallel when wind_workers > 1.
-        jobs = []
-        for row in rows:
-            picked = np.concatenate([members[i] for i in row])
-            if len(picked) > WIND_RESAMPLE_WINDOWS:
-                picked = thin.choice(picked, WIND_RESAMPLE_WINDOWS, replace=False)
-            jobs.append((fake[picked], min(k, len(picked)), seed))
-        bar = (lambda it: tqdm(it, total=len(jobs), desc="WInD bootstrap", unit="resample", disable=not progress))
-        return [wind_from_gmms(gmm, real_gmm) for gmm in gmm_components_many(jobs, wind_workers, progress=bar)]
-
-    out["wind"] = metric_entry("wind", w_mean, w_std, n=n, ci95=statistics_ci(
-        wind_of_all, n, w_mean, resamples=wind_resamples, seed=seed + 1), **extra)
+    w_mean, w_std, wind_ci = _wind_with_interval(fake, real, members, k, repeats=wind_repeats, seed=seed,
+                                                 resamples=wind_resamples, workers=wind_workers,
+                                                 cache=_wind_cache_dir(wind_cache), progress=progress)
+    out["wind"] = metric_entry("wind", w_mean, w_std, n=n, ci95=wind_ci, **extra)
 
     groups = windows.fake_groups()
     sums_d, counts_d, all_d = np.zeros(n), np.zeros(n), []
@@ -298,42 +331,77 @@ def _by_metric(per_key: dict) -> dict:
     return values
 
 
-def _vertex_values(ground_truth, generated, rigs, names, progress=False) -> dict:
+#: The per-sentence function of the running `_map_sentences` (read by its forked workers).
+_SENTENCE_TASK = None
+
+
+def _run_sentence_task(key):
     from threadpoolctl import threadpool_limits
 
+    with threadpool_limits(limits=1):  # small matrix products: one BLAS thread is faster here
+        return _SENTENCE_TASK(key)
+
+
+def _map_sentences(task, keys, *, workers: int, desc: str, progress: bool) -> dict:
+    """``{key: task(key)}`` over ``keys``, in ``workers`` forked processes (Linux; else here).
+
+    ``task`` is pure numpy work (no torch: an OpenMP runtime used before a fork is
+    not safe in the child), so the values do not depend on ``workers``.
+    """
+    import sys
+
+    global _SENTENCE_TASK
+    keys = list(keys)
+    bar = (lambda it: tqdm(it, total=len(keys), desc=desc, unit="sentence", disable=not progress))
+    _SENTENCE_TASK = task
+    try:
+        if workers <= 1 or len(keys) <= 1 or not sys.platform.startswith("linux"):
+            return dict(zip(keys, bar(_run_sentence_task(k) for k in keys)))
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor
+
+        with ProcessPoolExecutor(min(workers, len(keys)), mp_context=multiprocessing.get_context("fork")) as pool:
+            chunk = max(1, len(keys) // (8 * workers))
+            return dict(zip(keys, bar(pool.map(_run_sentence_task, keys, chunksize=chunk))))
+    finally:
+        _SENTENCE_TASK = None
+
+
+def _regions_of(rigs, names) -> dict:
+    return {subject: _rig_regions(rig, names) for subject, rig in rigs.items()}
+
+
+def _vertex_values(ground_truth, generated, rigs, names, progress=False, workers: int = 1) -> dict:
     from benchmark.metrics import vertex
 
-    cache, per_key = {}, {}
-    with threadpool_limits(limits=1):  # small matrix products: one BLAS thread is faster here
-        for (subject, sentence), tracks in tqdm(generated.items(), desc="vertex metrics", unit="sentence",
-                                                disable=not progress):
-            if subject not in cache:
-                cache[subject] = _rig_regions(rigs[subject], names)
-            neutral, deltas, lip, upper = cache[subject]
-            gt_v = vertex.rig_vertices(neutral, deltas, ground_truth[(subject, sentence)])
-            preds = np.stack([vertex.rig_vertices(neutral, deltas, t) for t in tracks])
-            per_key[(subject, sentence)] = sentence_vertex_values(preds, gt_v, neutral, lip, upper)
-    return _by_metric(per_key)
+    regions = _regions_of(rigs, names)
+
+    def task(key):
+        neutral, deltas, lip, upper = regions[key[0]]
+        gt_v = vertex.rig_vertices(neutral, deltas, ground_truth[key])
+        preds = np.stack([vertex.rig_vertices(neutral, deltas, t) for t in generated[key]])
+        return sentence_vertex_values(preds, gt_v, neutral, lip, upper)
+
+    return _by_metric(_map_sentences(task, generated, workers=workers, desc="vertex metrics", progress=progress))
 
 
-def _own_vertex_values(generated_vertices, ground_truth_vertices, rigs, names, progress=False) -> dict:
-    from threadpoolctl import threadpool_limits
+def _own_vertex_values(generated_vertices, ground_truth_vertices, rigs, names, progress=False,
+                       workers: int = 1) -> dict:
+    regions = _regions_of(rigs, names)
 
-    cache, per_key = {}, {}
-    with threadpool_limits(limits=1):
-        for subject, sentence in tqdm(list(generated_vertices), disable=not progress, desc="vertex metrics (own)",
-                                      unit="sentence"):
-            if subject not in cache:
-                cache[subject] = _rig_regions(rigs[subject], names)
-            neutral, _deltas, lip, upper = cache[subject]
-            preds = np.asarray(generated_vertices[(subject, sentence)], dtype=np.float64)
-            gt_v = np.asarray(ground_truth_vertices(subject, sentence), dtype=np.float64)
-            if preds.shape[1:] != gt_v.shape or gt_v.shape[1:] != neutral.shape:
-                raise ValueError(f"own_vertex_metrics {subject}/{sentence}: expected vertices (S, {gt_v.shape[0]}, "
-                                 f"{neutral.shape[0]}, 3) like the source meshes {gt_v.shape} and the rig "
-                                 f"{neutral.shape}, got {preds.shape}")
-            per_key[(subject, sentence)] = sentence_vertex_values(preds, gt_v, neutral, lip, upper)
-    return _by_metric(per_key)
+    def task(key):
+        subject, sentence = key
+        neutral, _deltas, lip, upper = regions[subject]
+        preds = np.asarray(generated_vertices[key], dtype=np.float64)
+        gt_v = np.asarray(ground_truth_vertices(subject, sentence), dtype=np.float64)
+        if preds.shape[1:] != gt_v.shape or gt_v.shape[1:] != neutral.shape:
+            raise ValueError(f"own_vertex_metrics {subject}/{sentence}: expected vertices (S, {gt_v.shape[0]}, "
+                             f"{neutral.shape[0]}, 3) like the source meshes {gt_v.shape} and the rig "
+                             f"{neutral.shape}, got {preds.shape}")
+        return sentence_vertex_values(preds, gt_v, neutral, lip, upper)
+
+    return _by_metric(_map_sentences(task, list(generated_vertices), workers=workers, desc="vertex metrics (own)",
+                                     progress=progress))
 
 
 def vertex_metrics(ground_truth, generated, rigs: Mapping, names, *, seed: int = 0,
@@ -376,31 +444,36 @@ def own_vertex_metrics(generated_vertices: Mapping, ground_truth_vertices, rigs:
 
 
 def _lipsync_values(generated, rigs, audio, names, *, syncnet=None, sync_expert=None, max_lag=15,
-                    progress=False) -> dict:
+                    progress=False, workers: int = 1) -> dict:
     from benchmark.lipsync import geometric_sync, mouth_activity, syncnet_sync_track
     from benchmark.metrics import vertex
 
-    values = {name: {} for name in ("av_offset_geometric", "av_confidence_geometric", "av_offset_syncnet",
-                                    "av_confidence_syncnet", "av_offset_expert", "av_confidence_expert")}
-    cache = {}
-    for key, tracks in tqdm(generated.items(), disable=not progress, desc="lip sync", unit="sentence"):
-        subject = key[0]
-        if subject not in cache:
-            cache[subject] = _rig_regions(rigs[subject], names)
-        neutral, deltas, lip, _upper = cache[subject]
+    regions = _regions_of(rigs, names)
+
+    def geometric(key):
+        neutral, deltas, lip, _upper = regions[key[0]]
         samples, rate = audio[key]
-        geo = []
-        for s, track in enumerate(tracks):
-            verts = vertex.rig_vertices(neutral, deltas, track)
-            geo.append(geometric_sync(mouth_activity(verts, neutral, lip), samples, rate, 60.0, max_lag))
-            if syncnet is not None and s == 0:
-                est = syncnet_sync_track(syncnet, verts, rigs[subject].faces, samples, rate)
-                values["av_offset_syncnet"][key] = abs(est.offset)
-                values["av_confidence_syncnet"][key] = est.confidence
-        values["av_offset_geometric"][key] = [abs(e.offset) for e in geo]
-        values["av_confidence_geometric"][key] = [e.confidence for e in geo]
-        if sync_expert is not None:
-            est = [sync_expert.sync(np.asarray(track, dtype=np.float64), samples, rate) for track in tracks]
+        est = [geometric_sync(mouth_activity(vertex.rig_vertices(neutral, deltas, track), neutral, lip),
+                              samples, rate, 60.0, max_lag) for track in generated[key]]
+        return [abs(e.offset) for e in est], [e.confidence for e in est]
+
+    geo = _map_sentences(geometric, generated, workers=workers, desc="lip sync (geometric)", progress=progress)
+    values = {"av_offset_geometric": {k: v[0] for k, v in geo.items()},
+              "av_confidence_geometric": {k: v[1] for k, v in geo.items()},
+              "av_offset_syncnet": {}, "av_confidence_syncnet": {}, "av_offset_expert": {}, "av_confidence_expert": {}}
+    # the torch models run in this process
+    if syncnet is not None:
+        for key in tqdm(list(generated), disable=not progress, desc="lip sync (SyncNet)", unit="sentence"):
+            neutral, deltas, _lip, _upper = regions[key[0]]
+            samples, rate = audio[key]
+            verts = vertex.rig_vertices(neutral, deltas, generated[key][0])
+            est = syncnet_sync_track(syncnet, verts, rigs[key[0]].faces, samples, rate)
+            values["av_offset_syncnet"][key] = abs(est.offset)
+            values["av_confidence_syncnet"][key] = est.confidence
+    if sync_expert is not None:
+        for key in tqdm(list(generated), disable=not progress, desc="lip sync (expert)", unit="sentence"):
+            samples, rate = audio[key]
+            est = [sync_expert.sync(np.asarray(track, dtype=np.float64), samples, rate) for track in generated[key]]
             values["av_offset_expert"][key] = [abs(e.offset) for e in est]
             values["av_confidence_expert"][key] = [e.confidence for e in est]
     return {k: v for k, v in values.items() if v}
@@ -450,6 +523,8 @@ def evaluate_split(
     resamples: int = BOOTSTRAP_RESAMPLES,
     fd_resamples: int = FD_RESAMPLES,
     wind_resamples: int = WIND_RESAMPLES,
+    workers: int = 2,
+    wind_cache=True,
     progress: bool = False,
 ) -> Scores:
     """Score generated tracks against a split's ground truth.
@@ -484,6 +559,11 @@ def evaluate_split(
         reconstructions of the tracks.
     resamples, fd_resamples, wind_resamples : int
         Bootstrap resamples of the per-sentence metrics, FD and WInD.
+    workers : int
+        Processes for the WInD fits and the per-sentence vertex and geometric lip-sync
+        metrics (forked, single-threaded each: the scores do not depend on it).
+    wind_cache : True, path or None
+        Where the ground-truth WInD fits are kept (see :func:`latent_metrics`).
     progress : bool
         tqdm bars for every stage.
 
@@ -510,7 +590,8 @@ def evaluate_split(
         results.update(latent_metrics(ground_truth, generated, _resolve_extractor(extractor),
                                       samples_for_multimodality=samples_for_multimodality,
                                       wind_components=wind_components, wind_repeats=wind_repeats, seed=seed,
-                                      fd_resamples=fd_resamples, wind_resamples=wind_resamples, progress=progress))
+                                      fd_resamples=fd_resamples, wind_resamples=wind_resamples,
+                                      wind_workers=workers, wind_cache=wind_cache, progress=progress))
     else:
         # sentences shorter than 122 frames give no 120-frame window: no latent metric
         warnings.warn(f"evaluate_split: split {split!r} has {n_real} ground-truth windows of 120 frames; "
@@ -519,14 +600,15 @@ def evaluate_split(
     if vertex or lipsync:
         rigs = {s: dataset.rig(s) for s in {k[0] for k in generated}}
     if vertex and vertices is not None:
-        values.update(_own_vertex_values(_Subset(vertices, list(generated)), dataset.vertices, rigs, names, progress))
+        values.update(_own_vertex_values(_Subset(vertices, list(generated)), dataset.vertices, rigs, names, progress,
+                                         workers))
     elif vertex:
-        values.update(_vertex_values(ground_truth, generated, rigs, names, progress))
+        values.update(_vertex_values(ground_truth, generated, rigs, names, progress, workers))
     if lipsync:
         syncnet, sync_expert = _load_models(syncnet, sync_expert)
         audio = {k: dataset.audio(*k) for k in generated}
         values.update(_lipsync_values(generated, rigs, audio, names, syncnet=syncnet, sync_expert=sync_expert,
-                                      progress=progress))
+                                      progress=progress, workers=workers))
     entries, rows = _sentence_entries(values, seed=seed, resamples=resamples)
     results.update(entries)
     per_sentence = [{"subject": k[0], "sentence": k[1], **rows.get(k, {})} for k in keys if k in generated]

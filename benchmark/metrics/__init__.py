@@ -21,12 +21,21 @@ from benchmark.metrics.vertex import (
     sequence_distance,
     upper_face_dynamics_deviation,
 )
-from benchmark.metrics.wind import gmm_components, gmm_components_many, transport_cost, wind, wind_from_gmms, wind_scores
+from benchmark.metrics.wind import (
+    cached_gmm_components_many,
+    gmm_components,
+    gmm_components_many,
+    gmm_fit_key,
+    transport_cost,
+    wind,
+    wind_from_gmms,
+    wind_scores,
+)
 from benchmark.metrics.windows import Windows, cut_windows, slice_windows, window_starts
 
 __all__ = [
-    "Windows", "average_pairwise_distance", "cut_windows", "diversity_metrics", "feature_statistics", "frechet_distance",
-    "frechet_distance_from_stats", "gmm_components", "gmm_components_many", "lip_vertex_error", "lip_vertices",
+    "Windows", "average_pairwise_distance", "cached_gmm_components_many", "cut_windows", "diversity_metrics", "feature_statistics", "frechet_distance",
+    "frechet_distance_from_stats", "gmm_components", "gmm_components_many", "gmm_fit_key", "lip_vertex_error", "lip_vertices",
     "lower_face_vertices", "mean_vertex_error", "minimum_pairwise_distance", "motion_dynamics", "multimodality", "nose_tip_index",
     "paired_samples", "pairwise_distances", "rig_vertices", "sequence_distance", "slice_windows", "transport_cost", "upper_face_dynamics_deviation",
     "upper_face_vertices", "wind", "wind_from_gmms", "wind_scores", "window_starts",

@@ -79,6 +79,57 @@ def gmm_components_many(jobs, workers: int = 1, progress=None) -> list:
         return list(wrap(pool.map(_fit_job, jobs)))
 
 
+def gmm_fit_key(x, n_components: int, seed: int) -> str:
+    """Identity of one `gmm_components` fit: sha256 of the features' bytes, shape and
+    dtype, ``n_components``, ``seed`` and the scikit-learn and numpy versions (a fit
+    is bit-reproducible for these)."""
+    import hashlib
+
+    import sklearn
+
+    x = np.ascontiguousarray(_as_features(x, "gmm_fit_key"))
+    digest = hashlib.sha256(f"{x.shape}|{x.dtype.str}|{int(n_components)}|{int(seed)}|"
+                            f"sklearn {sklearn.__version__}|numpy {np.__version__}|".encode())
+    digest.update(x.tobytes())
+    return digest.hexdigest()
+
+
+def cached_gmm_components_many(jobs, cache, workers: int = 1, progress=None) -> list:
+    """`gmm_components_many` with the fits stored in the folder ``cache``.
+
+    A fit is looked up by :func:`gmm_fit_key` (``<key>.npz``); the missing ones are
+    fitted (in ``workers`` processes) and written atomically, so a second call on
+    the same features returns the same mixtures bit for bit without fitting.
+    ``cache=None`` fits everything and stores nothing.
+
+    Returns
+    -------
+    list of (weights (K,), means (K, D), covariances (K, D, D)), in job order
+    """
+    from pathlib import Path
+
+    jobs = list(jobs)
+    if cache is None:
+        return gmm_components_many(jobs, workers, progress)
+    cache = Path(cache)
+    paths = [cache / f"{gmm_fit_key(*job)}.npz" for job in jobs]
+    out = [None] * len(jobs)
+    for i, path in enumerate(paths):
+        try:
+            with np.load(path) as f:
+                out[i] = (f["weights"], f["means"], f["covariances"])
+        except (OSError, KeyError, ValueError):  # absent or unreadable: fitted again
+            pass
+    missing = [i for i, fit in enumerate(out) if fit is None]
+    from blendvoca.io.atomic import atomic_write
+
+    for i, fit in zip(missing, gmm_components_many([jobs[i] for i in missing], workers, progress)):
+        out[i] = fit
+        with atomic_write(paths[i]) as f:
+            np.savez(f, weights=fit[0], means=fit[1], covariances=fit[2])
+    return out
+
+
 def transport_cost(cost, a, b) -> float:
     """Optimal transport cost between discrete distributions (the WInD LP).
 

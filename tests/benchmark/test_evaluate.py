@@ -100,3 +100,60 @@ def test_wind_workers_do_not_change_the_scores(dataset, vae):
             for w in (1, 2)]
     assert runs[0]["wind"] == runs[1]["wind"]
     assert runs[0] == runs[1]
+
+
+def test_wind_is_the_metric_and_the_ground_truth_fits_are_cached(dataset, tmp_path, monkeypatch):
+    import importlib
+
+    from benchmark.evaluate import latent_metrics
+    from benchmark.metrics import cut_windows, wind
+
+    gt = ground_truth(dataset)
+    truth = {k: v[0] for k, v in gt.items()}
+    rng = np.random.default_rng(5)
+    generated = {k: np.clip(v + rng.normal(0, 0.05, v.shape), 0, 1) for k, v in gt.items()}
+
+    def extractor(w):  # per-window means and spreads: 64-d features
+        return np.concatenate([w.mean(axis=1), w.std(axis=1)], axis=1)
+
+    wind_module = importlib.import_module("benchmark.metrics.wind")  # the module, not the function
+    fits = []
+    real_fit = wind_module.gmm_components
+    monkeypatch.setattr(wind_module, "gmm_components", lambda *job: fits.append(job) or real_fit(*job))
+    cache = tmp_path / "wind-gmm"
+    first = latent_metrics(truth, generated, extractor, wind_repeats=3, wind_resamples=4, fd_resamples=2,
+                           wind_workers=1, wind_cache=cache)
+    # 3 ground-truth fits stored; 3 generated and 4 bootstrap refits
+    assert len(fits) == 3 + 3 + 4 and len(list(cache.glob("*.npz"))) == 3
+    fits.clear()
+    second = latent_metrics(truth, generated, extractor, wind_repeats=3, wind_resamples=4, fd_resamples=2,
+                            wind_workers=1, wind_cache=cache)
+    assert len(fits) == 3 + 4  # the ground-truth side came from the cache
+    assert second == first
+    uncached = latent_metrics(truth, generated, extractor, wind_repeats=3, wind_resamples=4, fd_resamples=2,
+                              wind_workers=1, wind_cache=None)
+    assert uncached == first
+    # the point estimate and spread are those of the metric function on the same features
+    windows = cut_windows(truth, generated)
+    mean, std = wind(extractor(windows.fake), extractor(windows.real), n_components=5, repeats=3, seed=0)
+    assert first["wind"]["mean"] == mean and first["wind"]["std"] == std
+    lo, hi = first["wind"]["ci95"]
+    assert lo <= mean <= hi and lo < hi
+
+
+def test_a_damaged_cached_fit_is_refitted(dataset, tmp_path):
+    from benchmark.evaluate import latent_metrics
+
+    truth = {k: v[0] for k, v in ground_truth(dataset).items()}
+    generated = {k: v[None] for k, v in truth.items()}
+    cache = tmp_path / "wind-gmm"
+
+    def run():
+        return latent_metrics(truth, generated, lambda w: w.mean(axis=1), wind_repeats=2, wind_resamples=2,
+                              fd_resamples=2, wind_workers=1, wind_cache=cache)
+
+    first = run()
+    for path in cache.glob("*.npz"):
+        path.write_bytes(b"not an npz")
+    assert run() == first
+    assert all(np.load(p)["weights"].shape == (5,) for p in cache.glob("*.npz"))
