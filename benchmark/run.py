@@ -172,6 +172,7 @@ def prepared_method(name: str, config: dict, dataset, *, seed: int, budget: Budg
             method = cls.load(checkpoint)
         except Exception as exc:
             raise MethodError(f"method {name!r}: load from {checkpoint} failed: {type(exc).__name__}: {exc}") from exc
+        method = _with_config(method, config, name, checkpoint)
         timings["load_s"] = time.perf_counter() - start
         return method, timings
     method = make_method(name, config)
@@ -192,6 +193,29 @@ def prepared_method(name: str, config: dict, dataset, *, seed: int, budget: Budg
         except Exception as exc:
             raise MethodError(f"method {name!r}: save to {checkpoint} failed: {type(exc).__name__}: {exc}") from exc
     return method, timings
+
+
+def _with_config(method, config: dict, name: str, checkpoint):
+    """A loaded method with the ``--config`` entries that differ from its saved config applied:
+    sampling options (``method.sampling_options``) are set, anything else is an error
+    (the checkpoint was trained with another value; retrain instead)."""
+    saved = method.config()
+    missing = object()
+    changed = {k: v for k, v in config.items() if saved.get(k, missing) != v}
+    fixed = sorted(k for k in changed if k not in method.sampling_options)
+    if fixed:
+        given = ", ".join(f"{k}={changed[k]!r}" for k in fixed)
+        trained = ", ".join(f"{k}={saved[k]!r}" if k in saved else f"{k} unset" for k in fixed)
+        options = list(method.sampling_options) or "none"
+        raise MethodError(f"method {name!r}: --config {given} differs from the checkpoint {checkpoint} (trained with "
+                          f"{trained}); only sampling options can change after training (here: {options})")
+    if not changed:
+        return method
+    try:
+        return method.with_sampling_options(**changed)
+    except Exception as exc:
+        raise MethodError(f"method {name!r}: sampling options {changed} on {checkpoint} failed: "
+                          f"{type(exc).__name__}: {exc}") from exc
 
 
 def sentence_seed(seed: int, index: int) -> int:

@@ -59,6 +59,7 @@ class CDFaceMethod(Method):
     name = "cdface"
     stochastic = True
     output = OUTPUT_VERTICES
+    sampling_options = ("control", "style")
 
     def __init__(self, preset: str = "cpu-demo", control: str = "none", style: str | None = None,
                  resolved: dict | None = None, **overrides):
@@ -105,6 +106,15 @@ class CDFaceMethod(Method):
             raise RuntimeError("cdface: train or load the method before generate")
         return self.cdface.generate(utterance.audio, utterance.num_frames, subject=utterance.subject,
                                     samples=int(samples), seed=int(seed), control=self.control, style=self.style)
+
+    def with_sampling_options(self, **options) -> CDFaceMethod:
+        """The same trained model sampling with another ``control`` or ``style``."""
+        unknown = sorted(set(options) - set(self.sampling_options))
+        if unknown:
+            raise ValueError(f"cdface: {unknown} are not sampling options (expected some of {list(self.sampling_options)})")
+        twin = type(self)(**{**self.config(), **options})
+        twin.cdface = self.cdface
+        return twin
 
     def save(self, directory) -> None:
         """Write the config and the checkpoint ``cdface.pt`` into ``directory``."""

@@ -111,6 +111,11 @@ class Method(abc.ABC):
     reference: bool = False
     #: Leaderboard row name; None means the registry name.
     label: str | None = None
+    #: Config keys that change only how a trained method samples (e.g. CDFace's
+    #: ``control``): ``benchmark.run --checkpoint DIR --config KEY=VALUE`` may set them
+    #: on a loaded method through :meth:`with_sampling_options`; any other key must
+    #: equal the checkpoint's.
+    sampling_options: tuple = ()
 
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)
@@ -184,6 +189,22 @@ class Method(abc.ABC):
             raise FileNotFoundError(f"{cls.__name__}.load: expected {path} (written by save), not found")
         payload = json.loads(path.read_text())
         return cls(**payload.get("config", {}))
+
+    def with_sampling_options(self, **options) -> Method:
+        """This trained method with the :attr:`sampling_options` ``options`` changed.
+
+        The base class declares none; a subclass that declares some overrides this
+        (typically ``twin = type(self)(**{**self.config(), **options})`` sharing the
+        trained state), so that the new method's :meth:`config` reports the options.
+        """
+        unknown = sorted(set(options) - set(self.sampling_options))
+        if unknown:
+            raise ValueError(f"{type(self).__name__}: {unknown} are not sampling options "
+                             f"(expected some of {list(self.sampling_options)})")
+        if options:
+            raise NotImplementedError(f"{type(self).__name__} declares sampling options but does not "
+                                      "override with_sampling_options")
+        return self
 
     def __repr__(self) -> str:
         args = ", ".join(f"{k}={v!r}" for k, v in sorted(self.config().items()))

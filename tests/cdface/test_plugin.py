@@ -46,3 +46,23 @@ def test_cli_writes_samples_for_any_wav(tmp_path, capsys):
     assert len(list((tmp_path / "objs" / "sample_1").glob("*.obj"))) == 22
     assert main(["--checkpoint", str(tmp_path / "nope"), "--audio", str(wav), "--out", str(out)]) == 2
     assert "error: --checkpoint" in capsys.readouterr().err
+
+
+def test_a_trained_model_samples_lips_fixed_through_a_sampling_option():
+    from baselines.cdface.plugin import CDFaceMethod
+    from benchmark.methods.contract import Utterance
+
+    cdface, _template = _tiny_cdface()
+    diverse = CDFaceMethod(**PLUGIN_TINY)
+    diverse.cdface = cdface
+    lips = diverse.with_sampling_options(control="lips")
+    assert lips.cdface is cdface and lips.config()["control"] == "lips" and lips.label == "cdface (lips fixed)"
+    assert diverse.control == "none" and diverse.label is None
+    utterance = Utterance("A", "sentence01", "test", np.random.default_rng(0).normal(scale=0.1, size=8000)
+                          .astype(np.float32), 30)
+    out = lips.generate(utterance, samples=3, seed=0)
+    np.testing.assert_array_equal(out[0, :, :4], out[2, :, :4])  # the lip vertices of the tiny model
+    free = diverse.generate(utterance, samples=3, seed=0)
+    assert not np.array_equal(free[0, :, :4], free[2, :, :4])
+    with pytest.raises(ValueError, match="not sampling options"):
+        diverse.with_sampling_options(preset="paper")

@@ -268,3 +268,73 @@ def test_cli_results_must_be_a_writable_folder(dataset, tmp_path, monkeypatch, c
         assert main(["--method", "mean", "--data", str(tmp_path), "--quiet", *argv]) == 2
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and err[0].startswith("error: "), err
+
+
+class _Tunable(Method):
+    """A trained state in a file, and one sampling option (``level``)."""
+
+    sampling_options = ("level",)
+
+    def __init__(self, level=0.5, width=1):
+        super().__init__(level=level, width=width)
+        self.trained = False
+
+    def train(self, dataset, *, seed, budget):
+        self.trained = True
+
+    def generate(self, utterance, *, samples=1, seed=0):
+        return np.full((1, utterance.num_frames, 32), self.config()["level"])
+
+    def save(self, directory):
+        super().save(directory)
+        (directory / "state.txt").write_text("trained")
+
+    @classmethod
+    def load(cls, directory):
+        method = super().load(directory)
+        method.trained = (directory / "state.txt").read_text() == "trained"
+        return method
+
+    def with_sampling_options(self, **options):
+        twin = type(self)(**{**self.config(), **options})
+        twin.trained = self.trained
+        return twin
+
+
+def test_a_loaded_checkpoint_takes_sampling_options_and_refuses_other_config(dataset, tmp_path):
+    from benchmark.run import prepared_method
+
+    register("test-tunable")(_Tunable)
+    try:
+        ckpt = tmp_path / "ckpt"
+        trained, _ = prepared_method("test-tunable", {}, dataset, seed=0, budget=Budget(max_steps=1),
+                                     checkpoint=ckpt)
+        loaded, timings = prepared_method("test-tunable", {"level": 0.25, "width": 1}, dataset, seed=0,
+                                          budget=Budget(max_steps=1), checkpoint=ckpt)
+        assert timings["train_s"] is None and loaded.trained
+        assert loaded.config() == {"level": 0.25, "width": 1}
+        # the result file records the option that sampled
+        path = _run("test-tunable", dataset, tmp_path, checkpoint=ckpt, config={"level": 0.75})
+        assert json.loads(path.read_text())["method"]["config"]["level"] == 0.75
+        with pytest.raises(MethodError, match=r"--config width=2 differs from the checkpoint .*trained with "
+                                              r"width=1.*here: \['level'\]"):
+            prepared_method("test-tunable", {"width": 2}, dataset, seed=0, budget=Budget(max_steps=1),
+                            checkpoint=ckpt)
+    finally:
+        unregister("test-tunable")
+    # a method without sampling options refuses any changed key
+    ckpt = tmp_path / "mean-ckpt"
+    _run("mean", dataset, tmp_path, checkpoint=ckpt)
+    with pytest.raises(MethodError, match=r"--config split='val' differs .*trained with split='train'.*here: none"):
+        _run("mean", dataset, tmp_path, checkpoint=ckpt, config={"split": "val"})
+
+
+def test_the_base_method_has_no_sampling_options():
+    class Plain(Method):
+        def generate(self, utterance, *, samples=1, seed=0):
+            raise NotImplementedError
+
+    plain = Plain()
+    assert plain.with_sampling_options() is plain
+    with pytest.raises(ValueError, match=r"\['speed'\] are not sampling options"):
+        plain.with_sampling_options(speed=2)
