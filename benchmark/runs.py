@@ -78,6 +78,17 @@ def _read_vertices(folder, subject: str, sentence: str) -> np.ndarray:
     return offsets.astype(np.float64) + template[None, None]
 
 
+def _write_npz(handle, **arrays) -> None:
+    """``np.savez_compressed`` at deflate level 1: the same ``.npz`` format (``np.load``
+    reads it), about 6x faster to write than the default level for 10 % more bytes."""
+    import zipfile
+
+    with zipfile.ZipFile(handle, "w", compression=zipfile.ZIP_DEFLATED, compresslevel=1) as archive:
+        for name, array in arrays.items():
+            with archive.open(f"{name}.npy", "w", force_zip64=True) as member:
+                np.lib.format.write_array(member, np.asanyarray(array), allow_pickle=False)
+
+
 class StoredVertices(Mapping):
     """``(subject, sentence) -> (S, T, V, 3)`` float64 vertices of a run folder, read on access."""
 
@@ -145,7 +156,7 @@ class TrackWriter:
             self._templates.add(subject)
         offsets = (np.asarray(vertices, dtype=np.float64) - template[None, None]).astype(np.float16)
         with atomic_write(vertices_path(self.staging, subject, sentence), "wb") as handle:
-            np.savez_compressed(handle, offsets=offsets)
+            _write_npz(handle, offsets=offsets)
 
     def stored_vertices(self) -> StoredVertices:
         """The vertices written so far (read from the staging folder)."""

@@ -36,6 +36,10 @@ class CodeTalkerMethod(StyleVertexMethod):
     name = "codetalker"
     label = "CodeTalker"
     checkpoint_file = "codetalker.pt"
+    # The authors' VQ-VAE adds positional-table row b to batch item b
+    # (vqvae.PositionalEncoding): a style's output depends on its batch position, so
+    # each style is predicted alone, at position 0, as the authors do.
+    batch_styles = False
 
     def __init__(self, preset: str = "cpu-demo", official: str | None = None, official_stage1: str | None = None,
                  official_wav2vec2="base", resolved: dict | None = None, **overrides):

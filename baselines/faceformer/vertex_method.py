@@ -51,6 +51,9 @@ class StyleVertexMethod(Method):
     stochastic = True
     output = "vertices"
     checkpoint_file = "model.pt"
+    #: The styles of an utterance run as one batch (False: one ``predict`` per style,
+    #: for networks whose output depends on the batch position).
+    batch_styles = True
 
     def __init__(self, **config):
         super().__init__(**config)
@@ -68,22 +71,31 @@ class StyleVertexMethod(Method):
         """Train ``self.network`` on :class:`~baselines.faceformer.sequences.MotionSequence` lists; return a history."""
         raise NotImplementedError
 
-    def predict_motion(self, audio: np.ndarray, template: np.ndarray, style: int, num_frames: int) -> np.ndarray:
-        """``(num_frames, V*3)`` float vertices at 30 fps in metres for one style: the network's
-        ``predict(audio, template, one_hot, num_frames)`` (both authors' signature) on the scaled motion."""
+    def predict_motion(self, audio: np.ndarray, template: np.ndarray, style, num_frames: int) -> np.ndarray:
+        """``(num_frames, V*3)`` float vertices at 30 fps in metres for one style, or
+        ``(B, num_frames, V*3)`` for a list of B styles: the network's
+        ``predict(audio, template, one_hot, num_frames)`` (both authors' signature) on the
+        scaled motion. A list runs as one batch of B one-hot rows (the same audio and
+        template in each; unless :attr:`batch_styles` is False): the per-style results
+        of one call each, in a single autoregressive loop."""
         from baselines.faceformer.sequences import MotionSequence
         from baselines.faceformer.train import sequence_tensors
         from baselines.said.threads import torch_threads
 
+        styles = [int(style)] if np.isscalar(style) else [int(s) for s in style]
+        if len(styles) > 1 and not self.batch_styles:
+            return np.stack([self.predict_motion(audio, template, s, num_frames) for s in styles])
         net = self.network.eval()
         w2v = net.config["audio"]["kind"] == "wav2vec2"
         seq = MotionSequence("", "", np.asarray(audio, np.float32), np.zeros((1, template.size), np.float32),
                              np.asarray(template, np.float32))
         a, tpl, _ = sequence_tensors(seq, scale=self.motion_scale, normalise_audio=w2v)
-        one_hot = torch.eye(len(self.subjects))[style : style + 1]
+        batch = len(styles)
+        one_hot = torch.eye(len(self.subjects))[styles]
         with torch.no_grad(), torch_threads(self.settings["training"].get("num_threads")):
-            out = net.predict(a, tpl, one_hot, num_frames)
-        return out[0].numpy() / self.motion_scale
+            out = net.predict(a.expand(batch, -1), tpl.expand(batch, -1), one_hot, num_frames)
+        out = out.numpy() / self.motion_scale
+        return out[0] if np.isscalar(style) else out
 
     def network_state(self) -> dict:
         """What :meth:`save` stores besides the config (default: the state_dict)."""
@@ -126,11 +138,10 @@ class StyleVertexMethod(Method):
                            f"(known: {sorted(self.templates)[:6]}...); train or load on this dataset first")
         template = self.templates[utterance.subject]
         frames30 = motion_frames(utterance.num_frames)
-        out = []
-        for style in style_indices(samples, seed, len(self.subjects)):
-            motion = self.predict_motion(utterance.audio, template, style, frames30)
-            out.append(to_benchmark_rate(motion, utterance.num_frames).reshape(utterance.num_frames, -1, 3))
-        return np.stack(out)
+        motions = self.predict_motion(utterance.audio, template, style_indices(samples, seed, len(self.subjects)),
+                                      frames30)  # every style in one batch
+        return np.stack([to_benchmark_rate(m, utterance.num_frames).reshape(utterance.num_frames, -1, 3)
+                         for m in motions])
 
     def save(self, directory) -> None:
         """Config, weights, style speakers and templates into ``directory``."""

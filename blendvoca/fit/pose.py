@@ -105,11 +105,14 @@ def flame_stable_vertices(neutral, landmarks=None) -> np.ndarray:
 
 def _weighted_kabsch(src: np.ndarray, dst: np.ndarray, w: np.ndarray):
     """Per-frame rigid fit ``dst ~ src R^T + t``: src (S, 3), dst (T, S, 3), w (T, S)."""
+    # Batched matrix products on (T, 3, S) operands: a three-operand einsum is a naive
+    # loop. The weighted cross-covariance sum_s wn (x_s - cs)(y_s - cd)^T equals
+    # sum_s wn x_s y_s^T - cs cd^T (the weights sum to 1), so nothing is centred.
     wsum = w.sum(axis=1, keepdims=True)
     wn = w / wsum
     cs = wn @ src                                   # (T, 3)
-    cd = np.einsum("ts,tsk->tk", wn, dst)           # (T, 3)
-    h = np.einsum("ts,tsi,tsj->tij", wn, src[None] - cs[:, None], dst - cd[:, None])
+    cd = np.matmul(wn[:, None, :], dst)[:, 0]       # (T, 3)
+    h = np.matmul(wn[:, None, :] * src.T[None], dst) - cs[:, :, None] * cd[:, None, :]  # (T, 3, 3)
     u, _, vt = np.linalg.svd(h)
     d = np.sign(np.linalg.det(np.einsum("tij,tjk->tik", u, vt)))
     fix = np.ones((len(h), 3))
@@ -124,7 +127,8 @@ def _robust_fit(src, dst, iterations: int, tol: float):
     w = np.ones(dst.shape[:2])
     rot, trans = _weighted_kabsch(src, dst, w)
     for _ in range(iterations):
-        res = np.linalg.norm(dst - np.einsum("sj,tij->tsi", src, rot) - trans[:, None], axis=2)
+        diff = dst - (np.matmul(src[None], rot.transpose(0, 2, 1)) + trans[:, None])
+        res = np.sqrt(np.einsum("tsi,tsi->ts", diff, diff))
         scale = 1.4826 * np.median(res, axis=1, keepdims=True)
         scale = np.maximum(2.5 * scale, tol)
         w = 1.0 / (1.0 + (res / scale) ** 2)
@@ -150,7 +154,7 @@ def least_moving_vertices(frames, neutral, fraction: float = 0.3) -> np.ndarray:
     frames = np.asarray(frames, dtype=np.float64)
     neutral = np.asarray(neutral, dtype=np.float64)
     rot, trans, _ = _robust_fit(neutral, frames, 10, 1e-9)
-    aligned = np.einsum("tvj,tjk->tvk", frames - trans[:, None], rot)
+    aligned = np.matmul(frames - trans[:, None], rot)
     motion = np.sqrt(np.mean(np.sum((aligned - neutral) ** 2, axis=2), axis=0))
     count = max(3, int(round(fraction * len(neutral))))
     return np.sort(np.argsort(motion, kind="stable")[:count])
@@ -203,5 +207,5 @@ def remove_head_pose(frames, neutral, *, stable=None, iterations: int = 20, tol:
     if np.linalg.matrix_rank(src - src.mean(axis=0), tol=1e-9) < 2:
         raise ValueError(f"{where}: the {len(stable)} stable vertices are collinear; a rotation is not determined")
     rot, trans, w = _robust_fit(src, frames[:, stable], int(iterations), float(tol))
-    aligned = np.einsum("tvj,tjk->tvk", frames - trans[:, None], rot)
+    aligned = np.matmul(frames - trans[:, None], rot)
     return HeadPose(frames=aligned, rotations=rot, translations=trans, stable=stable, weights=w)
