@@ -148,7 +148,12 @@ def _run_stage(name, params, loss_fn, sampler, steps, seconds, training, progres
 
 
 def load_sentences(dataset, subjects) -> list[dict]:
-    """``{"subject", "sentence", "vertices" (T, V, 3), "template" (V, 3), "audio" (N,)}`` of every sentence."""
+    """``{"subject", "sentence", "vertices" (T, V, 3), "template" (V, 3), "audio" (N,)}`` of every sentence.
+
+    Vertices are kept in float32 (half the memory: 4.6 GB for the 12 x 40 training
+    split instead of 9.3 GB); the model's displacements are float32 anyway, and
+    rounding 0.1 m coordinates to float32 moves them by less than 1e-8 m.
+    """
     out = []
     for subject in subjects:
         template = dataset.template(subject)
@@ -156,7 +161,8 @@ def load_sentences(dataset, subjects) -> list[dict]:
             audio, rate = dataset.audio(subject, sentence)
             if rate != 16000:
                 raise ValueError(f"CDFace: expected 16 kHz audio, got {rate} Hz for {subject}/{sentence}")
-            out.append({"subject": subject, "sentence": sentence, "vertices": dataset.vertices(subject, sentence),
+            out.append({"subject": subject, "sentence": sentence,
+                        "vertices": np.asarray(dataset.vertices(subject, sentence), dtype=np.float32),
                         "template": template, "audio": np.asarray(audio, dtype=np.float32)})
     return out
 
