@@ -139,7 +139,7 @@ class StyleVertexMethod(Method):
         template = self.templates[utterance.subject]
         frames30 = motion_frames(utterance.num_frames)
         motions = self.predict_motion(utterance.audio, template, style_indices(samples, seed, len(self.subjects)),
-                                      frames30)  # every style in one batch
+                                      frames30)  # one batch, unless batch_styles is False
         return np.stack([to_benchmark_rate(m, utterance.num_frames).reshape(utterance.num_frames, -1, 3)
                          for m in motions])
 
