@@ -11,10 +11,7 @@ priors on CodeTalker's and gives no sizes); it wants a GPU.
 
 from __future__ import annotations
 
-import copy
-import difflib
-
-from baselines.said.presets import expand_path
+from baselines.said.presets import resolved_preset
 
 DEFAULT_PRESET = "cpu-demo"
 
@@ -98,30 +95,4 @@ def resolve_config(preset: str = DEFAULT_PRESET, **overrides) -> dict:
     -------
     dict ``{"preset", "model", "loss", "training"}``
     """
-    if preset not in PRESETS:
-        close = difflib.get_close_matches(str(preset), PRESETS, n=3)
-        raise ValueError(f"CDFace preset: expected one of {sorted(PRESETS)}, got {preset!r}"
-                         + (f" (did you mean {close}?)" if close else ""))
-    config = copy.deepcopy(PRESETS[preset])
-    overrides = dict(overrides)
-    path = overrides.pop("wav2vec2_path", None)
-    if isinstance(overrides.get("encoder"), str):
-        kind = overrides["encoder"]
-        overrides["encoder"] = {"kind": kind, "path": path} if kind == "wav2vec2" else {"kind": kind}
-    elif path is not None:
-        overrides.setdefault("encoder", {"kind": "wav2vec2", "path": path})
-    sections = {key: section for section, values in config.items() for key in values}
-    for key, value in overrides.items():
-        if key not in sections:
-            close = difflib.get_close_matches(key, sections, n=3)
-            raise ValueError(f"CDFace config: unknown key {key!r}"
-                             + (f" (did you mean {close}?)" if close else f"; known keys: {sorted(sections)}"))
-        config[sections[key]][key] = copy.deepcopy(value)
-    encoder = config["model"]["encoder"]
-    if encoder.get("kind") == "wav2vec2":
-        if not encoder.get("path"):
-            raise ValueError("CDFace config: the wav2vec2 encoder needs a local directory "
-                             "(wav2vec2_path=... or BLENDVOCA_WAV2VEC2)")
-        encoder["path"] = expand_path(str(encoder["path"]))
-    config["preset"] = preset
-    return config
+    return resolved_preset(PRESETS, preset, overrides, method="CDFace")

@@ -117,10 +117,22 @@ def resolve_config(preset: str = DEFAULT_PRESET, **overrides) -> dict[str, dict]
     config : dict
         ``{"preset", "model", "diffusion", "sampling", "training"}``.
     """
-    if preset not in PRESETS:
-        close = difflib.get_close_matches(str(preset), PRESETS, n=3)
-        raise ValueError(f"SAiD preset: expected one of {sorted(PRESETS)}, got {preset!r}" + (f" (did you mean {close}?)" if close else ""))
-    config = copy.deepcopy(PRESETS[preset])
+    return resolved_preset(PRESETS, preset, overrides, method="SAiD")
+
+
+def resolved_preset(presets: dict, preset: str, overrides: dict, *, method: str) -> dict:
+    """``presets[preset]`` (sections of keys) deep-copied with flat ``overrides`` applied
+    and ``"preset"`` set: the rule SAiD's and CDFace's configs share.
+
+    ``encoder`` may be a spec dict or a kind string, ``wav2vec2_path`` sets the wav2vec2
+    directory (required, and ``${VAR:-default}`` / ``~`` expanded, for that encoder); an
+    unknown preset or key is a ValueError naming ``method`` and the close matches.
+    """
+    if preset not in presets:
+        close = difflib.get_close_matches(str(preset), presets, n=3)
+        raise ValueError(f"{method} preset: expected one of {sorted(presets)}, got {preset!r}"
+                         + (f" (did you mean {close}?)" if close else ""))
+    config = copy.deepcopy(presets[preset])
     overrides = dict(overrides)
     path = overrides.pop("wav2vec2_path", None)
     if isinstance(overrides.get("encoder"), str):
@@ -132,12 +144,14 @@ def resolve_config(preset: str = DEFAULT_PRESET, **overrides) -> dict[str, dict]
     for key, value in overrides.items():
         if key not in sections:
             close = difflib.get_close_matches(key, sections, n=3)
-            raise ValueError(f"SAiD config: unknown key {key!r}" + (f" (did you mean {close}?)" if close else f"; known keys: {sorted(sections)}"))
+            raise ValueError(f"{method} config: unknown key {key!r}"
+                             + (f" (did you mean {close}?)" if close else f"; known keys: {sorted(sections)}"))
         config[sections[key]][key] = copy.deepcopy(value)
     encoder = config["model"]["encoder"]
     if encoder.get("kind") == "wav2vec2":
         if not encoder.get("path"):
-            raise ValueError("SAiD config: the wav2vec2 encoder needs a local directory (wav2vec2_path=... or BLENDVOCA_WAV2VEC2)")
+            raise ValueError(f"{method} config: the wav2vec2 encoder needs a local directory "
+                             "(wav2vec2_path=... or BLENDVOCA_WAV2VEC2)")
         encoder["path"] = expand_path(str(encoder["path"]))
     config["preset"] = preset
     return config
