@@ -109,9 +109,7 @@ class CDFaceMethod(Method):
 
     def with_sampling_options(self, **options) -> CDFaceMethod:
         """The same trained model sampling with another ``control`` or ``style``."""
-        unknown = sorted(set(options) - set(self.sampling_options))
-        if unknown:
-            raise ValueError(f"cdface: {unknown} are not sampling options (expected some of {list(self.sampling_options)})")
+        self.check_sampling_options(options)
         twin = type(self)(**{**self.config(), **options})
         twin.cdface = self.cdface
         return twin

@@ -197,14 +197,18 @@ class Method(abc.ABC):
         (typically ``twin = type(self)(**{**self.config(), **options})`` sharing the
         trained state), so that the new method's :meth:`config` reports the options.
         """
-        unknown = sorted(set(options) - set(self.sampling_options))
-        if unknown:
-            raise ValueError(f"{type(self).__name__}: {unknown} are not sampling options "
-                             f"(expected some of {list(self.sampling_options)})")
+        self.check_sampling_options(options)
         if options:
             raise NotImplementedError(f"{type(self).__name__} declares sampling options but does not "
                                       "override with_sampling_options")
         return self
+
+    def check_sampling_options(self, options) -> None:
+        """ValueError unless every key of ``options`` is one of :attr:`sampling_options`."""
+        unknown = sorted(set(options) - set(self.sampling_options))
+        if unknown:
+            raise ValueError(f"{type(self).__name__}: {unknown} are not sampling options "
+                             f"(expected some of {list(self.sampling_options)})")
 
     def __repr__(self) -> str:
         args = ", ".join(f"{k}={v!r}" for k, v in sorted(self.config().items()))
