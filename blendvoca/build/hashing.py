@@ -15,7 +15,8 @@ def array_digest(*arrays) -> str:
     for array in arrays:
         array = np.ascontiguousarray(array)
         h.update(f"{array.dtype.str}{array.shape}".encode())
-        h.update(array.tobytes())
+        # The buffer itself (the bytes tobytes() would copy first).
+        h.update(memoryview(array.reshape(-1)).cast("B") if array.size else b"")
     return h.hexdigest()
 
 

@@ -80,6 +80,11 @@ ACTIVE_SET_ROUNDS = 10
 #: Interior-point starting point (scaled units: Hessian diagonal <= 1, coefficients in [0, 1]).
 START_SLACK = 0.1
 START_DUAL = 0.1
+#: Interior-point tolerance at which the polish first reads off the active set.
+#: Iterating further rarely fixes the few ambiguous constraints (the
+#: certificate's corrections do), so it would only add factorizations; a failed
+#: certificate still tightens the interior point down to ``tol * 1e-6``.
+IDENTIFY_TOL = 1e-5
 
 
 class _Problem:
@@ -244,56 +249,83 @@ def _step_to_boundary(values, steps):
     if steps.size == 0:
         return 1.0
     # values > 0: the binding ratio is the most negative steps / values.
-    worst = -float(np.min(steps / values))
+    worst = -float(np.min(np.divide(steps, values)))
     return 1.0 if worst <= 1.0 else 1.0 / worst
 
 
 def _interior_point(prob, x, tol, max_iter, slacks=None, duals=None):
-    """Mehrotra predictor-corrector iterations; returns x, slacks, duals, its, kkt."""
+    """Mehrotra predictor-corrector iterations; returns x, slacks, duals, its, kkt.
+
+    The constraint-length vectors (slacks, multipliers, residuals, steps) are
+    the bulk of the work outside the banded factorization, so each iteration
+    updates them in place, with the primal residual carried along the step
+    (``r_p <- (1 - alpha) r_p`` in exact arithmetic) and recomputed from ``x``
+    only where the stopping test needs it.
+    """
     if slacks is None:
         # Slacks of the warm start kept away from zero, small uniform
         # multipliers: the fewest iterations on speech tracks (scaled problem).
         slacks = np.maximum(-prob.residual(x), START_SLACK)
         duals = np.full_like(slacks, START_DUAL)
+    else:
+        slacks, duals = slacks.copy(), duals.copy()
     m = prob.num_constraints
     norm_c = 1.0 + float(np.max(np.abs(prob.c)))
     kkt = np.inf
     its = 0
+    inv_s = np.empty(m)
+    r_c = np.empty(m)
+    work = np.empty(m)
+    ds = np.empty(m)
+    dz = np.empty(m)
     for its in range(max_iter + 1):
         r_d = x @ prob.g - prob.c + prob.apply_t(duals)
-        r_p = prob.residual(x) + slacks
+        r_p = prob.residual(x)
+        r_p += slacks
         gap = float(slacks @ duals)
         mu = gap / m
         kkt = max(float(np.max(np.abs(r_d))) / norm_c, float(np.max(np.abs(r_p))), mu)
         if kkt <= tol or its == max_iter:
             break
-        inv_s = 1.0 / slacks
+        np.divide(1.0, slacks, out=inv_s)
+        np.multiply(duals, inv_s, out=work)
         try:
-            chol = prob.factor(duals * inv_s)
+            chol = prob.factor(work)
         except np.linalg.LinAlgError:
             break
         z_rp = duals * r_p
 
         def newton(r_c):
             # (G + A^T W A) dx = -r_d - A^T ((z r_p - r_c) / s); ds, dz follow.
-            dx = prob.solve(chol, -r_d - prob.apply_t((z_rp - r_c) * inv_s))
-            ds = -r_p - prob.apply(dx)
-            dz = -(r_c + duals * ds) * inv_s
-            return dx, ds, dz
+            np.subtract(z_rp, r_c, out=work)
+            np.multiply(work, inv_s, out=work)
+            dx = prob.solve(chol, -r_d - prob.apply_t(work))
+            np.negative(r_p, out=ds)
+            np.subtract(ds, prob.apply(dx), out=ds)
+            np.multiply(duals, ds, out=dz)
+            np.add(dz, r_c, out=dz)
+            np.multiply(dz, inv_s, out=dz)
+            np.negative(dz, out=dz)
+            return dx
 
-        r_c = slacks * duals
-        _, ds_a, dz_a = newton(r_c)
-        alpha_a = min(_step_to_boundary(slacks, ds_a), _step_to_boundary(duals, dz_a))
-        gap_a = float((slacks + alpha_a * ds_a) @ (duals + alpha_a * dz_a))
-        sigma = (gap_a / gap) ** 3 if gap > 0 else 0.0
-        r_c += ds_a * dz_a - sigma * mu
-        dx, ds, dz = newton(r_c)
+        np.multiply(slacks, duals, out=r_c)
+        newton(r_c)
+        alpha_a = min(_step_to_boundary(slacks, ds), _step_to_boundary(duals, dz))
+        # gap after the affine step: sum (s + a ds)(z + a dz), expanded.
+        gap_a = gap + alpha_a * (float(ds @ duals) + float(slacks @ dz)) + alpha_a ** 2 * float(ds @ dz)
+        sigma = (max(gap_a, 0.0) / gap) ** 3 if gap > 0 else 0.0
+        np.multiply(ds, dz, out=work)
+        r_c += work
+        r_c -= sigma * mu
+        dx = newton(r_c)
         alpha = min(
             1.0, 0.995 * _step_to_boundary(slacks, ds), 0.995 * _step_to_boundary(duals, dz)
         )
         x = x + alpha * dx
-        slacks = slacks + alpha * ds
-        duals = duals + alpha * dz
+        ds *= alpha
+        slacks += ds
+        dz *= alpha
+        duals += dz
     return x, slacks, duals, its, kkt
 
 
@@ -339,20 +371,26 @@ def _polish(prob, active, multipliers, *, rho=1e5, max_alm=40, max_rounds=10, fe
     """
     dual_tol = 1e-10 * (1.0 + float(np.max(np.abs(prob.c))))
     for rounds in range(1, max_rounds + 1):
-        weights = rho * active
+        # The active set as a 0/1 float vector: multiplying by it is several
+        # times faster than boolean-mask indexing on the constraint vectors.
+        on = active.astype(np.float64)
+        weights = rho * on
         try:
             chol = prob.factor(weights)
         except np.linalg.LinAlgError:
             return None, multipliers, rounds
-        lam = np.where(active, np.maximum(multipliers, 0.0), 0.0)
+        lam = np.maximum(multipliers, 0.0)
+        lam *= on
         wb = weights * prob.b
         x = None
         for _ in range(max_alm):
             x = prob.solve(chol, prob.c - prob.apply_t(lam - wb))
             r = prob.residual(x)
-            r[~active] = 0.0
-            lam += rho * r
-            if float(np.max(np.abs(r), initial=0.0)) <= 1e-14:
+            r *= on
+            worst = float(np.max(np.abs(r), initial=0.0))
+            r *= rho
+            lam += r
+            if worst <= 1e-14:
                 break
         residual = prob.residual(x)
         violated = ~active & (residual > feas_tol)
@@ -463,7 +501,8 @@ def solve_banded_qp(
                 return solution(x_pol, lam, 0, True, 0.0, "banded-active-set")
 
     total_its = 0
-    x, slacks, duals, its, kkt = _interior_point(prob, x0, tol, max_iter)
+    first_tol = max(tol, IDENTIFY_TOL) if polish else tol
+    x, slacks, duals, its, kkt = _interior_point(prob, x0, first_tol, max_iter)
     total_its += its
     converged = kkt <= tol
     solver = "banded-ipm"
@@ -471,8 +510,8 @@ def solve_banded_qp(
     if polish:
         # The active set is guessed from the interior point iterate; when the
         # certificate fails, tighten the interior point and guess again.
-        for tighter in (tol, tol * 1e-3, tol * 1e-6):
-            if tighter < tol:
+        for tighter in sorted({first_tol, tol, tol * 1e-3, tol * 1e-6}, reverse=True):
+            if tighter < first_tol:
                 x, slacks, duals, its, kkt = _interior_point(prob, x, tighter, max_iter, slacks, duals)
                 total_its += its
             active = duals > slacks

@@ -8,10 +8,10 @@ import numpy as np
 
 from ._checks import check_delta
 from .banded_qp import solve_banded_qp
-from .diagnostics import constraint_activity, vertex_errors
+from .diagnostics import constraint_activity, vertex_errors_of_checked
 from .framewise import framewise_coefficients
 from .least_squares import least_squares_coefficients
-from .normal_equations import check_rig_and_frames, normal_equations
+from .normal_equations import check_rig_and_frames, normal_equations_of_checked
 from .pose import FLAME_NUM_VERTICES, HeadPose, remove_head_pose
 from .resample import resample_sequence
 from .sparse_qp import SOLVER_OPTIONS, solve_sparse_qp
@@ -168,7 +168,7 @@ def fit_sequence(
         frames = resample_sequence(frames, fps, 60.0)
     lower, upper = (0.0, 1.0) if bounds else (None, None)
     with _one_blas_thread():
-        system = normal_equations(neutral, deltas, frames)
+        system = normal_equations_of_checked(neutral, deltas, frames)
         iterations, converged = 0, True
         if framewise:
             if not bounds:
@@ -195,7 +195,7 @@ def fit_sequence(
             if bounds:
                 coeffs = np.clip(coeffs, 0.0, 1.0)
             solver = method
-        rmse, max_error = vertex_errors(neutral, deltas, frames, coeffs)
+        rmse, max_error = vertex_errors_of_checked(neutral, deltas, frames, coeffs)
     activity = constraint_activity(coeffs, delta=delta if delta is not None else None)
     return FitResult(
         coeffs=coeffs,
@@ -248,7 +248,7 @@ def fit_coefficients(
         frames = resample_sequence(frames, fps, 60.0)
     lower, upper = (0.0, 1.0) if bounds else (None, None)
     with _one_blas_thread():
-        system = normal_equations(neutral, deltas, frames)
+        system = normal_equations_of_checked(neutral, deltas, frames)
         if framewise:
             if not bounds:
                 raise ValueError(f"{where}: framewise mode needs bounds=True")

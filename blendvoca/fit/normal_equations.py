@@ -92,7 +92,11 @@ def check_rig_and_frames(neutral, deltas, frames, vertex_subset=None, where="fit
                 f"{where}: vertex_subset must index 0..{num_vertices - 1}, got range "
                 f"[{subset.min() if subset.size else None}, {subset.max() if subset.size else None}]"
             )
-        neutral, deltas, frames = neutral[subset], deltas[:, subset], frames[:, subset]
+        # np.take along the vertex axis gives C-contiguous crops (frames[:, subset]
+        # does not), so the reshapes of the fit are views, not copies.
+        neutral = np.take(neutral, subset, axis=0)
+        deltas = np.take(deltas, subset, axis=1)
+        frames = np.take(frames, subset, axis=1)
     return neutral, deltas, frames
 
 
@@ -118,6 +122,11 @@ def normal_equations(neutral, deltas, frames, *, vertex_subset=None) -> NormalEq
     neutral, deltas, frames = check_rig_and_frames(
         neutral, deltas, frames, vertex_subset, "normal_equations"
     )
+    return normal_equations_of_checked(neutral, deltas, frames)
+
+
+def normal_equations_of_checked(neutral, deltas, frames) -> NormalEquations:
+    """:func:`normal_equations` of arrays :func:`check_rig_and_frames` returned (no second check)."""
     num_shapes = deltas.shape[0]
     basis = deltas.reshape(num_shapes, -1)  # (K, 3S)
     offsets = (frames - neutral[None]).reshape(frames.shape[0], -1)  # (T, 3S)
