@@ -292,13 +292,19 @@ def sentence_vertex_values(preds, gt_v, neutral, lip, upper) -> dict:
     from benchmark.metrics import vertex
 
     out = {"lve": [], "lve_squared": [], "mve": [], "fdd": []}
+    gt_dynamics = {}
     for p in preds:
         out["lve"].append(vertex.lip_vertex_error(p, gt_v, lip))
         out["lve_squared"].append(vertex.lip_vertex_error(p, gt_v, lip, squared=True))
         out["mve"].append(vertex.mean_vertex_error(p, gt_v))
         # |FDD| per sequence: CodeTalker's signed mean lets too-lively and
         # too-still sequences cancel, and a ranking needs "closer to 0 is better".
-        out["fdd"].append(abs(vertex.upper_face_dynamics_deviation(p, gt_v, neutral, upper)))
+        # (upper_face_dynamics_deviation, with the ground truth's term computed
+        # once per length rather than once per sample.)
+        t = min(len(p), len(gt_v))
+        if t not in gt_dynamics:
+            gt_dynamics[t] = vertex.motion_dynamics(gt_v[:t], neutral, upper)
+        out["fdd"].append(abs(gt_dynamics[t] - vertex.motion_dynamics(p[:t], neutral, upper)))
     out = {k: np.asarray(v, dtype=np.float64) for k, v in out.items()}
     if len(preds) >= 2:
         out.update(vertex.diversity_metrics(preds, upper, lip))

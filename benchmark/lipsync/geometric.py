@@ -33,7 +33,10 @@ def mouth_activity(vertices, neutral, lip_idx) -> np.ndarray:
     if vertices.ndim != 3 or vertices.shape[1:] != neutral.shape:
         raise ValueError(f"mouth_activity: expected vertices (T, V, 3) and neutral (V, 3), got {vertices.shape}, {neutral.shape}")
     idx = np.asarray(lip_idx, dtype=np.int64)
-    return np.linalg.norm(vertices[:, idx] - neutral[idx], axis=2).mean(axis=1)
+    # Distances laid out (L, T) as vertices[:, idx] would leave them, so the mean
+    # over the lip vertices adds in that order (np.take is several times faster).
+    dist = np.ascontiguousarray(np.linalg.norm(np.take(vertices, idx, axis=1) - neutral[idx], axis=2).T)
+    return dist.mean(axis=0)
 
 
 def lagged_correlation(motion, audio, max_lag: int) -> np.ndarray:

@@ -29,6 +29,18 @@ def _sq_norm(diff: np.ndarray) -> np.ndarray:
     return np.einsum("...c,...c->...", diff, diff)
 
 
+def vertices_at(array, idx, axis: int) -> np.ndarray:
+    """``array`` at the vertices ``idx`` of its axis ``axis`` (e.g. ``x[:, idx]`` for axis 1).
+
+    The same values and the same memory layout (indexed axis outermost) as that
+    indexing, so reductions over the result add in the same order, but several
+    times faster: np.take plus one contiguous copy instead of numpy's general
+    fancy-indexing path.
+    """
+    taken = np.moveaxis(np.take(array, idx, axis=axis), axis, 0)
+    return np.moveaxis(np.ascontiguousarray(taken), 0, axis)
+
+
 def rig_vertices(neutral, deltas, coeffs) -> np.ndarray:
     """Vertices of a linear blendshape rig driven by coefficients.
 
@@ -72,7 +84,8 @@ def lip_vertex_error(pred, gt, lip_idx, squared: bool = False) -> float:
     """
     pred, gt = _pair(pred, gt, "lip_vertex_error")
     lip_idx = np.asarray(lip_idx, dtype=np.int64)
-    per_frame = _sq_norm(pred[:, lip_idx] - gt[:, lip_idx]).max(axis=1) * MM**2
+    # (np.take: the values of pred[:, lip_idx], faster; a maximum is order-free.)
+    per_frame = _sq_norm(np.take(pred, lip_idx, axis=1) - np.take(gt, lip_idx, axis=1)).max(axis=1) * MM**2
     return float(per_frame.mean() if squared else np.sqrt(per_frame).mean())
 
 
@@ -88,7 +101,7 @@ def mean_vertex_error(pred, gt, idx=None) -> float:
     pred, gt = _pair(pred, gt, "mean_vertex_error")
     if idx is not None:
         idx = np.asarray(idx, dtype=np.int64)
-        pred, gt = pred[:, idx], gt[:, idx]
+        pred, gt = vertices_at(pred, idx, 1), vertices_at(gt, idx, 1)
     return float(np.sqrt(_sq_norm(pred - gt)).mean() * MM)
 
 
@@ -104,7 +117,12 @@ def motion_dynamics(vertices, neutral, idx) -> float:
     vertices = np.asarray(vertices, dtype=np.float64)
     neutral = np.asarray(neutral, dtype=np.float64)
     idx = np.asarray(idx, dtype=np.int64)
-    return float((_sq_norm(vertices[:, idx] - neutral[idx]) * MM**2).std(axis=0).mean())
+    # Squared displacements laid out (U, T), each vertex's frames contiguous,
+    # as vertices[:, idx] would leave them: the standard deviation over time
+    # then adds in that order (np.take and the transpose of the small (T, U)
+    # array are several times faster than that indexing).
+    sq = np.ascontiguousarray(_sq_norm(np.take(vertices, idx, axis=1) - neutral[idx]).T) * MM**2
+    return float(sq.std(axis=1).mean())
 
 
 def upper_face_dynamics_deviation(pred, gt, neutral, upper_idx) -> float:
@@ -175,7 +193,7 @@ def pairwise_distances(samples, idx=None) -> np.ndarray:
         if idx.ndim != 1 or idx.size == 0 or idx.min() < 0 or idx.max() >= samples.shape[2]:
             raise ValueError(f"pairwise_distances: expected a non-empty vertex index list in [0, {samples.shape[2]}), "
                              f"got {idx.size} indices" + (f" in [{idx.min()}, {idx.max()}]" if idx.size else ""))
-        samples = samples[:, :, idx]
+        samples = vertices_at(samples, idx, 2)
     s, t, n, _ = samples.shape
     out = np.zeros((s, s))
     for i, j in combinations(range(s), 2):
