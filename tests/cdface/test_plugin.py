@@ -99,3 +99,28 @@ def test_cosine_learning_rate_closed_form():
     assert cosine_lr(2.0, 7, None, elapsed=30.0, seconds=60.0) == pytest.approx(1.0)
     assert cosine_lr(2.0, 10, 20, elapsed=45.0, seconds=60.0) == pytest.approx((1 + math.cos(0.75 * math.pi)))
     assert cosine_lr(2.0, 5, None) == pytest.approx(2.0)
+
+
+def test_cosine_schedule_sets_every_step_of_every_stage(monkeypatch):
+    import torch
+
+    from baselines.cdface.plugin import CDFaceMethod
+    from baselines.cdface.train import cosine_lr
+    from benchmark.methods.base import Budget
+    from benchmark.testing import FakeBlendVOCA
+
+    seen = []
+
+    class Recording(torch.optim.AdamW):
+        def step(self, closure=None):
+            seen.append(self.param_groups[0]["lr"])
+            return super().step(closure)
+
+    monkeypatch.setattr(torch.optim, "AdamW", Recording)
+    method = CDFaceMethod(**PLUGIN_TINY, lr_schedule="cosine", lr=0.01)
+    method.train(FakeBlendVOCA(0, sentences=1), seed=0, budget=Budget(max_steps=4))
+    expected = [cosine_lr(0.01, k, 4) for k in range(4)]
+    assert seen == pytest.approx(expected * 3)  # lip prior, upper-face prior, querying
+    with pytest.raises(ValueError, match="lr_schedule"):
+        CDFaceMethod(**PLUGIN_TINY, lr_schedule="step").train(FakeBlendVOCA(0, sentences=1), seed=0,
+                                                               budget=Budget(max_steps=1))
