@@ -94,6 +94,9 @@ class CDFaceMethod(Method):
         loaded = load_sentences(dataset, train)
         active = moving_vertices(loaded, self.resolved["model"]["active_threshold"])
         parts = dataset_parts(dataset, everyone, active)
+        import torch
+
+        torch.manual_seed(int(seed))  # the initial weights too: a step budget then gives the same model every run
         self.cdface = CDFace(self.resolved, parts, train, {s: dataset.template(s) for s in everyone})
         sentences = prepare_sentences(self.cdface, loaded, epsilon=self.resolved["loss"]["epsilon"],
                                       lip_pair=lip_pair_for(dataset.template(train[0]), dataset_lips(dataset, train)))

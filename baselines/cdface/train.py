@@ -22,7 +22,7 @@ from baselines.cdface.losses import lip_losses, upper_face_losses
 from baselines.cdface.vqvae import vq_loss
 from baselines.said.threads import torch_threads
 
-__all__ = ["SentenceData", "WindowSampler", "load_sentences", "moving_vertices", "prepare_sentences", "stage_limits",
+__all__ = ["LR_SCHEDULES", "SentenceData", "WindowSampler", "cosine_lr", "load_sentences", "moving_vertices", "prepare_sentences", "stage_limits",
            "train_cdface"]
 
 #: Share of a total time budget given to the lip prior, the upper-face prior and the querying model.
@@ -120,17 +120,40 @@ def stage_limits(training: dict, num_sentences: int, *, max_steps=None, max_seco
     return out
 
 
+#: ``lr_schedule`` values: the stage's learning rate stays ``lr``, or decays from ``lr`` to 0 on a half cosine.
+LR_SCHEDULES = ("constant", "cosine")
+
+
+def cosine_lr(lr: float, step: int, steps=None, elapsed: float = 0.0, seconds=None) -> float:
+    """Learning rate ``lr (1 + cos(pi f)) / 2`` at the fraction ``f`` of a stage done.
+
+    ``f = step / steps`` under a step limit, else ``elapsed / seconds`` (a time
+    limit only); with both, the larger.
+    """
+    fractions = [step / steps] if steps else []
+    if seconds:
+        fractions.append(elapsed / seconds)
+    f = min(1.0, max(fractions)) if fractions else 0.0
+    return float(lr) * 0.5 * (1.0 + math.cos(math.pi * f))
+
+
 def _run_stage(name, params, loss_fn, sampler, steps, seconds, training, progress) -> list:
     from tqdm import tqdm
 
     params = [p for p in params if p.requires_grad]
     opt = torch.optim.AdamW(params, lr=training["lr"], weight_decay=training["weight_decay"])
+    schedule = training.get("lr_schedule", "constant")
+    if schedule not in LR_SCHEDULES:
+        raise ValueError(f"CDFace training: expected lr_schedule in {LR_SCHEDULES}, got {schedule!r}")
     history = []
     started = time.perf_counter()
     bar = tqdm(total=steps, desc=f"CDFace: {name}", unit="step", disable=not progress)
     step = 0
     try:
         while (steps is None or step < steps) and (seconds is None or time.perf_counter() - started < seconds):
+            if schedule == "cosine":
+                for group in opt.param_groups:
+                    group["lr"] = cosine_lr(training["lr"], step, steps, time.perf_counter() - started, seconds)
             losses = loss_fn(sampler.batch())
             opt.zero_grad(set_to_none=True)
             losses["total"].backward()

@@ -66,3 +66,61 @@ def test_a_trained_model_samples_lips_fixed_through_a_sampling_option():
     assert not np.array_equal(free[0, :, :4], free[2, :, :4])
     with pytest.raises(ValueError, match="not sampling options"):
         diverse.with_sampling_options(preset="paper")
+
+
+def test_training_under_a_step_budget_gives_the_same_model_every_run():
+    import torch
+
+    from baselines.cdface.plugin import CDFaceMethod
+    from benchmark.methods.base import Budget
+    from benchmark.testing import FakeBlendVOCA
+
+    dataset = FakeBlendVOCA(0, sentences=1)
+    states = []
+    for run in range(2):
+        torch.manual_seed(1000 + run)  # the global generator's state must not matter
+        method = CDFaceMethod(**PLUGIN_TINY)
+        method.train(dataset, seed=3, budget=Budget(max_steps=2))
+        states.append(method.cdface.model.state_dict())
+    for key, value in states[0].items():
+        torch.testing.assert_close(value, states[1][key], rtol=0, atol=0, msg=key)
+
+
+def test_cosine_learning_rate_closed_form():
+    import math
+
+    from baselines.cdface.train import cosine_lr
+
+    assert cosine_lr(1e-3, 0, 100) == pytest.approx(1e-3)
+    assert cosine_lr(1e-3, 50, 100) == pytest.approx(5e-4)
+    assert cosine_lr(1e-3, 25, 100) == pytest.approx(1e-3 * (1 + math.cos(math.pi / 4)) / 2)
+    assert cosine_lr(1e-3, 100, 100) == pytest.approx(0.0, abs=1e-18)
+    # a time limit only: the fraction of the seconds elapsed; both limits: the further along
+    assert cosine_lr(2.0, 7, None, elapsed=30.0, seconds=60.0) == pytest.approx(1.0)
+    assert cosine_lr(2.0, 10, 20, elapsed=45.0, seconds=60.0) == pytest.approx((1 + math.cos(0.75 * math.pi)))
+    assert cosine_lr(2.0, 5, None) == pytest.approx(2.0)
+
+
+def test_cosine_schedule_sets_every_step_of_every_stage(monkeypatch):
+    import torch
+
+    from baselines.cdface.plugin import CDFaceMethod
+    from baselines.cdface.train import cosine_lr
+    from benchmark.methods.base import Budget
+    from benchmark.testing import FakeBlendVOCA
+
+    seen = []
+
+    class Recording(torch.optim.AdamW):
+        def step(self, closure=None):
+            seen.append(self.param_groups[0]["lr"])
+            return super().step(closure)
+
+    monkeypatch.setattr(torch.optim, "AdamW", Recording)
+    method = CDFaceMethod(**PLUGIN_TINY, lr_schedule="cosine", lr=0.01)
+    method.train(FakeBlendVOCA(0, sentences=1), seed=0, budget=Budget(max_steps=4))
+    expected = [cosine_lr(0.01, k, 4) for k in range(4)]
+    assert seen == pytest.approx(expected * 3)  # lip prior, upper-face prior, querying
+    with pytest.raises(ValueError, match="lr_schedule"):
+        CDFaceMethod(**PLUGIN_TINY, lr_schedule="step").train(FakeBlendVOCA(0, sentences=1), seed=0,
+                                                               budget=Budget(max_steps=1))
