@@ -153,9 +153,10 @@ def said_inference(
     for idx, t in enumerate(tqdm(timesteps[start:], desc=f"SAiD {sampler}", disable=not progress)):
         if save_intermediates:
             intermediates.append(latents.clone())
-        x_in = torch.cat([latents, latents]) if cfg else latents
-        tt = torch.full((x_in.shape[0],), t, dtype=torch.long, device=device)
-        out = model(x_in, tt, context, caches)
+        # with guidance the context has 2B rows: the network repeats the latents itself after the
+        # layers that do not see the condition (the same output as passing them twice)
+        tt = torch.full((batch,), t, dtype=torch.long, device=device)
+        out = model(latents, tt, context, caches)
         if cfg:
             uncond, audio = out.chunk(2)
             out = classifier_free_guidance(audio, uncond, guidance)
