@@ -8,9 +8,10 @@ clipped to ``[-1, 1]`` at every step, classifier-free guidance
 noised ``init_samples``) and ``mask`` (1 = keep ``init_samples``), and the final
 clamp to ``[0, 1]``.  What differs is only how the work is done: the audio
 embedding is computed once and shared by all samples of an utterance, the
-conditional and unconditional passes of all samples run as one batch, and the
-cross-attention keys and values of both conditions are computed once per
-utterance instead of once per step.
+conditional and unconditional passes of all samples run as one batch whose
+layers before the first cross-attention (identical for both conditions) run
+once, and the cross-attention keys and values of both conditions are computed
+once per utterance instead of once per step.
 """
 
 from __future__ import annotations

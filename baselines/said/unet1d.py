@@ -21,7 +21,13 @@ sees the audio features through the alignment mask of
 
 For sampling, :meth:`ConditionalUNet1D.context_cache` precomputes the
 cross-attention keys and values of a condition once, so that the denoising
-steps skip those projections (same result).
+steps skip those projections (same result).  A context of ``r`` times the
+batch of ``x`` (classifier-free guidance: the null and the audio condition)
+gives the output of ``x`` repeated ``r`` times, with the layers before the first
+cross-attention (input convolution, first residual block, first
+self-attention), which do not see the condition, run once; the time embedding
+is computed once per distinct timestep, and the cross-attention on its band
+only, so that the arithmetic of a row does not depend on the batch it is in.
 """
 
 from __future__ import annotations
@@ -296,7 +302,8 @@ class SpatialTransformer(nn.Module):
             h = block(h, context, None if cache is None else cache[i])
         if h.shape[0] != x.shape[0]:
             x = x.repeat(h.shape[0] // x.shape[0], 1, 1)
-        return self.proj_out(h.transpose(1, 2)) + x
+        # the 1x1 convolution as a matrix product over the frames-major h (no transposed copy)
+        return F.linear(h, self.proj_out.weight[:, :, 0], self.proj_out.bias).transpose(1, 2) + x
 
 
 class ConditionalUNet1D(nn.Module):
