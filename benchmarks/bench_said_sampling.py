@@ -7,7 +7,7 @@ Prints one row per (sampler, steps): seconds per call, sequences per second and 
 ratio of that throughput to the reference run (DDIM, 50 steps) measured in the same
 process.
 
-    python benchmarks/bench_said_sampling.py --authors [--samples 5] [--steps 50 1000] [--seconds 4]
+    python benchmarks/bench_said_sampling.py --authors [--samples 5] [--steps 50 1000] [--seconds 4] [--repeats 1]
         [--width 192] [--tiny-encoder] [--threads 2] [--device cpu|cuda]
 
 The authors' network (random weights, the published sizes unless ``--width`` /
@@ -128,13 +128,18 @@ def authors_comparison(args) -> None:
     print(f"SAiD authors' network: width {args.width}, encoder {'tiny' if args.tiny_encoder else 'wav2vec2-base'}, "
           f"{args.samples} sample(s) of {args.seconds:g} s ({frames} frames), gamma {args.guidance}, device {args.device}, "
           f"threads {torch.get_num_threads()}")
-    print(f"{'steps':>6s} {'diffusers seq/s':>16s} {'ours seq/s':>11s} {'ratio':>6s} {'max |diff|':>11s}")
+    print(f"{'steps':>6s} {'diffusers seq/s':>16s} {'ours seq/s':>11s} {'ratio':>6s} {'max |diff|':>11s}  (medians of {args.repeats} interleaved runs; ratios per run)")
     ours(2)  # warm-up
     for steps in args.steps:
-        t_ref, want = timed(lambda: reference(steps))
-        t_ours, got = timed(lambda: ours(steps))
-        print(f"{steps:6d} {args.samples / t_ref:16.3f} {args.samples / t_ours:11.3f} {t_ref / t_ours:6.2f} "
-              f"{(got - want).abs().max().item():11.2e}", flush=True)
+        runs = []
+        for _ in range(args.repeats):
+            t_ref, want = timed(lambda: reference(steps))
+            t_ours, got = timed(lambda: ours(steps))
+            runs.append((t_ref, t_ours))
+        t_ref, t_ours = (float(np.median([r[i] for r in runs])) for i in (0, 1))
+        ratios = " ".join(f"{r[0] / r[1]:.2f}" for r in runs)
+        print(f"{steps:6d} {args.samples / t_ref:16.3f} {args.samples / t_ours:11.3f} "
+              f"{float(np.median([r[0] / r[1] for r in runs])):6.2f} {(got - want).abs().max().item():11.2e}  ({ratios})", flush=True)
 
 
 def main(argv=None) -> None:
@@ -145,7 +150,7 @@ def main(argv=None) -> None:
     p.add_argument("--samples", type=int, default=1, help="sequences per call (batched)")
     p.add_argument("--steps", type=int, nargs="+", default=[10, 50, 100])
     p.add_argument("--samplers", nargs="+", default=["ddim", "ddpm"])
-    p.add_argument("--repeats", type=int, default=3)
+    p.add_argument("--repeats", type=int, default=None, help="timed calls (default 3; --authors: 1)")
     p.add_argument("--threads", type=int, default=None, help="torch threads (default: the preset's)")
     p.add_argument("--authors", action="store_true", help="the authors' network vs a diffusers CFG loop")
     p.add_argument("--seconds", type=float, default=CLIP_SECONDS, help="clip length (--authors)")
@@ -153,6 +158,8 @@ def main(argv=None) -> None:
     p.add_argument("--tiny-encoder", action="store_true", help="tiny wav2vec 2.0 instead of base (--authors)")
     p.add_argument("--guidance", type=float, default=2.0, help="gamma (--authors; the authors' script's 2)")
     args = p.parse_args(argv)
+    if args.repeats is None:
+        args.repeats = 1 if args.authors else 3
     if args.authors:
         if args.steps == [10, 50, 100]:
             args.steps = [50, 1000]

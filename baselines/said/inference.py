@@ -8,9 +8,10 @@ clipped to ``[-1, 1]`` at every step, classifier-free guidance
 noised ``init_samples``) and ``mask`` (1 = keep ``init_samples``), and the final
 clamp to ``[0, 1]``.  What differs is only how the work is done: the audio
 embedding is computed once and shared by all samples of an utterance, the
-conditional and unconditional passes of all samples run as one batch, and the
-cross-attention keys and values of both conditions are computed once per
-utterance instead of once per step.
+conditional and unconditional passes of all samples run as one batch whose
+layers before the first cross-attention (identical for both conditions) run
+once, and the cross-attention keys and values of both conditions are computed
+once per utterance instead of once per step.
 """
 
 from __future__ import annotations
@@ -153,9 +154,10 @@ def said_inference(
     for idx, t in enumerate(tqdm(timesteps[start:], desc=f"SAiD {sampler}", disable=not progress)):
         if save_intermediates:
             intermediates.append(latents.clone())
-        x_in = torch.cat([latents, latents]) if cfg else latents
-        tt = torch.full((x_in.shape[0],), t, dtype=torch.long, device=device)
-        out = model(x_in, tt, context, caches)
+        # with guidance the context has 2B rows: the network repeats the latents itself after the
+        # layers that do not see the condition (the same output as passing them twice)
+        tt = torch.full((batch,), t, dtype=torch.long, device=device)
+        out = model(latents, tt, context, caches)
         if cfg:
             uncond, audio = out.chunk(2)
             out = classifier_free_guidance(audio, uncond, guidance)

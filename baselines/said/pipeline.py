@@ -155,9 +155,11 @@ class SAiD:
                 a = alphas_of(t, self.alphas_cumprod)
                 if guidance == 0:
                     return noise_from_output(model(x, t, cond, cond_cache), x, a, prediction)
-                # one batched pass for the conditional and the unconditional estimate
+                # one batched pass for the conditional and the unconditional estimate (the authors' UNet
+                # repeats x itself after the layers that do not see the condition)
                 xx, aa = torch.cat([x, x]), torch.cat([a, a])
-                eps = noise_from_output(model(xx, torch.cat([t, t]), both, both_cache), xx, aa, prediction)
+                out = model(x, t, both, both_cache) if model.architecture == "authors" else model(xx, torch.cat([t, t]), both, both_cache)
+                eps = noise_from_output(out, xx, aa, prediction)
                 return classifier_free_guidance(eps[:samples], eps[samples:], guidance)
 
             x = sample_diffusion(

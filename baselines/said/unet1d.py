@@ -21,7 +21,13 @@ sees the audio features through the alignment mask of
 
 For sampling, :meth:`ConditionalUNet1D.context_cache` precomputes the
 cross-attention keys and values of a condition once, so that the denoising
-steps skip those projections (same result).
+steps skip those projections (same result).  A context of ``r`` times the
+batch of ``x`` (classifier-free guidance: the null and the audio condition)
+gives the output of ``x`` repeated ``r`` times, with the layers before the first
+cross-attention (input convolution, first residual block, first
+self-attention), which do not see the condition, run once; the time embedding
+is computed once per distinct timestep, and the cross-attention on its band
+only, so that the arithmetic of a row does not depend on the batch it is in.
 """
 
 from __future__ import annotations
@@ -73,10 +79,10 @@ class GroupNorm32(nn.GroupNorm):
 class TimestepSequential(nn.Sequential):
     """Children run in order; residual blocks get the timestep embedding, transformers the condition."""
 
-    def forward(self, x, emb, context=None, caches=None):
+    def forward(self, x, emb, context=None, caches=None, emb_index=None):
         for layer in self:
             if isinstance(layer, ResBlock):
-                x = layer(x, emb)
+                x = layer(x, emb, emb_index)
             elif isinstance(layer, SpatialTransformer):
                 x = layer(x, context, None if caches is None else caches[id(layer)])
             else:
@@ -106,10 +112,19 @@ class ResBlock(nn.Module):
         )
         self.skip_connection = nn.Identity() if out == channels else nn.Conv1d(channels, out, 1)
 
-    def forward(self, x: torch.Tensor, emb: torch.Tensor) -> torch.Tensor:
-        """x: (B, C_in, T), emb: (B, emb_channels) -> (B, C_out, T)."""
+    def forward(self, x: torch.Tensor, emb: torch.Tensor, emb_index: torch.Tensor | None = None) -> torch.Tensor:
+        """x: (r B, C_in, T), emb: (U, emb_channels) -> (r B, C_out, T).
+
+        ``emb_index (B,)``: the row of ``emb`` of each item (None: ``U == B``); item
+        ``i`` serves rows ``i, i + B, ...`` of ``x``.
+        """
         h = self.in_layers(x)
-        h = h + self.emb_layers(emb).type(h.dtype)[:, :, None]
+        e = self.emb_layers(emb).type(h.dtype)
+        if emb_index is not None:
+            e = e[emb_index]
+        if e.shape[0] != h.shape[0]:  # one embedding per group of repeated rows
+            e = e.repeat(h.shape[0] // e.shape[0], 1)
+        h = h + e[:, :, None]
         return self.skip_connection(x) + self.out_layers(h)
 
 
@@ -136,50 +151,69 @@ class CrossAttention(nn.Module):
         self.to_v = nn.Linear(context_dim, inner, bias=False)
         self.to_out = nn.Sequential(nn.Linear(inner, query_dim), nn.Dropout(dropout))
 
-    def _split(self, z: torch.Tensor) -> torch.Tensor:
+    def _heads(self, z: torch.Tensor) -> torch.Tensor:
+        """(B, N, heads * dim_head) -> (B, N, heads, dim_head) (a view)."""
         b, n, _ = z.shape
-        return z.reshape(b, n, self.heads, self.dim_head).transpose(1, 2)
+        return z.view(b, n, self.heads, self.dim_head)
 
-    def keys_values(self, context: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        """Return the head-split keys and values ``(B, heads, S, dim_head)`` of ``context (B, S, context_dim)``."""
-        return self._split(self.to_k(context)), self._split(self.to_v(context))
+    def keys_values(self, context: torch.Tensor, pad: int = 0) -> tuple[torch.Tensor, torch.Tensor]:
+        """Return the keys and values ``(B, S + 2 pad, heads, dim_head)`` of ``context (B, S, context_dim)``,
+        with ``pad`` zero rows on each side of the frame axis."""
+        k, v = self._heads(self.to_k(context)), self._heads(self.to_v(context))
+        if pad:
+            k, v = F.pad(k, (0, 0, 0, 0, pad, pad)), F.pad(v, (0, 0, 0, 0, pad, pad))
+        return k, v
 
-    def forward(self, x, context=None, allowed=None, kv=None, band=None):
+    def forward(self, x, context=None, allowed=None, kv=None, band=None, kv_pad=0):
         """x: (B, T, query_dim); context: (B, S, context_dim) or None; allowed: (T, S) bool; kv: from :meth:`keys_values`.
 
-        ``band = p`` (with ``S == T``): the keys are ``|i - j| <= p``, computed on the
-        band alone (same values as ``allowed`` = that band, in ``O(T p)``).
+        ``kv`` was padded by ``kv_pad`` rows.  ``band = p`` (with ``S == T`` and
+        ``kv_pad == p``): the keys are ``|i - j| <= p``, computed on the band alone
+        (same values as ``allowed`` = that band, in ``O(T p)``).
         """
-        q = self._split(self.to_q(x))
-        k, v = kv if kv is not None else self.keys_values(x if context is None else context)
+        q = self._heads(self.to_q(x))
+        k, v = kv if kv is not None else self.keys_values(x if context is None else context, kv_pad)
+        b, t = q.shape[:2]
         if band is not None:
+            if band != kv_pad:
+                raise ValueError(f"CrossAttention: expected keys padded by the band half width {band}, got {kv_pad}")
             out = banded_attention(q, k, v, band)
         else:
-            out = F.scaled_dot_product_attention(q, k, v, attn_mask=allowed)
-        b, _, t, _ = out.shape
-        return self.to_out(out.transpose(1, 2).reshape(b, t, self.heads * self.dim_head))
+            s = k.shape[1] - 2 * kv_pad
+            k, v = k[:, kv_pad:kv_pad + s], v[:, kv_pad:kv_pad + s]
+            out = F.scaled_dot_product_attention(q.transpose(1, 2), k.transpose(1, 2), v.transpose(1, 2), attn_mask=allowed)
+            out = out.transpose(1, 2)
+        return self.to_out(out.reshape(b, t, self.heads * self.dim_head))
 
 
 def banded_attention(q: torch.Tensor, k: torch.Tensor, v: torch.Tensor, pad: int) -> torch.Tensor:
-    """``softmax(Q K^T / sqrt(d))V`` restricted to keys ``|i - j| <= pad`` (``S == T``).
+    """``softmax(Q K^T / sqrt(d))V`` restricted to keys ``|i - j| <= pad``, on the band alone.
 
     Parameters
     ----------
-    q, k, v : (B, H, T, d) Tensor
+    q : (B, T, H, d) Tensor
+    k, v : (B, T + 2 pad, H, d) Tensor
+        Keys and values of frames ``-pad .. T - 1 + pad`` (the ``pad`` rows on each
+        side are never attended to; zeros from :meth:`CrossAttention.keys_values`).
     pad : int
 
     Returns
     -------
-    (B, H, T, d) Tensor
+    (B, T, H, d) Tensor
     """
-    t, d = q.shape[2], q.shape[3]
-    width = 2 * pad + 1
-    k_win = F.pad(k, (0, 0, pad, pad)).unfold(2, width, 1)  # (B, H, T, d, width)
-    v_win = F.pad(v, (0, 0, pad, pad)).unfold(2, width, 1)
-    scores = torch.einsum("bhtd,bhtdw->bhtw", q, k_win) * d**-0.5
-    j = torch.arange(t, device=q.device)[:, None] + torch.arange(-pad, pad + 1, device=q.device)[None, :]
-    scores = scores.masked_fill(((j < 0) | (j >= t))[None, None], float("-inf"))
-    return torch.einsum("bhtw,bhtdw->bhtd", scores.softmax(dim=-1), v_win)
+    t, d = q.shape[1], q.shape[3]
+    if k.shape[1] != t + 2 * pad or v.shape[1] != t + 2 * pad:
+        raise ValueError(f"banded_attention: expected keys and values of {t + 2 * pad} frames, got {k.shape[1]}, {v.shape[1]}")
+    # scores of the 2 pad + 1 offsets, (W, B, T, H); the softmax over W written out
+    scores = torch.stack([(q * k[:, o:o + t]).sum(-1) for o in range(2 * pad + 1)]) * d**-0.5
+    j = torch.arange(t, device=q.device)[None, :] + torch.arange(-pad, pad + 1, device=q.device)[:, None]
+    scores = scores.masked_fill(((j < 0) | (j >= t))[:, None, :, None], float("-inf"))
+    weights = (scores - scores.amax(0)).exp_()
+    weights = weights / weights.sum(0)
+    out = weights[0, ..., None] * v[:, 0:t]
+    for o in range(1, 2 * pad + 1):
+        out = out + weights[o, ..., None] * v[:, o:o + t]
+    return out
 
 
 class GEGLU(nn.Module):
@@ -218,15 +252,28 @@ class BasicTransformerBlock(nn.Module):
         self.norm3 = nn.LayerNorm(dim)
         self.pad = pad
 
+    def keys_values(self, context: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """The cross-attention's keys and values of ``context``, padded by the band half width."""
+        return self.attn2.keys_values(context, self.pad)
+
     def forward(self, x, context, kv=None):
-        """x: (B, T, dim), context: (B, S, context_dim) -> (B, T, dim)."""
+        """x: (B, T, dim), context: (r B, S, context_dim) -> (r B, T, dim).
+
+        With ``r > 1`` the self-attention runs on the ``B`` rows once and its output
+        is repeated ``r`` times before the cross-attention (the same result as
+        repeating ``x``).
+        """
         x = self.attn1(self.norm1(x)) + x
-        num_keys = context.shape[1] if kv is None else kv[0].shape[2]
+        if kv is None:
+            kv = self.keys_values(context)
+        if kv[0].shape[0] != x.shape[0]:
+            x = x.repeat(kv[0].shape[0] // x.shape[0], 1, 1)
+        num_keys = kv[0].shape[1] - 2 * self.pad
         if num_keys == x.shape[1]:  # one audio feature per frame: the band |i - j| <= pad
-            x = self.attn2(self.norm2(x), context, None, kv, band=self.pad) + x
+            x = self.attn2(self.norm2(x), context, None, kv, band=self.pad, kv_pad=self.pad) + x
         else:
             allowed = alignment_mask(x.shape[1], num_keys, pad=self.pad, device=x.device)
-            x = self.attn2(self.norm2(x), context, allowed, kv) + x
+            x = self.attn2(self.norm2(x), context, allowed, kv, kv_pad=self.pad) + x
         return self.ff(self.norm3(x)) + x
 
 
@@ -245,14 +292,18 @@ class SpatialTransformer(nn.Module):
 
     def keys_values(self, context: torch.Tensor) -> list:
         """Cross-attention keys and values of every block for ``context``."""
-        return [block.attn2.keys_values(context) for block in self.transformer_blocks]
+        return [block.keys_values(context) for block in self.transformer_blocks]
 
     def forward(self, x, context, cache=None):
-        """x: (B, C, T), context: (B, S, context_dim) -> (B, C, T)."""
+        """x: (B, C, T), context: (r B, S, context_dim) -> (r B, C, T) (``x`` repeated ``r`` times at the first
+        block's cross-attention)."""
         h = self.norm(x).transpose(1, 2)
         for i, block in enumerate(self.transformer_blocks):
             h = block(h, context, None if cache is None else cache[i])
-        return self.proj_out(h.transpose(1, 2)) + x
+        if h.shape[0] != x.shape[0]:
+            x = x.repeat(h.shape[0] // x.shape[0], 1, 1)
+        # the 1x1 convolution as a matrix product over the frames-major h (no transposed copy)
+        return F.linear(h, self.proj_out.weight[:, :, 0], self.proj_out.bias).transpose(1, 2) + x
 
 
 class ConditionalUNet1D(nn.Module):
@@ -331,24 +382,39 @@ class ConditionalUNet1D(nn.Module):
         ----------
         x : (B, in_channels, T) Tensor
         timesteps : (B,) Tensor
-        context : (B, S, context_dim) Tensor
-            Condition; may be None when ``caches`` is given.
+        context : (r B, S, context_dim) Tensor
+            Condition; may be None when ``caches`` is given.  With ``r > 1`` the
+            output is that of ``x`` and ``timesteps`` repeated ``r`` times (row
+            ``i + k B`` has condition ``k B + i``); the layers before the first
+            cross-attention, which do not see the condition, run on the ``B`` rows once.
         caches : dict, optional
-            From :meth:`context_cache`.
+            From :meth:`context_cache` (for a context of batch ``r B``).
 
         Returns
         -------
-        (B, out_channels, T) Tensor
+        (r B, out_channels, T) Tensor
         """
         if context is None and caches is None:
             raise ValueError("ConditionalUNet1D: expected a context or its caches")
-        emb = self.time_embed(timestep_embedding(timesteps, self.model_channels))
+        n = context.shape[0] if context is not None else next(iter(caches.values()))[0][0].shape[0]
+        if n % x.shape[0] or timesteps.shape[0] != x.shape[0]:
+            raise ValueError(f"ConditionalUNet1D: expected x and timesteps of one batch dividing the context's {n}, "
+                             f"got {x.shape[0]} and {timesteps.shape[0]}")
+        # the time embedding of each distinct timestep once (sampling: one row per step, the
+        # same arithmetic for any batch)
+        steps, index = torch.unique(timesteps, return_inverse=True)
+        emb = self.time_embed(timestep_embedding(steps, self.model_channels))
         skips = []
         h = x.float()
         for block in self.input_blocks:
-            h = block(h, emb, context, caches)
+            h = block(h, emb, context, caches, index)
             skips.append(h)
-        h = self.middle_block(h, emb, context, caches)
+        h = self.middle_block(h, emb, context, caches, index)
         for block in self.output_blocks:
-            h = block(torch.cat([h, skips.pop()], dim=1), emb, context, caches)
+            skip = skips.pop()
+            if skip.shape[0] != h.shape[0]:
+                skip = skip.repeat(h.shape[0] // skip.shape[0], 1, 1)
+            h = block(torch.cat([h, skip], dim=1), emb, context, caches, index)
+        if h.shape[0] != n:  # no cross-attention on the way
+            h = h.repeat(n // h.shape[0], 1, 1)
         return self.out(h.type(x.dtype))

@@ -157,6 +157,24 @@ def test_cached_context_gives_the_same_output():
     torch.testing.assert_close(cached, plain, rtol=0, atol=1e-6)
 
 
+def test_repeated_batch_equals_the_batch_passed_twice():
+    """x of batch B with a context of batch 2B (guidance): the layers before the first cross-attention run once."""
+    model = SAID_UNet1D(tiny_config(), model_channels=WIDTH, num_head_channels=HEAD)
+    model.load_state_dict(legacy_to_current(_authors_state(seed=1)))
+    model.eval()
+    torch.manual_seed(4)
+    x, t, ctx = torch.randn(3, 20, 32), torch.tensor([7, 500, 500]), torch.randn(6, 20, 32)
+    with torch.no_grad():
+        twice = model(torch.cat([x, x]), torch.cat([t, t]), ctx)
+        once = model(x, t, ctx)
+        cached = model(x, t, None, model.denoiser.model.context_cache(ctx))
+        assert twice.abs().mean() > 0.1
+        torch.testing.assert_close(once, twice, rtol=0, atol=1e-6)
+        torch.testing.assert_close(cached, twice, rtol=0, atol=1e-6)
+        with pytest.raises(ValueError, match="dividing the context"):
+            model(torch.randn(4, 20, 32), torch.full((4,), 3), ctx)
+
+
 def legacy_to_current(state):
     from baselines.wav2vec2 import current_layout_state
 
