@@ -13,10 +13,12 @@ definite *banded* matrix with half-bandwidth K.  One LAPACK banded Cholesky
 (``pbtrf``, O(T K^3)) and two banded solves per iteration make the cost linear
 in T, and the memory O(T K^2) (no n x n matrix ever exists).
 
-The interior-point iterates are driven to a relative duality gap and KKT
-residual of ``tol`` (1e-10 by default), so the result is the optimum of the QP to
-solver precision, not an approximation of it (the tests compare it with a dense
-exact solver).
+The interior point runs until the active set can be read off its iterate
+(scaled KKT residuals and mean complementarity below ``IDENTIFY_TOL``); that set
+is then solved exactly and certified by the KKT conditions, with corrections
+until the certificate holds (and a tighter interior point if it never does), so
+the result is the optimum of the QP to solver precision, not an approximation of
+it (the tests compare it with a dense exact solver).
 """
 
 from __future__ import annotations
@@ -256,11 +258,9 @@ def _step_to_boundary(values, steps):
 def _interior_point(prob, x, tol, max_iter, slacks=None, duals=None):
     """Mehrotra predictor-corrector iterations; returns x, slacks, duals, its, kkt.
 
-    The constraint-length vectors (slacks, multipliers, residuals, steps) are
+    The constraint-length vectors (slacks, multipliers, steps, residuals) are
     the bulk of the work outside the banded factorization, so each iteration
-    updates them in place, with the primal residual carried along the step
-    (``r_p <- (1 - alpha) r_p`` in exact arithmetic) and recomputed from ``x``
-    only where the stopping test needs it.
+    updates them in place in preallocated buffers.
     """
     if slacks is None:
         # Slacks of the warm start kept away from zero, small uniform
