@@ -63,6 +63,13 @@ def timestep_embedding(timesteps: torch.Tensor, dim: int, max_period: float = 10
     return emb
 
 
+def _repeated(t: torch.Tensor, rows: int) -> torch.Tensor:
+    """``t`` (B, ...) repeated along its batch to ``rows`` (a multiple of B) rows; ``t`` itself when B == rows."""
+    if t.shape[0] == rows:
+        return t
+    return t.repeat(rows // t.shape[0], *([1] * (t.dim() - 1)))
+
+
 def _zeroed(module: nn.Module) -> nn.Module:
     for p in module.parameters():
         nn.init.zeros_(p)
@@ -122,9 +129,7 @@ class ResBlock(nn.Module):
         e = self.emb_layers(emb).type(h.dtype)
         if emb_index is not None:
             e = e[emb_index]
-        if e.shape[0] != h.shape[0]:  # one embedding per group of repeated rows
-            e = e.repeat(h.shape[0] // e.shape[0], 1)
-        h = h + e[:, :, None]
+        h = h + _repeated(e, h.shape[0])[:, :, None]  # one embedding per group of repeated rows
         return self.skip_connection(x) + self.out_layers(h)
 
 
@@ -266,8 +271,7 @@ class BasicTransformerBlock(nn.Module):
         x = self.attn1(self.norm1(x)) + x
         if kv is None:
             kv = self.keys_values(context)
-        if kv[0].shape[0] != x.shape[0]:
-            x = x.repeat(kv[0].shape[0] // x.shape[0], 1, 1)
+        x = _repeated(x, kv[0].shape[0])
         num_keys = kv[0].shape[1] - 2 * self.pad
         if num_keys == x.shape[1]:  # one audio feature per frame: the band |i - j| <= pad
             x = self.attn2(self.norm2(x), context, None, kv, band=self.pad, kv_pad=self.pad) + x
@@ -300,8 +304,7 @@ class SpatialTransformer(nn.Module):
         h = self.norm(x).transpose(1, 2)
         for i, block in enumerate(self.transformer_blocks):
             h = block(h, context, None if cache is None else cache[i])
-        if h.shape[0] != x.shape[0]:
-            x = x.repeat(h.shape[0] // x.shape[0], 1, 1)
+        x = _repeated(x, h.shape[0])
         # the 1x1 convolution as a matrix product over the frames-major h (no transposed copy)
         return F.linear(h, self.proj_out.weight[:, :, 0], self.proj_out.bias).transpose(1, 2) + x
 
@@ -411,10 +414,6 @@ class ConditionalUNet1D(nn.Module):
             skips.append(h)
         h = self.middle_block(h, emb, context, caches, index)
         for block in self.output_blocks:
-            skip = skips.pop()
-            if skip.shape[0] != h.shape[0]:
-                skip = skip.repeat(h.shape[0] // skip.shape[0], 1, 1)
-            h = block(torch.cat([h, skip], dim=1), emb, context, caches, index)
-        if h.shape[0] != n:  # no cross-attention on the way
-            h = h.repeat(n // h.shape[0], 1, 1)
+            h = block(torch.cat([h, _repeated(skips.pop(), h.shape[0])], dim=1), emb, context, caches, index)
+        h = _repeated(h, n)  # (when no cross-attention on the way repeated it)
         return self.out(h.type(x.dtype))
