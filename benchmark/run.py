@@ -260,7 +260,7 @@ class MethodTimeout(MethodError):
 
 def generated_tracks(method, dataset, *, split: str = "test", samples: int = 1, seed: int = 0,
                      clip: bool = False, name: str | None = None, progress: bool = True, store=None,
-                     vertices_out=None, time_limit: float | None = None):
+                     vertices_out=None, time_limit: float | None = None, sentence_batch: int = 1):
     """Ask ``method`` for every sentence of ``split`` and check each answer.
 
     Parameters
@@ -280,14 +280,19 @@ def generated_tracks(method, dataset, *, split: str = "test", samples: int = 1, 
         Filled with a vertex method's own ``(S, T, V, 3)`` vertices per key (memory
         permitting; the runner reads them back from ``store`` instead).
     time_limit : float, optional
-        Seconds one ``generate`` call may take (stopped with :class:`MethodTimeout`).
+        Seconds one ``generate`` call may take (stopped with :class:`MethodTimeout`);
+        a call for ``n`` sentences may take ``n`` times that.
+    sentence_batch : int, default 1
+        Sentences per call: above 1, the sentences, in order of length, go to
+        ``method.generate_many`` in groups of this size (each with the seed it has
+        alone, :func:`sentence_seed` of its position in the split).
 
     Returns
     -------
     generated : dict
-        ``{(subject, sentence): (S, T, 32) float64 ndarray}``, ``T`` = ground-truth
-        frames; for ``output = "vertices"`` methods the tracks fitted to their
-        vertices with the speaker's rig (:mod:`benchmark.vertex_fit`).
+        ``{(subject, sentence): (S, T, 32) float64 ndarray}`` in the split's order,
+        ``T`` = ground-truth frames; for ``output = "vertices"`` methods the tracks
+        fitted to their vertices with the speaker's rig (:mod:`benchmark.vertex_fit`).
     n_clipped : int
 
     Raises
@@ -301,52 +306,83 @@ def generated_tracks(method, dataset, *, split: str = "test", samples: int = 1, 
     kind = getattr(method, "output", OUTPUT_COEFFICIENTS)
     if kind not in OUTPUT_KINDS:
         raise MethodOutputError(f"method {name!r}: output must be one of {OUTPUT_KINDS}, got {kind!r}")
+    if isinstance(sentence_batch, bool) or int(sentence_batch) != sentence_batch or int(sentence_batch) < 1:
+        raise ValueError(f"sentence_batch: expected an integer >= 1, got {sentence_batch!r}")
     num_samples = int(samples) if getattr(method, "stochastic", False) else 1
     names = tuple(getattr(dataset, "names", ()) or ())
     num_coeffs = len(names) if names else 32
     items = [(subject, sentence) for subject in dataset.split(split) for sentence in dataset.sentences(subject)]
     if not items:
         raise ValueError(f"dataset split {split!r} has no sentences")
+    frames = [int(np.asarray(dataset.coeffs(subject, sentence)).shape[0]) for subject, sentence in items]
+    if sentence_batch > 1:
+        by_length = sorted(range(len(items)), key=lambda i: (frames[i], i))
+        groups = [by_length[i:i + int(sentence_batch)] for i in range(0, len(items), int(sentence_batch))]
+    else:
+        groups = [[i] for i in range(len(items))]
     try:
         from tqdm import tqdm
-        iterator = tqdm(items, desc=f"{name}: generate", unit="sentence", disable=not progress, file=sys.stderr)
+        bar = tqdm(total=len(items), desc=f"{name}: generate", unit="sentence", disable=not progress, file=sys.stderr)
     except ImportError:
-        iterator = items
-    generated, n_clipped = {}, 0
-    for index, (subject, sentence) in enumerate(iterator):
+        bar = None
+
+    def utterance_of(index):
+        subject, sentence = items[index]
         audio, rate = dataset.audio(subject, sentence)
         if rate != AUDIO_RATE:
             raise ValueError(f"dataset audio for {subject}/{sentence}: expected {AUDIO_RATE} Hz, got {rate}")
-        num_frames = int(np.asarray(dataset.coeffs(subject, sentence)).shape[0])
-        utterance = Utterance(subject=subject, sentence=sentence, split=split, audio=audio, num_frames=num_frames)
-        where = f"method {name!r}, subject {subject!r}, sentence {sentence!r}"
+        return Utterance(subject=subject, sentence=sentence, split=split, audio=audio, num_frames=frames[index])
+
+    def where_of(group):
+        return f"method {name!r}, " + "; ".join(f"subject {items[i][0]!r}, sentence {items[i][1]!r}" for i in group)
+
+    generated, n_clipped = {}, 0
+    for group in groups:
+        utterances = [utterance_of(index) for index in group]
+        seeds = [sentence_seed(seed, index) for index in group]
+        where = where_of(group)
+        limit = None if time_limit is None else time_limit * len(group)
         try:
-            with _TimeLimit(time_limit, f"{where}: generate"):
-                output = method.generate(utterance, samples=num_samples, seed=sentence_seed(seed, index))
+            with _TimeLimit(limit, f"{where}: generate"):
+                many = getattr(method, "generate_many", None) if sentence_batch > 1 else None
+                if many is None:  # one sentence per call, or a method without generate_many
+                    outputs = [method.generate(u, samples=num_samples, seed=s) for u, s in zip(utterances, seeds)]
+                else:
+                    outputs = list(many(utterances, samples=num_samples, seeds=seeds))
         except MethodTimeout:
             raise
         except Exception as exc:
             raise MethodError(f"{where}: generate failed: {type(exc).__name__}: {exc}") from exc
-        if kind == OUTPUT_VERTICES:
-            rig = dataset.rig(subject)
-            verts = validated_vertices(output, method=name, subject=subject, sentence=sentence, num_frames=num_frames,
-                                       samples=num_samples, num_vertices=int(np.asarray(rig.neutral).shape[0]))
-            from benchmark.vertex_fit import fitted_sample_tracks
+        if len(outputs) != len(group):
+            raise MethodOutputError(f"{where}: generate_many returned {len(outputs)} outputs for {len(group)} utterances")
+        for index, output in zip(group, outputs):
+            subject, sentence = items[index]
+            num_frames = frames[index]
+            if kind == OUTPUT_VERTICES:
+                rig = dataset.rig(subject)
+                verts = validated_vertices(output, method=name, subject=subject, sentence=sentence,
+                                           num_frames=num_frames, samples=num_samples,
+                                           num_vertices=int(np.asarray(rig.neutral).shape[0]))
+                from benchmark.vertex_fit import fitted_sample_tracks
 
-            tracks = fitted_sample_tracks(verts, rig, names or rig.names)
+                tracks = fitted_sample_tracks(verts, rig, names or rig.names)
+                if store is not None:
+                    store.write_vertices(subject, sentence, verts, rig.neutral)
+                if vertices_out is not None:
+                    vertices_out[(subject, sentence)] = verts
+            else:
+                tracks, clipped = validated_tracks(output, method=name, subject=subject, sentence=sentence,
+                                                   num_frames=num_frames, samples=num_samples, num_coeffs=num_coeffs,
+                                                   clip=clip)
+                n_clipped += clipped
             if store is not None:
-                store.write_vertices(subject, sentence, verts, rig.neutral)
-            if vertices_out is not None:
-                vertices_out[(subject, sentence)] = verts
-        else:
-            tracks, clipped = validated_tracks(output, method=name, subject=subject, sentence=sentence,
-                                               num_frames=num_frames, samples=num_samples, num_coeffs=num_coeffs,
-                                               clip=clip)
-            n_clipped += clipped
-        if store is not None:
-            store.write_tracks(subject, sentence, tracks)
-        generated[(subject, sentence)] = tracks
-    return generated, n_clipped
+                store.write_tracks(subject, sentence, tracks)
+            generated[(subject, sentence)] = tracks
+        if bar is not None:
+            bar.update(len(group))
+    if bar is not None:
+        bar.close()
+    return {key: generated[key] for key in items}, n_clipped
 
 
 def default_data_root(*, progress: bool = True) -> Path:
@@ -432,6 +468,7 @@ def run_method(
     vocaset=None,
     syncnet=None,
     sync_expert=None,
+    sentence_batch: int = 1,
 ) -> Path:
     """Train or load ``method_name``, generate on ``split``, score it and write the result.
 
@@ -469,6 +506,10 @@ def run_method(
     syncnet, sync_expert : path-like or model, optional
         SyncNet weights and a learned sync expert for the lip-sync metrics (loaded
         lazily by ``benchmark.evaluate``).
+    sentence_batch : int, default 1
+        Sentences per generation call (:func:`generated_tracks`); recorded in the
+        protocol when above 1, since batched samples may differ from one-by-one
+        ones by float rounding.
 
     Notes
     -----
@@ -488,6 +529,8 @@ def run_method(
         raise UsageError(f"--samples: expected an integer >= 1, got {samples!r}")
     if generate_time_limit is not None and not generate_time_limit > 0:
         raise UsageError(f"--generate-time-limit: expected seconds > 0, got {generate_time_limit!r}")
+    if isinstance(sentence_batch, bool) or int(sentence_batch) != sentence_batch or int(sentence_batch) < 1:
+        raise UsageError(f"--sentence-batch: expected an integer >= 1, got {sentence_batch!r}")
     custom_evaluate = evaluate is not None
     if evaluate is None:
         def evaluate(generated, dataset, split="test", **kw):
@@ -539,7 +582,7 @@ def run_method(
         start = time.perf_counter()
         generated, n_clipped = generated_tracks(method, dataset, split=split, samples=samples, seed=seed, clip=clip,
                                                 name=method_name, progress=progress, store=store,
-                                                time_limit=generate_time_limit)
+                                                time_limit=generate_time_limit, sentence_batch=int(sentence_batch))
         timings["generate_s"] = time.perf_counter() - start
         start = time.perf_counter()
         if kind == OUTPUT_VERTICES:
@@ -585,6 +628,7 @@ def run_method(
             "checkpoint": None if checkpoint is None else str(checkpoint),
             "deterministic": budget.max_seconds is None,
             "generate_time_limit": generate_time_limit,
+            **({"sentence_batch": int(sentence_batch)} if sentence_batch > 1 else {}),
             **({"lipsync_models": lipsync_models_provenance(syncnet, sync_expert)}
                if syncnet is not None or sync_expert is not None else {}),
         },
@@ -652,6 +696,8 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--clip", action="store_true", help="clip out-of-range coefficients instead of failing")
     p.add_argument("--generate-time-limit", type=float, default=None, metavar="SECONDS",
                    help="stop the run when one generate call takes longer")
+    p.add_argument("--sentence-batch", type=int, default=1, metavar="N",
+                   help="sentences per generation call, batched by methods that can (SAiD); recorded in the result")
     p.add_argument("--syncnet-weights", default=None, metavar="PATH",
                    help="SyncNet weights: adds the SyncNet AV offset/confidence (renders every sentence)")
     p.add_argument("--sync-expert", default=None, metavar="PATH",
@@ -680,7 +726,8 @@ def main(argv=None) -> int:
         path = run_method(args.method, args.data, samples=args.samples, seed=args.seed, budget=budget,
                           results_dir=args.results, config=config, split=args.split, checkpoint=args.checkpoint,
                           clip=args.clip, progress=not args.quiet, generate_time_limit=args.generate_time_limit,
-                          vocaset=args.vocaset, syncnet=args.syncnet_weights, sync_expert=args.sync_expert)
+                          vocaset=args.vocaset, syncnet=args.syncnet_weights, sync_expert=args.sync_expert,
+                          sentence_batch=args.sentence_batch)
     except (UnknownMethodError, UsageError) as exc:  # unknown method: the message lists close matches
         print(f"error: {exc}", file=sys.stderr)
         return 2

@@ -10,7 +10,8 @@ out-of-range targets so that all three constraint kinds are active.
     python benchmarks/bench_fit.py --frames 240 --skip-published
     python benchmarks/bench_fit.py --floor-only       # ratio to the least-squares floor
 
-The floor section times, in one process with one BLAS thread, the unconstrained
+The floor section times (the measurements taking turns, minimum of 7 each), in one
+process with one BLAS thread, the unconstrained
 least-squares fit of the same problem (``solve(B^T B, B^T (p - b0))`` for all
 frames, through the same entry point) and the constrained fit, and prints their
 ratio with a breakdown (normal equations, QP solve, banded factorizations).
@@ -82,13 +83,20 @@ def run_child(method, num_frames, threads):
 
 def _best(function, repeats):
     """Smallest (cpu, wall) seconds of ``repeats`` calls."""
-    cpu, wall = [], []
+    return _best_interleaved([function], repeats)[0]
+
+
+def _best_interleaved(functions, repeats):
+    """Smallest (cpu, wall) seconds of ``repeats`` calls of each function, the functions taking turns
+    (so that a machine whose speed drifts affects all of them alike)."""
+    cpu, wall = [[] for _ in functions], [[] for _ in functions]
     for _ in range(repeats):
-        c, w = time.process_time(), time.perf_counter()
-        function()
-        cpu.append(time.process_time() - c)
-        wall.append(time.perf_counter() - w)
-    return min(cpu), min(wall)
+        for i, function in enumerate(functions):
+            c, w = time.process_time(), time.perf_counter()
+            function()
+            cpu[i].append(time.process_time() - c)
+            wall[i].append(time.perf_counter() - w)
+    return [(min(c), min(w)) for c, w in zip(cpu, wall)]
 
 
 def floor_ratio(num_frames, repeats=7):
@@ -111,10 +119,12 @@ def floor_ratio(num_frames, repeats=7):
 
     with threadpool_limits(1):
         system = normal_equations(neutral, deltas, frames)
-        floor = _best(lambda: fit_coefficients(neutral, deltas, frames, bounds=False, rate=False), repeats)
-        fit = _best(lambda: fit_coefficients(neutral, deltas, frames, delta=0.1), repeats)
-        normal = _best(lambda: normal_equations(neutral, deltas, frames), repeats)
-        qp = _best(lambda: solve_banded_qp(system.gram, system.rhs, delta=0.1), repeats)
+        floor, fit, normal, qp = _best_interleaved([
+            lambda: fit_coefficients(neutral, deltas, frames, bounds=False, rate=False),
+            lambda: fit_coefficients(neutral, deltas, frames, delta=0.1),
+            lambda: normal_equations(neutral, deltas, frames),
+            lambda: solve_banded_qp(system.gram, system.rhs, delta=0.1),
+        ], repeats)
         banded_qp._Problem.factor, banded_qp._Problem.solve = counted_factor, counted_solve
         try:
             sol = solve_banded_qp(system.gram, system.rhs, delta=0.1)

@@ -15,7 +15,15 @@ The authors' network (random weights, the published sizes unless ``--width`` /
 (all samples of an utterance in one batch, the audio embedding and the cross-attention
 keys/values computed once) against the authors' way, a plain diffusers
 ``DDIMScheduler`` loop with classifier-free guidance run once per sequence, from the
-same initial noise (the largest output difference is printed too).  Without a checkpoint it times an untrained model of the preset (speed does
+same initial noise (the largest output difference is printed too).
+
+    python benchmarks/bench_said_sampling.py --authors --sentences 6 [--samples 5] [--steps 50] [--seconds 2]
+
+Utterances of different lengths (``--sentences`` clips from 0.75 to 1.25 times
+``--seconds``): :meth:`baselines.said.official_pipeline.OfficialSAiD.generate_many`
+(all sentences in one zero-padded batch) against the same pipeline one sentence at a
+time and against the diffusers loop per sequence, with the largest difference
+between the batched and the one-at-a-time tracks.  Without a checkpoint it times an untrained model of the preset (speed does
 not depend on the weights).  Audio: the first 4 s of the ``speech-voca`` asset, or
 noise when the asset is unavailable.
 """
@@ -96,6 +104,51 @@ def diffusers_cfg_loop(model, waveform: torch.Tensor, frames: int, steps: int, g
     return latents.clamp(0, 1)
 
 
+def sentence_batch_comparison(args) -> None:
+    """Print seq/s of one zero-padded batch of sentences vs one sentence at a time vs the diffusers loop."""
+    from baselines.said.official_pipeline import OfficialSAiD, fitted_length
+
+    if args.threads:
+        torch.set_num_threads(args.threads)
+    model = _authors_network(args.width, args.tiny_encoder, args.device)
+    pipeline = OfficialSAiD(model, {"guidance": args.guidance}).to(args.device)
+    full = clip_audio(1.25 * args.seconds * 1.01)
+    scales = np.linspace(0.75, 1.25, args.sentences) if args.sentences > 1 else [1.0]
+    utterances = [(full[: int(f * args.seconds * 16000)], int(f * args.seconds * 60)) for f in scales]
+    seeds = list(range(len(utterances)))
+    sequences = args.samples * len(utterances)
+    print(f"SAiD authors' network: width {args.width}, encoder {'tiny' if args.tiny_encoder else 'wav2vec2-base'}, "
+          f"{len(utterances)} sentences of {utterances[0][1]} to {utterances[-1][1]} frames x {args.samples} sample(s), "
+          f"gamma {args.guidance}, device {args.device}, threads {torch.get_num_threads()}")
+    print(f"{'steps':>6s} {'diffusers seq/s':>16s} {'one at a time':>14s} {'batched':>8s} {'vs diffusers':>13s} "
+          f"{'vs one at a time':>17s} {'max |diff|':>11s}")
+    pipeline.generate_many(utterances[:2], samples=1, seeds=[0, 1], num_steps=2)  # warm-up
+    for steps in args.steps:
+        runs = []
+        for _ in range(args.repeats):
+            t0 = time.perf_counter()
+            for (audio, frames), seed in zip(utterances, seeds):
+                padded, model_frames = fitted_length(audio.shape[0], frames)
+                wav = torch.zeros(1, padded)
+                wav[0, :audio.shape[0]] = torch.from_numpy(audio)
+                noise = torch.randn(args.samples, model_frames, 32, generator=torch.Generator().manual_seed(seed))
+                for i in range(args.samples):
+                    diffusers_cfg_loop(model, wav.to(args.device), model_frames, steps, args.guidance, noise[i:i + 1])
+            t_ref = time.perf_counter() - t0
+            t0 = time.perf_counter()
+            alone = [pipeline.generate(audio, frames, samples=args.samples, seed=seed, num_steps=steps)
+                     for (audio, frames), seed in zip(utterances, seeds)]
+            t_alone = time.perf_counter() - t0
+            t0 = time.perf_counter()
+            batched = pipeline.generate_many(utterances, samples=args.samples, seeds=seeds, num_steps=steps)
+            t_batch = time.perf_counter() - t0
+            runs.append((t_ref, t_alone, t_batch))
+        t_ref, t_alone, t_batch = (float(np.median([r[i] for r in runs])) for i in range(3))
+        diff = max(float(np.abs(a - b).max()) for a, b in zip(alone, batched))
+        print(f"{steps:6d} {sequences / t_ref:16.3f} {sequences / t_alone:14.3f} {sequences / t_batch:8.3f} "
+              f"{t_ref / t_batch:13.2f} {t_alone / t_batch:17.2f} {diff:11.2e}", flush=True)
+
+
 def authors_comparison(args) -> None:
     """Print seq/s of said_inference vs the per-sequence diffusers CFG loop, for each DDIM step count."""
     from baselines.said.inference import said_inference
@@ -157,6 +210,8 @@ def main(argv=None) -> None:
     p.add_argument("--width", type=int, default=192, help="UNet width (--authors; the published 192)")
     p.add_argument("--tiny-encoder", action="store_true", help="tiny wav2vec 2.0 instead of base (--authors)")
     p.add_argument("--guidance", type=float, default=2.0, help="gamma (--authors; the authors' script's 2)")
+    p.add_argument("--sentences", type=int, default=None,
+                   help="--authors: this many utterances of different lengths, batched across sentences")
     args = p.parse_args(argv)
     if args.repeats is None:
         args.repeats = 1 if args.authors else 3
@@ -165,7 +220,10 @@ def main(argv=None) -> None:
             args.steps = [50, 1000]
         if args.samples == 1 and "--samples" not in (argv or sys.argv):
             args.samples = 5
-        authors_comparison(args)
+        if args.sentences:
+            sentence_batch_comparison(args)
+        else:
+            authors_comparison(args)
         return
 
     from blendvoca.names import BLENDVOCA_NAMES

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from blendvoca.io.atomic import atomic_write
-from blendvoca.io.mesh import parse_obj, read_obj, write_obj
+from blendvoca.io.mesh import obj_face_records, parse_obj, read_obj, write_obj
 from blendvoca.names import ARKIT_NAMES, BLENDVOCA_NAMES, check_names
 
 NEUTRAL_NAME = "Neutral"
@@ -124,9 +124,10 @@ class Rig:
         """Write ``Neutral.obj`` and ``<name>.obj`` (absolute vertices) per shape."""
         directory = Path(directory)
         directory.mkdir(parents=True, exist_ok=True)
-        write_obj(directory / f"{NEUTRAL_NAME}.obj", self.neutral, self.faces)
+        face_records = obj_face_records(self.faces)
+        write_obj(directory / f"{NEUTRAL_NAME}.obj", self.neutral, self.faces, face_records=face_records)
         for name, delta in zip(self.names, self.deltas):
-            write_obj(directory / f"{name}.obj", self.neutral + delta, self.faces)
+            write_obj(directory / f"{name}.obj", self.neutral + delta, self.faces, face_records=face_records)
 
     @classmethod
     def load_said_folder(cls, directory, names: Sequence[str] | None = None, *, neutral_path=None) -> Rig:

@@ -63,6 +63,8 @@ def said_inference(
     mask: torch.Tensor | None = None,
     noise: torch.Tensor | None = None,
     generator: torch.Generator | None = None,
+    draw=None,
+    lengths: torch.Tensor | None = None,
     save_intermediates: bool = False,
     clip_sample: bool = True,
     use_cache: bool = True,
@@ -73,7 +75,7 @@ def said_inference(
     Parameters
     ----------
     model : SAID_UNet1D
-        Needs ``forward(x, t, context, caches)``, ``null_condition(B, T)``,
+        Needs ``forward(x, t, context, caches, lengths)``, ``null_condition(B, T)``,
         ``in_channels``, ``prediction_type`` and ``denoiser.model.context_cache``.
     audio_embedding : (E, T, D) Tensor
         From ``model.get_audio_embedding``; ``E == 1`` is shared by all ``batch`` samples.
@@ -95,6 +97,12 @@ def said_inference(
         Initial noise (drawn from ``generator`` otherwise).
     generator : torch.Generator, optional
         Source of the initial, editing and step noise (global RNG when None).
+    draw : callable ``() -> (B, T, C) Tensor``, optional
+        Draws that noise instead of ``generator`` (one generator per utterance of a batch).
+    lengths : (B,) Tensor, optional
+        Valid frames of each track when utterances of different lengths share the
+        batch (zero-padded ``audio_embedding`` of batch ``B``); see
+        :meth:`baselines.said.unet1d.ConditionalUNet1D.forward`.
     save_intermediates : bool, default False
     clip_sample : bool, default True
         Clip the predicted ``x0`` to ``[-1, 1]`` (the schedulers' default).
@@ -126,6 +134,8 @@ def said_inference(
     one = alphas.new_ones(())
 
     def randn():
+        if draw is not None:
+            return draw()
         return torch.randn(shape, generator=generator, device=device, dtype=torch.float32)
 
     if init_samples is None:
@@ -149,6 +159,10 @@ def said_inference(
     cfg = guidance > 1.0
     context = torch.cat([model.null_condition(batch, frames).to(cond.dtype), cond]) if cfg else cond
     caches = model.denoiser.model.context_cache(context) if use_cache else None
+    if lengths is not None:
+        lengths = torch.as_tensor(lengths, device=device).long()
+        if lengths.shape != (batch,):
+            raise ValueError(f"said_inference: expected lengths of shape ({batch},), got {tuple(lengths.shape)}")
 
     intermediates = []
     for idx, t in enumerate(tqdm(timesteps[start:], desc=f"SAiD {sampler}", disable=not progress)):
@@ -157,7 +171,7 @@ def said_inference(
         # with guidance the context has 2B rows: the network repeats the latents itself after the
         # layers that do not see the condition (the same output as passing them twice)
         tt = torch.full((batch,), t, dtype=torch.long, device=device)
-        out = model(latents, tt, context, caches)
+        out = model(latents, tt, context, caches, lengths)
         if cfg:
             uncond, audio = out.chunk(2)
             out = classifier_free_guidance(audio, uncond, guidance)

@@ -299,8 +299,15 @@ class SAiDModel(nn.Module):
         """Cross-attention keys/values of ``cond`` for :meth:`forward` (``authors`` only; None otherwise)."""
         return self.denoiser.context_cache(cond) if self.architecture == "authors" else None
 
-    def forward(self, x_t: torch.Tensor, timesteps: torch.Tensor, cond: torch.Tensor, caches: dict | None = None) -> torch.Tensor:
-        """Return the network output ``(B, T, K)`` for ``x_t (B, T, K)``, ``timesteps (B,)``, ``cond (B, S, D)``."""
+    def forward(self, x_t: torch.Tensor, timesteps: torch.Tensor, cond: torch.Tensor, caches: dict | None = None,
+                lengths: torch.Tensor | None = None) -> torch.Tensor:
+        """Return the network output ``(B, T, K)`` for ``x_t (B, T, K)``, ``timesteps (B,)``, ``cond (B, S, D)``.
+
+        ``lengths (B,)``: valid frames of zero-padded rows (``authors`` only, see
+        :meth:`baselines.said.unet1d.ConditionalUNet1D.forward`).
+        """
         if self.architecture == "authors":
-            return self.denoiser(x_t.transpose(1, 2), timesteps, cond, caches).transpose(1, 2)
+            return self.denoiser(x_t.transpose(1, 2), timesteps, cond, caches, lengths).transpose(1, 2)
+        if lengths is not None:
+            raise ValueError("SAiDModel: the compact UNet takes no lengths (sample one utterance at a time)")
         return self.denoiser(x_t, timesteps, cond)

@@ -47,9 +47,10 @@ class UNet1DConditionModel(nn.Module):
         self.model = ConditionalUNet1D(in_channels, out_channels, cross_attention_dim, model_channels,
                                        num_head_channels, dropout=dropout)
 
-    def forward(self, sample, timestep, encoder_hidden_states=None, caches=None):
-        """sample (B, T, C), timestep (B,), encoder_hidden_states (B, S, D) -> (B, T, C)."""
-        return self.model(sample.transpose(1, 2), timestep, encoder_hidden_states, caches).transpose(1, 2)
+    def forward(self, sample, timestep, encoder_hidden_states=None, caches=None, lengths=None):
+        """sample (B, T, C), timestep (B,), encoder_hidden_states (B, S, D) -> (B, T, C); ``lengths (B,)``: valid
+        frames of zero-padded rows."""
+        return self.model(sample.transpose(1, 2), timestep, encoder_hidden_states, caches, lengths).transpose(1, 2)
 
 
 class SAID_UNet1D(nn.Module):  # noqa: N801 - the authors' class name
@@ -105,12 +106,13 @@ class SAID_UNet1D(nn.Module):  # noqa: N801 - the authors' class name
         """Return the null condition repeated to ``(batch, num_frames, D)``."""
         return self.null_cond_emb.expand(batch, num_frames, -1)
 
-    def forward(self, noisy_samples, timesteps, audio_embedding=None, caches=None):
-        """Return the network output ``(B, T, C)`` for ``noisy_samples (B, T, C)``, ``timesteps (B,)`` or scalar."""
+    def forward(self, noisy_samples, timesteps, audio_embedding=None, caches=None, lengths=None):
+        """Return the network output ``(B, T, C)`` for ``noisy_samples (B, T, C)``, ``timesteps (B,)`` or scalar;
+        ``lengths (B,)``: valid frames of zero-padded rows (one embedding frame per frame)."""
         timesteps = torch.as_tensor(timesteps, device=noisy_samples.device)
         if timesteps.ndim == 0 or timesteps.shape[0] == 1:
             timesteps = timesteps.reshape(1).repeat(noisy_samples.shape[0])
-        return self.denoiser(noisy_samples, timesteps, audio_embedding, caches)
+        return self.denoiser(noisy_samples, timesteps, audio_embedding, caches, lengths)
 
     @torch.no_grad()
     def predict_noise(self, noisy: torch.Tensor, timesteps: torch.Tensor, waveform: torch.Tensor) -> torch.Tensor:

@@ -104,3 +104,69 @@ class OfficialSAiD:
         if return_intermediates:
             return tracks, [x[:, :out_frames].double().cpu().numpy() for x in out.intermediates]
         return tracks
+
+    @torch.no_grad()
+    def generate_many(self, utterances, *, samples=1, seeds, sampler=None, num_steps=None, guidance=None, eta=None,
+                      guidance_rescale=None, progress=False) -> list[np.ndarray]:
+        """Return the tracks of several utterances, sampled as one batched chain.
+
+        The same as ``[self.generate(audio, T, samples=samples, seed=seed, ...) for ...]``
+        up to float rounding: each utterance is encoded alone and draws its noise from
+        its own seed; the chain runs on all tracks zero-padded to the longest, with
+        their lengths (:func:`baselines.said.inference.said_inference`).
+
+        Parameters
+        ----------
+        utterances : sequence of (audio (N,) ndarray, num_frames int or None)
+        samples : int
+        seeds : sequence of int
+            One per utterance.
+
+        Returns
+        -------
+        list of (S, T_i, 32) float64 ndarrays in [0, 1]
+        """
+        utterances, seeds = list(utterances), [int(seed) for seed in seeds]
+        if len(seeds) != len(utterances):
+            raise ValueError(f"OfficialSAiD.generate_many: expected one seed per utterance, got {len(seeds)} "
+                             f"for {len(utterances)}")
+        options = {"sampler": sampler, "num_steps": num_steps, "guidance": guidance, "eta": eta,
+                   "guidance_rescale": guidance_rescale, "progress": progress}
+        if len(utterances) <= 1:
+            return [self.generate(audio, frames, samples=samples, seed=seed, **options)
+                    for (audio, frames), seed in zip(utterances, seeds)]
+        embeddings, out_frames = [], []
+        for index, (audio, num_frames) in enumerate(utterances):
+            audio = np.asarray(audio, dtype=np.float32)
+            if audio.ndim != 1 or audio.size == 0:
+                raise ValueError(f"OfficialSAiD.generate_many: utterance {index}: expected (N,) mono audio at 16 kHz, "
+                                 f"got shape {audio.shape}")
+            wanted = int(audio.shape[0] * FPS / SAMPLE_RATE) if num_frames is None else int(num_frames)
+            padded, frames = fitted_length(audio.shape[0], wanted)
+            wav = torch.zeros(1, padded)
+            wav[0, : audio.shape[0]] = torch.from_numpy(audio)
+            embeddings.append(self.model.get_audio_embedding(self.model.process_audio(wav.to(self.device)), frames))
+            out_frames.append(wanted)
+        lengths = [e.shape[1] for e in embeddings]
+        longest = max(lengths)
+        embedding = torch.cat([torch.nn.functional.pad(e, (0, 0, 0, longest - e.shape[1])).expand(samples, -1, -1)
+                               for e in embeddings])
+        generators = [torch.Generator(device=self.device).manual_seed(seed) for seed in seeds]
+        channels = len(self.names)
+
+        def draw():  # each utterance's noise from its own generator, as when sampled alone
+            return torch.cat([torch.nn.functional.pad(
+                torch.randn((samples, frames, channels), generator=g, device=self.device, dtype=torch.float32),
+                (0, 0, 0, longest - frames)) for g, frames in zip(generators, lengths)])
+
+        s = self.sampling
+        out = said_inference(
+            self.model, embedding, batch=embedding.shape[0],
+            num_steps=int(num_steps or s["num_steps"]), sampler=sampler or s["sampler"],
+            guidance=s["guidance"] if guidance is None else float(guidance),
+            guidance_rescale=s["guidance_rescale"] if guidance_rescale is None else float(guidance_rescale),
+            eta=s["eta"] if eta is None else float(eta), draw=draw,
+            lengths=torch.tensor(lengths, device=self.device).repeat_interleave(samples), progress=progress,
+        )
+        result = out.result.double().cpu().numpy()
+        return [result[i * samples:(i + 1) * samples, :frames] for i, frames in enumerate(out_frames)]

@@ -140,47 +140,141 @@ class SAiD:
             ref_x = self.to_diffusion(torch.from_numpy(ref).float().to(self.device))
             mask_t = torch.from_numpy(np.asarray(mask, dtype=np.float32)).to(self.device)
 
-        model = self.model.eval()
         with torch_threads(self.config["training"].get("num_threads")):
-            generator = torch.Generator(device=self.device).manual_seed(int(seed))
             wav = torch.from_numpy(audio.astype(np.float32))[None].to(self.device)
-            cond = model.condition(model.audio_features(wav, num_frames)).expand(samples, -1, -1)  # (S, T, D)
-            both = torch.cat([cond, model.null_condition(samples, num_frames)])
-            # the condition's cross-attention keys/values, once per utterance
-            cond_cache, both_cache = model.context_cache(cond), model.context_cache(both)
-
-            prediction = self.config["diffusion"].get("prediction", "epsilon")
-
-            def noise_fn(x, t):
-                a = alphas_of(t, self.alphas_cumprod)
-                if guidance == 0:
-                    return noise_from_output(model(x, t, cond, cond_cache), x, a, prediction)
-                # one batched pass for the conditional and the unconditional estimate (the authors' UNet
-                # repeats x itself after the layers that do not see the condition)
-                xx, aa = torch.cat([x, x]), torch.cat([a, a])
-                out = model(x, t, both, both_cache) if model.architecture == "authors" else model(xx, torch.cat([t, t]), both, both_cache)
-                eps = noise_from_output(out, xx, aa, prediction)
-                return classifier_free_guidance(eps[:samples], eps[samples:], guidance)
-
-            x = sample_diffusion(
-                noise_fn,
-                (samples, num_frames, k),
-                self.alphas_cumprod,
-                sampler=sampler,
-                num_steps=num_steps,
-                eta=eta,
-                clip=data_bounds(model.coeff_mean, model.coeff_scale) if s.get("clip", True) else None,
-                reference=ref_x,
-                mask=mask_t,
-                generator=generator,
-                progress=progress,
-            )
+            x = self._sample([wav], [num_frames], [int(seed)], samples=samples, sampler=sampler, num_steps=num_steps,
+                             guidance=guidance, eta=eta, reference=ref_x, mask=mask_t, progress=progress)
         out = self.from_diffusion(x.double()).cpu().numpy()
         if reference is not None:
             # exact, not float32-rounded, reference values where the mask keeps them
             m = np.asarray(mask, dtype=np.float64)
             out = m * np.asarray(reference, dtype=np.float64) + (1.0 - m) * out
         return out
+
+    @torch.no_grad()
+    def generate_many(
+        self,
+        utterances,
+        *,
+        samples: int = 1,
+        seeds,
+        sampler: str | None = None,
+        num_steps: int | None = None,
+        guidance: float | None = None,
+        eta: float | None = None,
+        progress: bool = False,
+    ) -> list[np.ndarray]:
+        """Return the tracks of several utterances, sampled as one batched chain.
+
+        The same as ``[self.generate(audio, T, samples=samples, seed=seed, ...)
+        for (audio, T), seed in zip(utterances, seeds)]`` up to float rounding: each
+        utterance draws its noise from its own seed, and the network sees every
+        track zero-padded to the longest with its length, so that no layer mixes
+        in padded frames (:class:`baselines.said.unet1d.ConditionalUNet1D`).  The
+        ``compact`` UNet has no lengths: it samples one utterance at a time.
+
+        Parameters
+        ----------
+        utterances : sequence of (audio (N,) ndarray, num_frames int or None)
+        samples : int, default 1
+        seeds : sequence of int
+            One per utterance.
+        sampler, num_steps, guidance, eta, progress
+            As for :meth:`generate`.
+
+        Returns
+        -------
+        list of (S, T_i, K) float64 ndarrays in [0, 1]
+        """
+        utterances, seeds = list(utterances), [int(seed) for seed in seeds]
+        if len(seeds) != len(utterances):
+            raise ValueError(f"SAiD.generate_many: expected one seed per utterance, got {len(seeds)} for {len(utterances)}")
+        if not utterances:
+            return []
+        options = {"sampler": sampler, "num_steps": num_steps, "guidance": guidance, "eta": eta, "progress": progress}
+        if self.model.architecture != "authors" or len(utterances) == 1:
+            return [self.generate(audio, frames, samples=samples, seed=seed, **options)
+                    for (audio, frames), seed in zip(utterances, seeds)]
+        if int(samples) != samples or samples < 1:
+            raise ValueError(f"SAiD.generate_many: expected samples >= 1, got {samples!r}")
+        waves, lengths = [], []
+        for index, (audio, frames) in enumerate(utterances):
+            audio = np.asarray(audio)
+            if audio.ndim != 1 or audio.size == 0:
+                raise ValueError(f"SAiD.generate_many: utterance {index}: expected (N,) mono audio at 16 kHz, "
+                                 f"got shape {audio.shape}")
+            frames = frames_for_audio(audio.shape[0]) if frames is None else int(frames)
+            if frames < 2:
+                raise ValueError(f"SAiD.generate_many: utterance {index}: expected num_frames >= 2, got {frames}")
+            waves.append(torch.from_numpy(audio.astype(np.float32))[None].to(self.device))
+            lengths.append(frames)
+        s = self.config["sampling"]
+        with torch_threads(self.config["training"].get("num_threads")):
+            x = self._sample(waves, lengths, seeds, samples=int(samples), sampler=sampler or s["sampler"],
+                             num_steps=int(num_steps or s["num_steps"]),
+                             guidance=s["guidance"] if guidance is None else float(guidance),
+                             eta=s["eta"] if eta is None else float(eta), progress=progress)
+        out = self.from_diffusion(x.double()).cpu().numpy()
+        return [out[i * samples:(i + 1) * samples, :frames] for i, frames in enumerate(lengths)]
+
+    def _sample(self, waves, lengths, seeds, *, samples, sampler, num_steps, guidance, eta, reference=None, mask=None,
+                progress=False) -> torch.Tensor:
+        """The diffusion samples ``(n S, max T, K)`` of ``n`` utterances (rows ``i S .. i S + S - 1``: utterance ``i``,
+        zero beyond its ``lengths[i]`` frames), each drawing its noise from ``torch.Generator().manual_seed(seeds[i])``."""
+        model = self.model.eval()
+        k = len(self.names)
+        num_frames = max(lengths)
+        padded = any(frames != num_frames for frames in lengths)
+        generators = [torch.Generator(device=self.device).manual_seed(seed) for seed in seeds]
+
+        def pad(t):  # (S, T_i, ...) -> (S, max T, ...), zeros after T_i
+            return torch.nn.functional.pad(t, (0, 0, 0, num_frames - t.shape[1])) if t.shape[1] < num_frames else t
+
+        conds = [model.condition(model.audio_features(wav, frames)).expand(samples, -1, -1)
+                 for wav, frames in zip(waves, lengths)]  # (S, T_i, D) each
+        cond = torch.cat([pad(c) for c in conds]) if len(conds) > 1 else conds[0]
+        rows = cond.shape[0]
+        both = torch.cat([cond, model.null_condition(rows, num_frames)])
+        # the condition's cross-attention keys/values, once per batch of utterances
+        cond_cache, both_cache = model.context_cache(cond), model.context_cache(both)
+        row_lengths = torch.tensor(lengths, device=self.device).repeat_interleave(samples) if padded else None
+        prediction = self.config["diffusion"].get("prediction", "epsilon")
+
+        def noise_fn(x, t):
+            a = alphas_of(t, self.alphas_cumprod)
+            if guidance == 0:
+                return noise_from_output(model(x, t, cond, cond_cache, lengths=row_lengths), x, a, prediction)
+            # one batched pass for the conditional and the unconditional estimate (the authors' UNet
+            # repeats x itself after the layers that do not see the condition)
+            xx, aa = torch.cat([x, x]), torch.cat([a, a])
+            if model.architecture == "authors":
+                out = model(x, t, both, both_cache, lengths=row_lengths)
+            else:
+                out = model(xx, torch.cat([t, t]), both, both_cache)
+            eps = noise_from_output(out, xx, aa, prediction)
+            return classifier_free_guidance(eps[:rows], eps[rows:], guidance)
+
+        def draw():  # each utterance's noise from its own generator, as when sampled alone
+            dtype = self.alphas_cumprod.dtype
+            parts = [torch.randn((samples, frames, k), generator=g, dtype=dtype, device=self.device)
+                     for g, frames in zip(generators, lengths)]
+            return torch.cat([pad(p) for p in parts]) if len(parts) > 1 else parts[0]
+
+        s = self.config["sampling"]
+        return sample_diffusion(
+            noise_fn,
+            (rows, num_frames, k),
+            self.alphas_cumprod,
+            sampler=sampler,
+            num_steps=num_steps,
+            eta=eta,
+            clip=data_bounds(model.coeff_mean, model.coeff_scale) if s.get("clip", True) else None,
+            reference=reference,
+            mask=mask,
+            generator=generators[0],
+            draw=draw,
+            progress=progress,
+        )
 
     # ---- persistence -------------------------------------------------------------
     def save(self, path: str | os.PathLike) -> Path:

@@ -93,6 +93,11 @@ class SAiDMethod(Method):
         """Return ``(S, T, 32)`` coefficient tracks in [0, 1] sampled for the utterance's audio (speaker-independent)."""
         return self.said.generate(utterance.audio, utterance.num_frames, samples=int(samples), seed=int(seed))
 
+    def generate_many(self, utterances, *, samples=1, seeds):
+        """``(S, T_i, 32)`` tracks for several utterances, batched into one chain (``benchmark.run --sentence-batch N``)."""
+        pairs = [(utterance.audio, utterance.num_frames) for utterance in utterances]
+        return self.said.generate_many(pairs, samples=int(samples), seeds=[int(seed) for seed in seeds])
+
     def save(self, directory) -> None:
         """Write the config and the checkpoint ``said.pt`` into ``directory`` (not for published weights)."""
         if isinstance(self.said, OfficialSAiD):

@@ -26,6 +26,7 @@ def sample_diffusion(
     reference: torch.Tensor | None = None,
     mask: torch.Tensor | None = None,
     generator: torch.Generator | None = None,
+    draw: Callable[[], torch.Tensor] | None = None,
     progress: bool = False,
 ) -> torch.Tensor:
     """Return samples ``x0`` drawn by running the reverse chain from pure noise.
@@ -52,6 +53,9 @@ def sample_diffusion(
         1 = keep the reference, 0 = generate.  Required with ``reference``.
     generator : torch.Generator, optional
         Source of all randomness (initial noise, DDPM/DDIM noise, reference noising).
+    draw : callable ``() -> (B, T, K) Tensor``, optional
+        Draws the initial and the step noise instead of ``generator`` (e.g. one
+        generator per utterance of a batch); ``generator`` still noises the reference.
     progress : bool, default False
         Show a tqdm bar over the steps.
 
@@ -70,6 +74,8 @@ def sample_diffusion(
     one = alphas_cumprod.new_ones(())
 
     def randn():
+        if draw is not None:
+            return draw()
         return torch.randn(shape, generator=generator, dtype=dtype, device=device)
 
     x = randn()

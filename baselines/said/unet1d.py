@@ -28,6 +28,13 @@ cross-attention (input convolution, first residual block, first
 self-attention), which do not see the condition, run once; the time embedding
 is computed once per distinct timestep, and the cross-attention on its band
 only, so that the arithmetic of a row does not depend on the batch it is in.
+
+Sequences of different lengths share a batch through ``lengths``: each row is
+zero-padded to the longest, and every layer that mixes frames sees the valid
+frames only (group norms take their statistics over them, the convolutions read
+zeros beyond them, as their own padding would be, and no attention attends to a
+padded frame), so a row's valid frames get the output of that sequence alone, up
+to float rounding.
 """
 
 from __future__ import annotations
@@ -70,6 +77,29 @@ def _repeated(t: torch.Tensor, rows: int) -> torch.Tensor:
     return t.repeat(rows // t.shape[0], *([1] * (t.dim() - 1)))
 
 
+def frame_mask(lengths: torch.Tensor, rows: int, num_frames: int, dtype=torch.float32) -> torch.Tensor:
+    """``(rows, 1, num_frames)``: 1 on the first ``lengths[i]`` frames of row ``i`` (``lengths`` repeated to ``rows``)."""
+    frames = torch.arange(num_frames, device=lengths.device)
+    return (frames[None, :] < _repeated(lengths, rows)[:, None]).to(dtype)[:, None, :]
+
+
+def masked_group_norm(norm: nn.GroupNorm, x: torch.Tensor, lengths: torch.Tensor | None) -> torch.Tensor:
+    """``norm(x)`` for ``x (N, C, T)`` with each row normalised over its first ``lengths`` frames (zero beyond).
+
+    The rows of one length go through ``norm`` together on their valid frames, so
+    that each gets the arithmetic of its sequence alone.  ``lengths is None``: the
+    plain ``norm(x)``.
+    """
+    if lengths is None:
+        return norm(x)
+    rows = _repeated(lengths, x.shape[0])
+    out = torch.zeros_like(x)
+    for length in torch.unique(rows).tolist():
+        index = (rows == length).nonzero().flatten()
+        out[index, :, :length] = norm(x[index, :, :length].contiguous())
+    return out
+
+
 def _zeroed(module: nn.Module) -> nn.Module:
     for p in module.parameters():
         nn.init.zeros_(p)
@@ -86,12 +116,12 @@ class GroupNorm32(nn.GroupNorm):
 class TimestepSequential(nn.Sequential):
     """Children run in order; residual blocks get the timestep embedding, transformers the condition."""
 
-    def forward(self, x, emb, context=None, caches=None, emb_index=None):
+    def forward(self, x, emb, context=None, caches=None, emb_index=None, lengths=None):
         for layer in self:
             if isinstance(layer, ResBlock):
-                x = layer(x, emb, emb_index)
+                x = layer(x, emb, emb_index, lengths)
             elif isinstance(layer, SpatialTransformer):
-                x = layer(x, context, None if caches is None else caches[id(layer)])
+                x = layer(x, context, None if caches is None else caches[id(layer)], lengths)
             else:
                 x = layer(x)
         return x
@@ -119,18 +149,28 @@ class ResBlock(nn.Module):
         )
         self.skip_connection = nn.Identity() if out == channels else nn.Conv1d(channels, out, 1)
 
-    def forward(self, x: torch.Tensor, emb: torch.Tensor, emb_index: torch.Tensor | None = None) -> torch.Tensor:
+    def forward(self, x: torch.Tensor, emb: torch.Tensor, emb_index: torch.Tensor | None = None,
+                lengths: torch.Tensor | None = None) -> torch.Tensor:
         """x: (r B, C_in, T), emb: (U, emb_channels) -> (r B, C_out, T).
 
         ``emb_index (B,)``: the row of ``emb`` of each item (None: ``U == B``); item
-        ``i`` serves rows ``i, i + B, ...`` of ``x``.
+        ``i`` serves rows ``i, i + B, ...`` of ``x``.  ``lengths (B,)``: valid frames
+        of each item (None: all ``T``); the output is zero beyond them.
         """
-        h = self.in_layers(x)
+        if lengths is None:
+            h = self.in_layers(x)
+        else:
+            mask = frame_mask(lengths, x.shape[0], x.shape[2], x.dtype)
+            norm, act, conv = self.in_layers
+            h = conv(act(masked_group_norm(norm, x, lengths)) * mask)
         e = self.emb_layers(emb).type(h.dtype)
         if emb_index is not None:
             e = e[emb_index]
         h = h + _repeated(e, h.shape[0])[:, :, None]  # one embedding per group of repeated rows
-        return self.skip_connection(x) + self.out_layers(h)
+        if lengths is None:
+            return self.skip_connection(x) + self.out_layers(h)
+        norm, act, drop, conv = self.out_layers
+        return (self.skip_connection(x) + conv(drop(act(masked_group_norm(norm, h, lengths))) * mask)) * mask
 
 
 class CrossAttention(nn.Module):
@@ -169,12 +209,14 @@ class CrossAttention(nn.Module):
             k, v = F.pad(k, (0, 0, 0, 0, pad, pad)), F.pad(v, (0, 0, 0, 0, pad, pad))
         return k, v
 
-    def forward(self, x, context=None, allowed=None, kv=None, band=None, kv_pad=0):
+    def forward(self, x, context=None, allowed=None, kv=None, band=None, kv_pad=0, lengths=None):
         """x: (B, T, query_dim); context: (B, S, context_dim) or None; allowed: (T, S) bool; kv: from :meth:`keys_values`.
 
         ``kv`` was padded by ``kv_pad`` rows.  ``band = p`` (with ``S == T`` and
         ``kv_pad == p``): the keys are ``|i - j| <= p``, computed on the band alone
-        (same values as ``allowed`` = that band, in ``O(T p)``).
+        (same values as ``allowed`` = that band, in ``O(T p)``).  ``lengths (B,)``:
+        keys beyond ``lengths[i]`` are not attended to by row ``i`` (with ``allowed``
+        None or ``band``).
         """
         q = self._heads(self.to_q(x))
         k, v = kv if kv is not None else self.keys_values(x if context is None else context, kv_pad)
@@ -182,16 +224,29 @@ class CrossAttention(nn.Module):
         if band is not None:
             if band != kv_pad:
                 raise ValueError(f"CrossAttention: expected keys padded by the band half width {band}, got {kv_pad}")
-            out = banded_attention(q, k, v, band)
+            out = banded_attention(q, k, v, band, lengths)
         else:
             s = k.shape[1] - 2 * kv_pad
             k, v = k[:, kv_pad:kv_pad + s], v[:, kv_pad:kv_pad + s]
-            out = F.scaled_dot_product_attention(q.transpose(1, 2), k.transpose(1, 2), v.transpose(1, 2), attn_mask=allowed)
-            out = out.transpose(1, 2)
+            if lengths is None:
+                out = F.scaled_dot_product_attention(q.transpose(1, 2), k.transpose(1, 2), v.transpose(1, 2),
+                                                     attn_mask=allowed)
+                out = out.transpose(1, 2)
+            else:
+                if allowed is not None:
+                    raise ValueError("CrossAttention: lengths go with full or banded attention, not an alignment mask")
+                # the rows of one length attend on their valid frames together: each row's arithmetic is
+                # that of its sequence alone (a key mask would round differently)
+                out = q.new_zeros(q.shape)
+                for length in torch.unique(lengths).tolist():
+                    index = (lengths == length).nonzero().flatten()
+                    crop = [z[index, :length].transpose(1, 2) for z in (q, k, v)]
+                    out[index, :length] = F.scaled_dot_product_attention(*crop).transpose(1, 2)
         return self.to_out(out.reshape(b, t, self.heads * self.dim_head))
 
 
-def banded_attention(q: torch.Tensor, k: torch.Tensor, v: torch.Tensor, pad: int) -> torch.Tensor:
+def banded_attention(q: torch.Tensor, k: torch.Tensor, v: torch.Tensor, pad: int,
+                     lengths: torch.Tensor | None = None) -> torch.Tensor:
     """``softmax(Q K^T / sqrt(d))V`` restricted to keys ``|i - j| <= pad``, on the band alone.
 
     Parameters
@@ -201,6 +256,8 @@ def banded_attention(q: torch.Tensor, k: torch.Tensor, v: torch.Tensor, pad: int
         Keys and values of frames ``-pad .. T - 1 + pad`` (the ``pad`` rows on each
         side are never attended to; zeros from :meth:`CrossAttention.keys_values`).
     pad : int
+    lengths : (B,) Tensor, optional
+        Valid frames of each row: keys at or beyond them are not attended to.
 
     Returns
     -------
@@ -212,7 +269,15 @@ def banded_attention(q: torch.Tensor, k: torch.Tensor, v: torch.Tensor, pad: int
     # scores of the 2 pad + 1 offsets, (W, B, T, H); the softmax over W written out
     scores = torch.stack([(q * k[:, o:o + t]).sum(-1) for o in range(2 * pad + 1)]) * d**-0.5
     j = torch.arange(t, device=q.device)[None, :] + torch.arange(-pad, pad + 1, device=q.device)[:, None]
-    scores = scores.masked_fill(((j < 0) | (j >= t))[:, None, :, None], float("-inf"))
+    if lengths is None:
+        outside = ((j < 0) | (j >= t))[:, None, :, None]
+    else:
+        # a valid frame's band stops at its sequence's end; padded frames keep theirs (finite, never used)
+        i = torch.arange(t, device=q.device)
+        beyond = (j[:, None, :] >= lengths[None, :, None]) & (i[None, None, :] < lengths[None, :, None])
+        outside = ((j < 0) | (j >= t))[:, None, :] | beyond
+        outside = outside[..., None]
+    scores = scores.masked_fill(outside, float("-inf"))
     weights = (scores - scores.amax(0)).exp_()
     weights = weights / weights.sum(0)
     out = weights[0, ..., None] * v[:, 0:t]
@@ -261,21 +326,25 @@ class BasicTransformerBlock(nn.Module):
         """The cross-attention's keys and values of ``context``, padded by the band half width."""
         return self.attn2.keys_values(context, self.pad)
 
-    def forward(self, x, context, kv=None):
+    def forward(self, x, context, kv=None, lengths=None):
         """x: (B, T, dim), context: (r B, S, context_dim) -> (r B, T, dim).
 
         With ``r > 1`` the self-attention runs on the ``B`` rows once and its output
         is repeated ``r`` times before the cross-attention (the same result as
-        repeating ``x``).
+        repeating ``x``).  ``lengths (B,)``: valid frames per item (``S == T`` then).
         """
-        x = self.attn1(self.norm1(x)) + x
+        x = self.attn1(self.norm1(x), lengths=None if lengths is None else _repeated(lengths, x.shape[0])) + x
         if kv is None:
             kv = self.keys_values(context)
         x = _repeated(x, kv[0].shape[0])
         num_keys = kv[0].shape[1] - 2 * self.pad
+        row_lengths = None if lengths is None else _repeated(lengths, x.shape[0])
         if num_keys == x.shape[1]:  # one audio feature per frame: the band |i - j| <= pad
-            x = self.attn2(self.norm2(x), context, None, kv, band=self.pad, kv_pad=self.pad) + x
+            x = self.attn2(self.norm2(x), context, None, kv, band=self.pad, kv_pad=self.pad, lengths=row_lengths) + x
         else:
+            if lengths is not None:
+                raise ValueError(f"BasicTransformerBlock: lengths need one condition frame per frame, got {num_keys} "
+                                 f"for {x.shape[1]}")
             allowed = alignment_mask(x.shape[1], num_keys, pad=self.pad, device=x.device)
             x = self.attn2(self.norm2(x), context, allowed, kv, kv_pad=self.pad) + x
         return self.ff(self.norm3(x)) + x
@@ -298,15 +367,16 @@ class SpatialTransformer(nn.Module):
         """Cross-attention keys and values of every block for ``context``."""
         return [block.keys_values(context) for block in self.transformer_blocks]
 
-    def forward(self, x, context, cache=None):
+    def forward(self, x, context, cache=None, lengths=None):
         """x: (B, C, T), context: (r B, S, context_dim) -> (r B, C, T) (``x`` repeated ``r`` times at the first
-        block's cross-attention)."""
-        h = self.norm(x).transpose(1, 2)
+        block's cross-attention); ``lengths (B,)``: valid frames per item, the output is zero beyond them."""
+        h = masked_group_norm(self.norm, x, lengths).transpose(1, 2)
         for i, block in enumerate(self.transformer_blocks):
-            h = block(h, context, None if cache is None else cache[i])
+            h = block(h, context, None if cache is None else cache[i], lengths)
         x = _repeated(x, h.shape[0])
         # the 1x1 convolution as a matrix product over the frames-major h (no transposed copy)
-        return F.linear(h, self.proj_out.weight[:, :, 0], self.proj_out.bias).transpose(1, 2) + x
+        out = F.linear(h, self.proj_out.weight[:, :, 0], self.proj_out.bias).transpose(1, 2) + x
+        return out if lengths is None else out * frame_mask(lengths, out.shape[0], out.shape[2], out.dtype)
 
 
 class ConditionalUNet1D(nn.Module):
@@ -378,7 +448,8 @@ class ConditionalUNet1D(nn.Module):
         """
         return {id(m): m.keys_values(context) for m in self.transformers()}
 
-    def forward(self, x: torch.Tensor, timesteps: torch.Tensor, context: torch.Tensor | None = None, caches: dict | None = None) -> torch.Tensor:
+    def forward(self, x: torch.Tensor, timesteps: torch.Tensor, context: torch.Tensor | None = None, caches: dict | None = None,
+                lengths: torch.Tensor | None = None) -> torch.Tensor:
         """Return the network output (the noise estimate for SAiD).
 
         Parameters
@@ -392,6 +463,10 @@ class ConditionalUNet1D(nn.Module):
             cross-attention, which do not see the condition, run on the ``B`` rows once.
         caches : dict, optional
             From :meth:`context_cache` (for a context of batch ``r B``).
+        lengths : (B,) Tensor, optional
+            Valid frames of each item (zero-padded to ``T``; one condition frame per
+            frame, ``S == T``): each item's first ``lengths[i]`` output frames are
+            those of the item alone, up to float rounding; the rest are zero.
 
         Returns
         -------
@@ -407,13 +482,27 @@ class ConditionalUNet1D(nn.Module):
         # same arithmetic for any batch)
         steps, index = torch.unique(timesteps, return_inverse=True)
         emb = self.time_embed(timestep_embedding(steps, self.model_channels))
+        if lengths is not None:
+            lengths = torch.as_tensor(lengths, device=x.device).long()
+            if lengths.shape != (x.shape[0],) or bool((lengths < 1).any()) or bool((lengths > x.shape[2]).any()):
+                raise ValueError(f"ConditionalUNet1D: expected lengths (B,) = ({x.shape[0]},) in 1..{x.shape[2]}, "
+                                 f"got {lengths.tolist()}")
+            if bool((lengths == x.shape[2]).all()):
+                lengths = None  # nothing padded: the plain forward
+        mask = None if lengths is None else frame_mask(lengths, x.shape[0], x.shape[2])
         skips = []
-        h = x.float()
+        h = x.float() if mask is None else x.float() * mask
         for block in self.input_blocks:
-            h = block(h, emb, context, caches, index)
+            h = block(h, emb, context, caches, index, lengths)
+            if mask is not None and h.shape[0] == mask.shape[0]:
+                h = h * mask
             skips.append(h)
-        h = self.middle_block(h, emb, context, caches, index)
+        h = self.middle_block(h, emb, context, caches, index, lengths)
         for block in self.output_blocks:
-            h = block(torch.cat([h, _repeated(skips.pop(), h.shape[0])], dim=1), emb, context, caches, index)
+            h = block(torch.cat([h, _repeated(skips.pop(), h.shape[0])], dim=1), emb, context, caches, index, lengths)
         h = _repeated(h, n)  # (when no cross-attention on the way repeated it)
-        return self.out(h.type(x.dtype))
+        if lengths is None:
+            return self.out(h.type(x.dtype))
+        norm, act, conv = self.out
+        rows_mask = frame_mask(lengths, n, x.shape[2])
+        return conv(act(masked_group_norm(norm, h, lengths)) * rows_mask).type(x.dtype) * rows_mask

@@ -173,6 +173,19 @@ class Method(abc.ABC):
             (``dataset.template(subject)``).
         """
 
+    def generate_many(self, utterances, *, samples: int = 1, seeds) -> list:
+        """Animations for several utterances, one seed each (``benchmark.run --sentence-batch N``).
+
+        The default asks :meth:`generate` for each in turn; a method that can batch
+        sentences (SAiD pads them into one batch) overrides it.
+
+        Returns
+        -------
+        list
+            One :meth:`generate` output per utterance, in order.
+        """
+        return [self.generate(utterance, samples=samples, seed=seed) for utterance, seed in zip(utterances, seeds)]
+
     def save(self, directory) -> None:
         """Write the config (and, in subclasses, the trained state) into ``directory``."""
         directory = Path(directory)

@@ -19,11 +19,12 @@ def lip_aperture(frames: np.ndarray, upper_lip: int, lower_lip: int) -> np.ndarr
 
     Returns
     -------
-    (T,) ndarray
+    (T,) float64 ndarray
         In mesh units.
     """
-    frames = np.asarray(frames, dtype=np.float64)
-    return np.linalg.norm(frames[:, upper_lip] - frames[:, lower_lip], axis=1)
+    frames = np.asarray(frames)
+    upper, lower = (np.asarray(frames[:, v], dtype=np.float64) for v in (upper_lip, lower_lip))
+    return np.linalg.norm(upper - lower, axis=1)
 
 
 def sentence_fit(rig: Rig, frames: np.ndarray, head_index, *, delta: float = 0.1):
@@ -34,7 +35,8 @@ def sentence_fit(rig: Rig, frames: np.ndarray, head_index, *, delta: float = 0.1
     rig : Rig
         The speaker's full-topology rig.
     frames : (T, V, 3) ndarray
-        The sentence's meshes at 60 fps (metres).
+        The sentence's meshes at 60 fps (metres), float64 or as stored (float32:
+        cropped and converted to float64 a few frames at a time by the fit).
     head_index : (S,) ndarray of int
         Vertices the fit uses (FLAME head crop).
     delta : float

@@ -7,8 +7,10 @@ import numbers
 import numpy as np
 
 
-def as_float_array(value, name: str, ndim: int, where: str) -> np.ndarray:
+def as_float_array(value, name: str, ndim: int, where: str, *, keep_float: bool = False) -> np.ndarray:
     """Return ``value`` as a finite float64 array with ``ndim`` dimensions.
+
+    ``keep_float``: a floating array keeps its dtype (float32 stays float32).
 
     Raises
     ------
@@ -25,7 +27,8 @@ def as_float_array(value, name: str, ndim: int, where: str) -> np.ndarray:
         np.issubdtype(array.dtype, np.floating) or np.issubdtype(array.dtype, np.integer)
     ):
         raise TypeError(f"{where}: {name} must be a numeric array, got dtype {array.dtype}")
-    array = np.asarray(array, dtype=np.float64)
+    if not (keep_float and np.issubdtype(array.dtype, np.floating)):
+        array = np.asarray(array, dtype=np.float64)
     if array.ndim != ndim:
         raise ValueError(
             f"{where}: {name} must have {ndim} dimensions, got shape {array.shape}"

@@ -76,15 +76,19 @@ class FitResult:
     pose: HeadPose | None = field(default=None, repr=False)
 
 
-def _checked_frames(neutral, deltas, frames, vertex_subset, unposed, stable, where):
-    """Validated rig and frames (subset applied), with the head pose removed unless ``unposed``."""
-    checked = check_rig_and_frames(neutral, deltas, frames, vertex_subset, where)
+def _checked_frames(neutral, deltas, frames, vertex_subset, unposed, stable, where, fps=60.0):
+    """Validated rig and frames (subset applied), with the head pose removed unless ``unposed``.
+
+    Unposed 60 fps frames with a subset come as a :class:`FrameCrop`, so that the
+    crop is made chunk by chunk from the frames as stored.
+    """
     if unposed is None:
         # Auto: FLAME meshes (captures, method outputs) have a known stable
         # region; other topologies are treated as rig-space data.
         unposed = np.shape(neutral)[0] != FLAME_NUM_VERTICES
     if unposed:
-        return checked, None
+        return check_rig_and_frames(neutral, deltas, frames, vertex_subset, where, lazy=fps == 60.0), None
+    check_rig_and_frames(neutral, deltas, frames, vertex_subset, where)
     pose = remove_head_pose(frames, neutral, stable=stable)
     return check_rig_and_frames(neutral, deltas, pose.frames, vertex_subset, where), pose
 
@@ -163,7 +167,7 @@ def fit_sequence(
     delta = check_delta(delta, where) if rate else None
     if rate and delta is None:
         raise ValueError(f"{where}: rate=True needs a delta, got None")
-    (neutral, deltas, frames), pose = _checked_frames(neutral, deltas, frames, vertex_subset, unposed, stable, where)
+    (neutral, deltas, frames), pose = _checked_frames(neutral, deltas, frames, vertex_subset, unposed, stable, where, fps)
     if fps != 60.0:
         frames = resample_sequence(frames, fps, 60.0)
     lower, upper = (0.0, 1.0) if bounds else (None, None)
@@ -243,7 +247,7 @@ def fit_coefficients(
     if method not in METHODS:
         raise ValueError(f"{where}: method must be one of {METHODS}, got {method!r}")
     delta = check_delta(delta, where) if rate else None
-    (neutral, deltas, frames), _ = _checked_frames(neutral, deltas, frames, vertex_subset, unposed, stable, where)
+    (neutral, deltas, frames), _ = _checked_frames(neutral, deltas, frames, vertex_subset, unposed, stable, where, fps)
     if fps != 60.0:
         frames = resample_sequence(frames, fps, 60.0)
     lower, upper = (0.0, 1.0) if bounds else (None, None)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .frame_crop import FrameCrop
 from .normal_equations import check_rig_and_frames
 
 
@@ -40,7 +41,21 @@ def vertex_errors(neutral, deltas, frames, coeffs, *, vertex_subset=None):
 
 
 def vertex_errors_of_checked(neutral, deltas, frames, coeffs):
-    """:func:`vertex_errors` of checked arrays (C-contiguous, float64, matching shapes)."""
+    """:func:`vertex_errors` of checked arrays (C-contiguous, float64, matching shapes).
+
+    ``frames`` may be a :class:`FrameCrop`: the errors are then computed chunk by
+    chunk of frames (the same values, bit for bit).
+    """
+    if isinstance(frames, FrameCrop):
+        rmse, max_error = np.empty(frames.shape[0]), np.empty(frames.shape[0])
+        for start, crop in frames.chunks():
+            stop = start + crop.shape[0]
+            rmse[start:stop], max_error[start:stop] = _frame_errors(neutral, deltas, crop, coeffs[start:stop])
+        return rmse, max_error
+    return _frame_errors(neutral, deltas, frames, coeffs)
+
+
+def _frame_errors(neutral, deltas, frames, coeffs):
     num_shapes = deltas.shape[0]
     # In place: the reconstruction, its offset from the targets, the squares.
     diff = (coeffs @ deltas.reshape(num_shapes, -1)).reshape(frames.shape)

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ._checks import as_float_array
+from .frame_crop import FrameCrop
 
 
 @dataclass(frozen=True)
@@ -45,7 +46,7 @@ class NormalEquations:
         return float(quad - 2.0 * np.sum(coeffs * self.rhs) + np.sum(self.offset_sq))
 
 
-def check_rig_and_frames(neutral, deltas, frames, vertex_subset=None, where="fit"):
+def check_rig_and_frames(neutral, deltas, frames, vertex_subset=None, where="fit", *, lazy=False):
     """Validate and convert rig arrays and frames; apply the vertex subset.
 
     Parameters
@@ -55,16 +56,20 @@ def check_rig_and_frames(neutral, deltas, frames, vertex_subset=None, where="fit
     frames : (T, V, 3) array_like
     vertex_subset : (S,) array_like of int, optional
         Vertex indices to keep (e.g. the 4580-vertex FLAME head).
+    lazy : bool, default False
+        With a subset: return the frames as a :class:`FrameCrop` of the frames in
+        their own float dtype (cropped and converted chunk by chunk when used).
 
     Returns
     -------
     neutral : (S, 3) ndarray
     deltas : (K, S, 3) ndarray
-    frames : (T, S, 3) ndarray
+    frames : (T, S, 3) ndarray, or FrameCrop
     """
+    lazy = bool(lazy and vertex_subset is not None)
     neutral = as_float_array(neutral, "neutral", 2, where)
     deltas = as_float_array(deltas, "deltas", 3, where)
-    frames = as_float_array(frames, "frames", 3, where)
+    frames = as_float_array(frames, "frames", 3, where, keep_float=lazy)
     num_vertices = neutral.shape[0]
     if neutral.shape[1] != 3:
         raise ValueError(f"{where}: neutral must be (V, 3), got shape {neutral.shape}")
@@ -96,7 +101,7 @@ def check_rig_and_frames(neutral, deltas, frames, vertex_subset=None, where="fit
         # does not), so the reshapes of the fit are views, not copies.
         neutral = np.take(neutral, subset, axis=0)
         deltas = np.take(deltas, subset, axis=1)
-        frames = np.take(frames, subset, axis=1)
+        frames = FrameCrop(frames, subset) if lazy else np.take(frames, subset, axis=1)
     return neutral, deltas, frames
 
 
@@ -126,13 +131,26 @@ def normal_equations(neutral, deltas, frames, *, vertex_subset=None) -> NormalEq
 
 
 def normal_equations_of_checked(neutral, deltas, frames) -> NormalEquations:
-    """:func:`normal_equations` of arrays :func:`check_rig_and_frames` returned (no second check)."""
+    """:func:`normal_equations` of arrays :func:`check_rig_and_frames` returned (no second check).
+
+    ``frames`` may be a :class:`FrameCrop`: the products are then made chunk by
+    chunk of frames (the same rows, bit for bit).
+    """
     num_shapes = deltas.shape[0]
     basis = deltas.reshape(num_shapes, -1)  # (K, 3S)
-    offsets = (frames - neutral[None]).reshape(frames.shape[0], -1)  # (T, 3S)
     gram = basis @ basis.T
-    rhs = offsets @ basis.T
-    offset_sq = np.einsum("ij,ij->i", offsets, offsets)
+    if isinstance(frames, FrameCrop):
+        rhs = np.empty((frames.shape[0], num_shapes))
+        offset_sq = np.empty(frames.shape[0])
+        for start, crop in frames.chunks():
+            crop -= neutral[None]  # the chunk is ours: the offsets in place
+            offsets = crop.reshape(crop.shape[0], -1)
+            rhs[start:start + crop.shape[0]] = offsets @ basis.T
+            offset_sq[start:start + crop.shape[0]] = np.einsum("ij,ij->i", offsets, offsets)
+    else:
+        offsets = (frames - neutral[None]).reshape(frames.shape[0], -1)  # (T, 3S)
+        rhs = offsets @ basis.T
+        offset_sq = np.einsum("ij,ij->i", offsets, offsets)
     return NormalEquations(
         gram=0.5 * (gram + gram.T), rhs=rhs, offset_sq=offset_sq, num_vertices=neutral.shape[0]
     )

@@ -10,7 +10,6 @@ into camelCase ARKit columns; their timecode, count and rotation columns are ign
 from __future__ import annotations
 
 import csv
-import io
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -62,12 +61,12 @@ def read_coeffs_csv(path, names: Sequence[str] | None = None, *,
     if not path.is_file():
         raise FileNotFoundError(f"coefficient file not found: {path}")
     with open(path, newline="", encoding="utf-8-sig") as f:
-        reader = csv.reader(f)
-        try:
-            header = [h.strip() for h in next(reader)]
-        except StopIteration:
-            raise ValueError(f"{path}: empty file; expected a header row of blendshape names") from None
-        rows = [row for row in reader if row]
+        lines = f.read().splitlines()
+    try:
+        header = [h.strip() for h in next(csv.reader(lines[:1]))]
+    except StopIteration:
+        raise ValueError(f"{path}: empty file; expected a header row of blendshape names") from None
+    body = [line for line in lines[1:] if line]
     mapped = [_column_name(h) for h in header]
     kept = [m for m in mapped if m is not None]
     repeated = sorted({m for m in kept if kept.count(m) > 1})
@@ -86,8 +85,15 @@ def read_coeffs_csv(path, names: Sequence[str] | None = None, *,
         extra = f"; columns with no ARKit name: {unknown}" if unknown else ""
         raise ValueError(f"{path}: missing columns {absent}; the header has {header}{extra}")
     columns = [mapped.index(n) if n in kept else -1 for n in wanted]
-    data = np.zeros((len(rows), len(wanted)), dtype=np.float64)
     present = [(k, c) for k, c in enumerate(columns) if c >= 0]
+    fast = _parsed_columns(body, len(header), [c for _, c in present])
+    if fast is not None:
+        data = np.zeros((len(body), len(wanted)), dtype=np.float64)
+        data[:, [k for k, _ in present]] = fast
+        return data, wanted
+    # A quoted, short or malformed row: read row by row, to name the row.
+    rows = [row for row in csv.reader(body) if row]
+    data = np.zeros((len(rows), len(wanted)), dtype=np.float64)
     for t, row in enumerate(rows):
         if len(row) != len(header):
             raise ValueError(f"{path}: row {t + 2} has {len(row)} fields, the header has {len(header)}")
@@ -97,6 +103,19 @@ def read_coeffs_csv(path, names: Sequence[str] | None = None, *,
         except ValueError as error:
             raise ValueError(f"{path}: row {t + 2} (frame {t}): {error}") from None
     return data, wanted
+
+
+def _parsed_columns(body: list[str], num_fields: int, columns: list[int]) -> np.ndarray | None:
+    """``(T, len(columns))`` float64 of plain comma-separated ``body`` lines (numpy's C parser, the values
+    ``float()`` gives); None when a line is quoted, has another number of fields or a bad value."""
+    if not columns or any('"' in line or line.count(",") != num_fields - 1 for line in body):
+        return None
+    if not body:
+        return np.zeros((0, len(columns)))
+    try:
+        return np.loadtxt(body, delimiter=",", usecols=columns, ndmin=2, dtype=np.float64)
+    except ValueError:
+        return None
 
 
 def missing_columns(path, names: Sequence[str]) -> tuple[str, ...]:
@@ -115,13 +134,12 @@ def format_coeffs_csv(coeffs: np.ndarray, names: Sequence[str]) -> str:
     if not np.all(np.isfinite(coeffs)):
         bad = np.argwhere(~np.isfinite(coeffs))[0]
         raise ValueError(f"coefficients contain NaN/inf (first at frame {bad[0]}, column {names[bad[1]]!r})")
-    out = io.StringIO()
-    out.write(",".join(names) + "\n")
     # %.6f keeps 1e-6 resolution (far below any visible motion) and, with
     # -0.000000 normalised, makes files byte-identical across runs and platforms.
-    for row in coeffs:
-        out.write(",".join(("%.6f" % v).replace("-0.000000", "0.000000") for v in row) + "\n")
-    return out.getvalue()
+    # One %-format over all rows: a field starts at its "-", so the replace only
+    # ever touches whole "-0.000000" fields.
+    rows = ((",".join(["%.6f"] * coeffs.shape[1]) + "\n") * coeffs.shape[0]) % tuple(coeffs.ravel().tolist())
+    return ",".join(names) + "\n" + rows.replace("-0.000000", "0.000000")
 
 
 def write_coeffs_csv(path, coeffs: np.ndarray, names: Sequence[str]) -> None:

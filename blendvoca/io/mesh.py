@@ -84,14 +84,23 @@ def parse_obj(text: str, *, where="<obj>") -> tuple[np.ndarray, np.ndarray]:
     return V, F
 
 
-def write_obj(path, vertices, faces) -> None:
-    """Write ``v`` and ``f`` records (vertex order kept; 9 significant digits)."""
-    V = np.asarray(vertices, dtype=np.float64)
+def obj_face_records(faces) -> str:
+    """The ``f`` records of ``faces (F, 3)`` as :func:`write_obj` writes them (1-based)."""
     F = np.asarray(faces, dtype=np.int64)
-    _check_vertices(V, path)
     # One %-format over all records (the same bytes as formatting line by line, ~4x faster).
+    return ("f %d %d %d\n" * len(F)) % tuple((F + 1).ravel().tolist())
+
+
+def write_obj(path, vertices, faces, *, face_records: str | None = None) -> None:
+    """Write ``v`` and ``f`` records (vertex order kept; 9 significant digits).
+
+    ``face_records``: :func:`obj_face_records` of ``faces``, formatted once for
+    many meshes of one topology (a rig's blendshapes).
+    """
+    V = np.asarray(vertices, dtype=np.float64)
+    _check_vertices(V, path)
     text = ("v %.9g %.9g %.9g\n" * len(V)) % tuple(V.ravel().tolist())
-    text += ("f %d %d %d\n" * len(F)) % tuple((F + 1).ravel().tolist())
+    text += obj_face_records(faces) if face_records is None else face_records
     with atomic_write(path, "w", encoding="utf-8", newline="\n") as f:
         f.write(text or "\n")
 

@@ -80,7 +80,8 @@ class VocasetCorpus:
     def template(self, subject: str) -> np.ndarray:
         raise NotImplementedError
 
-    def frames(self, subject: str, sentence: str) -> np.ndarray:
+    def frames(self, subject: str, sentence: str, dtype=np.float64) -> np.ndarray:
+        """Mesh sequence ``(T, V, 3)`` at 60 fps in ``dtype`` (None: the precision it is stored in)."""
         raise NotImplementedError
 
     def audio(self, subject: str, sentence: str) -> tuple[np.ndarray, int]:

@@ -150,8 +150,8 @@ class OfficialVocaset(VocasetCorpus):
                 self._faces = read_ply(resolve("flame-sample"))[1]
         return self._faces
 
-    def frames(self, subject: str, sentence: str) -> np.ndarray:
-        """Mesh sequence ``(T, V, 3) float64`` at 60 fps.
+    def frames(self, subject: str, sentence: str, dtype=np.float64) -> np.ndarray:
+        """Mesh sequence ``(T, V, 3)`` at 60 fps in ``dtype`` (None: as read, float64).
 
         Raises
         ------
@@ -168,6 +168,8 @@ class OfficialVocaset(VocasetCorpus):
         except (MeshFormatError, OSError):
             self._locate_bad_frame(subject, sentence, paths)
             raise  # not reached: _locate_bad_frame raises
+        if dtype is not None:
+            frames = np.asarray(frames, dtype=dtype)
         return self._check_frames(subject, sentence, frames, str(paths[0].parent))
 
     def has_posed(self, subject: str, sentence: str) -> bool:

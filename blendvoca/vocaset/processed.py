@@ -248,8 +248,9 @@ class ProcessedVocaset(VocasetCorpus):
             self._faces = read_ply(resolve("flame-sample"))[1]
         return self._faces
 
-    def frames(self, subject: str, sentence: str) -> np.ndarray:
-        """Mesh sequence ``(T, V, 3) float64`` at 60 fps (see ``VocasetError`` for bad items)."""
+    def frames(self, subject: str, sentence: str, dtype=np.float64) -> np.ndarray:
+        """Mesh sequence ``(T, V, 3)`` at 60 fps in ``dtype`` (None: as stored, float32 in VOCASET; see
+        ``VocasetError`` for bad items)."""
         rows = self.frame_rows(subject, sentence)
         for p in self.problems:
             if (p.subject, p.sentence) == (subject, sentence) and p.kind in ("missing_frame", "truncated"):
@@ -258,7 +259,7 @@ class ProcessedVocaset(VocasetCorpus):
                 raise VocasetError(p)
         if rows.min() < 0:
             self._fail("unreadable", subject, sentence, f"subj_seq_to_idx.pkl: negative row {rows.min()}")
-        frames = np.asarray(self._rows[rows], dtype=np.float64)
+        frames = np.asarray(self._rows[rows], dtype=dtype)
         return self._check_frames(subject, sentence, frames, "data_verts.npy")
 
     def audio(self, subject: str, sentence: str) -> tuple[np.ndarray, int]:

@@ -148,6 +148,51 @@ def test_deterministic_methods_get_one_sample(dataset):
     assert all(np.array_equal(generated[k], again[k]) for k in generated)
 
 
+class _Batching(Method):
+    """Seeded noise per sentence; records how the runner grouped the sentences."""
+
+    stochastic = True
+
+    def __init__(self):
+        super().__init__()
+        self.calls = []
+
+    def generate(self, utterance, *, samples=1, seed=0):
+        rng = np.random.default_rng(seed)
+        return rng.uniform(0, 1, size=(samples, utterance.num_frames, 32))
+
+    def generate_many(self, utterances, *, samples=1, seeds):
+        self.calls.append([(u.subject, u.sentence, u.num_frames, seed) for u, seed in zip(utterances, seeds)])
+        return super().generate_many(utterances, samples=samples, seeds=seeds)
+
+
+def test_sentence_batches_go_by_length_with_each_sentence_seed():
+    data = FakeDataset(seed=4, n_sentences=4, seconds=1.0)
+    one = _Batching()
+    alone, _ = generated_tracks(one, data, samples=2, seed=9, progress=False)
+    assert one.calls == []  # one sentence per call: plain generate
+    batching = _Batching()
+    batched, _ = generated_tracks(batching, data, samples=2, seed=9, progress=False, sentence_batch=3)
+    items = [(s, n) for s in data.split("test") for n in data.sentences(s)]
+    assert list(batched) == items == list(alone)  # the split's order, whatever the batches
+    assert all(np.array_equal(batched[k], alone[k]) for k in items)
+    assert [len(call) for call in batching.calls] == [3, 3, 2]
+    flat = [entry for call in batching.calls for entry in call]
+    assert [e[2] for e in flat] == sorted(e[2] for e in flat)  # shortest first
+    assert {(e[0], e[1]): e[3] for e in flat} == {k: sentence_seed(9, i) for i, k in enumerate(items)}
+
+
+def test_sentence_batch_is_recorded_and_checked(dataset, tmp_path):
+    register("batching-test")(_Batching)
+    try:
+        r = json.loads(_run("batching-test", dataset, tmp_path, sentence_batch=2).read_text())
+        assert r["protocol"]["sentence_batch"] == 2
+        with pytest.raises(Exception, match="--sentence-batch: expected an integer >= 1, got 0"):
+            _run("batching-test", dataset, tmp_path, sentence_batch=0)
+    finally:
+        unregister("batching-test")
+
+
 def test_checkpoint_train_then_load(dataset, tmp_path):
     ckpt = tmp_path / "ckpt"
     p1 = _run("mean", dataset, tmp_path, checkpoint=ckpt)

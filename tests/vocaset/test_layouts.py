@@ -33,6 +33,9 @@ def test_both_layouts_give_identical_arrays(synthetic_corpus, synthetic_corpus_p
             fa, fb = a.frames(subject, sentence), b.frames(subject, sentence)
             assert fa.dtype == np.float64 and fa.shape[1:] == (5023, 3)
             assert np.array_equal(fa, fb)
+            stored = b.frames(subject, sentence, dtype=None)  # the processed layout keeps float32
+            assert stored.dtype == np.float32 and np.array_equal(stored.astype(np.float64), fb)
+            assert a.frames(subject, sentence, dtype=None).dtype == np.float64
             (xa, ra), (xb, rb) = a.audio(subject, sentence), b.audio(subject, sentence)
             assert xa.dtype == np.float32 and ra == rb == 22000 and np.array_equal(xa, xb)
             # 60 fps motion and audio of the same length.
