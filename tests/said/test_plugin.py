@@ -59,6 +59,23 @@ def test_plugin_train_generate_save_load(tmp_path):
     np.testing.assert_array_equal(back.generate(utterance, samples=2, seed=5), out)
 
 
+def test_plugin_batches_sentences_through_the_runner():
+    from baselines.said.plugin import SAiDMethod
+    from benchmark.methods.base import Budget
+    from benchmark.run import generated_tracks
+
+    method = SAiDMethod(**TINY)
+    method.train(FakeDataset(), seed=0, budget=Budget(max_steps=2))
+    data = FakeDataset()
+    data._splits["test"] = ["s0", "s1", "s3"]  # six sentences of two lengths
+    alone, _ = generated_tracks(method, data, samples=2, seed=3, progress=False)
+    batched, _ = generated_tracks(method, data, samples=2, seed=3, progress=False, sentence_batch=4)
+    assert list(alone) == list(batched)
+    for key in alone:
+        assert alone[key].shape == batched[key].shape
+        np.testing.assert_allclose(batched[key], alone[key], atol=1e-4, rtol=0)
+
+
 def test_plugin_rejects_unknown_option():
     from baselines.said.plugin import SAiDMethod
 

@@ -83,7 +83,7 @@ def said():
     return pipeline
 
 
-@pytest.mark.parametrize("options", [{"guidance": 2.0}, {"guidance": 1.0}, {"sampler": "ddpm", "guidance": 2.0}])
+@pytest.mark.parametrize("options", [{"guidance": 2.0}, {"guidance": 1.0}, {"guidance": 0.0}, {"sampler": "ddpm", "guidance": 2.0}])
 def test_generate_many_equals_one_utterance_at_a_time(said, options):
     utterances = _utterances()
     seeds = [3, 11, 7]
