@@ -81,11 +81,6 @@ def run_child(method, num_frames, threads):
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
-def _best(function, repeats):
-    """Smallest (cpu, wall) seconds of ``repeats`` calls."""
-    return _best_interleaved([function], repeats)[0]
-
-
 def _best_interleaved(functions, repeats):
     """Smallest (cpu, wall) seconds of ``repeats`` calls of each function, the functions taking turns
     (so that a machine whose speed drifts affects all of them alike)."""

@@ -106,7 +106,7 @@ def diffusers_cfg_loop(model, waveform: torch.Tensor, frames: int, steps: int, g
 
 def sentence_batch_comparison(args) -> None:
     """Print seq/s of one zero-padded batch of sentences vs one sentence at a time vs the diffusers loop."""
-    from baselines.said.official_pipeline import OfficialSAiD, fitted_length
+    from baselines.said.official_pipeline import OfficialSAiD, padded_waveform
 
     if args.threads:
         torch.set_num_threads(args.threads)
@@ -128,9 +128,7 @@ def sentence_batch_comparison(args) -> None:
         for _ in range(args.repeats):
             t0 = time.perf_counter()
             for (audio, frames), seed in zip(utterances, seeds):
-                padded, model_frames = fitted_length(audio.shape[0], frames)
-                wav = torch.zeros(1, padded)
-                wav[0, :audio.shape[0]] = torch.from_numpy(audio)
+                wav, model_frames, _ = padded_waveform(audio, frames)
                 noise = torch.randn(args.samples, model_frames, 32, generator=torch.Generator().manual_seed(seed))
                 for i in range(args.samples):
                     diffusers_cfg_loop(model, wav.to(args.device), model_frames, steps, args.guidance, noise[i:i + 1])

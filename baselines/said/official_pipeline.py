@@ -18,6 +18,7 @@ import torch
 
 from baselines.said.inference import said_inference
 from baselines.said.official import FPS, SAMPLE_RATE, load_official
+from baselines.said.sample import padded_batch, utterance_noise
 
 #: The authors' inference script defaults.
 OFFICIAL_SAMPLING = {"sampler": "ddim", "num_steps": 1000, "guidance": 2.0, "guidance_rescale": 0.0, "eta": 0.0}
@@ -30,6 +31,16 @@ def fitted_length(num_samples: int, num_frames: int | None = None) -> tuple[int,
     need = num_samples if num_frames is None else max(num_samples, math.ceil(num_frames * SAMPLE_RATE / FPS))
     padded = math.ceil(need / block) * block
     return padded, padded * FPS // SAMPLE_RATE
+
+
+def padded_waveform(audio: np.ndarray, num_frames: int | None = None) -> tuple[torch.Tensor, int, int]:
+    """``(wav (1, N') float32 Tensor, model frames, output frames)`` of mono 16 kHz ``audio (N,)``: zero-padded as
+    :func:`fitted_length` says, for ``num_frames`` output frames (default: the audio's duration at 60 fps)."""
+    out_frames = int(audio.shape[0] * FPS / SAMPLE_RATE) if num_frames is None else int(num_frames)
+    padded, frames = fitted_length(audio.shape[0], out_frames)
+    wav = torch.zeros(1, padded)
+    wav[0, : audio.shape[0]] = torch.from_numpy(np.asarray(audio, dtype=np.float32))
+    return wav, frames, out_frames
 
 
 class OfficialSAiD:
@@ -77,10 +88,7 @@ class OfficialSAiD:
         s = self.sampling
         if reference is not None:
             num_frames = int(np.asarray(reference).shape[0]) if num_frames is None else num_frames
-        out_frames = int(audio.shape[0] * FPS / SAMPLE_RATE) if num_frames is None else int(num_frames)
-        padded, frames = fitted_length(audio.shape[0], out_frames)
-        wav = torch.zeros(1, padded)
-        wav[0, : audio.shape[0]] = torch.from_numpy(audio)
+        wav, frames, out_frames = padded_waveform(audio, num_frames)
         wav = wav.to(self.device)
         gen = torch.Generator(device=self.device).manual_seed(int(seed))
         init = edit_mask = None
@@ -141,23 +149,15 @@ class OfficialSAiD:
             if audio.ndim != 1 or audio.size == 0:
                 raise ValueError(f"OfficialSAiD.generate_many: utterance {index}: expected (N,) mono audio at 16 kHz, "
                                  f"got shape {audio.shape}")
-            wanted = int(audio.shape[0] * FPS / SAMPLE_RATE) if num_frames is None else int(num_frames)
-            padded, frames = fitted_length(audio.shape[0], wanted)
-            wav = torch.zeros(1, padded)
-            wav[0, : audio.shape[0]] = torch.from_numpy(audio)
+            wav, frames, wanted = padded_waveform(audio, num_frames)
             embeddings.append(self.model.get_audio_embedding(self.model.process_audio(wav.to(self.device)), frames))
             out_frames.append(wanted)
         lengths = [e.shape[1] for e in embeddings]
         longest = max(lengths)
-        embedding = torch.cat([torch.nn.functional.pad(e, (0, 0, 0, longest - e.shape[1])).expand(samples, -1, -1)
-                               for e in embeddings])
+        embedding = padded_batch([e.expand(samples, -1, -1) for e in embeddings], longest)
         generators = [torch.Generator(device=self.device).manual_seed(seed) for seed in seeds]
-        channels = len(self.names)
-
-        def draw():  # each utterance's noise from its own generator, as when sampled alone
-            return torch.cat([torch.nn.functional.pad(
-                torch.randn((samples, frames, channels), generator=g, device=self.device, dtype=torch.float32),
-                (0, 0, 0, longest - frames)) for g, frames in zip(generators, lengths)])
+        draw = utterance_noise(generators, lengths, samples, len(self.names), num_frames=longest,
+                               dtype=torch.float32, device=self.device)
 
         s = self.sampling
         out = said_inference(

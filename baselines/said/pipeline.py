@@ -19,7 +19,7 @@ from baselines.said.normalization import (
 )
 from baselines.said.parametrization import noise_from_output
 from baselines.said.presets import resolve_config
-from baselines.said.sample import sample_diffusion
+from baselines.said.sample import padded_batch, sample_diffusion, utterance_noise
 from baselines.said.schedule import alphas_cumprod_schedule, alphas_of
 from baselines.said.threads import torch_threads
 
@@ -226,13 +226,9 @@ class SAiD:
         num_frames = max(lengths)
         padded = any(frames != num_frames for frames in lengths)
         generators = [torch.Generator(device=self.device).manual_seed(seed) for seed in seeds]
-
-        def pad(t):  # (S, T_i, ...) -> (S, max T, ...), zeros after T_i
-            return torch.nn.functional.pad(t, (0, 0, 0, num_frames - t.shape[1])) if t.shape[1] < num_frames else t
-
         conds = [model.condition(model.audio_features(wav, frames)).expand(samples, -1, -1)
                  for wav, frames in zip(waves, lengths)]  # (S, T_i, D) each
-        cond = torch.cat([pad(c) for c in conds]) if len(conds) > 1 else conds[0]
+        cond = padded_batch(conds, num_frames)
         rows = cond.shape[0]
         both = torch.cat([cond, model.null_condition(rows, num_frames)])
         # the condition's cross-attention keys/values, once per batch of utterances
@@ -254,12 +250,6 @@ class SAiD:
             eps = noise_from_output(out, xx, aa, prediction)
             return classifier_free_guidance(eps[:rows], eps[rows:], guidance)
 
-        def draw():  # each utterance's noise from its own generator, as when sampled alone
-            dtype = self.alphas_cumprod.dtype
-            parts = [torch.randn((samples, frames, k), generator=g, dtype=dtype, device=self.device)
-                     for g, frames in zip(generators, lengths)]
-            return torch.cat([pad(p) for p in parts]) if len(parts) > 1 else parts[0]
-
         s = self.config["sampling"]
         return sample_diffusion(
             noise_fn,
@@ -272,7 +262,8 @@ class SAiD:
             reference=reference,
             mask=mask,
             generator=generators[0],
-            draw=draw,
+            draw=utterance_noise(generators, lengths, samples, k, num_frames=num_frames,
+                                 dtype=self.alphas_cumprod.dtype, device=self.device),
             progress=progress,
         )
 

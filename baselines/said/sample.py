@@ -14,6 +14,25 @@ from baselines.said.schedule import sampling_timesteps
 NoiseFn = Callable[[torch.Tensor, torch.Tensor], torch.Tensor]
 
 
+def padded_batch(parts, num_frames: int) -> torch.Tensor:
+    """The ``(S_i, T_i, ...)`` parts stacked along the batch, each zero-padded after its ``T_i`` frames to
+    ``num_frames`` (one part of ``num_frames`` frames: that part itself)."""
+    if len(parts) == 1 and parts[0].shape[1] == num_frames:
+        return parts[0]
+    return torch.cat([torch.nn.functional.pad(p, (0, 0, 0, num_frames - p.shape[1])) if p.shape[1] < num_frames else p
+                      for p in parts])
+
+
+def utterance_noise(generators, lengths, samples: int, channels: int, *, num_frames: int, dtype, device):
+    """A ``draw()`` for a batch of utterances (``sample_diffusion(..., draw=)``): each utterance's
+    ``(samples, T_i, channels)`` noise from its own generator, as it draws it sampled alone, zero-padded
+    (:func:`padded_batch`) to ``num_frames``."""
+    def draw():
+        return padded_batch([torch.randn((samples, frames, channels), generator=g, dtype=dtype, device=device)
+                             for g, frames in zip(generators, lengths)], num_frames)
+    return draw
+
+
 def sample_diffusion(
     noise_fn: NoiseFn,
     shape: tuple[int, int, int],

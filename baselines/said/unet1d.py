@@ -83,6 +83,21 @@ def frame_mask(lengths: torch.Tensor, rows: int, num_frames: int, dtype=torch.fl
     return (frames[None, :] < _repeated(lengths, rows)[:, None]).to(dtype)[:, None, :]
 
 
+def _per_length(function, lengths: torch.Tensor, tensors, dim: int) -> torch.Tensor:
+    """``function(*crops)`` for the rows of each length together, on their first ``length`` frames along ``dim``.
+
+    ``tensors`` share their batch (rows of ``lengths``); ``function`` returns a crop
+    shaped like the first tensor's. The result is that tensor's shape, zero beyond
+    each row's length: each row gets the arithmetic of its sequence alone.
+    """
+    out = tensors[0].new_zeros(tensors[0].shape)
+    for length in torch.unique(lengths).tolist():
+        index = (lengths == length).nonzero().flatten()
+        frames = (slice(None),) * (dim - 1) + (slice(0, length),)
+        out[(index,) + frames] = function(*(t[(index,) + frames].contiguous() for t in tensors))
+    return out
+
+
 def masked_group_norm(norm: nn.GroupNorm, x: torch.Tensor, lengths: torch.Tensor | None) -> torch.Tensor:
     """``norm(x)`` for ``x (N, C, T)`` with each row normalised over its first ``lengths`` frames (zero beyond).
 
@@ -92,12 +107,7 @@ def masked_group_norm(norm: nn.GroupNorm, x: torch.Tensor, lengths: torch.Tensor
     """
     if lengths is None:
         return norm(x)
-    rows = _repeated(lengths, x.shape[0])
-    out = torch.zeros_like(x)
-    for length in torch.unique(rows).tolist():
-        index = (rows == length).nonzero().flatten()
-        out[index, :, :length] = norm(x[index, :, :length].contiguous())
-    return out
+    return _per_length(norm, _repeated(lengths, x.shape[0]), (x,), dim=2)
 
 
 def _zeroed(module: nn.Module) -> nn.Module:
@@ -237,11 +247,10 @@ class CrossAttention(nn.Module):
                     raise ValueError("CrossAttention: lengths go with full or banded attention, not an alignment mask")
                 # the rows of one length attend on their valid frames together: each row's arithmetic is
                 # that of its sequence alone (a key mask would round differently)
-                out = q.new_zeros(q.shape)
-                for length in torch.unique(lengths).tolist():
-                    index = (lengths == length).nonzero().flatten()
-                    crop = [z[index, :length].transpose(1, 2) for z in (q, k, v)]
-                    out[index, :length] = F.scaled_dot_product_attention(*crop).transpose(1, 2)
+                def attend(*qkv):
+                    return F.scaled_dot_product_attention(*(z.transpose(1, 2) for z in qkv)).transpose(1, 2)
+
+                out = _per_length(attend, lengths, (q, k, v), dim=1)
         return self.to_out(out.reshape(b, t, self.heads * self.dim_head))
 
 

@@ -26,7 +26,6 @@ def array_digest(*arrays, dtype=None) -> str:
         target = array.dtype if dtype is None else np.dtype(dtype)
         h.update(f"{target.str}{array.shape}".encode())
         if not array.size:
-            h.update(b"")
             continue
         if target == array.dtype:
             # The buffer itself (the bytes tobytes() would copy first).
