@@ -101,4 +101,7 @@ def rig_reuse(corpus_root):
 
 
 if __name__ == "__main__":
-    main()
+    try:
+        main()
+    except ValueError as exc:  # bad arguments (e.g. --speakers 2): the message, not a traceback
+        sys.exit(f"bench_build: {exc}")

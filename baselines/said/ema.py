@@ -34,14 +34,14 @@ class EMA:
         self.model.requires_grad_(False)
         self.max_decay = float(max_decay)
         self.steps = 0
+        self._names = [name for name, _ in self.model.named_parameters() if not name.startswith("encoder.")]
+        shadows = dict(self.model.named_parameters())
+        self._shadows = [shadows[name] for name in self._names]
 
     @torch.no_grad()
     def update(self, model: nn.Module) -> None:
-        """Move the shadow weights towards ``model``'s by one EMA step."""
+        """Move the shadow weights towards ``model``'s by one EMA step (one fused lerp over all of them)."""
         decay = ema_decay_at(self.steps, self.max_decay)
         live = dict(model.named_parameters())
-        for name, shadow in self.model.named_parameters():
-            if name.startswith("encoder."):
-                continue
-            shadow.lerp_(live[name].detach(), 1.0 - decay)
+        torch._foreach_lerp_(self._shadows, [live[name].detach() for name in self._names], 1.0 - decay)
         self.steps += 1

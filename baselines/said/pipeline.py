@@ -20,6 +20,7 @@ from baselines.said.normalization import (
 from baselines.said.parametrization import noise_from_output
 from baselines.said.presets import resolve_config
 from baselines.said.sample import padded_batch, sample_diffusion, utterance_noise
+from baselines.said.samplers import SAMPLERS
 from baselines.said.schedule import alphas_cumprod_schedule, alphas_of
 from baselines.said.threads import torch_threads
 
@@ -30,6 +31,22 @@ SAMPLE_RATE = 16000
 def frames_for_audio(num_samples: int, fps: int = FPS, sample_rate: int = SAMPLE_RATE) -> int:
     """Return the number of coefficient frames covering ``num_samples`` audio samples (at least 1)."""
     return max(1, round(num_samples * fps / sample_rate))
+
+
+def check_sampling(sampling: dict, num_train_steps: int) -> None:
+    """ValueError naming the key unless ``sampling`` (a config's sampling section) can drive the samplers."""
+    problems = []
+    if sampling.get("sampler") not in SAMPLERS:
+        problems.append(f"sampler in {SAMPLERS}, got {sampling.get('sampler')!r}")
+    steps = sampling.get("num_steps")
+    if isinstance(steps, bool) or not isinstance(steps, int) or not 1 <= steps <= num_train_steps:
+        problems.append(f"num_steps an integer in [1, {num_train_steps}], got {steps!r}")
+    for key in ("guidance", "eta"):
+        value = sampling.get(key)
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not value >= 0:
+            problems.append(f"{key} a number >= 0, got {value!r}")
+    if problems:
+        raise ValueError("SAiD sampling: expected " + "; ".join(problems))
 
 
 class SAiD:

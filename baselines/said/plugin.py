@@ -6,13 +6,14 @@ Only this module imports the benchmark.
 
 from __future__ import annotations
 
+import copy
 from pathlib import Path
 
 import numpy as np
 import torch
 
 from baselines.said.official_pipeline import OfficialSAiD
-from baselines.said.pipeline import SAiD
+from baselines.said.pipeline import SAiD, check_sampling
 from baselines.said.train import train_said
 from benchmark.methods.base import Budget, Method
 
@@ -60,6 +61,8 @@ class SAiDMethod(Method):
 
     name = "said"
     stochastic = True
+    #: sampling keys a trained checkpoint can be scored with (``--checkpoint DIR --config guidance=2``)
+    sampling_options = ("sampler", "num_steps", "guidance", "eta")
 
     def __init__(self, preset: str = "cpu-demo", resolved: dict | None = None, **overrides):
         super().__init__(preset=preset, **overrides)
@@ -97,6 +100,21 @@ class SAiDMethod(Method):
         """``(S, T_i, 32)`` tracks for several utterances, batched into one chain (``benchmark.run --sentence-batch N``)."""
         pairs = [(utterance.audio, utterance.num_frames) for utterance in utterances]
         return self.said.generate_many(pairs, samples=int(samples), seeds=[int(seed) for seed in seeds])
+
+    def with_sampling_options(self, **options) -> SAiDMethod:
+        """The same trained network sampling with another ``sampler``, ``num_steps``, ``guidance`` or ``eta``."""
+        self.check_sampling_options(options)
+        if isinstance(self.said, OfficialSAiD):
+            raise ValueError("SAiDMethod: the authors' weights sample with their inference settings; "
+                             "set the DDIM steps with --config official_steps=N")
+        config = copy.deepcopy(self.said.config)
+        config["sampling"].update(options)
+        check_sampling(config["sampling"], config["diffusion"]["num_train_steps"])
+        twin = copy.copy(self)
+        twin._config = {**self._config, **options}
+        twin.said = SAiD(config, self.said.names, model=self.said.model)
+        twin.said.history = self.said.history
+        return twin
 
     def save(self, directory) -> None:
         """Write the config and the checkpoint ``said.pt`` into ``directory`` (not for published weights)."""

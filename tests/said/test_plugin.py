@@ -81,3 +81,33 @@ def test_plugin_rejects_unknown_option():
 
     with pytest.raises(ValueError, match="unknown key"):
         SAiDMethod(widht=3)
+
+
+def test_a_trained_checkpoint_samples_with_other_sampling_options(tmp_path):
+    from baselines.said.plugin import SAiDMethod
+    from benchmark.methods import Utterance
+    from benchmark.methods.base import Budget
+    from benchmark.run import prepared_method
+
+    method = SAiDMethod(**TINY)
+    method.train(FakeDataset(), seed=0, budget=Budget(max_steps=2))
+    method.save(tmp_path)
+    audio = np.random.default_rng(1).standard_normal(16000).astype(np.float32) * 0.1
+    utterance = Utterance(subject="s3", sentence="sentence01", split="test", audio=audio, num_frames=61)
+
+    # through the runner, as `benchmark.run --checkpoint DIR --config guidance=2 --config num_steps=5`
+    loaded, _ = prepared_method("said", {**TINY, "guidance": 2.0, "num_steps": 5}, FakeDataset(), seed=0,
+                                budget=Budget(max_steps=2), checkpoint=tmp_path)
+    assert loaded.said.model is not method.said.model  # loaded from the directory
+    assert loaded.config()["guidance"] == 2.0 and loaded.config()["resolved"]["sampling"]["num_steps"] == 5
+    expected = method.said.generate(audio, 61, samples=2, seed=4, guidance=2.0, num_steps=5)
+    np.testing.assert_array_equal(loaded.generate(utterance, samples=2, seed=4), expected)
+
+    ddpm = method.with_sampling_options(sampler="ddpm", eta=0.5)
+    assert ddpm.said.model is method.said.model and method.said.config["sampling"]["sampler"] == "ddim"
+    np.testing.assert_array_equal(ddpm.generate(utterance, samples=1, seed=4),
+                                  method.said.generate(audio, 61, samples=1, seed=4, sampler="ddpm", eta=0.5))
+    with pytest.raises(ValueError, match=r"num_steps an integer in \[1, 1000\], got 0"):
+        method.with_sampling_options(num_steps=0)
+    with pytest.raises(ValueError, match=r"\['lr'\] are not sampling options"):
+        method.with_sampling_options(lr=1.0)
