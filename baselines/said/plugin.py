@@ -112,7 +112,7 @@ class SAiDMethod(Method):
         check_sampling(config["sampling"], config["diffusion"]["num_train_steps"])
         twin = copy.copy(self)
         twin._config = {**self._config, **options}
-        twin.said = SAiD(config, self.said.names, model=self.said.model)
+        twin.said = SAiD(config, self.said.names, model=self.said.model).to(self.said.device)
         twin.said.history = self.said.history
         return twin
 

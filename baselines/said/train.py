@@ -146,7 +146,7 @@ def train_said(
     model = said.model
     params = model.trainable_parameters()
     # fused: one kernel over all parameters instead of several small ops per parameter
-    fused = all(p.device.type in ("cpu", "cuda") and p.dtype.is_floating_point for p in params) or None
+    fused = all(p.device.type in ("cpu", "cuda") for p in params) or None
     opt = torch.optim.AdamW(params, lr=cfg["lr"], betas=tuple(cfg["betas"]), weight_decay=cfg["weight_decay"], fused=fused)
     warmup = max(1, int(cfg["warmup_steps"]))
     sched = torch.optim.lr_scheduler.LambdaLR(opt, lambda step: min(1.0, (step + 1) / warmup))
