@@ -31,7 +31,7 @@ from benchmark.methods import (
     validated_tracks,
     validated_vertices,
 )
-from benchmark.methods.base import CONFIG_FILE
+from benchmark.methods.base import CONFIG_FILE, progress_bars
 from benchmark.methods.contract import COEFFICIENT_NAMES
 from benchmark.results import build_result, result_filename, write_result
 from benchmark.runs import TrackWriter, tracks_folder_name
@@ -569,7 +569,9 @@ def run_method(
     except MethodError as exc:
         raise UsageError(f"--config: {exc}") from None
 
-    method, timings = prepared_method(method_name, config, dataset, seed=seed, budget=budget, checkpoint=checkpoint)
+    with progress_bars(progress):
+        method, timings = prepared_method(method_name, config, dataset, seed=seed, budget=budget,
+                                          checkpoint=checkpoint)
     stochastic = bool(getattr(method, "stochastic", False))
     kind = getattr(method, "output", OUTPUT_COEFFICIENTS)
     label = getattr(method, "label", None) or method_name
@@ -580,9 +582,11 @@ def run_method(
     store = TrackWriter(Path(results_dir) / tracks_folder_name(filename), names)
     try:
         start = time.perf_counter()
-        generated, n_clipped = generated_tracks(method, dataset, split=split, samples=samples, seed=seed, clip=clip,
-                                                name=method_name, progress=progress, store=store,
-                                                time_limit=generate_time_limit, sentence_batch=int(sentence_batch))
+        with progress_bars(progress):
+            generated, n_clipped = generated_tracks(method, dataset, split=split, samples=samples, seed=seed,
+                                                    clip=clip, name=method_name, progress=progress, store=store,
+                                                    time_limit=generate_time_limit,
+                                                    sentence_batch=int(sentence_batch))
         timings["generate_s"] = time.perf_counter() - start
         start = time.perf_counter()
         if kind == OUTPUT_VERTICES:

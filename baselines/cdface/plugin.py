@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmark.methods.base import Budget, Method
+from benchmark.methods.base import Budget, Method, show_progress
 from benchmark.methods.contract import OUTPUT_VERTICES
 
 CHECKPOINT_FILE = "cdface.pt"
@@ -101,7 +101,8 @@ class CDFaceMethod(Method):
         sentences = prepare_sentences(self.cdface, loaded, epsilon=self.resolved["loss"]["epsilon"],
                                       lip_pair=lip_pair_for(dataset.template(train[0]), dataset_lips(dataset, train)))
         del loaded
-        train_cdface(self.cdface, sentences, seed=seed, max_steps=budget.max_steps, max_seconds=budget.max_seconds)
+        train_cdface(self.cdface, sentences, seed=seed, max_steps=budget.max_steps, max_seconds=budget.max_seconds,
+                     progress=show_progress())
 
     def generate(self, utterance, *, samples=1, seed=0):
         """``(S, T, 5023, 3)`` vertices in metres on the speaker's template."""

@@ -11,6 +11,7 @@ import numpy as np
 import torch
 
 from baselines.codetalker.presets import resolve_config
+from benchmark.methods import show_progress
 from baselines.faceformer.plugin import load_pretrained_wav2vec2, official_style_names
 from baselines.faceformer.vertex_method import StyleVertexMethod, training_limits
 
@@ -99,10 +100,12 @@ class CodeTalkerMethod(StyleVertexMethod):
         vq = self.network.autoencoder
         for p in vq.parameters():
             p.requires_grad_(True)
-        h1 = train_stage1(vq, train, val, training=t, seed=seed, max_steps=s1, max_seconds=t1)
+        h1 = train_stage1(vq, train, val, training=t, seed=seed, max_steps=s1, max_seconds=t1,
+                          progress=show_progress())
         for p in vq.parameters():
             p.requires_grad_(False)
-        h2 = train_stage2(self.network, train, val, self.subjects, training=t, seed=seed + 1, max_steps=s2, max_seconds=t2)
+        h2 = train_stage2(self.network, train, val, self.subjects, training=t, seed=seed + 1, max_steps=s2,
+                          max_seconds=t2, progress=show_progress())
         return {"stage1": h1, "stage2": h2, "steps": h1["steps"] + h2["steps"], "seconds": h1["seconds"] + h2["seconds"]}
 
     def network_state(self) -> dict:

@@ -11,6 +11,7 @@ import numpy as np
 import torch
 
 from baselines.faceformer.presets import VOCASET_TRAIN_SUBJECTS, resolve_config
+from benchmark.methods import show_progress
 from baselines.faceformer.vertex_method import StyleVertexMethod, training_limits
 
 __all__ = ["FaceFormerMethod", "load_pretrained_wav2vec2", "official_style_names"]
@@ -90,7 +91,7 @@ class FaceFormerMethod(StyleVertexMethod):
         t = self.settings["training"]
         steps, seconds = training_limits(budget, t["max_steps"], t["max_seconds"])
         return train_faceformer(self.network, train, val, self.subjects, training=t, seed=seed,
-                                max_steps=steps, max_seconds=seconds)
+                                max_steps=steps, max_seconds=seconds, progress=show_progress())
 
     def network_state(self) -> dict:
         return {"state_dict": self.network.state_dict(), "model_config": self.network.config,

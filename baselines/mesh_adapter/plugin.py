@@ -5,6 +5,7 @@ from __future__ import annotations
 import sys
 
 from baselines.reference.lookup import TrackLookupMethod
+from benchmark.methods import show_progress
 
 from .adapt import adapted_coefficients, resolve_vertex_subset
 from .config import adapter_config, read_adapter_config
@@ -83,7 +84,8 @@ class MeshAdapterMethod(TrackLookupMethod):
         try:
             from tqdm import tqdm
 
-            iterator = tqdm(items, desc=f"mesh-adapter ({self.adapter.name}): fit", unit="sentence", file=sys.stderr)
+            iterator = tqdm(items, desc=f"mesh-adapter ({self.adapter.name}): fit", unit="sentence", file=sys.stderr,
+                            disable=not show_progress())
         except ImportError:
             iterator = items
         tracks, poses = {}, {}

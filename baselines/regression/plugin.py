@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmark.methods.base import Budget, Method
+from benchmark.methods.base import Budget, Method, show_progress
 
 from .features import motion_rate_features
 
@@ -84,7 +84,7 @@ class RegressionMethod(Method):
         self.model, self.history = trained_regressor(
             norm(feats), targets, val_features=norm(val_feats), val_targets=val_targets, seed=seed, budget=budget,
             default_steps=cfg["steps"], batch=cfg["batch"], window=cfg["window"], lr=cfg["lr"],
-            model_kwargs={"channels": cfg["channels"], "hidden": cfg["hidden"]},
+            model_kwargs={"channels": cfg["channels"], "hidden": cfg["hidden"]}, progress=show_progress(),
         )
 
     def generate(self, utterance, *, samples=1, seed=0):

@@ -15,7 +15,7 @@ import torch
 from baselines.said.official_pipeline import OfficialSAiD
 from baselines.said.pipeline import SAiD, check_sampling
 from baselines.said.train import train_said
-from benchmark.methods.base import Budget, Method
+from benchmark.methods.base import Budget, Method, show_progress
 
 CHECKPOINT_FILE = "said.pt"
 
@@ -90,6 +90,7 @@ class SAiDMethod(Method):
             max_steps=budget.max_steps,
             max_seconds=budget.max_seconds,
             mirror=mirror_for(names),
+            progress=show_progress(),
         )
 
     def generate(self, utterance, *, samples=1, seed=0):

@@ -4,7 +4,7 @@ Built-in methods are registered lazily here, so importing this package imports n
 baseline (and no torch).
 """
 
-from .base import Budget, Method
+from .base import Budget, Method, progress_bars, show_progress
 from .contract import (
     AUDIO_RATE,
     COEFFICIENT_NAMES,
@@ -44,8 +44,10 @@ __all__ = [
     "UnknownMethodError",
     "available_methods",
     "get_method",
+    "progress_bars",
     "register",
     "register_lazy",
+    "show_progress",
     "unregister",
     "validated_tracks",
     "validated_vertices",

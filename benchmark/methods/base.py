@@ -10,6 +10,8 @@ under a :class:`Budget`, and it can save and reload its trained state.
 from __future__ import annotations
 
 import abc
+import contextlib
+import contextvars
 import json
 import math
 import time
@@ -20,10 +22,33 @@ import numpy as np
 
 from .contract import OUTPUT_COEFFICIENTS, OUTPUT_KINDS
 
-__all__ = ["CONFIG_FILE", "Budget", "Method"]
+__all__ = ["CONFIG_FILE", "Budget", "Method", "progress_bars", "show_progress"]
 
 #: File in which :meth:`Method.save` stores the constructor config.
 CONFIG_FILE = "method_config.json"
+
+_SHOW_PROGRESS = contextvars.ContextVar("blendvoca_show_progress", default=True)
+
+
+def show_progress() -> bool:
+    """Whether a method should draw its own progress bars now.
+
+    True unless the caller is inside ``progress_bars(False)``, which
+    ``benchmark.run --quiet`` enters around training and generation. Plug-ins pass it
+    to their loops (``tqdm(..., disable=not show_progress())``): the contract's
+    ``train`` and ``generate`` take no progress flag.
+    """
+    return _SHOW_PROGRESS.get()
+
+
+@contextlib.contextmanager
+def progress_bars(enabled: bool):
+    """Within the block, :func:`show_progress` returns ``enabled``."""
+    token = _SHOW_PROGRESS.set(bool(enabled))
+    try:
+        yield
+    finally:
+        _SHOW_PROGRESS.reset(token)
 
 
 @dataclass(frozen=True)

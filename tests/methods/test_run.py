@@ -9,6 +9,7 @@ from benchmark.methods import (
     MethodError,
     MethodOutputError,
     register,
+    show_progress,
     unregister,
 )
 from benchmark.run import (
@@ -383,3 +384,34 @@ def test_the_base_method_has_no_sampling_options():
     assert plain.with_sampling_options() is plain
     with pytest.raises(ValueError, match=r"\['speed'\] are not sampling options"):
         plain.with_sampling_options(speed=2)
+
+
+class _Chatty(Method):
+    """Draws its own tqdm bars in train and generate, as the built-in plug-ins do."""
+
+    def train(self, dataset, *, seed, budget):
+        from tqdm.auto import tqdm
+
+        for _ in tqdm(range(3), desc="chatty training", disable=not show_progress()):
+            pass
+
+    def generate(self, utterance, *, samples=1, seed=0):
+        from tqdm import tqdm
+
+        for _ in tqdm(range(2), desc="chatty sampling", disable=not show_progress()):
+            pass
+        return np.full((samples, utterance.num_frames, 32), 0.5)
+
+
+@pytest.mark.parametrize("progress", [False, True])
+def test_quiet_runs_silence_the_plugins_own_bars(progress, dataset, tmp_path, capsys):
+    register("test-chatty")(_Chatty)
+    try:
+        run_method("test-chatty", "unused", samples=1, results_dir=tmp_path / "results", evaluate=fake_evaluate,
+                   open_dataset=lambda root: dataset, progress=progress)
+    finally:
+        unregister("test-chatty")
+    err = capsys.readouterr().err
+    assert ("chatty training" in err and "chatty sampling" in err) is progress
+    assert ("chatty" in err) is progress
+    assert show_progress()  # the runner's setting ends with the run
