@@ -11,9 +11,9 @@ import numpy as np
 import torch
 
 from baselines.codetalker.presets import resolve_config
-from benchmark.methods import show_progress
 from baselines.faceformer.plugin import load_pretrained_wav2vec2, official_style_names
 from baselines.faceformer.vertex_method import StyleVertexMethod, training_limits
+from benchmark.methods import show_progress
 
 __all__ = ["CodeTalkerMethod"]
 

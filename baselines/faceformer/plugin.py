@@ -11,8 +11,8 @@ import numpy as np
 import torch
 
 from baselines.faceformer.presets import VOCASET_TRAIN_SUBJECTS, resolve_config
-from benchmark.methods import show_progress
 from baselines.faceformer.vertex_method import StyleVertexMethod, training_limits
+from benchmark.methods import show_progress
 
 __all__ = ["FaceFormerMethod", "load_pretrained_wav2vec2", "official_style_names"]
 
