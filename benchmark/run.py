@@ -343,7 +343,7 @@ def generated_tracks(method, dataset, *, split: str = "test", samples: int = 1, 
         where = where_of(group)
         limit = None if time_limit is None else time_limit * len(group)
         try:
-            with _TimeLimit(limit, f"{where}: generate"):
+            with _TimeLimit(limit, f"{where}: generate"), progress_bars(progress):
                 many = getattr(method, "generate_many", None) if sentence_batch > 1 else None
                 if many is None:  # one sentence per call, or a method without generate_many
                     outputs = [method.generate(u, samples=num_samples, seed=s) for u, s in zip(utterances, seeds)]
@@ -582,11 +582,9 @@ def run_method(
     store = TrackWriter(Path(results_dir) / tracks_folder_name(filename), names)
     try:
         start = time.perf_counter()
-        with progress_bars(progress):
-            generated, n_clipped = generated_tracks(method, dataset, split=split, samples=samples, seed=seed,
-                                                    clip=clip, name=method_name, progress=progress, store=store,
-                                                    time_limit=generate_time_limit,
-                                                    sentence_batch=int(sentence_batch))
+        generated, n_clipped = generated_tracks(method, dataset, split=split, samples=samples, seed=seed, clip=clip,
+                                                name=method_name, progress=progress, store=store,
+                                                time_limit=generate_time_limit, sentence_batch=int(sentence_batch))
         timings["generate_s"] = time.perf_counter() - start
         start = time.perf_counter()
         if kind == OUTPUT_VERTICES:
