@@ -81,6 +81,10 @@ class SAiDMethod(Method):
         names = tuple(dataset.names)
         if names != self.said.names:
             raise ValueError(f"SAiDMethod.train: expected dataset columns {self.said.names}, got {names}")
+        # the initial weights from the seed too (the constructor drew them from the global RNG):
+        # a step budget then gives the same model in every process
+        torch.manual_seed(int(seed))
+        self.said = SAiD(self.said.config, self.said.names).to(self.said.device)
         val = dataset_pairs(dataset, "val") if dataset.split("val") else None
         train_said(
             self.said,

@@ -59,6 +59,25 @@ def test_plugin_train_generate_save_load(tmp_path):
     np.testing.assert_array_equal(back.generate(utterance, samples=2, seed=5), out)
 
 
+def test_a_step_budget_trains_the_same_weights_whatever_the_global_rng():
+    """The seed fixes the initial weights as well: two processes (here: two global RNG
+    states at construction) train bit-identical networks on a step budget."""
+    import torch
+
+    from baselines.said.plugin import SAiDMethod
+    from benchmark.methods.base import Budget
+
+    states = []
+    for global_seed in (1, 2):
+        torch.manual_seed(global_seed)
+        method = SAiDMethod(**TINY)
+        method.train(FakeDataset(), seed=3, budget=Budget(max_steps=3))
+        states.append(method.said.model.state_dict())
+    assert states[0].keys() == states[1].keys()
+    for key in states[0]:
+        torch.testing.assert_close(states[0][key], states[1][key], rtol=0, atol=0, msg=key)
+
+
 def test_plugin_batches_sentences_through_the_runner():
     from baselines.said.plugin import SAiDMethod
     from benchmark.methods.base import Budget
