@@ -6,7 +6,9 @@ Schema (``schema_version`` 1)::
       "schema_version": 1,
       "method":   {"name", "label", "class", "stochastic", "reference", "config"},
       "dataset":  {"manifest_hash", "path", "split", "num_sentences", "num_subjects"},
-      "protocol": {"samples", "seed", "budget", "clip", "n_clipped"},
+      "protocol": {"samples", "seed", "budget", "clip", "n_clipped", "deterministic",
+                   "generate_time_limit", "checkpoint", "checkpoint_sha256"?,
+                   "sentence_batch"?, "lipsync_models"?: {model: {"path", "sha256", ...}}},
       "metrics":  {metric: {"mean", "std", "ci95", "n", "higher_is_better", "unit", "label", "group"}},
       "per_sentence": [{"subject", "sentence", metric: value, ...}],
       "tracks":   "<run>"   (stored tracks folder, relative to the JSON; benchmark.runs)

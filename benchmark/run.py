@@ -604,6 +604,8 @@ def run_method(
         store.discard()
         raise MethodError(f"method {method_name!r}: config() must return a JSON-serialisable dict ({exc})") from exc
     cls = type(method)
+    from blendvoca.build.hashing import content_digest
+
     result = build_result(
         method={
             "name": method_name,
@@ -628,6 +630,7 @@ def run_method(
             "clip": bool(clip),
             "n_clipped": int(n_clipped),
             "checkpoint": None if checkpoint is None else str(checkpoint),
+            **({"checkpoint_sha256": content_digest(checkpoint)} if checkpoint is not None and Path(checkpoint).exists() else {}),
             "deterministic": budget.max_seconds is None,
             "generate_time_limit": generate_time_limit,
             **({"sentence_batch": int(sentence_batch)} if sentence_batch > 1 else {}),
@@ -646,15 +649,20 @@ def run_method(
 def lipsync_models_provenance(syncnet=None, sync_expert=None) -> dict:
     """What a result records of the lip-sync models it was scored with: the files and,
     for the learned expert, the data it was trained on."""
+    from blendvoca.build.hashing import content_digest
+
     out = {}
     if syncnet is not None:
-        out["syncnet"] = {"path": str(Path(syncnet).resolve()) if isinstance(syncnet, (str, os.PathLike)) else None}
+        path = syncnet if isinstance(syncnet, (str, os.PathLike)) else None
+        out["syncnet"] = {"path": None if path is None else str(Path(path).resolve()),
+                          **({"sha256": content_digest(path)} if path is not None else {})}
     if sync_expert is not None:
         from benchmark.lipsync.expert import load_expert
 
         path = sync_expert if isinstance(sync_expert, (str, os.PathLike)) else None
         expert = load_expert(path) if path is not None else sync_expert
         out["sync_expert"] = {"path": None if path is None else str(Path(path).resolve()),
+                              **({"sha256": content_digest(path)} if path is not None else {}),
                               "trained_on": dict(getattr(expert, "trained_on", {}) or {})}
     return out
 

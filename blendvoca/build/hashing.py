@@ -46,6 +46,21 @@ def file_digest(path, chunk: int = 1 << 20) -> str:
     return h.hexdigest()
 
 
+def content_digest(path) -> str:
+    """sha256 of a file's bytes, or of a folder's files: each file's relative path
+    (``/``-separated) and :func:`file_digest`, in sorted order (names and contents
+    decide it, not timestamps)."""
+    path = Path(path)
+    if path.is_file():
+        return file_digest(path)
+    if not path.is_dir():
+        raise FileNotFoundError(f"content_digest: expected a file or a folder at {path}, found neither")
+    h = hashlib.sha256()
+    for rel in sorted(p.relative_to(path).as_posix() for p in path.rglob("*") if p.is_file()):
+        h.update(f"{rel}\0{file_digest(path / rel)}\n".encode("utf-8"))
+    return h.hexdigest()
+
+
 def stage_key(record: dict) -> str:
     """sha256 of a JSON-serialisable description of a stage's inputs and parameters."""
     text = json.dumps(record, sort_keys=True, separators=(",", ":"))

@@ -23,6 +23,9 @@ def test_run_scores_syncnet_with_weights_in_the_authors_format(built_dataset, tm
         entry = result["metrics"][name]
         assert entry["n"] == len(result["per_sentence"]) and entry["ci95"][0] <= entry["mean"] <= entry["ci95"][1]
     assert result["protocol"]["lipsync_models"]["syncnet"]["path"] == str(weights.resolve())
+    import hashlib
+
+    assert result["protocol"]["lipsync_models"]["syncnet"]["sha256"] == hashlib.sha256(weights.read_bytes()).hexdigest()
 
 
 def test_missing_syncnet_weights_is_one_error_line(tmp_path, capsys):

@@ -203,6 +203,10 @@ def test_checkpoint_train_then_load(dataset, tmp_path):
     r2 = json.loads(p2.read_text())
     assert r1["timings"]["load_s"] is None and r2["timings"]["train_s"] is None
     assert r1["metrics"] == r2["metrics"]
+    # the checkpoint is named by its content too: the digest of the folder's files
+    from blendvoca.build.hashing import content_digest
+
+    assert r1["protocol"]["checkpoint_sha256"] == r2["protocol"]["checkpoint_sha256"] == content_digest(ckpt)
     with pytest.raises(MethodError, match="holds method 'mean', not 'static'"):
         _run("static", dataset, tmp_path, checkpoint=ckpt)
 
