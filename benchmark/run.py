@@ -702,7 +702,7 @@ def _parser() -> argparse.ArgumentParser:
                    help="method config entry (repeatable; VALUE parsed as JSON when possible)")
     p.add_argument("--split", default="test")
     p.add_argument("--checkpoint", default=None, help="load the trained method from here, or train and save here; "
-                        "a file: the authors' released weights (faceformer, codetalker)")
+                        "a file: the authors' released weights (faceformer, codetalker, said)")
     p.add_argument("--clip", action="store_true", help="clip out-of-range coefficients instead of failing")
     p.add_argument("--generate-time-limit", type=float, default=None, metavar="SECONDS",
                    help="stop the run when one generate call takes longer")

@@ -23,6 +23,7 @@ from __future__ import annotations
 import os
 import re
 import shutil
+import socket
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -115,8 +116,26 @@ class StoredVertices(Mapping):
         return len(self._keys())
 
 
+def _process_tag(pid: int) -> str:
+    """``<host>-<pid>``: names a staging folder by its process (dots of the host name kept)."""
+    return f"{socket.gethostname() or 'host'}-{pid}"
+
+
+def _process_alive(pid: int) -> bool:
+    """Whether a process of this id runs on this host (True where that cannot be told)."""
+    if os.name != "posix":
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # someone else's process
+        return True
+    return True
+
+
 class TrackWriter:
-    """Writes a run's tracks folder; files land in ``.<final>.<pid>.partial`` until :meth:`commit`.
+    """Writes a run's tracks folder; files land in ``.<final>.<host>-<pid>.partial`` until :meth:`commit`.
 
     Parameters
     ----------
@@ -130,11 +149,28 @@ class TrackWriter:
         self.folder = Path(folder)
         self.names = tuple(names)
         # one staging folder per process: two runs of the same setting never share files
-        self.staging = self.folder.with_name(f".{self.folder.name}.{os.getpid()}.partial")
+        self.staging = self.folder.with_name(f".{self.folder.name}.{_process_tag(os.getpid())}.partial")
         if self.staging.exists():  # leftover of an interrupted run of this process id
             shutil.rmtree(self.staging)
+        self._remove_dead_stagings()
         self.staging.mkdir(parents=True)
         self._templates = set()
+
+    def _remove_dead_stagings(self) -> None:
+        """Remove this run's staging folders left by killed processes of this host
+        (a kill -9 skips :meth:`discard`); those of live processes, or of another
+        host sharing the folder, stay."""
+        host = _process_tag(0).rsplit("-", 1)[0]
+        prefix, suffix = f".{self.folder.name}.{host}-", ".partial"
+        if not self.folder.parent.is_dir():
+            return
+        for path in self.folder.parent.iterdir():
+            name = path.name
+            if not (name.startswith(prefix) and name.endswith(suffix) and path.is_dir()):
+                continue
+            pid = name[len(prefix):-len(suffix)]
+            if pid.isdigit() and not _process_alive(int(pid)):
+                shutil.rmtree(path, ignore_errors=True)
 
     def write_tracks(self, subject: str, sentence: str, tracks) -> list[Path]:
         """One CSV per sample of ``tracks`` (S, T, K); returns the final paths."""

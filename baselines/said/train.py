@@ -236,6 +236,7 @@ def main(argv=None) -> None:
 
     dataset = open_blendvoca(args.data)
     overrides = {"wav2vec2_path": args.wav2vec2_path} if args.wav2vec2_path else {}
+    torch.manual_seed(args.seed)  # the initial weights follow --seed too
     said = SAiD.from_preset(tuple(dataset.names), args.preset, **overrides)
     history = train_said(
         said, dataset_pairs(dataset, "train"), dataset_pairs(dataset, "val"),

@@ -56,6 +56,31 @@ def test_rerun_replaces_its_own_tracks_and_a_failed_run_leaves_nothing(tmp_path)
     assert len(StoredVertices(tmp_path / "missing")) == 0
 
 
+def test_a_killed_runs_staging_is_removed_by_the_next_writer_not_a_live_ones(tmp_path):
+    import subprocess
+    import sys
+
+    from benchmark.runs import _process_tag
+
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True,
+                          text=True, check=True)
+    dead_pid = int(dead.stdout)
+    live = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+    try:
+        killed = tmp_path / f".run.{_process_tag(dead_pid)}.partial"
+        running = tmp_path / f".run.{_process_tag(live.pid)}.partial"
+        elsewhere = tmp_path / f".run.other-host.example-{dead_pid}.partial"
+        other_run = tmp_path / f".other.{_process_tag(dead_pid)}.partial"
+        for folder in (killed, running, elsewhere, other_run):
+            (folder / "S1").mkdir(parents=True)
+        writer = TrackWriter(tmp_path / "run", BLENDVOCA_NAMES)
+        assert not killed.exists()
+        assert running.is_dir() and elsewhere.is_dir() and other_run.is_dir() and writer.staging.is_dir()
+    finally:
+        live.kill()
+        live.wait()
+
+
 def test_read_run_explains_missing_tracks(tmp_path):
     result = build_result(method={"name": "m", "config": {}}, dataset={"manifest_hash": "h"},
                           protocol={"samples": 1, "seed": 0}, metrics={"x": {"mean": 1.0, "higher_is_better": False}},

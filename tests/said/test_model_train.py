@@ -140,3 +140,19 @@ def test_a_step_budget_alone_ignores_the_presets_time_cap():
     said = SAiD.from_preset(NAMES, **TINY)
     said.config["training"]["max_seconds"] = 0.0
     assert train_said(said, toy_pairs(3, 2), seed=1, progress=False)["steps"] == 0  # no budget: the preset's cap
+
+
+@pytest.mark.slow
+def test_train_cli_seed_fixes_the_initial_weights_too(built_dataset, tmp_path):
+    """``python -m baselines.said.train --max-steps N --seed S`` writes the same network
+    whatever state the global RNG was in before."""
+    from baselines.said.train import main
+
+    states = []
+    for global_seed in (1, 2):
+        torch.manual_seed(global_seed)
+        out = tmp_path / f"said-{global_seed}.pt"
+        main(["--data", str(built_dataset), "--out", str(out), "--max-steps", "2", "--seed", "4"])
+        states.append(SAiD.load(out).model.state_dict())
+    for key in states[0]:
+        torch.testing.assert_close(states[0][key], states[1][key], rtol=0, atol=0, msg=key)
