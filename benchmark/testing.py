@@ -16,6 +16,7 @@ compares, and raises :class:`MethodCheckError` naming the step that failed.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import tempfile
 import traceback
@@ -199,6 +200,28 @@ def _same(a: dict, b: dict, *, atol: float) -> str | None:
     return None
 
 
+@contextlib.contextmanager
+def _other_global_random_state(seed: int):
+    """Seed Python's, NumPy's and (when imported) torch's global generators with ``seed``
+    for the block, and give them back their state after it."""
+    import random
+    import sys
+
+    torch = sys.modules.get("torch")
+    saved = (random.getstate(), np.random.get_state(), None if torch is None else torch.random.get_rng_state())
+    random.seed(seed)
+    np.random.seed(seed)
+    if torch is not None:
+        torch.manual_seed(seed)
+    try:
+        yield
+    finally:
+        random.setstate(saved[0])
+        np.random.set_state(saved[1])
+        if torch is not None:
+            torch.random.set_rng_state(saved[2])
+
+
 def check_method(cls, *, max_steps: int = 5, samples: int = 2, seed: int = 0, dataset=None, **config) -> CheckReport:
     """Check a method plug-in against the contract (docs/methods.md); raise :class:`MethodCheckError` if it breaks it.
 
@@ -265,6 +288,20 @@ def check_method(cls, *, max_steps: int = 5, samples: int = 2, seed: int = 0, da
     if problem:
         _fail("same seed, same output", cls, f"two generate calls with the same seed differ ({problem}); "
                                             "draw every random number from the seed argument")
+    # a second process: another global random state, the same seed and step budget
+    with _other_global_random_state(seed + 7919):
+        try:
+            twin = cls(**config)
+            twin.train(dataset, seed=seed, budget=Budget(max_steps=max_steps))
+        except Exception as exc:
+            _fail("same seed, same training", cls, "constructing and training a second instance raised", exc)
+    twin_tracks, twin_vertices = _generate_all(twin, dataset, num_samples, seed)
+    problem = _same(tracks, twin_tracks, atol=1e-6) or _same(vertices, twin_vertices, atol=1e-7)
+    if problem:
+        _fail("same seed, same training", cls,
+              f"two trainings with seed={seed} and the same step budget generate differently ({problem}); draw the "
+              "initial weights, batches and noise from the seed argument (e.g. torch.manual_seed(seed) before "
+              "building the network), not from the global random state")
     with tempfile.TemporaryDirectory(prefix="check_method-") as tmp:
         try:
             method.save(Path(tmp))

@@ -119,8 +119,8 @@ class StyleVertexMethod(Method):
             raise ValueError(f"{type(self).__name__}.train: the dataset has no training speakers")
         train = motion_sequences(dataset, "train")
         val = motion_sequences(dataset, "val") if dataset.split("val") else []
+        torch.manual_seed(int(seed))  # the initial weights too: a step budget then trains the same network in every process
         self.build_network(len(self.subjects), int(train[0].template.size))
-        torch.manual_seed(int(seed))
         self.history = self.fit(train, val, seed=int(seed), budget=budget)
 
     def style_index(self, subject: str) -> int:

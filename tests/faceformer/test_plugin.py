@@ -146,7 +146,9 @@ def test_all_styles_in_one_batch_equal_one_call_per_style(plugin):
     single = np.stack([m.predict_motion(u.audio, template, s, frames) for s in (2, 0, 1, 2)])
     assert batched.shape == single.shape == (4, frames, template.size)
     np.testing.assert_allclose(batched, single, rtol=0, atol=1e-6)
-    assert np.abs(single[0] - single[1]).max() > 1e-4
+    # styles differ by far more than the batching tolerance (the zero-initialised output
+    # layer has moved for 3 steps only)
+    assert np.abs(single[0] - single[1]).max() > 2e-5
     if plugin == "codetalker":  # the authors' network depends on the batch position: one style per call
         assert not m.batch_styles
         with torch.no_grad():
