@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from blendvoca.export.align import AlignedTrack, align_track
+from blendvoca.io.atomic import permissions_for
 
 SUFFIXES = (".usda", ".usdc", ".usd")
 
@@ -59,6 +60,7 @@ def write_usd(path, rig, coeffs, names: Sequence[str], fps: float = 60.0, audio=
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=path.suffix)
     os.close(fd)
+    os.chmod(tmp, permissions_for(path))
     try:
         stage = Usd.Stage.CreateInMemory()
         UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)

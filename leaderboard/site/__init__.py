@@ -15,9 +15,12 @@ See docs/site.md.
 
 from __future__ import annotations
 
+import os
 import shutil
 import tempfile
 from pathlib import Path
+
+from blendvoca.io.atomic import permissions_for
 
 from .data import load_site_runs, with_dataset, write_site_data
 from .vendor import copy_vendor_files
@@ -71,6 +74,7 @@ def build_site(results_dir, out, *, data=None, max_samples: int = 3, node_module
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".tmp", dir=out.parent))
     try:
+        os.chmod(tmp, permissions_for(out, directory=True))  # a site a web server can read
         copy_vendor_files(tmp, node_modules)
         for page in sorted(_STATIC.iterdir()):
             if page.is_file():
