@@ -60,7 +60,6 @@ def write_usd(path, rig, coeffs, names: Sequence[str], fps: float = 60.0, audio=
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=path.suffix)
     os.close(fd)
-    os.chmod(tmp, permissions_for(path))
     try:
         stage = Usd.Stage.CreateInMemory()
         UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
@@ -114,6 +113,7 @@ def write_usd(path, rig, coeffs, names: Sequence[str], fps: float = 60.0, audio=
             sound.CreateAuralModeAttr(UsdMedia.Tokens.nonSpatial)
             sound.CreateStartTimeAttr(Sdf.TimeCode(0))
         stage.GetRootLayer().Export(tmp, args={"format": "usda" if path.suffix.lower() == ".usda" else "usdc"})
+        os.chmod(tmp, permissions_for(path))  # after writing: the replaced file may be read-only
         os.replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):
