@@ -74,7 +74,6 @@ def build_site(results_dir, out, *, data=None, max_samples: int = 3, node_module
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".tmp", dir=out.parent))
     try:
-        os.chmod(tmp, permissions_for(out, directory=True))  # a site a web server can read
         copy_vendor_files(tmp, node_modules)
         for page in sorted(_STATIC.iterdir()):
             if page.is_file():
@@ -83,6 +82,7 @@ def build_site(results_dir, out, *, data=None, max_samples: int = 3, node_module
                 shutil.copyfile(page, target)
         write_site_data(runs, tmp / "data", max_samples=max_samples, progress=progress)
         (tmp / SITE_MARKER).write_text("written by python -m leaderboard.site\n")
+        os.chmod(tmp, permissions_for(out, directory=True))  # not mkdtemp's 0700: a web server reads it
         if out.exists():
             old = out.with_name(f".{out.name}.old.tmp")
             out.rename(old)
