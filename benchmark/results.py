@@ -39,6 +39,7 @@ __all__ = [
     "SCHEMA_VERSION",
     "build_result",
     "check_result",
+    "current_provenance",
     "git_revision",
     "hardware_info",
     "package_versions",
@@ -76,15 +77,22 @@ def package_versions(packages=VERSIONED_PACKAGES) -> dict:
     return dict(sorted(versions.items()))
 
 
+#: Folders of the checkout that hold outputs (the committed results and tables), not code:
+#: changes there do not make a run's code dirty (rows of one reproduce run are written in turn).
+OUTPUT_FOLDERS = ("leaderboard/results", "leaderboard/tables")
+
+
 def git_revision(directory=None) -> dict:
-    """``{"revision": sha or None, "dirty": bool or None}`` of the git checkout at ``directory``."""
+    """``{"revision": sha or None, "dirty": bool or None}`` of the git checkout at ``directory``;
+    ``dirty``: uncommitted changes outside :data:`OUTPUT_FOLDERS`."""
     directory = Path(directory) if directory is not None else Path(__file__).resolve().parent
     try:
         sha = subprocess.run(["git", "rev-parse", "HEAD"], cwd=directory, capture_output=True, text=True,
                              timeout=10, check=False)
         if sha.returncode != 0:
             return {"revision": None, "dirty": None}
-        status = subprocess.run(["git", "status", "--porcelain"], cwd=directory,
+        outputs = [f":(top,exclude){folder}" for folder in OUTPUT_FOLDERS]
+        status = subprocess.run(["git", "status", "--porcelain", "--", ":/", *outputs], cwd=directory,
                                 capture_output=True, text=True, timeout=30, check=False)
         return {"revision": sha.stdout.strip(), "dirty": bool(status.stdout.strip())}
     except (OSError, subprocess.SubprocessError):
@@ -150,6 +158,21 @@ def _clean_metrics(metrics) -> dict:
     return out
 
 
+def current_provenance() -> dict:
+    """The date, git revision and state, Python, platform, package versions and hardware now
+    (a run takes it when it starts: the code that runs is the code of that moment)."""
+    git = git_revision()
+    return {
+        "date": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+        "git_revision": git["revision"],
+        "git_dirty": git["dirty"],
+        "python": platform.python_version(),
+        "platform": platform.platform(),
+        "versions": package_versions(),
+        "hardware": hardware_info(),
+    }
+
+
 def build_result(*, method: dict, dataset: dict, protocol: dict, metrics: dict, timings: dict,
                  provenance: dict | None = None, tracks: str | None = None,
                  per_sentence: list | None = None) -> dict:
@@ -181,16 +204,7 @@ def build_result(*, method: dict, dataset: dict, protocol: dict, metrics: dict, 
         JSON-serialisable record that passes :func:`check_result`.
     """
     if provenance is None:
-        git = git_revision()
-        provenance = {
-            "date": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
-            "git_revision": git["revision"],
-            "git_dirty": git["dirty"],
-            "python": platform.python_version(),
-            "platform": platform.platform(),
-            "versions": package_versions(),
-            "hardware": hardware_info(),
-        }
+        provenance = current_provenance()
     result = {
         "schema_version": SCHEMA_VERSION,
         "method": dict(method),

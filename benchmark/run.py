@@ -33,7 +33,7 @@ from benchmark.methods import (
 )
 from benchmark.methods.base import CONFIG_FILE, progress_bars
 from benchmark.methods.contract import COEFFICIENT_NAMES
-from benchmark.results import build_result, result_filename, write_result
+from benchmark.results import build_result, current_provenance, result_filename, write_result
 from benchmark.runs import TrackWriter, tracks_folder_name
 
 __all__ = [
@@ -531,6 +531,7 @@ def run_method(
         raise UsageError(f"--generate-time-limit: expected seconds > 0, got {generate_time_limit!r}")
     if isinstance(sentence_batch, bool) or int(sentence_batch) != sentence_batch or int(sentence_batch) < 1:
         raise UsageError(f"--sentence-batch: expected an integer >= 1, got {sentence_batch!r}")
+    provenance = current_provenance()  # the code as it is when the run starts
     custom_evaluate = evaluate is not None
     if evaluate is None:
         def evaluate(generated, dataset, split="test", **kw):
@@ -641,6 +642,7 @@ def run_method(
         timings=timings,
         tracks=tracks_folder_name(filename),
         per_sentence=_per_sentence_rows(metrics, generated),
+        provenance=provenance,
     )
     store.commit()
     return write_result(result, results_dir, filename)

@@ -28,6 +28,7 @@ import numpy as np
 import yaml
 
 from blendvoca.errors import BlendVOCAError
+from blendvoca.io.atomic import permissions_for
 
 MANIFEST_PATH = Path(__file__).with_name("data_manifest.yaml")
 
@@ -157,6 +158,7 @@ def download(asset_id: str, destination: Path | None = None) -> Path:
     except AssetError:
         os.unlink(tmp.name)
         raise
+    os.chmod(tmp.name, permissions_for(destination))
     os.replace(tmp.name, destination)
     return destination
 

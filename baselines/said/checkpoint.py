@@ -3,10 +3,11 @@
 from __future__ import annotations
 
 import os
-import tempfile
 from pathlib import Path
 
 import torch
+
+from blendvoca.io.atomic import atomic_write
 
 FORMAT = "blendvoca-said/1"
 
@@ -40,14 +41,8 @@ def save_checkpoint(path: str | os.PathLike, model, config: dict, names: tuple[s
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     payload = {"format": FORMAT, "config": config, "names": list(names), "state_dict": _stored_state(model), "history": history or {}}
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
-    os.close(fd)
-    try:
-        torch.save(payload, tmp)
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.remove(tmp)
+    with atomic_write(path, "wb") as handle:
+        torch.save(payload, handle)
     return path
 
 

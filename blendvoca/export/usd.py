@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from blendvoca.export.align import AlignedTrack, align_track
+from blendvoca.io.atomic import permissions_for
 
 SUFFIXES = (".usda", ".usdc", ".usd")
 
@@ -112,6 +113,7 @@ def write_usd(path, rig, coeffs, names: Sequence[str], fps: float = 60.0, audio=
             sound.CreateAuralModeAttr(UsdMedia.Tokens.nonSpatial)
             sound.CreateStartTimeAttr(Sdf.TimeCode(0))
         stage.GetRootLayer().Export(tmp, args={"format": "usda" if path.suffix.lower() == ".usda" else "usdc"})
+        os.chmod(tmp, permissions_for(path))  # after writing: the replaced file may be read-only
         os.replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):

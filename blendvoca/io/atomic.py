@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import stat
 import tempfile
 from pathlib import Path
 
@@ -23,6 +24,9 @@ def atomic_write(path, mode: str = "wb", **kwargs):
     except OSError as error:
         raise _naming(error, path) from None
     try:
+        # mkstemp makes the file private (0600); give it the permissions that the file
+        # it replaces had, or that a plain open() would give a new one
+        os.chmod(tmp, permissions_for(path))
         with os.fdopen(fd, mode, **kwargs) as f:
             yield f
             f.flush()
@@ -34,6 +38,31 @@ def atomic_write(path, mode: str = "wb", **kwargs):
         if isinstance(error, OSError) and error.filename is None and error.errno is not None:
             raise _naming(error, path) from None
         raise
+
+
+def permissions_for(path, *, directory: bool = False) -> int:
+    """The permission bits for an output written to ``path`` through a temporary
+    (``mkstemp`` and ``mkdtemp`` make it private): those of what is at ``path`` now,
+    or, for a new one, those a plain ``open()`` (``0o666``) or ``mkdir`` (``0o777``)
+    would give under the umask."""
+    try:
+        return stat.S_IMODE(Path(path).stat().st_mode)
+    except FileNotFoundError:
+        return (0o777 if directory else 0o666) & ~_umask()
+
+
+def _umask() -> int:
+    """The process's umask (read from /proc where it is there: setting it to read it races with threads)."""
+    try:
+        with open("/proc/self/status", encoding="ascii") as status:
+            for line in status:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError):
+        pass
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
 
 
 def _naming(error: OSError, path: Path) -> OSError:

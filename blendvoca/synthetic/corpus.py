@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from blendvoca.io.atomic import permissions_for
 from blendvoca.synthetic.audio import speech_audio
 from blendvoca.synthetic.groundtruth import write_npz
 from blendvoca.synthetic.headpose import apply_pose, head_motion as draw_head_motion
@@ -256,7 +257,7 @@ def generate_corpus(
                       duration=(float(duration[0]), float(duration[1])), rate=int(rate),
                       max_lag_frames=int(max_lag_frames), frame_faces=frame_faces,
                       head_motion=_head_motion_degrees(head_motion), progress=progress)
-        os.chmod(tmp, 0o755)
+        os.chmod(tmp, permissions_for(out, directory=True))
         if out.exists():
             shutil.rmtree(out)
         os.rename(tmp, out)

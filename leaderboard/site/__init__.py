@@ -15,9 +15,12 @@ See docs/site.md.
 
 from __future__ import annotations
 
+import os
 import shutil
 import tempfile
 from pathlib import Path
+
+from blendvoca.io.atomic import permissions_for
 
 from .data import load_site_runs, with_dataset, write_site_data
 from .vendor import copy_vendor_files
@@ -79,6 +82,7 @@ def build_site(results_dir, out, *, data=None, max_samples: int = 3, node_module
                 shutil.copyfile(page, target)
         write_site_data(runs, tmp / "data", max_samples=max_samples, progress=progress)
         (tmp / SITE_MARKER).write_text("written by python -m leaderboard.site\n")
+        os.chmod(tmp, permissions_for(out, directory=True))  # not mkdtemp's 0700: a web server reads it
         if out.exists():
             old = out.with_name(f".{out.name}.old.tmp")
             out.rename(old)

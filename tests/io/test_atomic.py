@@ -27,3 +27,20 @@ def test_a_full_disk_error_names_the_target(tmp_path, monkeypatch):
             f.write(b"x")
     assert caught.value.errno == errno.ENOSPC and caught.value.filename == str(path)
     assert list(path.parent.iterdir()) == []
+
+
+def test_written_files_get_the_permissions_of_a_plain_open_or_of_the_file_replaced(tmp_path):
+    import stat
+
+    mask = os.umask(0o027)
+    try:
+        new = tmp_path / "new.json"
+        with atomic_write(new, "w") as f:
+            f.write("{}")
+        assert stat.S_IMODE(new.stat().st_mode) == 0o640  # 0o666 less the umask, not mkstemp's 0o600
+        os.chmod(new, 0o604)
+        with atomic_write(new, "w") as f:
+            f.write("[]")
+        assert stat.S_IMODE(new.stat().st_mode) == 0o604 and new.read_text() == "[]"
+    finally:
+        os.umask(mask)

@@ -90,6 +90,16 @@ def test_site_data_files(site, results_dir):
     assert 0 <= min(gt["envelope"]) and max(gt["envelope"]) == 1
     assert (site / "data" / "rigs" / f"{first['subject']}.glb").is_file()
     assert (site / "vendor" / "three.module.js").is_file() and (site / SITE_MARKER).is_file()
+    # a web server (another user) can read it: not the private modes of the temporaries it is written through
+    import stat
+
+    from blendvoca.io.atomic import permissions_for
+
+    allowed = permissions_for(site / "missing", directory=True)  # 0o777 less the umask
+    for path in [site, *site.rglob("*")]:
+        mode = stat.S_IMODE(path.stat().st_mode)
+        wanted = allowed & (0o555 if path.is_dir() else 0o444)  # readable (and enterable) as the umask allows
+        assert mode & wanted == wanted, f"{path}: {oct(mode)}"
 
 
 def test_out_folder_is_never_a_users(tmp_path, results_dir):

@@ -55,3 +55,30 @@ def test_check_result_names_problem():
     del r["dataset"]["manifest_hash"]
     with pytest.raises(ValueError, match="manifest_hash"):
         check_result(r)
+
+
+def test_git_dirty_ignores_the_committed_output_folders(tmp_path):
+    """Rows of one reproduce run are written in turn: a result or table written before
+    does not make the next run's code dirty; any other change does."""
+    import subprocess
+
+    from benchmark.results import git_revision
+
+    def git(*args):
+        subprocess.run(["git", "-c", "user.name=t", "-c", "user.email=t@example.org", *args], cwd=tmp_path,
+                       check=True, capture_output=True)
+
+    git("init", "-q")
+    for rel in ("leaderboard/results/a.json", "leaderboard/tables/leaderboard.md", "benchmark/code.py"):
+        (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / rel).write_text("0\n")
+    git("add", "-A")
+    git("commit", "-q", "-m", "first")
+    assert git_revision(tmp_path / "benchmark")["dirty"] is False
+    (tmp_path / "leaderboard/results/a.json").write_text("1\n")
+    (tmp_path / "leaderboard/results/b.json").write_text("new\n")
+    (tmp_path / "leaderboard/tables/leaderboard.md").write_text("1\n")
+    state = git_revision(tmp_path / "benchmark")
+    assert state["dirty"] is False and len(state["revision"]) == 40
+    (tmp_path / "benchmark/code.py").write_text("1\n")
+    assert git_revision(tmp_path / "benchmark")["dirty"] is True
