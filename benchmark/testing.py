@@ -295,7 +295,10 @@ def check_method(cls, *, max_steps: int = 5, samples: int = 2, seed: int = 0, da
             twin.train(dataset, seed=seed, budget=Budget(max_steps=max_steps))
         except Exception as exc:
             _fail("same seed, same training", cls, "constructing and training a second instance raised", exc)
-    twin_tracks, twin_vertices = _generate_all(twin, dataset, num_samples, seed)
+    try:
+        twin_tracks, twin_vertices = _generate_all(twin, dataset, num_samples, seed)
+    except (MethodError, MethodOutputError) as exc:
+        _fail("same seed, same training", cls, str(exc), exc.__cause__)
     problem = _same(tracks, twin_tracks, atol=1e-6) or _same(vertices, twin_vertices, atol=1e-7)
     if problem:
         _fail("same seed, same training", cls,
