@@ -116,9 +116,14 @@ class StoredVertices(Mapping):
         return len(self._keys())
 
 
+def _host() -> str:
+    """This machine's name as staging folders carry it."""
+    return socket.gethostname() or "host"
+
+
 def _process_tag(pid: int) -> str:
     """``<host>-<pid>``: names a staging folder by its process (dots of the host name kept)."""
-    return f"{socket.gethostname() or 'host'}-{pid}"
+    return f"{_host()}-{pid}"
 
 
 def _process_alive(pid: int) -> bool:
@@ -160,8 +165,7 @@ class TrackWriter:
         """Remove this run's staging folders left by killed processes of this host
         (a kill -9 skips :meth:`discard`); those of live processes, or of another
         host sharing the folder, stay."""
-        host = _process_tag(0).rsplit("-", 1)[0]
-        prefix, suffix = f".{self.folder.name}.{host}-", ".partial"
+        prefix, suffix = f".{self.folder.name}.{_host()}-", ".partial"
         if not self.folder.parent.is_dir():
             return
         for path in self.folder.parent.iterdir():

@@ -191,6 +191,16 @@ def _generate_all(method, dataset, samples: int, seed: int):
     return tracks, vertices
 
 
+def _generated_or_fail(step: str, cls, method, dataset, samples: int, seed: int):
+    """:func:`_generate_all`, with a method error reported as a failure of ``step``."""
+    from benchmark.methods.validate import MethodError, MethodOutputError
+
+    try:
+        return _generate_all(method, dataset, samples, seed)
+    except (MethodError, MethodOutputError) as exc:
+        _fail(step, cls, str(exc), exc.__cause__)
+
+
 def _same(a: dict, b: dict, *, atol: float) -> str | None:
     for key in a:
         if key not in b or a[key].shape != b[key].shape:
@@ -243,8 +253,6 @@ def check_method(cls, *, max_steps: int = 5, samples: int = 2, seed: int = 0, da
     -------
     CheckReport
     """
-    from benchmark.methods.validate import MethodError, MethodOutputError
-
     if not (isinstance(cls, type) and issubclass(cls, Method)):
         raise MethodCheckError(f"check_method: expected a subclass of benchmark.methods.Method, got {cls!r}")
     if not isinstance(getattr(cls, "name", None), str) or not cls.name:
@@ -279,10 +287,7 @@ def check_method(cls, *, max_steps: int = 5, samples: int = 2, seed: int = 0, da
     except Exception as exc:
         _fail("train", cls, f"train(FakeBlendVOCA, seed={seed}, budget=Budget(max_steps={max_steps})) raised", exc)
     num_samples = samples if cls.stochastic else 1
-    try:
-        tracks, vertices = _generate_all(method, dataset, num_samples, seed)
-    except (MethodError, MethodOutputError) as exc:
-        _fail("generate", cls, str(exc), exc.__cause__)
+    tracks, vertices = _generated_or_fail("generate", cls, method, dataset, num_samples, seed)
     again, again_vertices = _generate_all(method, dataset, num_samples, seed)
     problem = _same(tracks, again, atol=1e-6) or _same(vertices, again_vertices, atol=1e-7)
     if problem:
@@ -295,10 +300,7 @@ def check_method(cls, *, max_steps: int = 5, samples: int = 2, seed: int = 0, da
             twin.train(dataset, seed=seed, budget=Budget(max_steps=max_steps))
         except Exception as exc:
             _fail("same seed, same training", cls, "constructing and training a second instance raised", exc)
-    try:
-        twin_tracks, twin_vertices = _generate_all(twin, dataset, num_samples, seed)
-    except (MethodError, MethodOutputError) as exc:
-        _fail("same seed, same training", cls, str(exc), exc.__cause__)
+    twin_tracks, twin_vertices = _generated_or_fail("same seed, same training", cls, twin, dataset, num_samples, seed)
     problem = _same(tracks, twin_tracks, atol=1e-6) or _same(vertices, twin_vertices, atol=1e-7)
     if problem:
         _fail("same seed, same training", cls,
@@ -316,10 +318,7 @@ def check_method(cls, *, max_steps: int = 5, samples: int = 2, seed: int = 0, da
             _fail("load", cls, f"{cls.__name__}.load({tmp}) raised", exc)
     if json.dumps(loaded.config(), sort_keys=True) != text:
         _fail("load", cls, f"the loaded method's config {loaded.config()!r} differs from the saved {cfg!r}")
-    try:
-        after, after_vertices = _generate_all(loaded, dataset, num_samples, seed)
-    except (MethodError, MethodOutputError) as exc:
-        _fail("generate after load", cls, str(exc), exc.__cause__)
+    after, after_vertices = _generated_or_fail("generate after load", cls, loaded, dataset, num_samples, seed)
     problem = _same(tracks, after, atol=1e-5) or _same(vertices, after_vertices, atol=1e-6)
     if problem:
         _fail("save/load", cls, f"the loaded method generates differently from the trained one ({problem}); "
