@@ -232,6 +232,10 @@ class SAiDModel(nn.Module):
     adapter_layers : int, default 2
     adapter_kernel : int, default 5
     attention_half_width : int, default 1
+    zero_init : bool, default True
+        ``authors``: start the layers of
+        :meth:`~baselines.said.unet1d.ConditionalUNet1D.zero_initialised_layers` at zero,
+        as the authors do; False gives them PyTorch's default initialisation.
     """
 
     def __init__(
@@ -246,6 +250,7 @@ class SAiDModel(nn.Module):
         adapter_kernel: int = 5,
         attention_half_width: int = 1,
         architecture: str = "compact",
+        zero_init: bool = True,
     ):
         super().__init__()
         if architecture not in ARCHITECTURES:
@@ -265,6 +270,9 @@ class SAiDModel(nn.Module):
                 raise ValueError(f"SAiDModel: expected channels divisible by heads, got {channels}, {heads}")
             self.denoiser = ConditionalUNet1D(num_coeffs, num_coeffs, cond_dim, channels, channels // heads, dropout=dropout,
                                               norm_groups=math.gcd(channels, 32), pad=attention_half_width)
+            if not zero_init:
+                for layer in self.denoiser.zero_initialised_layers():
+                    layer.reset_parameters()
         else:
             self.denoiser = UNet1DCondition(num_coeffs, channels, cond_dim, heads, dropout, attention_half_width)
 

@@ -25,6 +25,7 @@ PRESETS: dict[str, dict[str, dict]] = {
             "adapter_layers": 2,
             "adapter_kernel": 5,
             "attention_half_width": 1,
+            "zero_init": True,
         },
         "diffusion": {"num_train_steps": 1000, "schedule": "cosine", "normalization": "standardized", "prediction": "v"},
         # gamma 1: with 2 the short run's samples overshoot (LVE 3.2 vs 2.3 mm at 300 s)
@@ -34,6 +35,7 @@ PRESETS: dict[str, dict[str, dict]] = {
             "batch_size": 16,
             # 1e-5 is the paper's rate for a long GPU run; a few CPU minutes need more.
             "lr": 1e-3,
+            "lr_decay": "constant",
             "warmup_steps": 100,
             "weight_decay": 1e-2,
             "betas": [0.9, 0.999],
@@ -66,6 +68,7 @@ PRESETS: dict[str, dict[str, dict]] = {
             "adapter_layers": 0,
             "adapter_kernel": 5,
             "attention_half_width": 1,
+            "zero_init": True,
         },
         "diffusion": {"num_train_steps": 1000, "schedule": "cosine", "normalization": "unit-interval", "prediction": "epsilon"},
         "sampling": {"sampler": "ddim", "num_steps": 1000, "eta": 0.0, "guidance": 2.0, "clip": True},
@@ -73,6 +76,7 @@ PRESETS: dict[str, dict[str, dict]] = {
             "window": 120,
             "batch_size": 8,
             "lr": 1e-5,
+            "lr_decay": "constant",
             "warmup_steps": 5000,
             "weight_decay": 1e-2,
             "betas": [0.9, 0.999],

@@ -87,6 +87,25 @@ def diffusion_loss(said: SAiD, coeffs: torch.Tensor, audio: torch.Tensor, *, gen
     return said_loss(noise, eps, velocity_weight=velocity_weight)
 
 
+LR_DECAYS = ("constant", "linear", "cosine")
+
+
+def budget_decay(kind: str, done: float) -> float:
+    """The learning-rate factor after the fraction ``done`` of the training budget (steps or seconds).
+
+    ``constant``: 1; ``linear``: ``1 - done``; ``cosine``: ``(1 + cos(pi done)) / 2``
+    (both reach 0 at the end of the budget, whichever of its step or time limit is met first).
+    """
+    done = min(max(float(done), 0.0), 1.0)
+    if kind == "constant":
+        return 1.0
+    if kind == "linear":
+        return 1.0 - done
+    if kind == "cosine":
+        return 0.5 * (1.0 + math.cos(math.pi * done))
+    raise ValueError(f"SAiD training: expected lr_decay in {LR_DECAYS}, got {kind!r}")
+
+
 def train_said(
     said: SAiD,
     train_pairs,
@@ -119,7 +138,7 @@ def train_said(
     Returns
     -------
     history : dict
-        ``train_loss`` (per step), ``val`` (``[step, loss]`` pairs), ``best_step``,
+        ``train_loss`` and ``lr`` (per step), ``val`` (``[step, loss]`` pairs), ``best_step``,
         ``best_val_loss``, ``steps``, ``seconds``.  Also stored as ``said.history``.
     """
     cfg = said.config["training"]
@@ -149,7 +168,15 @@ def train_said(
     fused = all(p.device.type in ("cpu", "cuda") for p in params) or None
     opt = torch.optim.AdamW(params, lr=cfg["lr"], betas=tuple(cfg["betas"]), weight_decay=cfg["weight_decay"], fused=fused)
     warmup = max(1, int(cfg["warmup_steps"]))
-    sched = torch.optim.lr_scheduler.LambdaLR(opt, lambda step: min(1.0, (step + 1) / warmup))
+    decay = cfg.get("lr_decay", "constant")
+    start = time.perf_counter()  # set again when the training loop starts
+
+    def lr_factor(step: int) -> float:
+        done = max(step / max_steps if max_steps > 0 else 1.0,
+                   (time.perf_counter() - start) / max_seconds if max_seconds > 0 else 1.0)
+        return min(1.0, (step + 1) / warmup) * budget_decay(decay, done)
+
+    sched = torch.optim.lr_scheduler.LambdaLR(opt, lr_factor)
     ema = EMA(model, cfg["ema_decay"])
 
     val_batches = None
@@ -172,9 +199,9 @@ def train_said(
                 count += len(c)
         return total / count
 
-    history = {"train_loss": [], "val": [], "best_step": None, "best_val_loss": None}
+    history = {"train_loss": [], "lr": [], "val": [], "best_step": None, "best_val_loss": None}
     best_state = None
-    start = time.perf_counter()
+    start = time.perf_counter()  # the budget counts the training loop only
     step = 0
     bar = tqdm(total=None if math.isinf(max_steps) else max_steps, desc="SAiD training", disable=not progress)
     with torch_threads(cfg.get("num_threads")):
@@ -190,6 +217,7 @@ def train_said(
             )
             opt.zero_grad(set_to_none=True)
             loss.backward()
+            history["lr"].append(opt.param_groups[0]["lr"])
             if cfg.get("grad_clip"):
                 torch.nn.utils.clip_grad_norm_(params, cfg["grad_clip"], foreach=True)
             opt.step()

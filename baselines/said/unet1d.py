@@ -445,6 +445,12 @@ class ConditionalUNet1D(nn.Module):
         self.output_blocks = nn.ModuleList(TimestepSequential(res(2 * c), transformer()) for _ in range(num_res_blocks + 1))
         self.out = nn.Sequential(GroupNorm32(norm_groups, c), nn.SiLU(), _zeroed(nn.Conv1d(c, out_channels, 3, padding=1)))
 
+    def zero_initialised_layers(self) -> list[nn.Conv1d]:
+        """The layers that start at zero: every residual block's last convolution, every
+        transformer's ``proj_out`` and the output convolution."""
+        res = [m.out_layers[-1] for m in self.modules() if isinstance(m, ResBlock)]
+        return res + [m.proj_out for m in self.transformers()] + [self.out[-1]]
+
     def transformers(self) -> list[SpatialTransformer]:
         """The spatial transformers, in forward order."""
         return [m for m in self.modules() if isinstance(m, SpatialTransformer)]

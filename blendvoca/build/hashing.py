@@ -8,6 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
+from blendvoca.assets import sha256_of as file_digest  # one sha256 of a file's bytes for assets and builds
+
 
 #: Rows converted at a time by ``array_digest(..., dtype=...)``.
 _DIGEST_ROWS = 16
@@ -34,15 +36,6 @@ def array_digest(*arrays, dtype=None) -> str:
         for start in range(0, array.shape[0], _DIGEST_ROWS):
             rows = np.ascontiguousarray(array[start:start + _DIGEST_ROWS], dtype=target)
             h.update(memoryview(rows.reshape(-1)).cast("B"))
-    return h.hexdigest()
-
-
-def file_digest(path, chunk: int = 1 << 20) -> str:
-    """sha256 of a file's bytes."""
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for block in iter(lambda: f.read(chunk), b""):
-            h.update(block)
     return h.hexdigest()
 
 

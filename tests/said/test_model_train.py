@@ -156,3 +156,42 @@ def test_train_cli_seed_fixes_the_initial_weights_too(built_dataset, tmp_path):
         states.append(SAiD.load(out).model.state_dict())
     for key in states[0]:
         torch.testing.assert_close(states[0][key], states[1][key], rtol=0, atol=0, msg=key)
+
+
+def test_budget_decay_closed_forms():
+    from baselines.said.train import budget_decay
+
+    assert [budget_decay("constant", d) for d in (0.0, 0.5, 1.0)] == [1.0, 1.0, 1.0]
+    assert [budget_decay("linear", d) for d in (0.0, 0.25, 1.0, 2.0)] == [1.0, 0.75, 0.0, 0.0]
+    assert budget_decay("cosine", 0.5) == pytest.approx(0.5) and budget_decay("cosine", 1.0) == pytest.approx(0.0)
+    with pytest.raises(ValueError, match="lr_decay"):
+        budget_decay("step", 0.5)
+
+
+def test_linear_lr_decay_reaches_zero_at_the_end_of_a_step_budget():
+    lr = resolve_config(**TINY)["training"]["lr"]
+    said = SAiD.from_preset(NAMES, **{**TINY, "warmup_steps": 1}, lr_decay="linear")
+    history = train_said(said, toy_pairs(3, 2), seed=1, max_steps=4, progress=False)
+    np.testing.assert_allclose(history["lr"], [lr, 0.75 * lr, 0.5 * lr, 0.25 * lr], rtol=1e-12)
+    said = SAiD.from_preset(NAMES, **{**TINY, "warmup_steps": 2})  # constant: warm-up, then the preset's rate
+    np.testing.assert_allclose(train_said(said, toy_pairs(3, 2), seed=1, max_steps=3, progress=False)["lr"],
+                               [0.5 * lr, lr, lr], rtol=1e-12)
+    with pytest.raises(ValueError, match="lr_decay"):
+        train_said(SAiD.from_preset(NAMES, **TINY, lr_decay="exp"), toy_pairs(3, 2), max_steps=1, progress=False)
+
+
+def test_zero_init_starts_the_authors_output_layers_at_zero_or_not():
+    """``zero_init`` (default True) changes the initial values only: the same parameters, and
+    with it the untrained network predicts exactly zero."""
+    torch.manual_seed(0)
+    zero = SAiDModel(num_coeffs=4, channels=16, cond_dim=16, heads=2, architecture="authors")
+    torch.manual_seed(0)
+    other = SAiDModel(num_coeffs=4, channels=16, cond_dim=16, heads=2, architecture="authors", zero_init=False)
+    layers = zero.denoiser.zero_initialised_layers()
+    assert len(layers) == 5 + 4 + 1  # five residual blocks, four transformers, the output convolution
+    assert all(not p.any() for layer in layers for p in layer.parameters())
+    assert all(layer.weight.abs().sum() > 0 for layer in other.denoiser.zero_initialised_layers())
+    assert {k: v.shape for k, v in zero.state_dict().items()} == {k: v.shape for k, v in other.state_dict().items()}
+    x, cond = torch.randn(2, 20, 4), torch.randn(2, 20, 16)
+    assert not zero(x, torch.tensor([3, 500]), cond).any()
+    assert other(x, torch.tensor([3, 500]), cond).abs().sum() > 0
