@@ -653,19 +653,20 @@ def lipsync_models_provenance(syncnet=None, sync_expert=None) -> dict:
     for the learned expert, the data it was trained on."""
     from blendvoca.build.hashing import content_digest
 
+    def model_file(model) -> dict:
+        """``{"path", "sha256"}`` of a model given as a path; ``{"path": None}`` for a loaded one."""
+        if not isinstance(model, (str, os.PathLike)):
+            return {"path": None}
+        return {"path": str(Path(model).resolve()), "sha256": content_digest(model)}
+
     out = {}
     if syncnet is not None:
-        path = syncnet if isinstance(syncnet, (str, os.PathLike)) else None
-        out["syncnet"] = {"path": None if path is None else str(Path(path).resolve()),
-                          **({"sha256": content_digest(path)} if path is not None else {})}
+        out["syncnet"] = model_file(syncnet)
     if sync_expert is not None:
         from benchmark.lipsync.expert import load_expert
 
-        path = sync_expert if isinstance(sync_expert, (str, os.PathLike)) else None
-        expert = load_expert(path) if path is not None else sync_expert
-        out["sync_expert"] = {"path": None if path is None else str(Path(path).resolve()),
-                              **({"sha256": content_digest(path)} if path is not None else {}),
-                              "trained_on": dict(getattr(expert, "trained_on", {}) or {})}
+        expert = load_expert(sync_expert) if isinstance(sync_expert, (str, os.PathLike)) else sync_expert
+        out["sync_expert"] = {**model_file(sync_expert), "trained_on": dict(getattr(expert, "trained_on", {}) or {})}
     return out
 
 

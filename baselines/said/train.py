@@ -167,16 +167,6 @@ def train_said(
     # fused: one kernel over all parameters instead of several small ops per parameter
     fused = all(p.device.type in ("cpu", "cuda") for p in params) or None
     opt = torch.optim.AdamW(params, lr=cfg["lr"], betas=tuple(cfg["betas"]), weight_decay=cfg["weight_decay"], fused=fused)
-    warmup = max(1, int(cfg["warmup_steps"]))
-    decay = cfg.get("lr_decay", "constant")
-    start = time.perf_counter()  # set again when the training loop starts
-
-    def lr_factor(step: int) -> float:
-        done = max(step / max_steps if max_steps > 0 else 1.0,
-                   (time.perf_counter() - start) / max_seconds if max_seconds > 0 else 1.0)
-        return min(1.0, (step + 1) / warmup) * budget_decay(decay, done)
-
-    sched = torch.optim.lr_scheduler.LambdaLR(opt, lr_factor)
     ema = EMA(model, cfg["ema_decay"])
 
     val_batches = None
@@ -202,6 +192,15 @@ def train_said(
     history = {"train_loss": [], "lr": [], "val": [], "best_step": None, "best_val_loss": None}
     best_state = None
     start = time.perf_counter()  # the budget counts the training loop only
+    warmup = max(1, int(cfg["warmup_steps"]))
+    decay = cfg.get("lr_decay", "constant")
+
+    def lr_factor(step: int) -> float:
+        done = max(step / max_steps if max_steps > 0 else 1.0,
+                   (time.perf_counter() - start) / max_seconds if max_seconds > 0 else 1.0)
+        return min(1.0, (step + 1) / warmup) * budget_decay(decay, done)
+
+    sched = torch.optim.lr_scheduler.LambdaLR(opt, lr_factor)
     step = 0
     bar = tqdm(total=None if math.isinf(max_steps) else max_steps, desc="SAiD training", disable=not progress)
     with torch_threads(cfg.get("num_threads")):
