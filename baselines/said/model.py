@@ -19,7 +19,7 @@ from torch import nn
 
 from baselines.said.attention_bias import alignment_bias
 from baselines.said.encoders import build_encoder
-from baselines.said.unet1d import ConditionalUNet1D
+from baselines.said.unet1d import ZERO_INIT_GROUPS, ConditionalUNet1D
 
 ARCHITECTURES = ("authors", "compact")
 
@@ -49,6 +49,22 @@ def timestep_embedding(timesteps: torch.Tensor, dim: int, max_period: float = 10
 def _groups(channels: int, wanted: int = 32) -> int:
     return math.gcd(channels, wanted)
 
+
+
+def zero_init_groups(zero_init) -> tuple[str, ...]:
+    """The zero-initialised layer groups that the model key ``zero_init`` names.
+
+    ``True``: all of :data:`~baselines.said.unet1d.ZERO_INIT_GROUPS` (the authors'
+    initialisation); ``False``: none; a list of group names: those.
+    """
+    if isinstance(zero_init, bool):
+        return ZERO_INIT_GROUPS if zero_init else ()
+    if isinstance(zero_init, (list, tuple)) and all(isinstance(g, str) for g in zero_init):
+        unknown = sorted(set(zero_init) - set(ZERO_INIT_GROUPS))
+        if not unknown:
+            return tuple(g for g in ZERO_INIT_GROUPS if g in zero_init)
+    raise ValueError(f"SAiDModel: expected zero_init true, false or a list of groups among {list(ZERO_INIT_GROUPS)}, "
+                     f"got {zero_init!r}")
 
 class ResBlock1D(nn.Module):
     """Residual block: GroupNorm-SiLU-Conv, plus the projected timestep embedding, twice."""
@@ -232,10 +248,11 @@ class SAiDModel(nn.Module):
     adapter_layers : int, default 2
     adapter_kernel : int, default 5
     attention_half_width : int, default 1
-    zero_init : bool, default True
+    zero_init : bool or list of str, default True
         ``authors``: start the layers of
         :meth:`~baselines.said.unet1d.ConditionalUNet1D.zero_initialised_layers` at zero,
-        as the authors do; False gives them PyTorch's default initialisation.
+        as the authors do; False gives them PyTorch's default initialisation; a list of
+        groups (``res``, ``attention``, ``out``) keeps those at zero and no others.
     """
 
     def __init__(
@@ -250,7 +267,7 @@ class SAiDModel(nn.Module):
         adapter_kernel: int = 5,
         attention_half_width: int = 1,
         architecture: str = "compact",
-        zero_init: bool = True,
+        zero_init: bool | list = True,
     ):
         super().__init__()
         if architecture not in ARCHITECTURES:
@@ -270,9 +287,9 @@ class SAiDModel(nn.Module):
                 raise ValueError(f"SAiDModel: expected channels divisible by heads, got {channels}, {heads}")
             self.denoiser = ConditionalUNet1D(num_coeffs, num_coeffs, cond_dim, channels, channels // heads, dropout=dropout,
                                               norm_groups=math.gcd(channels, 32), pad=attention_half_width)
-            if not zero_init:
-                for layer in self.denoiser.zero_initialised_layers():
-                    layer.reset_parameters()
+            kept = zero_init_groups(zero_init)
+            for layer in self.denoiser.zero_initialised_layers(tuple(g for g in ZERO_INIT_GROUPS if g not in kept)):
+                layer.reset_parameters()
         else:
             self.denoiser = UNet1DCondition(num_coeffs, channels, cond_dim, heads, dropout, attention_half_width)
 

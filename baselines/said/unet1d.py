@@ -388,6 +388,10 @@ class SpatialTransformer(nn.Module):
         return out if lengths is None else out * frame_mask(lengths, out.shape[0], out.shape[2], out.dtype)
 
 
+#: The layer groups the authors start at zero (:meth:`ConditionalUNet1D.zero_initialised_layers`).
+ZERO_INIT_GROUPS = ("res", "attention", "out")
+
+
 class ConditionalUNet1D(nn.Module):
     """The denoiser ``eps(x_t, t, context)`` of SAiD (latent-diffusion UNet, 1-D, one level).
 
@@ -445,11 +449,16 @@ class ConditionalUNet1D(nn.Module):
         self.output_blocks = nn.ModuleList(TimestepSequential(res(2 * c), transformer()) for _ in range(num_res_blocks + 1))
         self.out = nn.Sequential(GroupNorm32(norm_groups, c), nn.SiLU(), _zeroed(nn.Conv1d(c, out_channels, 3, padding=1)))
 
-    def zero_initialised_layers(self) -> list[nn.Conv1d]:
-        """The layers that start at zero: every residual block's last convolution, every
-        transformer's ``proj_out`` and the output convolution."""
-        res = [m.out_layers[-1] for m in self.modules() if isinstance(m, ResBlock)]
-        return res + [m.proj_out for m in self.transformers()] + [self.out[-1]]
+    def zero_initialised_layers(self, groups=ZERO_INIT_GROUPS) -> list[nn.Conv1d]:
+        """The layers that start at zero, by group: ``res``, every residual block's last
+        convolution; ``attention``, every transformer's ``proj_out``; ``out``, the output
+        convolution (all three by default)."""
+        unknown = sorted(set(groups) - set(ZERO_INIT_GROUPS))
+        if unknown:
+            raise ValueError(f"ConditionalUNet1D: expected zero-init groups among {ZERO_INIT_GROUPS}, got {unknown}")
+        layers = {"res": [m.out_layers[-1] for m in self.modules() if isinstance(m, ResBlock)],
+                  "attention": [m.proj_out for m in self.transformers()], "out": [self.out[-1]]}
+        return [layer for group in ZERO_INIT_GROUPS if group in groups for layer in layers[group]]
 
     def transformers(self) -> list[SpatialTransformer]:
         """The spatial transformers, in forward order."""

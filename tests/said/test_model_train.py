@@ -195,3 +195,25 @@ def test_zero_init_starts_the_authors_output_layers_at_zero_or_not():
     x, cond = torch.randn(2, 20, 4), torch.randn(2, 20, 16)
     assert not zero(x, torch.tensor([3, 500]), cond).any()
     assert other(x, torch.tensor([3, 500]), cond).abs().sum() > 0
+
+
+def test_zero_init_groups_keep_the_named_layers_at_zero_and_no_others():
+    """A list of groups keeps exactly those layers at zero; ``False`` draws the same default
+    initial values as a list that names none, and an unknown group is an error."""
+    def model(zero_init):
+        torch.manual_seed(0)
+        return SAiDModel(num_coeffs=4, channels=16, cond_dim=16, heads=2, architecture="authors", zero_init=zero_init)
+
+    sizes = {"res": 5, "attention": 4, "out": 1}
+    for groups in (["res"], ["attention"], ["out"], ["res", "out"]):
+        net = model(groups).denoiser
+        zeroed = {id(layer) for layer in net.zero_initialised_layers(groups)}
+        assert len(zeroed) == sum(sizes[g] for g in groups)
+        for layer in net.zero_initialised_layers():
+            assert (not layer.weight.any()) == (id(layer) in zeroed)
+    none, listed_none = model(False).state_dict(), model([]).state_dict()
+    assert all(torch.equal(none[k], listed_none[k]) for k in none)
+    with pytest.raises(ValueError, match="zero_init"):
+        model(["proj"])
+    with pytest.raises(ValueError, match="zero-init groups"):
+        model(True).denoiser.zero_initialised_layers(["proj"])

