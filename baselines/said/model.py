@@ -50,7 +50,6 @@ def _groups(channels: int, wanted: int = 32) -> int:
     return math.gcd(channels, wanted)
 
 
-
 def zero_init_groups(zero_init) -> tuple[str, ...]:
     """The zero-initialised layer groups that the model key ``zero_init`` names.
 
@@ -65,6 +64,7 @@ def zero_init_groups(zero_init) -> tuple[str, ...]:
             return tuple(g for g in ZERO_INIT_GROUPS if g in zero_init)
     raise ValueError(f"SAiDModel: expected zero_init true, false or a list of groups among {list(ZERO_INIT_GROUPS)}, "
                      f"got {zero_init!r}")
+
 
 class ResBlock1D(nn.Module):
     """Residual block: GroupNorm-SiLU-Conv, plus the projected timestep embedding, twice."""
