@@ -110,12 +110,14 @@ def _cpu_name() -> str:
 
 
 def hardware_info() -> dict:
-    """CPU model, usable cores, and the GPU when torch sees one."""
+    """CPU model, usable cores, the BLAS kernels in use, and the GPU when torch sees one."""
     try:
         cores = len(os.sched_getaffinity(0))
     except AttributeError:
         cores = os.cpu_count()
-    info = {"cpu": _cpu_name(), "cores": cores, "gpu": None}
+    from blendvoca.build.manifest import blas_kernels
+
+    info = {"cpu": _cpu_name(), "cores": cores, "blas": blas_kernels(), "gpu": None}
     try:
         import torch
 

@@ -2,7 +2,8 @@
 
 It lists exactly the outputs of the current build of the current inputs, each
 with its sha256, plus the inputs' checksums, the tool version, the parameters
-and the failures (no timestamps: identical builds, identical bytes). Readers
+and the failures, and the BLAS kernels the build ran on (:func:`blas_kernels`: the
+outputs depend on them) (no timestamps: identical builds, identical bytes). Readers
 (``benchmark.data.open_blendvoca``) use only the files it lists
 (:func:`listed_files`); a folder without one is refused with the command that
 builds it.
@@ -70,6 +71,20 @@ def listed_files(root) -> dict[str, str]:
     return dict(files)
 
 
+def blas_kernels() -> list[str]:
+    """Return ``"<library> <version> <kernel>"`` for each BLAS loaded in this process (numpy's and scipy's at least), sorted.
+
+    OpenBLAS picks its kernel for the CPU it runs on (``OPENBLAS_CORETYPE`` overrides
+    it), and a build's outputs depend on it: the same code and inputs give other rigs
+    and fits under the ``Haswell`` kernel than under ``SkylakeX`` (docs/build.md).
+    """
+    import scipy.linalg  # noqa: F401 - loads scipy's BLAS too, so the list does not depend on what ran before
+    from threadpoolctl import threadpool_info
+
+    return sorted({f"{i.get('internal_api', '?')} {i.get('version', '?')} {i.get('architecture', '?')}"
+                   for i in threadpool_info() if i.get("user_api") == "blas"})
+
+
 def manifest_dict(out, *, files, vocaset, corpus, params, records, failures, version) -> dict:
     """Return the manifest of the build in ``out`` as a JSON-ready dict.
 
@@ -101,6 +116,7 @@ def manifest_dict(out, *, files, vocaset, corpus, params, records, failures, ver
         "parameters": params,
         "inputs": inputs,
         "failures": failures,
+        "blas": blas_kernels(),
         "files": {rel: file_digest(Path(out) / rel) for rel in sorted(set(files))},
     }
 

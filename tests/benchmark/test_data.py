@@ -89,6 +89,8 @@ def test_manifest_hash_covers_data_files_not_the_report(fake_dataset_dir, tmp_pa
     data = {"blendshape_coeffs/FakeA/sentence01.csv": "aa", "audio/FakeA/sentence01.wav": "bb"}
     base = hash_with(data)
     assert hash_with({**data, "report/README.md": "cc"}) == base
+    (root / "manifest.json").write_text(json.dumps({"files": data, "version": "x", "blas": ["openblas 0.3.31 SkylakeX"]}))
+    assert open_blendvoca(root).manifest_hash == base  # the kernels are recorded, not the data's identity
     assert hash_with({**data, "audio/FakeA/sentence01.wav": "bc"}) != base
 
 

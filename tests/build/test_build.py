@@ -1,3 +1,4 @@
+import ast
 import json
 import os
 import shutil
@@ -13,6 +14,7 @@ import pytest
 from blendvoca.build import build_dataset, coeffs_std, head_faces, lip_aperture
 from blendvoca.build.__main__ import main
 from blendvoca.build.hashing import file_digest
+from blendvoca.build.manifest import blas_kernels
 from blendvoca.build.report import TIMINGS
 from blendvoca.io.coeffs import read_coeffs_csv
 from blendvoca.names import BLENDVOCA_NAMES
@@ -70,8 +72,23 @@ def test_manifest_lists_every_output_with_its_digest(built_dataset):
         assert file_digest(built_dataset / rel) == digest
     assert manifest["parameters"] == {"shapes": "speech", "delta": 0.1}
     assert manifest["version"]
+    # built on this machine, so on the kernels this process runs (the build's numbers depend on them)
+    assert manifest["blas"] == blas_kernels() and manifest["blas"]
     speaker = next(iter(manifest["inputs"]["speakers"].values()))
     assert speaker["template"]["template"] and all(s["frames"] for s in speaker["sentences"].values())
+
+
+@pytest.mark.skipif(not any(k.startswith("openblas ") for k in blas_kernels()), reason="numpy runs no OpenBLAS here")
+def test_blas_kernels_name_the_kernel_openblas_runs():
+    # OPENBLAS_CORETYPE picks the kernel (Haswell runs on any x86-64 CPU with AVX2)
+    if os.uname().machine not in ("x86_64", "AMD64"):
+        pytest.skip("OpenBLAS's Haswell kernel is x86-64 only")
+    code = "from blendvoca.build.manifest import blas_kernels; print(repr(blas_kernels()))"
+    env = {**os.environ, "OPENBLAS_CORETYPE": "Haswell"}
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True).stdout
+    kernels = ast.literal_eval(out)
+    openblas = [k for k in kernels if k.startswith("openblas ")]
+    assert openblas and all(k.endswith(" Haswell") for k in openblas), kernels
 
 
 def test_fit_reproduces_the_input_meshes(built_dataset, synthetic_corpus):

@@ -25,6 +25,7 @@ def test_build_fills_provenance():
     assert r["method"]["label"] == "m"
     prov = r["provenance"]
     assert "numpy" in prov["versions"] and prov["hardware"]["cores"] >= 1 and prov["date"]
+    assert prov["hardware"]["blas"] and all(isinstance(k, str) for k in prov["hardware"]["blas"])
     assert r["timings"]["train_s"] == 1.235
 
 
