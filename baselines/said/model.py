@@ -272,6 +272,7 @@ class SAiDModel(nn.Module):
         super().__init__()
         if architecture not in ARCHITECTURES:
             raise ValueError(f"SAiDModel: expected architecture in {ARCHITECTURES}, got {architecture!r}")
+        kept = zero_init_groups(zero_init)  # checked for both architectures; the compact UNet has no such layers
         self.encoder_spec = dict(encoder or {"kind": "logmel"})
         self.num_coeffs = num_coeffs
         self.architecture = architecture
@@ -287,7 +288,6 @@ class SAiDModel(nn.Module):
                 raise ValueError(f"SAiDModel: expected channels divisible by heads, got {channels}, {heads}")
             self.denoiser = ConditionalUNet1D(num_coeffs, num_coeffs, cond_dim, channels, channels // heads, dropout=dropout,
                                               norm_groups=math.gcd(channels, 32), pad=attention_half_width)
-            kept = zero_init_groups(zero_init)
             for layer in self.denoiser.zero_initialised_layers(tuple(g for g in ZERO_INIT_GROUPS if g not in kept)):
                 layer.reset_parameters()
         else:

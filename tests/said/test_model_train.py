@@ -215,5 +215,7 @@ def test_zero_init_groups_keep_the_named_layers_at_zero_and_no_others():
     assert all(torch.equal(none[k], listed_none[k]) for k in none)
     with pytest.raises(ValueError, match="zero_init"):
         model(["proj"])
+    with pytest.raises(ValueError, match="zero_init"):  # checked for the compact UNet too
+        SAiDModel(num_coeffs=4, channels=16, cond_dim=16, heads=2, architecture="compact", zero_init="yes")
     with pytest.raises(ValueError, match="zero-init groups"):
         model(True).denoiser.zero_initialised_layers(["proj"])
