@@ -1,6 +1,6 @@
 """Read a BlendVOCA build (or a plain SAiD-layout folder) as a benchmark dataset.
 
-Layout (docs/architecture.md)::
+Layout (:mod:`blendvoca.format`, which this module reads it through)::
 
     blendshape_coeffs/<subject>/sentenceNN.csv       ground truth, 60 fps
     blendshape_coeffs/<subject>/sentenceNN-<k>.csv   optional extra samples
@@ -28,20 +28,27 @@ or from the corpus passed as ``open_blendvoca(root, vocaset=DIR)`` or named by
 from __future__ import annotations
 
 import functools
-import hashlib
-import json
-import re
+import os
 from os import PathLike
 from pathlib import Path
 
 import numpy as np
 
-_SENTENCE = re.compile(r"^(sentence\d+)\.csv$")
-_SAMPLE = re.compile(r"^(sentence\d+)-(\d+)\.csv$")
+from blendvoca import format as fmt
+from blendvoca.errors import DataError, UserError
 
 
 class BlendVOCADataset:
     """A BlendVOCA dataset folder. Create it with :func:`open_blendvoca`.
+
+    Satisfies :class:`benchmark.methods.Dataset`, what method plug-ins are given.
+
+    Parameters
+    ----------
+    root : str or os.PathLike
+        The folder (a build, or a hand-made SAiD-layout folder listed once).
+    vocaset : str or os.PathLike, optional
+        The source VOCASET corpus (see :meth:`corpus_root`).
 
     Attributes
     ----------
@@ -51,62 +58,38 @@ class BlendVOCADataset:
     subjects : list of str
     manifest_hash : str
         sha256 of the data files listed in ``manifest.json`` with their sha256
-        (the build report excluded), or, with no manifest, of the sorted file listing.
+        (the build report excluded): :func:`blendvoca.format.manifest_hash`.
     """
 
-    def __init__(self, root: Path, vocaset=None):
-        from blendvoca.build.manifest import listed_files
+    def __init__(self, root: str | PathLike, vocaset: str | PathLike | None = None):
         from blendvoca.names import BLENDVOCA_NAMES
 
+        root = Path(os.fspath(root))
         self.root = root
-        self._vocaset = None if vocaset is None else Path(vocaset).expanduser()
+        self._vocaset = None if vocaset is None else Path(os.fspath(vocaset)).expanduser()
         self.names = tuple(BLENDVOCA_NAMES)
-        self._listed = listed_files(root)  # the dataset is what manifest.json lists, nothing else
-        coeff_dir = root / "blendshape_coeffs"
-        self.subjects = sorted({rel.split("/")[1] for rel in self._listed
-                                if rel.startswith("blendshape_coeffs/") and rel.count("/") == 2})
+        self._listed = fmt.listed_files(root)  # the dataset is what manifest.json lists, nothing else
+        self.subjects = fmt.listed_subjects(self._listed)
         if not self.subjects:
-            raise ValueError(f"open_blendvoca: {root}/manifest.json lists no blendshape_coeffs/<subject>/<sentence>.csv "
-                             f"in {coeff_dir}; not a BlendVOCA dataset")
+            raise DataError(f"open_blendvoca: {fmt.manifest_path(root)} lists no "
+                            f"{fmt.coeffs_relpath('<subject>', '<sentence>')} in {root / fmt.COEFFS_DIR}; "
+                            "not a BlendVOCA dataset")
         self._splits = self._read_splits()
-        self.manifest_hash = self._hash_manifest()
+        self.manifest_hash = fmt.manifest_hash(root)
 
-    def _listed_names(self, folder: str) -> list:
-        """Names of the files directly in ``folder`` (relative to root) that the manifest lists."""
-        prefix = folder.rstrip("/") + "/"
-        return sorted(rel[len(prefix):] for rel in self._listed if rel.startswith(prefix) and "/" not in rel[len(prefix):])
+    def _listed_path(self, relpath: str) -> Path | None:
+        """The file at ``relpath`` when the manifest lists it and it is on disk, else None."""
+        path = self.root / relpath
+        return path if relpath in self._listed and path.exists() else None
 
     def _read_splits(self) -> dict:
-        path = self.root / "splits.json"
-        if "splits.json" in self._listed:
-            splits = json.loads(path.read_text())
-            if not isinstance(splits, dict):
-                raise ValueError(f"open_blendvoca: {path}: expected an object of split -> subjects")
+        if fmt.SPLITS_FILE in self._listed:
+            splits = fmt.read_splits(self.root)
         else:
             from blendvoca.vocaset import VOCASET_SPLITS
 
             splits = VOCASET_SPLITS
         return {name: [s for s in subjects if s in self.subjects] for name, subjects in splits.items()}
-
-    def _hash_manifest(self) -> str:
-        path = self.root / "manifest.json"
-        digest = hashlib.sha256()
-        if path.exists():
-            # The data's identity is its data files: the build report, tool version
-            # and parameters do not change what a method is scored on, so results
-            # of builds that differ only in those land in one leaderboard table.
-            manifest = json.loads(path.read_text())
-            if isinstance(manifest, dict) and isinstance(manifest.get("files"), dict):
-                for name, sha in sorted(manifest["files"].items()):
-                    if not name.startswith("report/"):
-                        digest.update(f"{name}\t{sha}\n".encode())
-            else:  # not written by blendvoca.build: the whole file is its identity
-                digest.update(path.read_bytes())
-        else:
-            for p in sorted(self.root.rglob("*")):
-                if p.is_file():
-                    digest.update(f"{p.relative_to(self.root).as_posix()}\t{p.stat().st_size}\n".encode())
-        return digest.hexdigest()
 
     @property
     def splits(self) -> dict:
@@ -116,54 +99,45 @@ class BlendVOCADataset:
     def split(self, name: str) -> list:
         """Subjects of a split (``"train"``, ``"val"``, ``"test"``)."""
         if name not in self._splits:
-            raise ValueError(f"BlendVOCADataset.split: unknown split {name!r}; expected one of {sorted(self._splits)}")
+            raise UserError(f"BlendVOCADataset.split: unknown split {name!r}; expected one of {sorted(self._splits)}")
         return list(self._splits[name])
 
-    def _subject_dir(self, subject: str) -> Path:
+    def _check_subject(self, subject: str) -> None:
         if subject not in self.subjects:
-            raise ValueError(f"BlendVOCADataset: unknown subject {subject!r} in {self.root}")
-        return self.root / "blendshape_coeffs" / subject
+            raise UserError(f"BlendVOCADataset: unknown subject {subject!r} in {self.root}")
 
     def sentences(self, subject: str) -> list:
         """Sentence names (``sentenceNN``) with a ground-truth track, sorted."""
-        self._subject_dir(subject)
-        return sorted(m.group(1) for name in self._listed_names(f"blendshape_coeffs/{subject}")
-                      if (m := _SENTENCE.match(name)))
+        self._check_subject(subject)
+        return fmt.listed_sentences(self._listed, subject)
 
     def coeffs(self, subject: str, sentence: str) -> np.ndarray:
         """Ground-truth track, (T, 32) float64 in ``names`` order, 60 fps."""
-        from blendvoca.io.coeffs import read_coeffs_csv
-
-        path = self._subject_dir(subject) / f"{sentence}.csv"
-        if f"blendshape_coeffs/{subject}/{sentence}.csv" not in self._listed or not path.exists():
-            raise ValueError(f"BlendVOCADataset.coeffs: no track {path} (in manifest.json and on disk)")
-        coeffs, _ = read_coeffs_csv(path, names=self.names)
+        self._check_subject(subject)
+        if self._listed_path(fmt.coeffs_relpath(subject, sentence)) is None:
+            raise UserError(f"BlendVOCADataset.coeffs: no track {fmt.coeffs_path(self.root, subject, sentence)} "
+                            f"(in {fmt.MANIFEST_FILE} and on disk)")
+        coeffs, _ = fmt.read_coeffs(self.root, subject, sentence, names=self.names)
         return np.asarray(coeffs, dtype=np.float64)
 
     def samples(self, subject: str, sentence: str) -> np.ndarray:
         """All stored tracks of a sentence: ``sentenceNN-<k>.csv`` in k order, or the
         single ``sentenceNN.csv``; (S, T, 32) (tracks truncated to the shortest)."""
-        from blendvoca.io.coeffs import read_coeffs_csv
-
-        d = self._subject_dir(subject)
-        found = sorted(
-            (int(m.group(2)), d / name) for name in self._listed_names(f"blendshape_coeffs/{subject}")
-            if (m := _SAMPLE.match(name)) and m.group(1) == sentence
-        )
+        self._check_subject(subject)
+        found = fmt.listed_samples(self._listed, subject, sentence)
         if not found:
             return self.coeffs(subject, sentence)[None]
-        tracks = [np.asarray(read_coeffs_csv(p, names=self.names)[0], dtype=np.float64) for _, p in found]
+        tracks = [np.asarray(fmt.read_coeffs_file(self.root, rel, names=self.names)[0], dtype=np.float64)
+                  for rel in found]
         t = min(len(x) for x in tracks)
         return np.stack([x[:t] for x in tracks])
 
     def audio(self, subject: str, sentence: str) -> tuple[np.ndarray, int]:
         """Speech of a sentence: ((N,) float32 mono at 16 kHz, 16000)."""
-        from blendvoca.io.audio import load_audio
-
-        path = self.root / "audio" / subject / f"{sentence}.wav"
-        if f"audio/{subject}/{sentence}.wav" not in self._listed or not path.exists():
-            raise ValueError(f"BlendVOCADataset.audio: no audio {path} (in manifest.json and on disk)")
-        return np.asarray(load_audio(path, rate=16000), dtype=np.float32), 16000
+        if self._listed_path(fmt.audio_relpath(subject, sentence)) is None:
+            raise UserError(f"BlendVOCADataset.audio: no audio {fmt.audio_path(self.root, subject, sentence)} "
+                            f"(in {fmt.MANIFEST_FILE} and on disk)")
+        return fmt.read_audio(self.root, subject, sentence)
 
     def rig(self, subject: str):
         """The speaker's rig (:class:`blendvoca.rig.Rig`), cached."""
@@ -171,15 +145,13 @@ class BlendVOCADataset:
 
     @functools.cache  # noqa: B019 - one dataset object per run
     def _rig(self, subject: str):
-        from blendvoca.rig import Rig
-
-        self._subject_dir(subject)
-        npz = self.root / "rigs" / f"{subject}.npz"
-        if f"rigs/{subject}.npz" in self._listed and npz.exists():
-            return Rig.load(npz)
-        if f"templates_head/{subject}.obj" not in self._listed:
-            raise ValueError(f"said_layout_rig: subject {subject!r} has neither rigs/{subject}.npz nor "
-                             f"templates_head/{subject}.obj + blendshapes_head/{subject}/ listed in {self.root}/manifest.json")
+        self._check_subject(subject)
+        if self._listed_path(fmt.rig_relpath(subject)) is not None:
+            return fmt.read_rig(self.root, subject)
+        if fmt.template_relpath(subject) not in self._listed:
+            raise DataError(f"said_layout_rig: subject {subject!r} has neither {fmt.rig_relpath(subject)} nor "
+                            f"{fmt.template_relpath(subject)} + {fmt.blendshapes_relpath(subject)}/ listed in "
+                            f"{fmt.manifest_path(self.root)}")
         return said_layout_rig(self.root, subject, self.names)
 
     def utterance(self, subject: str, sentence: str, split: str | None = None):
@@ -190,7 +162,7 @@ class BlendVOCADataset:
             split = next((name for name, subjects in self._splits.items() if subject in subjects), "")
         audio, rate = self.audio(subject, sentence)
         if rate != AUDIO_RATE:
-            raise ValueError(f"BlendVOCADataset.utterance {subject}/{sentence}: expected {AUDIO_RATE} Hz audio, got {rate}")
+            raise DataError(f"BlendVOCADataset.utterance {subject}/{sentence}: expected {AUDIO_RATE} Hz audio, got {rate}")
         num_frames = int(self.coeffs(subject, sentence).shape[0])
         return Utterance(subject=subject, sentence=sentence, split=split, audio=audio, num_frames=num_frames)
 
@@ -205,21 +177,14 @@ class BlendVOCADataset:
         FileNotFoundError
             None of them names an existing folder (the message says how to give one).
         """
-        import os
-
         candidates = []
         if self._vocaset is not None:
             candidates.append(("open_blendvoca(vocaset=...)", self._vocaset))
         if os.environ.get("BLENDVOCA_VOCASET"):
             candidates.append(("$BLENDVOCA_VOCASET", Path(os.environ["BLENDVOCA_VOCASET"]).expanduser()))
-        manifest = self.root / "manifest.json"
-        if manifest.is_file():
-            try:
-                recorded = json.loads(manifest.read_text()).get("inputs", {}).get("vocaset", {}).get("path")
-            except (ValueError, AttributeError):
-                recorded = None
-            if recorded:
-                candidates.append((f"{manifest} inputs.vocaset.path", Path(recorded)))
+        recorded = fmt.recorded_vocaset(self.root)
+        if recorded:
+            candidates.append((f"{fmt.manifest_path(self.root)} inputs.vocaset.path", Path(recorded)))
         for _, path in candidates:
             if path.is_dir():
                 return path
@@ -241,12 +206,12 @@ class BlendVOCADataset:
 
         ``T`` equals the coefficient track's frame count (the build fits every frame).
         """
-        self._subject_dir(subject)
+        self._check_subject(subject)
         return self.corpus.frames(subject, sentence)
 
     def template(self, subject: str) -> np.ndarray:
         """The speaker's neutral mesh on the source topology, ``(5023, 3)`` float64 metres."""
-        self._subject_dir(subject)
+        self._check_subject(subject)
         return self.corpus.template(subject)
 
     def faces(self) -> np.ndarray:
@@ -258,19 +223,10 @@ class BlendVOCADataset:
         return f"BlendVOCADataset({str(self.root)!r}, subjects={len(self.subjects)})"
 
 
-def said_layout_rig(root, subject: str, names):
-    """Rig from ``templates_head/<subject>.obj`` and ``blendshapes_head/<subject>/<name>.obj``."""
-    from blendvoca.rig import Rig
-
-    root = Path(root)
-    template = root / "templates_head" / f"{subject}.obj"
-    shape_dir = root / "blendshapes_head" / subject
-    if not template.exists() or not shape_dir.is_dir():
-        raise ValueError(
-            f"said_layout_rig: subject {subject!r} has neither rigs/{subject}.npz nor "
-            f"templates_head/{subject}.obj + blendshapes_head/{subject}/ in {root}"
-        )
-    return Rig.load_said_folder(shape_dir, names=tuple(names), neutral_path=template)
+def said_layout_rig(root: str | PathLike, subject: str, names):
+    """Rig from ``templates_head/<subject>.obj`` and ``blendshapes_head/<subject>/<name>.obj``
+    (:func:`blendvoca.format.read_said_rig`)."""
+    return fmt.read_said_rig(root, subject, names)
 
 
 def open_blendvoca(root: str | PathLike, *, vocaset: str | PathLike | None = None) -> BlendVOCADataset:
@@ -278,8 +234,8 @@ def open_blendvoca(root: str | PathLike, *, vocaset: str | PathLike | None = Non
 
     Parameters
     ----------
-    root : path-like
-    vocaset : path-like, optional
+    root : str or os.PathLike
+    vocaset : str or os.PathLike, optional
         The source VOCASET corpus, for :meth:`BlendVOCADataset.vertices` (default:
         ``$BLENDVOCA_VOCASET``, then the corpus recorded in ``manifest.json``).
 
@@ -289,11 +245,13 @@ def open_blendvoca(root: str | PathLike, *, vocaset: str | PathLike | None = Non
 
     Raises
     ------
-    ValueError
-        Not a folder, or no usable ``manifest.json`` (``blendvoca.build.manifest.ManifestError``,
-        whose message gives the command that makes one), or no tracks listed.
+    UserError
+        Not a folder.
+    DataError
+        No usable ``manifest.json`` (:class:`blendvoca.format.ManifestError`, whose
+        message gives the command that makes one), or no tracks listed.
     """
-    root = Path(root)
+    root = Path(os.fspath(root))
     if not root.is_dir():
-        raise ValueError(f"open_blendvoca: {root} is not a directory")
+        raise UserError(f"open_blendvoca: {root} is not a directory")
     return BlendVOCADataset(root, vocaset=vocaset)

@@ -4,20 +4,21 @@ add the model-based lip-sync metrics to stored runs, from the tracks they stored
 A stored run (:mod:`benchmark.runs`) keeps every generated track, so the lip-sync
 scores of a learned sync expert or of SyncNet can be added later without running
 the method again: the tracks are read back, scored exactly as ``benchmark.run``
-scores them (the lip-sync stage of :func:`benchmark.evaluate.evaluate_split`), and
-the result file is rewritten with those metrics, their per-sentence values and the
-models' provenance (``protocol.lipsync_models``). Other metrics are left as they are.
+scores them (:func:`benchmark.protocol.score_lipsync_models`, the lip-sync stage of
+:func:`benchmark.evaluate.evaluate_split`), and the result file is rewritten with
+those metrics, their per-sentence values and the models' provenance
+(``protocol.lipsync_models``). Other metrics are left as they are.
 """
 
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 
-__all__ = ["main", "rescored_result"]
+from blendvoca import cli
+from blendvoca.errors import UserError
 
-_MODEL_METRICS = ("av_offset_expert", "av_confidence_expert", "av_offset_syncnet", "av_confidence_syncnet")
+__all__ = ["main", "rescored_result"]
 
 
 def rescored_result(json_path, *, syncnet=None, sync_expert=None, data=None, progress: bool = True) -> dict:
@@ -25,39 +26,44 @@ def rescored_result(json_path, *, syncnet=None, sync_expert=None, data=None, pro
 
     Parameters
     ----------
-    json_path : path-like
+    json_path : str or path-like
         A result JSON written by ``benchmark.run`` (with stored tracks).
-    syncnet, sync_expert : path-like, optional
+    syncnet, sync_expert : str or path-like, optional
         SyncNet weights (authors' format) and a learned sync expert; at least one.
-    data : path-like, optional
+    data : str or path-like, optional
         The BlendVOCA build to read audio and rigs from (default: the run's ``dataset.path``).
+
+    Returns
+    -------
+    dict
+        The result record, its metrics in table order.
+
+    Raises
+    ------
+    UserError
+        No model given, a model file that holds none, or a build other than the run's.
+    DataError
+        The result file or its stored tracks do not read.
     """
-    from benchmark.data import open_blendvoca
-    from benchmark.evaluate import _lipsync_values, _load_models, _sentence_entries
-    from benchmark.metrics.bootstrap import BOOTSTRAP_RESAMPLES
     from benchmark.metrics.registry import ordered_metrics
-    from benchmark.run import lipsync_models_provenance
+    from benchmark.protocol import lipsync_models_provenance, open_data, score_lipsync_models
     from benchmark.runs import read_run
 
     if syncnet is None and sync_expert is None:
-        raise ValueError("benchmark.rescore: expected --sync-expert and/or --syncnet-weights, got neither")
+        raise UserError("benchmark.rescore: expected --sync-expert and/or --syncnet-weights, got neither")
+    json_path = Path(json_path)
     stored = read_run(json_path)
     result = stored.result
-    dataset = open_blendvoca(data if data is not None else stored.dataset_root)
+    dataset = open_data(data if data is not None else stored.dataset_root)
     if str(dataset.manifest_hash) != result["dataset"]["manifest_hash"]:
-        raise ValueError(f"benchmark.rescore: {json_path} was scored on manifest {result['dataset']['manifest_hash'][:12]}, "
-                         f"but {dataset.root} has {str(dataset.manifest_hash)[:12]}")
+        raise UserError(f"benchmark.rescore: {json_path} was scored on manifest "
+                        f"{result['dataset']['manifest_hash'][:12]}, but {dataset.root} has "
+                        f"{str(dataset.manifest_hash)[:12]}")
     keys = [(row["subject"], row["sentence"]) for row in result.get("per_sentence") or []] or stored.keys
-    generated = {key: stored.tracks(*key) for key in keys}
-    rigs = {s: dataset.rig(s) for s in {k[0] for k in keys}}
-    audio = {k: dataset.audio(*k) for k in keys}
-    syncnet_model, expert_model = _load_models(syncnet, sync_expert)
-    values = _lipsync_values(generated, rigs, audio, dataset.names, syncnet=syncnet_model, sync_expert=expert_model,
-                             progress=progress)
-    values = {name: v for name, v in values.items() if name in _MODEL_METRICS}
-    # evaluate_split's own bootstrap seed (0), as benchmark.run scores: same tracks, same intervals
-    added, rows = _sentence_entries(values, seed=0, resamples=BOOTSTRAP_RESAMPLES)
-    metrics = {**result["metrics"], **added}
+    tracks = {key: stored.tracks(*key) for key in keys}
+    scored = score_lipsync_models(tracks, dataset, syncnet=syncnet, sync_expert=sync_expert, progress=progress)
+    metrics = {**result["metrics"], **scored.metrics}
+    rows = {(row["subject"], row["sentence"]): row for row in scored.per_sentence}
     result = {**result, "metrics": {name: metrics[name] for name in ordered_metrics(list(metrics))}}
     result["per_sentence"] = [{**row, **rows.get((row["subject"], row["sentence"]), {})}
                               for row in result.get("per_sentence") or []]
@@ -67,27 +73,23 @@ def rescored_result(json_path, *, syncnet=None, sync_expert=None, data=None, pro
     return result
 
 
+@cli.command
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(prog="python -m benchmark.rescore", description=__doc__.split("\n\n")[0])
+    p = cli.parser("benchmark.rescore", __doc__)
     p.add_argument("runs", nargs="+", help="result JSON files of stored runs")
     p.add_argument("--sync-expert", default=None, metavar="PATH", help="learned sync expert (benchmark.lipsync)")
     p.add_argument("--syncnet-weights", default=None, metavar="PATH", help="SyncNet weights (syncnet_v2.model)")
-    p.add_argument("--data", default=None, help="BlendVOCA build (default: each run's dataset.path)")
-    p.add_argument("--quiet", action="store_true")
+    cli.add_data_option(p, help="BlendVOCA build folder (default: each run's dataset.path)")
+    cli.add_quiet_option(p)
     args = p.parse_args(argv)
-    from benchmark.results import write_result
-    from blendvoca.errors import error_line
+    from benchmark.protocol import write_run
 
     for run in args.runs:
-        try:
-            result = rescored_result(run, syncnet=args.syncnet_weights, sync_expert=args.sync_expert,
-                                     data=args.data, progress=not args.quiet)
-        except (ValueError, KeyError, OSError) as error:
-            print(error_line(error), file=sys.stderr)
-            return 2
+        result = rescored_result(run, syncnet=args.syncnet_weights, sync_expert=args.sync_expert,
+                                 data=args.data, progress=not args.quiet)
         path = Path(run)
-        print(write_result(result, path.parent, path.name))
-    return 0
+        print(write_run(result, path.parent, path.name))
+    return cli.EXIT_OK
 
 
 if __name__ == "__main__":

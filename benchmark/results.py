@@ -32,6 +32,8 @@ import re
 import subprocess
 from pathlib import Path
 
+from blendvoca.errors import DataError
+from blendvoca.format import blas_kernels
 from blendvoca.io.atomic import atomic_write
 
 __all__ = [
@@ -115,8 +117,6 @@ def hardware_info() -> dict:
         cores = len(os.sched_getaffinity(0))
     except AttributeError:
         cores = os.cpu_count()
-    from blendvoca.build.manifest import blas_kernels
-
     info = {"cpu": _cpu_name(), "cores": cores, "blas": blas_kernels(), "gpu": None}
     try:
         import torch
@@ -277,10 +277,21 @@ def write_result(result: dict, results_dir, filename: str | None = None) -> Path
 
 
 def read_result(path) -> dict:
-    """Load and check one result file."""
-    path = Path(path)
+    """Load and check one result file.
+
+    Raises
+    ------
+    DataError
+        The file is not JSON or does not follow the schema (:func:`check_result`).
+    OSError
+        It cannot be read.
+    """
+    path = Path(os.fspath(path))
     try:
         result = json.loads(path.read_text(encoding="utf-8"))
-    except json.JSONDecodeError as exc:
-        raise ValueError(f"{path}: not valid JSON ({exc})") from exc
-    return check_result(result, where=str(path))
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise DataError(f"{path}: not valid JSON ({exc})") from exc
+    try:
+        return check_result(result, where=str(path))
+    except (TypeError, ValueError) as exc:  # check_result's word on a file's content
+        raise DataError(str(exc)) from exc

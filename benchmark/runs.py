@@ -30,8 +30,11 @@ from pathlib import Path
 
 import numpy as np
 
+from blendvoca.errors import DataError
+
 __all__ = [
     "TRACKS_KEY",
+    "MissingTracksError",
     "StoredRun",
     "StoredVertices",
     "TrackWriter",
@@ -46,6 +49,14 @@ __all__ = [
 TRACKS_KEY = "tracks"
 _TRACK = re.compile(r"^(sentence\d+)-(\d+)\.csv$")
 _VERTICES_SUFFIX = ".vertices.npz"
+
+
+class MissingTracksError(DataError, KeyError):
+    """A stored run lacks the tracks (or vertices) of a sentence; a ``KeyError`` too, for
+    callers that look sentences up."""
+
+    def __str__(self) -> str:  # KeyError would print the message in quotes
+        return str(self.args[0]) if self.args else ""
 
 
 def tracks_folder_name(json_name: str) -> str:
@@ -72,7 +83,7 @@ def template_path(folder, subject: str) -> Path:
 def _read_vertices(folder, subject: str, sentence: str) -> np.ndarray:
     path = vertices_path(folder, subject, sentence)
     if not path.is_file():
-        raise KeyError(f"stored run {folder}: no vertices for {subject}/{sentence} (expected {path})")
+        raise MissingTracksError(f"stored run {folder}: no vertices for {subject}/{sentence} (expected {path})")
     template = np.load(template_path(folder, subject))
     with np.load(path) as data:
         offsets = data["offsets"]
@@ -252,11 +263,19 @@ class StoredRun:
         found = sorted((int(m.group(2)), p) for p in folder.glob(f"{sentence}-*.csv")
                        if (m := _TRACK.match(p.name)) and m.group(1) == sentence)
         if not found:
-            raise KeyError(f"stored run {self.json_path}: no tracks for {subject}/{sentence} in {folder}")
+            raise MissingTracksError(f"stored run {self.json_path}: no tracks for {subject}/{sentence} in {folder}")
         return [p for _, p in found]
 
     def tracks(self, subject: str, sentence: str) -> np.ndarray:
-        """The stored samples of a sentence, ``(S, T, 32)`` float64."""
+        """The stored samples of a sentence, ``(S, T, 32)`` float64.
+
+        Raises
+        ------
+        MissingTracksError
+            The run stored none for this sentence.
+        DataError
+            A stored CSV does not read (``blendvoca.io.coeffs``: the message names it and the row).
+        """
         from blendvoca.io.coeffs import read_coeffs_csv
 
         return np.stack([np.asarray(read_coeffs_csv(p)[0], dtype=np.float64)
@@ -280,7 +299,7 @@ def read_run(json_path) -> StoredRun:
 
     Raises
     ------
-    ValueError
+    DataError
         The JSON is not a result file or names no tracks folder (a run written
         before tracks were stored).
     FileNotFoundError
@@ -292,7 +311,7 @@ def read_run(json_path) -> StoredRun:
     result = read_result(json_path)
     rel = result.get(TRACKS_KEY)
     if not rel:
-        raise ValueError(f"{json_path}: no {TRACKS_KEY!r} key; the run stored no tracks (rerun benchmark.run)")
+        raise DataError(f"{json_path}: no {TRACKS_KEY!r} key; the run stored no tracks (rerun benchmark.run)")
     tracks_dir = (json_path.parent / rel).resolve()
     if not tracks_dir.is_dir():
         raise FileNotFoundError(f"{json_path}: tracks folder {tracks_dir} (key {TRACKS_KEY!r} = {rel!r}) not found")

@@ -27,8 +27,10 @@ import numpy as np
 
 from benchmark.methods.base import Budget, Method
 from benchmark.methods.contract import AUDIO_RATE, COEFFICIENT_NAMES, FPS, OUTPUT_KINDS, Utterance
+from benchmark.protocol import generated_tracks
 
-__all__ = ["CheckReport", "FakeBlendVOCA", "MethodCheckError", "check_method"]
+__all__ = ["RANDOM_RIG_EXTRA_SHAPE", "RANDOM_RIG_VERTICES", "CheckReport", "FakeBlendVOCA", "MethodCheckError",
+           "check_method"]
 
 
 class MethodCheckError(AssertionError):
@@ -75,46 +77,109 @@ def _syllables(rng, num_frames: int) -> np.ndarray:
     return env
 
 
-class FakeBlendVOCA:
-    """A small in-memory dataset with the interface of ``benchmark.data.open_blendvoca``.
+#: Vertices of the ``rig="random"`` speakers of :class:`FakeBlendVOCA`.
+RANDOM_RIG_VERTICES = 60
+#: The shape those rigs have besides the 32 coefficient names (a rig may hold more shapes than a dataset's names).
+RANDOM_RIG_EXTRA_SHAPE = "browInnerUp"
 
-    Subjects ``FakeTrain0..``, ``FakeVal0``, ``FakeTest0..``; each has a rig on a
-    small ellipsoid head, ``sentences`` sentences of 130-170 frames whose jawOpen
-    follows the loudness of noise-burst "speech", source vertices equal to the rig
+
+def _subject_names(spec, prefix: str) -> list:
+    """``spec`` subjects: a count (``<prefix>0``, ``<prefix>1``, ...) or the names themselves."""
+    if isinstance(spec, (int, np.integer)) and not isinstance(spec, bool):
+        return [f"{prefix}{i}" for i in range(int(spec))]
+    if isinstance(spec, str) or not all(isinstance(name, str) for name in spec):
+        raise TypeError(f"FakeBlendVOCA: a split is a number of subjects or a sequence of names, got {spec!r}")
+    return list(spec)
+
+
+def _random_rig(rng, names):
+    """A well-conditioned rig on random vertices: ``names`` plus one extra shape, small random deltas."""
+    from blendvoca.rig import Rig
+
+    shapes = tuple(names) + (RANDOM_RIG_EXTRA_SHAPE,)
+    # 32 random shapes on 60 vertices (180 equations): the coefficients are well determined.
+    neutral = rng.normal(size=(RANDOM_RIG_VERTICES, 3))
+    deltas = 0.01 * rng.normal(size=(len(shapes), RANDOM_RIG_VERTICES, 3))
+    return Rig(neutral, deltas, shapes, np.array([[0, 1, 2], [1, 2, 3]]))
+
+
+class FakeBlendVOCA:
+    """A small in-memory dataset with the interface of ``benchmark.data.open_blendvoca``
+    (a :class:`benchmark.methods.Dataset`).
+
+    By default: subjects ``FakeTrain0..``, ``FakeVal0..``, ``FakeTest0..``; each has a
+    rig on a small ellipsoid head and ``sentences`` sentences of 130-170 frames
+    whose jawOpen follows the loudness of noise-burst "speech" (mouthClose its
+    opposite), the other coefficients around 0.05; source vertices equal to the rig
     driven by the track, the template (the rig neutral) and faces.
 
     Parameters
     ----------
     seed : int
-    train, val, test : int
-        Subjects per split.
+    train, val, test : int or sequence of str
+        Subjects per split: a count (named ``FakeTrain0``, ...) or the names.
     sentences : int
-        Sentences per subject.
+        Sentences per subject (``sentence01``, ...).
+    frames : (int, int)
+        Frame counts are drawn from ``[low, high)`` (60 fps).
+    tracks : {"speech", "smooth"}
+        ``"speech"``: jawOpen follows the audio's loudness (a method can learn it
+        from the audio). ``"smooth"``: every coefficient a slow sinusoid in
+        [0.1, 0.9] moving less than 0.1 per frame (within the fit's rate bound,
+        so a fit recovers it exactly), over noise audio.
+    noise : float
+        Standard deviation of the other coefficients around 0.05 (``"speech"``;
+        0: constant 0.05).
+    rig : {"head", "random"}
+        ``"head"``: 32 localized smooth shapes on an ellipsoid head (642 vertices).
+        ``"random"``: :data:`RANDOM_RIG_VERTICES` random vertices with the 32 shapes and
+        :data:`RANDOM_RIG_EXTRA_SHAPE` as random offsets (every coefficient is
+        recoverable from vertices).
+    manifest_hash : str, optional
+        Default ``"fake-blendvoca-seed<seed>"``.
     """
 
-    def __init__(self, seed: int = 0, *, train: int = 2, val: int = 1, test: int = 1, sentences: int = 2):
+    def __init__(self, seed: int = 0, *, train=2, val=1, test=1, sentences: int = 2,
+                 frames: tuple[int, int] = (130, 171), tracks: str = "speech", noise: float = 0.02,
+                 rig: str = "head", manifest_hash: str | None = None):
+        if tracks not in ("speech", "smooth"):
+            raise ValueError(f"FakeBlendVOCA: tracks must be 'speech' or 'smooth', got {tracks!r}")
+        if rig not in ("head", "random"):
+            raise ValueError(f"FakeBlendVOCA: rig must be 'head' or 'random', got {rig!r}")
         rng = np.random.default_rng(seed)
         self.root = None
         self.names = tuple(COEFFICIENT_NAMES)
-        self._splits = {"train": [f"FakeTrain{i}" for i in range(train)], "val": [f"FakeVal{i}" for i in range(val)],
-                        "test": [f"FakeTest{i}" for i in range(test)]}
-        self.subjects = sorted(s for subjects in self._splits.values() for s in subjects)
-        self.manifest_hash = f"fake-blendvoca-seed{seed}"
-        base, self._faces = _head_mesh()
+        self._splits = {"train": _subject_names(train, "FakeTrain"), "val": _subject_names(val, "FakeVal"),
+                        "test": _subject_names(test, "FakeTest")}
+        self.subjects = sorted({s for subjects in self._splits.values() for s in subjects})
+        self.manifest_hash = f"fake-blendvoca-seed{seed}" if manifest_hash is None else str(manifest_hash)
+        if rig == "head":
+            base, self._faces = _head_mesh()
+        else:
+            self._faces = np.array([[0, 1, 2], [1, 2, 3]], dtype=np.int64)
         self._rigs, self._data = {}, {}
         jaw, close = self.names.index("jawOpen"), self.names.index("mouthClose")
         for subject in self.subjects:
-            neutral = base * rng.uniform(0.95, 1.05, size=3)
-            self._rigs[subject] = _fake_rig(neutral, self._faces, rng)
+            if rig == "head":
+                neutral = base * rng.uniform(0.95, 1.05, size=3)
+                self._rigs[subject] = _fake_rig(neutral, self._faces, rng)
+            else:
+                self._rigs[subject] = _random_rig(rng, self.names)
             for j in range(1, sentences + 1):
-                num_frames = int(rng.integers(130, 171))
-                env = _syllables(rng, num_frames)
-                coeffs = np.clip(0.05 + 0.02 * rng.standard_normal((num_frames, len(self.names))), 0, 1)
-                coeffs[:, jaw] = 0.8 * env
-                coeffs[:, close] = 0.3 * (1 - env)
-                n = round(num_frames / FPS * AUDIO_RATE)
-                amp = np.interp(np.arange(n) * FPS / AUDIO_RATE, np.arange(num_frames), env)
-                audio = (amp * rng.standard_normal(n) * 0.3).astype(np.float32)
+                num_frames = int(rng.integers(*frames))
+                if tracks == "speech":
+                    env = _syllables(rng, num_frames)
+                    coeffs = np.clip(0.05 + noise * rng.standard_normal((num_frames, len(self.names))), 0, 1)
+                    coeffs[:, jaw] = 0.8 * env
+                    coeffs[:, close] = 0.3 * (1 - env)
+                    n = round(num_frames / FPS * AUDIO_RATE)
+                    amp = np.interp(np.arange(n) * FPS / AUDIO_RATE, np.arange(num_frames), env)
+                    audio = (amp * rng.standard_normal(n) * 0.3).astype(np.float32)
+                else:
+                    t = np.arange(num_frames)[:, None]
+                    freq = rng.uniform(0.005, 0.03, size=len(self.names))  # slope <= 0.4 * 2 pi * 0.03 < 0.1
+                    coeffs = 0.5 + 0.4 * np.sin(2 * np.pi * freq * t + rng.uniform(0, 6, size=len(self.names)))
+                    audio = (0.1 * rng.standard_normal(num_frames * AUDIO_RATE // FPS)).astype(np.float32)
                 self._data[(subject, f"sentence{j:02d}")] = (audio, coeffs)
 
     @property
@@ -151,6 +216,8 @@ class FakeBlendVOCA:
     def vertices(self, subject: str, sentence: str) -> np.ndarray:
         """``(T, V, 3)`` metres at 60 fps: the rig driven by the sentence's track."""
         rig = self._rigs[subject]
+        if rig.names != self.names:
+            rig = rig.select(self.names)
         coeffs = self.coeffs(subject, sentence)
         return rig.neutral[None] + np.tensordot(coeffs, rig.deltas, axes=(1, 0))
 
@@ -183,8 +250,6 @@ def _fail(step: str, cls, message: str, exc: BaseException | None = None):
 
 
 def _generate_all(method, dataset, samples: int, seed: int):
-    from benchmark.run import generated_tracks
-
     vertices = {}
     tracks, _ = generated_tracks(method, dataset, split="test", samples=samples, seed=seed, progress=False,
                                  vertices_out=vertices)

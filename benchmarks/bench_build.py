@@ -38,7 +38,7 @@ def main():
                         help="only the rig stage, with and without the shared correspondence")
     args = parser.parse_args()
 
-    from blendvoca.build import build_dataset
+    from blendvoca.builder import build_dataset
     from blendvoca.synthetic import default_corpus, generate_corpus
 
     work = Path(args.work)
@@ -71,7 +71,7 @@ def rig_reuse(corpus_root):
     from threadpoolctl import threadpool_limits
 
     from blendvoca.assets import load_index_list
-    from blendvoca.build.speaker import speaker_rig
+    from blendvoca.builder.speaker import speaker_rig
     from blendvoca.retarget import correspondence_for_target
     from blendvoca.rig import load_arkit_reference
     from blendvoca.vocaset import open_vocaset

@@ -53,15 +53,16 @@ def main(argv=None) -> int:
     from benchmark.data import open_blendvoca
     from benchmark.lipsync import geometric_sync, load_expert, mouth_activity
     from benchmark.lipsync.expert import save_expert
-    from benchmark.lipsync.expert_train import dataset_items, train_expert
+    from benchmark.lipsync.expert_training import dataset_items, train_expert
     from benchmark.metrics import regions, vertex
     from blendvoca_example_method import energy_envelope
 
     if args.data is None:
-        from blendvoca.build.pipeline import build_dataset, default_output_dir
+        from blendvoca.builder.pipeline import build_dataset, default_output_dir
+        from blendvoca.format import manifest_path
 
         data = default_output_dir()
-        if not (data / "manifest.json").is_file():
+        if not manifest_path(data).is_file():
             build_dataset(data, None)
     else:
         data = Path(args.data)

@@ -1,5 +1,9 @@
 """Resolve the external files named in ``data_manifest.yaml`` to local paths.
 
+``python -m blendvoca.assets list|verify|fetch [ID ...]`` lists them, checks the local
+copies against their sha256 (exit status 4 when one is corrupted or missing) and
+downloads what is missing.
+
 Lookup order for an asset with a ``mirror`` path:
 
 1. ``$BLENDVOCA_ASSETS/<mirror>`` (a directory laid out like ``shared/assets``);
@@ -27,14 +31,23 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from blendvoca.errors import BlendVOCAError
+from blendvoca import cli
+from blendvoca.errors import CheckFailed, DataError, UserError
 from blendvoca.io.atomic import permissions_for
 
 MANIFEST_PATH = Path(__file__).with_name("data_manifest.yaml")
 
 
-class AssetError(BlendVOCAError, RuntimeError):
-    """An asset is missing, corrupted, or cannot be downloaded here (a `BlendVOCAError`)."""
+class AssetError(UserError, RuntimeError):
+    """An asset is missing, corrupted, or cannot be downloaded here (a `UserError`)."""
+
+
+class UnknownAssetError(UserError, KeyError):
+    """An asset id that ``data_manifest.yaml`` does not name (a `UserError` and a ``KeyError``);
+    the message lists the close matches and the known ids."""
+
+    def __str__(self) -> str:  # KeyError would print the message in quotes
+        return str(self.args[0]) if self.args else ""
 
 
 @lru_cache(maxsize=None)
@@ -45,7 +58,7 @@ def load_manifest(path: Path = MANIFEST_PATH) -> dict[str, dict]:
     entries = {}
     for entry in document["assets"]:
         if entry["id"] in entries:
-            raise ValueError(f"{path}: asset id {entry['id']!r} appears twice")
+            raise DataError(f"{path}: asset id {entry['id']!r} appears twice")
         entries[entry["id"]] = entry
     return entries
 
@@ -89,14 +102,14 @@ def _checked_sha256(path: Path) -> str:
 
 
 def entry(asset_id: str) -> dict:
-    """The manifest entry of ``asset_id``; unknown ids list the known ones."""
+    """The manifest entry of ``asset_id``; unknown ids raise :class:`UnknownAssetError` listing the known ones."""
     manifest = load_manifest()
     if asset_id not in manifest:
         import difflib
 
         close = difflib.get_close_matches(asset_id, manifest, n=3)
         hint = f" Did you mean {close}?" if close else ""
-        raise KeyError(f"unknown asset id {asset_id!r}.{hint} Known ids: {sorted(manifest)}")
+        raise UnknownAssetError(f"unknown asset id {asset_id!r}.{hint} Known ids: {sorted(manifest)}")
     return manifest[asset_id]
 
 
@@ -210,11 +223,15 @@ def _status(asset_id: str) -> tuple[str, Path | None]:
     return "ok", local
 
 
+@cli.command
 def main(argv: list[str] | None = None) -> int:
-    """``python -m blendvoca.assets list|verify|fetch [ID ...]``."""
-    import argparse
+    """``python -m blendvoca.assets list|verify|fetch [ID ...]``.
 
-    parser = argparse.ArgumentParser(prog="python -m blendvoca.assets", description=__doc__.splitlines()[0])
+    Exit status: 0 done; 2 an unknown asset id; 4 (``verify``) some local copy is
+    corrupted or a public asset is missing; 5 (``fetch``) some asset could not be
+    fetched (each is listed, the others were).
+    """
+    parser = cli.parser("blendvoca.assets", __doc__)
     parser.add_argument("command", choices=["list", "verify", "fetch"])
     parser.add_argument("ids", nargs="*", help="asset ids (default: all)")
     args = parser.parse_args(argv)
@@ -239,11 +256,16 @@ def main(argv: list[str] | None = None) -> int:
             try:
                 print(f"ok       {asset_id}: {resolve(asset_id)}")
             except AssetError as error:
+                # One asset that cannot be fetched here does not stop the others.
                 print(f"error    {error}")
                 failures += 1
     if failures:
         print(f"{failures} asset(s) failed")
-    return 1 if failures else 0
+        if args.command == "verify":
+            raise CheckFailed(f"{failures} asset(s) failed verification (listed above): delete each corrupted "
+                              "copy and fetch it again (python -m blendvoca.assets fetch ID)")
+        return cli.EXIT_PARTIAL
+    return cli.EXIT_OK
 
 
 if __name__ == "__main__":

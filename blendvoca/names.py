@@ -12,6 +12,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from blendvoca.errors import UserError
+
 ARKIT_NAMES: tuple[str, ...] = (
     "browDownLeft", "browDownRight", "browInnerUp", "browOuterUpLeft",
     "browOuterUpRight", "cheekPuff", "cheekSquintLeft", "cheekSquintRight",
@@ -86,7 +88,7 @@ def pascal_name(name: str) -> str:
     """Live Link Face's PascalCase spelling of an ARKit name (``jawOpen`` -> ``JawOpen``)."""
     canonical = arkit_name(name)
     if canonical is None:
-        raise ValueError(f"pascal_name: {name!r} is not an ARKit blendshape name; expected one of {ARKIT_FACE_ORDER[:3]}...")
+        raise UserError(f"pascal_name: {name!r} is not an ARKit blendshape name; expected one of {ARKIT_FACE_ORDER[:3]}...")
     return canonical[0].upper() + canonical[1:]
 
 
@@ -141,14 +143,14 @@ def check_names(names: Sequence[str], *, where: str) -> tuple[str, ...]:
 
     Raises
     ------
-    ValueError
-        Naming the unknown or repeated names and ``where`` they came from.
+    UserError
+        Naming the unknown or repeated names and ``where`` they came from (a ``ValueError``).
     """
     names = tuple(str(n) for n in names)
     unknown = [n for n in names if n not in ARKIT_NAMES]
     if unknown:
-        raise ValueError(f"{where}: unknown blendshape names {unknown}; expected ARKit names such as {ARKIT_NAMES[:3]}")
+        raise UserError(f"{where}: unknown blendshape names {unknown}; expected ARKit names such as {ARKIT_NAMES[:3]}")
     repeated = sorted({n for n in names if names.count(n) > 1})
     if repeated:
-        raise ValueError(f"{where}: blendshape names repeated: {repeated}")
+        raise UserError(f"{where}: blendshape names repeated: {repeated}")
     return names

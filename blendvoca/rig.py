@@ -8,6 +8,7 @@ layout (``Neutral.obj`` plus ``<name>.obj`` per shape, absolute positions).
 from __future__ import annotations
 
 import io
+import os
 import zipfile
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -15,6 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
+from blendvoca.errors import DataError, UserError
+from blendvoca.io.arrays import float_array
 from blendvoca.io.atomic import atomic_write
 from blendvoca.io.mesh import obj_face_records, parse_obj, read_obj, write_obj
 from blendvoca.names import ARKIT_NAMES, BLENDVOCA_NAMES, check_names
@@ -32,6 +35,11 @@ class Rig:
     deltas : (K, V, 3) float64 ndarray, offsets of each shape from the neutral
     names : tuple of K str
     faces : (F, 3) int64 ndarray
+
+    The constructor takes any real dtype (float32 neutral and deltas are converted to
+    float64, integer faces to int64) and raises :class:`~blendvoca.errors.UserError`
+    (a ``ValueError``) naming the field that has the wrong shape, non-finite values or
+    values that are not numbers.
     """
 
     neutral: np.ndarray
@@ -40,19 +48,19 @@ class Rig:
     faces: np.ndarray
 
     def __post_init__(self):
-        neutral = np.asarray(self.neutral, dtype=np.float64)
-        deltas = np.asarray(self.deltas, dtype=np.float64)
-        faces = np.asarray(self.faces, dtype=np.int64)
+        neutral = float_array(self.neutral, where="Rig", name="neutral", shape="(V, 3)")
+        deltas = float_array(self.deltas, where="Rig", name="deltas", shape="(K, V, 3)")
+        faces = _face_array(self.faces)
         names = check_names(self.names, where="Rig")
         if neutral.ndim != 2 or neutral.shape[1] != 3:
-            raise ValueError(f"Rig.neutral must be (V, 3), got {neutral.shape}")
+            raise UserError(f"Rig.neutral must be (V, 3), got {neutral.shape}")
         if deltas.shape != (len(names), *neutral.shape):
-            raise ValueError(f"Rig.deltas must be (K={len(names)}, V={len(neutral)}, 3), got {deltas.shape}")
+            raise UserError(f"Rig.deltas must be (K={len(names)}, V={len(neutral)}, 3), got {deltas.shape}")
         if faces.ndim != 2 or faces.shape[1] != 3 or (faces.size and (faces.min() < 0 or faces.max() >= len(neutral))):
-            raise ValueError(f"Rig.faces must be (F, 3) indices into {len(neutral)} vertices, got shape {faces.shape}")
+            raise UserError(f"Rig.faces must be (F, 3) indices into {len(neutral)} vertices, got shape {faces.shape}")
         for field, value in (("neutral", neutral), ("deltas", deltas)):
             if not np.all(np.isfinite(value)):
-                raise ValueError(f"Rig.{field} contains NaN or infinite values")
+                raise UserError(f"Rig.{field} contains NaN or infinite values")
         for field, value in (("neutral", neutral), ("deltas", deltas), ("faces", faces), ("names", names)):
             if isinstance(value, np.ndarray):
                 value.setflags(write=False)
@@ -75,10 +83,10 @@ class Rig:
         )
 
     def evaluate(self, coeffs: np.ndarray) -> np.ndarray:
-        """Vertices for coefficients: ``(T, K) -> (T, V, 3)`` (or ``(K,) -> (V, 3)``)."""
-        coeffs = np.asarray(coeffs, dtype=np.float64)
-        if coeffs.shape[-1] != len(self.names):
-            raise ValueError(f"coefficients have {coeffs.shape[-1]} columns, the rig has {len(self.names)} shapes")
+        """Vertices for coefficients (any real dtype): ``(T, K) -> (T, V, 3)`` (or ``(K,) -> (V, 3)``)."""
+        coeffs = float_array(coeffs, where="Rig.evaluate", name="coeffs", shape=f"(T, {len(self.names)})")
+        if coeffs.ndim == 0 or coeffs.shape[-1] != len(self.names):
+            raise UserError(f"coefficients have {coeffs.shape[-1]} columns, the rig has {len(self.names)} shapes")
         flat = coeffs.reshape(-1, len(self.names)) @ self.deltas.reshape(len(self.names), -1)
         return self.neutral + flat.reshape(*coeffs.shape[:-1], *self.neutral.shape)
 
@@ -94,7 +102,7 @@ class Rig:
         """A rig with the shapes ``names`` in that order."""
         missing = [n for n in names if n not in self.names]
         if missing:
-            raise ValueError(f"the rig has no shapes {missing}; it has {list(self.names)}")
+            raise UserError(f"the rig has no shapes {missing}; it has {list(self.names)}")
         order = [self.names.index(n) for n in names]
         return Rig(self.neutral, self.deltas[order], tuple(names), self.faces)
 
@@ -110,15 +118,40 @@ class Rig:
 
     @classmethod
     def load(cls, path) -> Rig:
-        """Load a rig written by `save`."""
-        path = Path(path)
+        """Load a rig written by `save`.
+
+        Parameters
+        ----------
+        path : str or os.PathLike
+            A ``.npz`` with ``neutral``, ``deltas``, ``names`` and ``faces``.
+
+        Raises
+        ------
+        FileNotFoundError
+            No file at ``path``.
+        DataError
+            The file is no ``.npz``, lacks an array, or its arrays do not form a rig (naming the file).
+        """
+        path = Path(os.fspath(path))
         if not path.is_file():
             raise FileNotFoundError(f"rig file not found: {path}")
-        with np.load(path, allow_pickle=False) as data:
-            missing = {"neutral", "deltas", "names", "faces"} - set(data.files)
-            if missing:
-                raise ValueError(f"{path}: not a BlendVOCA rig file, missing arrays {sorted(missing)}")
-            return cls(data["neutral"], data["deltas"], tuple(str(n) for n in data["names"]), data["faces"])
+        try:
+            data = np.load(path, allow_pickle=False)
+            if not isinstance(data, np.lib.npyio.NpzFile):
+                raise DataError(f"{path}: not a BlendVOCA rig file: a single array, expected an .npz archive")
+            with data:
+                missing = {"neutral", "deltas", "names", "faces"} - set(data.files)
+                if missing:
+                    raise DataError(f"{path}: not a BlendVOCA rig file, missing arrays {sorted(missing)}")
+                arrays = {k: data[k] for k in ("neutral", "deltas", "names", "faces")}
+        except DataError:
+            raise
+        except (ValueError, EOFError, zipfile.BadZipFile) as error:  # not an .npz, truncated, pickled objects
+            raise DataError(f"{path}: not a readable BlendVOCA rig file (.npz): {error}") from None
+        try:
+            return cls(arrays["neutral"], arrays["deltas"], tuple(str(n) for n in arrays["names"]), arrays["faces"])
+        except UserError as error:
+            raise DataError(f"{path}: {error}") from None
 
     def save_said_folder(self, directory) -> None:
         """Write ``Neutral.obj`` and ``<name>.obj`` (absolute vertices) per shape."""
@@ -135,15 +168,24 @@ class Rig:
 
         Parameters
         ----------
-        directory : path-like, holding ``<name>.obj`` per shape (and usually ``Neutral.obj``)
+        directory : str or os.PathLike, holding ``<name>.obj`` per shape (and usually ``Neutral.obj``)
         names : shapes to load, in order (default: every ARKit name present, ARKit order)
         neutral_path : the neutral OBJ if it is elsewhere (BlendVOCA keeps it in
             ``templates_head/<subject>.obj``)
+
+        Raises
+        ------
+        FileNotFoundError
+            No such folder, or no OBJ of a wanted shape.
+        DataError
+            An OBJ with another vertex count than the neutral.
+        UserError
+            ``names`` that are not ARKit names.
         """
-        directory = Path(directory)
+        directory = Path(os.fspath(directory))
         if not directory.is_dir():
             raise FileNotFoundError(f"rig folder not found: {directory}")
-        neutral_path = Path(neutral_path) if neutral_path else directory / f"{NEUTRAL_NAME}.obj"
+        neutral_path = Path(os.fspath(neutral_path)) if neutral_path else directory / f"{NEUTRAL_NAME}.obj"
         neutral, faces = read_obj(neutral_path)
         if names is None:
             names = [n for n in ARKIT_NAMES if (directory / f"{n}.obj").is_file()]
@@ -154,23 +196,27 @@ class Rig:
                 raise FileNotFoundError(f"rig folder {directory} has no {name}.obj")
             V, _ = read_obj(path)
             if V.shape != neutral.shape:
-                raise ValueError(f"{path}: {len(V)} vertices, the neutral {neutral_path} has {len(neutral)}")
+                raise DataError(f"{path}: {len(V)} vertices, the neutral {neutral_path} has {len(neutral)}")
             deltas.append(V - neutral)
         return cls(neutral, np.array(deltas).reshape(len(names), *neutral.shape), tuple(names), faces)
 
 
 def read_rig_zip(path, names: Sequence[str]) -> Rig:
-    """A rig from a zip of ``<folder>/Neutral.obj`` and ``<folder>/<name>.obj`` files."""
+    """A rig from a zip (str or os.PathLike) of ``<folder>/Neutral.obj`` and ``<folder>/<name>.obj`` files."""
+    path = Path(os.fspath(path))
     meshes = {}
-    with zipfile.ZipFile(path) as archive:
-        for member in archive.namelist():
-            stem = Path(member).stem
-            if member.endswith(".obj") and (stem == NEUTRAL_NAME or stem in names):
-                text = archive.read(member).decode("utf-8", errors="replace")
-                meshes[stem] = parse_obj(text, where=f"{path}:{member}")
+    try:
+        with zipfile.ZipFile(path) as archive:
+            for member in archive.namelist():
+                stem = Path(member).stem
+                if member.endswith(".obj") and (stem == NEUTRAL_NAME or stem in names):
+                    text = archive.read(member).decode("utf-8", errors="replace")
+                    meshes[stem] = parse_obj(text, where=f"{path}:{member}")
+    except zipfile.BadZipFile as error:
+        raise DataError(f"{path}: not a readable zip of OBJ files ({error})") from None
     missing = [n for n in (NEUTRAL_NAME, *names) if n not in meshes]
     if missing:
-        raise ValueError(f"{path}: no OBJ for {missing}")
+        raise DataError(f"{path}: no OBJ for {missing}")
     neutral, faces = meshes[NEUTRAL_NAME]
     deltas = np.array([meshes[n][0] - neutral for n in names])
     return Rig(neutral, deltas, tuple(names), faces)
@@ -196,5 +242,19 @@ def shape_names(shapes: str | Sequence[str]) -> tuple[str, ...]:
             return BLENDVOCA_NAMES
         if shapes == "all":
             return ARKIT_NAMES
-        raise ValueError(f"shapes must be 'speech', 'all' or a list of names, got {shapes!r}")
+        raise UserError(f"shapes must be 'speech', 'all' or a list of names, got {shapes!r}")
     return check_names(shapes, where="shapes")
+
+
+def _face_array(faces) -> np.ndarray:
+    """``(F, 3)`` int64 faces from integer (or integral float) indices, or a :class:`UserError`."""
+    try:
+        array = np.asarray(faces)
+        if array.size and not (np.issubdtype(array.dtype, np.integer)
+                               or (np.issubdtype(array.dtype, np.floating) and np.all(array == np.round(array)))):
+            raise TypeError(f"dtype {array.dtype}")
+        return array.astype(np.int64)
+    except (TypeError, ValueError) as error:
+        got = getattr(faces, "dtype", type(faces).__name__)
+        raise UserError(f"Rig: expected faces as an (F, 3) array of vertex indices (integers), "
+                        f"got {got} ({error})") from None

@@ -1,10 +1,14 @@
-"""``python -m leaderboard.build``: render every stored result into Markdown and LaTeX tables."""
+"""Render every stored result into Markdown and LaTeX tables.
+
+``python -m leaderboard.build [--results DIR] [--out DIR]``.
+"""
 
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
+
+from blendvoca import cli
 
 from .collect import load_results, tables_by_manifest
 from .render import latex_tables, markdown_tables
@@ -39,14 +43,16 @@ def build_leaderboard(results_dir=DEFAULT_RESULTS_DIR, out_dir=DEFAULT_OUT_DIR) 
     return written
 
 
+@cli.command
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m leaderboard.build", description=__doc__)
-    parser.add_argument("--results", default=str(DEFAULT_RESULTS_DIR), help="directory of result JSON files")
+    parser = cli.parser("leaderboard.build", __doc__)
     parser.add_argument("--out", default=str(DEFAULT_OUT_DIR), help="directory for leaderboard.md / leaderboard.tex")
+    cli.add_results_option(parser, default=str(DEFAULT_RESULTS_DIR),
+                           help="directory of result JSON files (default: the committed leaderboard/results)")
     args = parser.parse_args(argv)
     for path in build_leaderboard(args.results, args.out):
         print(path)
-    return 0
+    return cli.EXIT_OK
 
 
 if __name__ == "__main__":

@@ -14,6 +14,7 @@ from pathlib import Path
 
 from benchmark.metrics.registry import METRICS, ordered_metrics
 from benchmark.results import read_result
+from blendvoca.errors import DataError, UserError
 
 __all__ = ["Column", "Row", "Table", "best_rows", "column_decimals", "load_results", "ranks", "tables_by_manifest"]
 
@@ -68,10 +69,16 @@ class Table:
 
 
 def load_results(results_dir) -> list[dict]:
-    """Every ``*.json`` result in ``results_dir`` (sorted by file name), schema-checked."""
+    """Every ``*.json`` result in ``results_dir`` (str or os.PathLike; sorted by file name), schema-checked.
+
+    Raises
+    ------
+    UserError
+        ``results_dir`` is not a folder.
+    """
     results_dir = Path(results_dir)
     if not results_dir.is_dir():
-        raise FileNotFoundError(f"results directory {results_dir} does not exist")
+        raise UserError(f"results directory {results_dir} does not exist")
     return [read_result(path) for path in sorted(results_dir.glob("*.json"))]
 
 
@@ -89,7 +96,7 @@ def tables_by_manifest(results: list[dict]) -> list[Table]:
 
     Raises
     ------
-    ValueError
+    DataError
         Two results on one manifest disagree on a metric's direction or unit.
     """
     groups: dict[str, list[tuple[int, dict]]] = {}
@@ -105,7 +112,7 @@ def tables_by_manifest(results: list[dict]) -> list[Table]:
             for name, fields in result["metrics"].items():
                 spec = (fields["higher_is_better"], fields.get("unit") or "")
                 if specs.setdefault(name, spec) != spec:
-                    raise ValueError(
+                    raise DataError(
                         f"manifest {manifest_hash}: metric {name!r} has direction/unit {specs[name]} in one result "
                         f"and {spec} in {result['method'].get('label')!r}"
                     )

@@ -17,10 +17,12 @@ training, kept in ``<work>/trained``.
 
 from __future__ import annotations
 
-import argparse
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
+
+from blendvoca import cli
+from blendvoca.errors import UserError
 
 __all__ = ["CORPUS", "PLAN", "PlanEntry", "main", "reproduce"]
 
@@ -106,7 +108,7 @@ def _entries(only) -> list:
     if only:
         unknown = sorted(set(only) - {e.method for e in entries})
         if unknown:
-            raise ValueError(f"--only: unknown plan entries {unknown}; expected some of {[e.method for e in entries]}")
+            raise UserError(f"--only: unknown plan entries {unknown}; expected some of {[e.method for e in entries]}")
         entries = [e for e in entries if e.method in only]
     return entries
 
@@ -125,16 +127,17 @@ def reproduce(work, results_dir, tables_dir, *, only=None, force: bool = False, 
     from leaderboard.build import build_leaderboard
 
     work, results_dir = Path(work).expanduser(), Path(results_dir)
+    entries = _entries(only)  # an unknown --only row fails before the corpus and the build are made
     root = built_dataset(work, progress=progress)
     from benchmark.data import open_blendvoca
 
     dataset = open_blendvoca(root)
-    from benchmark.lipsync.expert_train import cached_expert
+    from benchmark.lipsync.expert_training import cached_expert
 
     # the learned lip-sync expert, trained once on the build's training split (step budget: deterministic)
     _, expert = cached_expert(root, max_seconds=None, max_steps=EXPERT_STEPS, progress=progress)
     paths = []
-    for entry in _entries(only):
+    for entry in entries:
         name, config = entry.method, dict(entry.config)
         if name == "corpus-meshes":
             from baselines.mesh_adapter.export import exported_corpus_meshes
@@ -166,23 +169,20 @@ def reproduce(work, results_dir, tables_dir, *, only=None, force: bool = False, 
     return paths
 
 
+@cli.command
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m leaderboard.reproduce", description=__doc__.split("\n\n")[0])
+    parser = cli.parser("leaderboard.reproduce", __doc__)
     parser.add_argument("--work", required=True, help="folder for the corpus (~7 GB) and the build")
-    parser.add_argument("--results", required=True, help="result folder (the committed one: leaderboard/results)")
     parser.add_argument("--tables", required=True, help="table folder (the committed one: leaderboard/tables)")
     parser.add_argument("--only", action="append", default=None, metavar="METHOD", help="score only these rows")
     parser.add_argument("--force", action="store_true", help="rescore rows whose result file exists")
-    parser.add_argument("--quiet", action="store_true")
+    cli.add_results_option(parser, required=True, help="result folder (the committed one: leaderboard/results)")
+    cli.add_quiet_option(parser)
     args = parser.parse_args(argv)
-    try:
-        for path in reproduce(args.work, args.results, args.tables, only=args.only, force=args.force,
-                              progress=not args.quiet):
-            print(path)
-    except ValueError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
-    return 0
+    for path in reproduce(args.work, args.results, args.tables, only=args.only, force=args.force,
+                          progress=not args.quiet):
+        print(path)
+    return cli.EXIT_OK
 
 
 if __name__ == "__main__":

@@ -2,7 +2,7 @@ import shutil
 
 import pytest
 
-from blendvoca import assets
+from blendvoca import assets, cli
 from blendvoca.assets import AssetError, load_manifest, resolve
 
 
@@ -52,9 +52,33 @@ def test_corrupted_copy_is_rejected(corrupted_mirror):
 
 
 def test_verify_cli_exits_nonzero_on_mismatch(corrupted_mirror, capsys):
-    assert assets.main(["verify"]) == 1
-    out = capsys.readouterr().out
-    assert "corrupted coeffs-std" in out and "ok       said-vae" in out
+    # A corrupted copy is a check that found a problem (exit 4); exit 1 means an internal bug.
+    assert assets.main(["verify"]) == cli.EXIT_CHECK_FAILED
+    captured = capsys.readouterr()
+    assert "corrupted coeffs-std" in captured.out and "ok       said-vae" in captured.out
+    err = [line for line in captured.err.splitlines() if line.strip()]
+    assert len(err) == 1 and err[0].startswith("error: 1 asset(s) failed verification"), captured.err
+    assert "Traceback" not in captured.err
+
+
+def test_verify_cli_exit_status_for_a_missing_public_asset(tmp_path, monkeypatch, capsys):
+    monkeypatch.setenv("BLENDVOCA_ASSETS", str(tmp_path / "empty"))
+    monkeypatch.setenv("BLENDVOCA_CACHE", str(tmp_path / "cache"))
+    assert assets.main(["verify", "said-vae"]) == cli.EXIT_CHECK_FAILED
+    assert "missing  said-vae" in capsys.readouterr().out
+
+
+def test_unknown_asset_id_is_one_error_line(capsys):
+    assert assets.main(["verify", "said-vea"]) == cli.EXIT_USER
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("error: unknown asset id 'said-vea'") and "said-vae" in err[0]
+
+
+def test_fetch_that_cannot_reach_an_asset_lists_it_and_exits_partial(tmp_path, monkeypatch, capsys):
+    monkeypatch.setenv("BLENDVOCA_ASSETS", str(tmp_path / "empty"))
+    monkeypatch.setenv("BLENDVOCA_CACHE", str(tmp_path / "cache"))
+    assert assets.main(["fetch", "vocaset"]) == cli.EXIT_PARTIAL
+    assert "error    asset 'vocaset'" in capsys.readouterr().out
 
 
 def test_verify_cli_passes_on_the_mirror(assets_dir, capsys):

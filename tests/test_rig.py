@@ -1,6 +1,9 @@
+import os
+
 import numpy as np
 import pytest
 
+from blendvoca.errors import DataError, UserError
 from blendvoca.names import ARKIT_NAMES, BLENDVOCA_NAMES
 from blendvoca.rig import Rig, load_arkit_reference
 
@@ -69,3 +72,67 @@ def test_arkit_reference_from_the_asset(assets_dir):
     # jawOpen moves the chin by centimetres, in metres.
     jaw = np.linalg.norm(speech.deltas[BLENDVOCA_NAMES.index("jawOpen")], axis=1).max()
     assert 0.005 < jaw < 0.1
+
+
+class FsPath:
+    """An ``os.PathLike`` that is not a ``pathlib.Path`` (``str()`` of it is no path)."""
+
+    def __init__(self, path):
+        self._path = os.fspath(path)
+
+    def __fspath__(self):
+        return self._path
+
+
+@pytest.mark.parametrize("dtype", [np.float16, np.float32, np.float64])
+def test_a_rig_takes_any_float_dtype(rig, dtype):
+    small = Rig(rig.neutral.astype(dtype), rig.deltas.astype(dtype), rig.names, rig.faces.astype(np.int32))
+    assert small.neutral.dtype == small.deltas.dtype == np.float64 and small.faces.dtype == np.int64
+    np.testing.assert_allclose(small.neutral, rig.neutral.astype(dtype).astype(np.float64), rtol=0)
+    coeffs = np.full((2, len(rig.names)), 0.5, dtype=dtype)
+    np.testing.assert_allclose(small.evaluate(coeffs), small.evaluate(coeffs.astype(np.float64)), rtol=0)
+    # integral float faces (as some loaders give them) are indices too
+    assert Rig(rig.neutral, rig.deltas, rig.names, rig.faces.astype(np.float32)) == rig
+
+
+def test_a_rig_says_what_it_needs(rig):
+    with pytest.raises(UserError, match=r"neutral as a \(V, 3\) array of real numbers"):
+        Rig(np.full(rig.neutral.shape, "x"), rig.deltas, rig.names, rig.faces)
+    with pytest.raises(UserError, match=r"deltas as a \(K, V, 3\) array of real numbers, got complex"):
+        Rig(rig.neutral, rig.deltas.astype(complex), rig.names, rig.faces)
+    with pytest.raises(UserError, match=r"faces as an \(F, 3\) array of vertex indices"):
+        Rig(rig.neutral, rig.deltas, rig.names, rig.faces + 0.5)
+    with pytest.raises(UserError, match=r"coeffs as a \(T, 4\) array of real numbers"):
+        rig.evaluate([["a"] * 4])
+
+
+def test_rig_files_through_any_path(tmp_path, rig):
+    for path in (str(tmp_path / "a.npz"), FsPath(tmp_path / "b.npz"), tmp_path / "c.npz"):
+        rig.save(path)
+        assert Rig.load(path) == rig
+    for folder in (str(tmp_path / "s"), FsPath(tmp_path / "f")):
+        rig.save_said_folder(folder)
+        loaded = Rig.load_said_folder(folder, names=rig.names)
+        assert loaded.names == rig.names
+        np.testing.assert_allclose(loaded.deltas, rig.deltas, atol=1e-8)
+    moved = Rig.load_said_folder(FsPath(tmp_path / "f"), names=rig.names[:1],
+                                 neutral_path=FsPath(tmp_path / "s" / "Neutral.obj"))
+    assert moved.names == rig.names[:1]
+
+
+def test_a_file_that_is_no_rig_names_the_file(tmp_path, rig):
+    (tmp_path / "text.npz").write_text("not a zip")
+    with pytest.raises(DataError, match=r"text\.npz: not a readable BlendVOCA rig file"):
+        Rig.load(FsPath(tmp_path / "text.npz"))
+    np.save(tmp_path / "array.npy", rig.neutral)
+    with pytest.raises(DataError, match=r"array\.npy: not a BlendVOCA rig file: a single array"):
+        Rig.load(tmp_path / "array.npy")
+    np.savez(tmp_path / "partial.npz", neutral=rig.neutral)
+    with pytest.raises(DataError, match=r"partial\.npz: not a BlendVOCA rig file, missing arrays"):
+        Rig.load(tmp_path / "partial.npz")
+    np.savez(tmp_path / "names.npz", neutral=rig.neutral, deltas=rig.deltas, names=np.array(["a", "b", "c", "d"]),
+             faces=rig.faces)
+    with pytest.raises(DataError, match=r"names\.npz: Rig: unknown blendshape names"):
+        Rig.load(tmp_path / "names.npz")
+    with pytest.raises(FileNotFoundError, match="rig file not found"):
+        Rig.load(FsPath(tmp_path / "none.npz"))

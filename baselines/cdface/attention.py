@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import torch
 
-from baselines.said.attention_bias import alignment_bias
+from baselines.common.attention_bias import alignment_bias
 
 __all__ = ["band_mask", "causal_band_mask"]
 

@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from blendvoca.errors import UserError
+
 __all__ = ["FLAME_NUM_VERTICES", "LIP_PAIR_LANDMARKS", "closure_mask", "flame_lip_pair", "lip_distance", "lip_pair_for"]
 
 #: Vertex count of the FLAME topology (VOCASET, BlendVOCA).
@@ -98,5 +100,5 @@ def closure_mask(vertices, pair, epsilon: float) -> np.ndarray:
     (T,) float32 ndarray of 0 and 1.
     """
     if not np.isfinite(epsilon) or epsilon < 0:
-        raise ValueError(f"closure_mask: expected epsilon >= 0, got {epsilon}")
+        raise UserError(f"closure_mask: expected epsilon >= 0, got {epsilon}")
     return (lip_distance(vertices, pair) > float(epsilon)).astype(np.float32)

@@ -16,31 +16,66 @@ topology) and varies the upper face. ``--obj-dir`` also writes one OBJ per frame
 
 from __future__ import annotations
 
-import argparse
+import os
 import sys
 from pathlib import Path
 
 import numpy as np
 
+from baselines.cdface.pipeline import CDFace
 from benchmark.methods.contract import AUDIO_RATE, FPS
+from blendvoca import cli
+from blendvoca.errors import DataError, UserError
 
 CHECKPOINT_FILE = "cdface.pt"
 
 
-def checkpoint_file(path) -> Path:
-    """``cdface.pt`` itself, or inside the directory ``path``."""
-    path = Path(path).expanduser()
+def checkpoint_file(path: str | os.PathLike) -> Path:
+    """``cdface.pt`` itself, or inside the directory ``path``.
+
+    Raises
+    ------
+    UserError
+        Neither the file nor a directory holding it.
+    """
+    path = Path(os.fspath(path)).expanduser()
     if path.is_dir():
         path = path / CHECKPOINT_FILE
     if not path.is_file():
-        raise FileNotFoundError(f"--checkpoint: expected cdface.pt or a directory holding it, got {path} (not found)")
+        raise UserError(f"--checkpoint: expected cdface.pt or a directory holding it, got {path} (not found)")
     return path
 
 
-def generate_file(audio_path, out_path, *, checkpoint, samples=1, seed=0, control="none", reference=None,
-                  subject=None, template=None, style=None, obj_dir=None, progress=True) -> Path:
-    """Write the samples of one WAV to ``out_path`` (``.npy``, atomically); return the path."""
-    from baselines.cdface.pipeline import CDFace
+def reference_motion(path: str | os.PathLike) -> np.ndarray:
+    """The ``(T, V, 3)`` array of a ``--reference`` ``.npy`` file.
+
+    Raises
+    ------
+    DataError
+        The file is not a ``.npy`` array (a missing file is the ``OSError`` of ``np.load``).
+    """
+    try:
+        return np.load(path, allow_pickle=False)
+    except ValueError as exc:  # np.load's "cannot load file ..." / "pickled data" for what is not a .npy array
+        raise DataError(f"--reference {os.fspath(path)}: expected a .npy array, {exc}") from exc
+
+
+def generate_file(audio_path: str | os.PathLike, out_path: str | os.PathLike, *, checkpoint: str | os.PathLike,
+                  samples: int = 1, seed: int = 0, control: str = "none", reference: str | os.PathLike | None = None,
+                  subject: str | None = None, template: str | os.PathLike | None = None, style: str | None = None,
+                  obj_dir: str | os.PathLike | None = None, progress: bool = True) -> Path:
+    """Write the samples of one WAV to ``out_path`` (``.npy``, atomically); return the path.
+
+    Paths are ``str`` or ``os.PathLike``; ``checkpoint`` is ``cdface.pt`` or its directory.
+
+    Raises
+    ------
+    UserError
+        A missing checkpoint, an ambiguous speaker, ``obj_dir`` without ``template``,
+        or a bad option of :meth:`~baselines.cdface.pipeline.CDFace.generate`.
+    DataError
+        Empty audio, a reference or template of another topology.
+    """
     from blendvoca.io.atomic import atomic_write
     from blendvoca.io.audio import load_audio
     from blendvoca.io.mesh import read_obj, write_obj
@@ -48,35 +83,36 @@ def generate_file(audio_path, out_path, *, checkpoint, samples=1, seed=0, contro
     cdface = CDFace.load(checkpoint_file(checkpoint))
     audio = load_audio(audio_path, AUDIO_RATE)
     if audio.size == 0:
-        raise ValueError(f"--audio {audio_path}: no samples")
+        raise DataError(f"--audio {os.fspath(audio_path)}: no samples")
     num_frames = max(1, int(round(audio.shape[0] / AUDIO_RATE * FPS)))
     faces = None
     if template is not None:
         template, faces = read_obj(template)
     elif subject is None:
         if len(cdface.templates) != 1:
-            raise ValueError(f"give --subject (one of {sorted(cdface.templates)}) or --template")
+            raise UserError(f"give --subject (one of {sorted(cdface.templates)}) or --template")
         subject = next(iter(cdface.templates))
     ref = None
     if reference is not None:
-        ref = np.load(reference)
+        ref = reference_motion(reference)
     verts = cdface.generate(audio, num_frames, subject=subject, template=template, samples=samples, seed=seed,
                             control=control, reference=ref, style=style, progress=progress)
-    out_path = Path(out_path)
+    out_path = Path(os.fspath(out_path))
     with atomic_write(out_path, "wb") as fh:
         np.save(fh, verts.astype(np.float32))
     if obj_dir is not None:
         if faces is None:
-            raise ValueError("--obj-dir needs the triangles of --template (an OBJ)")
+            raise UserError("--obj-dir needs the triangles of --template (an OBJ)")
         for k, sample in enumerate(verts):
             for t, frame in enumerate(sample):
-                write_obj(Path(obj_dir) / f"sample_{k}" / f"frame_{t:05d}.obj", frame, faces)
+                write_obj(Path(os.fspath(obj_dir)) / f"sample_{k}" / f"frame_{t:05d}.obj", frame, faces)
     return out_path
 
 
+@cli.command
 def main(argv=None) -> int:
     """Command line entry point (see the module docstring)."""
-    p = argparse.ArgumentParser(prog="python -m baselines.cdface", description=__doc__.split("\n\n")[0])
+    p = cli.parser("baselines.cdface", __doc__)
     p.add_argument("--checkpoint", required=True, help="cdface.pt or its directory")
     p.add_argument("--audio", required=True, help="input WAV (any rate, mono or stereo)")
     p.add_argument("--out", required=True, help="output .npy, (S, T, V, 3) float32 metres")
@@ -88,21 +124,17 @@ def main(argv=None) -> int:
     p.add_argument("--template", default=None, help="neutral mesh OBJ on the training topology")
     p.add_argument("--style", default=None, help="training speaker whose style token is used (default the first)")
     p.add_argument("--obj-dir", default=None, help="also write one OBJ per frame here (needs --template)")
-    p.add_argument("--quiet", action="store_true")
+    cli.add_quiet_option(p)
     args = p.parse_args(argv)
     if args.samples < 1:
         p.error(f"--samples: expected >= 1, got {args.samples}")
     if args.reference is not None and args.control != "lips":
         p.error("--reference fixes the lips: add --control lips")
-    try:
-        path = generate_file(args.audio, args.out, checkpoint=args.checkpoint, samples=args.samples, seed=args.seed,
-                             control=args.control, reference=args.reference, subject=args.subject,
-                             template=args.template, style=args.style, obj_dir=args.obj_dir, progress=not args.quiet)
-    except (FileNotFoundError, ValueError, OSError) as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
+    path = generate_file(args.audio, args.out, checkpoint=args.checkpoint, samples=args.samples, seed=args.seed,
+                         control=args.control, reference=args.reference, subject=args.subject,
+                         template=args.template, style=args.style, obj_dir=args.obj_dir, progress=not args.quiet)
     print(path)
-    return 0
+    return cli.EXIT_OK
 
 
 if __name__ == "__main__":

@@ -14,6 +14,7 @@ from torch import nn
 
 from baselines.cdface.query import AudioProjection, PartQuery, shift_right
 from baselines.cdface.vqvae import PartVQVAE
+from blendvoca.errors import UserError
 
 __all__ = ["CDFaceModel", "sample_pairs"]
 
@@ -77,7 +78,7 @@ class CDFaceModel(nn.Module):
         common = dict(width=m["width"], layers=m["query_layers"], heads=m["heads"], self_context=m["self_context"],
                       audio_half_width=m["audio_half_width"], period=m["period"], dropout=m["dropout"])
         if m["upper_context"] not in ("ground-truth", "predicted"):
-            raise ValueError(f"CDFaceModel: expected upper_context 'ground-truth' or 'predicted', got {m['upper_context']!r}")
+            raise UserError(f"CDFaceModel: expected upper_context 'ground-truth' or 'predicted', got {m['upper_context']!r}")
         self.upper_context = m["upper_context"]
         self.lip_query = PartQuery(lip_dim, self.lip_vq.latent_dim, m["num_lip_samples"], **common)
         self.upper_query = PartQuery(upper_dim, self.upper_vq.latent_dim, m["num_upper_samples"],

@@ -10,6 +10,7 @@ but the frozen audio encoder's weights (rebuilt from the config).
 from __future__ import annotations
 
 import copy
+import os
 from pathlib import Path
 
 import numpy as np
@@ -18,6 +19,10 @@ import torch
 from baselines.cdface.model import CDFaceModel, sample_pairs
 from baselines.cdface.parts import FaceParts
 from baselines.cdface.presets import DEFAULT_PRESET, resolve_config
+from baselines.common.checkpoint import load_checkpoint_file, save_checkpoint_file
+from baselines.common.encoders import build_encoder
+from baselines.common.threads import torch_threads
+from blendvoca.errors import DataError, UserError
 
 __all__ = ["CONTROL_MODES", "CDFace"]
 
@@ -40,17 +45,15 @@ class CDFace:
     """
 
     def __init__(self, config: dict, parts: FaceParts, styles, templates: dict):
-        from baselines.said.encoders import build_encoder
-
         self.config = copy.deepcopy(config)
         self.parts = parts
         self.styles = [str(s) for s in styles]
         if not self.styles:
-            raise ValueError("CDFace: expected at least one style (training speaker)")
+            raise DataError("CDFace: expected at least one style (training speaker)")
         self.templates = {str(k): np.asarray(v, dtype=np.float64) for k, v in templates.items()}
         for name, tpl in self.templates.items():
             if tpl.shape != (parts.num_vertices, 3):
-                raise ValueError(f"CDFace: template of {name} has shape {tpl.shape}, expected ({parts.num_vertices}, 3)")
+                raise DataError(f"CDFace: template of {name} has shape {tpl.shape}, expected ({parts.num_vertices}, 3)")
         self.encoder = build_encoder(self.config["model"]["encoder"])
         self.model = CDFaceModel(3 * len(parts.lips), 3 * len(parts.upper), self.encoder.feature_dim,
                                  len(self.styles), self.config["model"])
@@ -69,7 +72,7 @@ class CDFace:
         """Frozen audio features ``(1, num_frames, F)`` of mono 16 kHz ``audio`` ``(N,)``."""
         audio = torch.as_tensor(np.asarray(audio, dtype=np.float32))
         if audio.ndim != 1:
-            raise ValueError(f"CDFace.features: expected mono audio (N,), got shape {tuple(audio.shape)}")
+            raise DataError(f"CDFace.features: expected mono audio (N,), got shape {tuple(audio.shape)}")
         return self.encoder(audio[None], int(num_frames)).float()
 
     def split_motion(self, vertices, template) -> tuple[np.ndarray, np.ndarray]:
@@ -84,10 +87,10 @@ class CDFace:
             return 0
         if isinstance(style, (int, np.integer)) and not isinstance(style, bool):
             if not 0 <= style < len(self.styles):
-                raise ValueError(f"CDFace: style index {style} outside [0, {len(self.styles)})")
+                raise UserError(f"CDFace: style index {style} outside [0, {len(self.styles)})")
             return int(style)
         if str(style) not in self.styles:
-            raise ValueError(f"CDFace: unknown style {style!r}; training speakers: {self.styles}")
+            raise UserError(f"CDFace: unknown style {style!r}; training speakers: {self.styles}")
         return self.styles.index(str(style))
 
     def template_for(self, subject=None, template=None) -> np.ndarray:
@@ -95,11 +98,11 @@ class CDFace:
         if template is not None:
             template = np.asarray(template, dtype=np.float64)
             if template.shape != (self.parts.num_vertices, 3):
-                raise ValueError(f"CDFace: expected a template ({self.parts.num_vertices}, 3), got {template.shape}")
+                raise DataError(f"CDFace: expected a template ({self.parts.num_vertices}, 3), got {template.shape}")
             return template
         if subject not in self.templates:
-            raise ValueError(f"CDFace: no template stored for subject {subject!r}; known: {sorted(self.templates)}; "
-                             "pass a template mesh")
+            raise UserError(f"CDFace: no template stored for subject {subject!r}; known: {sorted(self.templates)}; "
+                            "pass a template mesh")
         return self.templates[subject]
 
     def generate(self, audio, num_frames: int, *, subject=None, template=None, samples: int = 1, seed: int = 0,
@@ -131,11 +134,11 @@ class CDFace:
         (S, T, V, 3) float64 ndarray, metres.
         """
         if control not in CONTROL_MODES:
-            raise ValueError(f"CDFace.generate: expected control in {CONTROL_MODES}, got {control!r}")
+            raise UserError(f"CDFace.generate: expected control in {CONTROL_MODES}, got {control!r}")
         if reference is not None and control != "lips":
-            raise ValueError("CDFace.generate: a reference sequence fixes the lips; use control='lips'")
+            raise UserError("CDFace.generate: a reference sequence fixes the lips; use control='lips'")
         if int(samples) < 1:
-            raise ValueError(f"CDFace.generate: expected samples >= 1, got {samples}")
+            raise UserError(f"CDFace.generate: expected samples >= 1, got {samples}")
         tpl = self.template_for(subject, template)
         num_frames = int(num_frames)
         pairs = sample_pairs(int(samples), self.model.num_lip_samples, self.model.num_upper_samples, seed=seed, control=control)
@@ -143,7 +146,7 @@ class CDFace:
         if reference is not None:
             reference = np.asarray(reference, dtype=np.float64)
             if reference.ndim != 3 or reference.shape[1:] != tpl.shape:
-                raise ValueError(f"CDFace.generate: expected a reference (T, {tpl.shape[0]}, 3), got {reference.shape}")
+                raise DataError(f"CDFace.generate: expected a reference (T, {tpl.shape[0]}, 3), got {reference.shape}")
             reference = reference[:num_frames]
             if len(reference) < num_frames:
                 reference = np.concatenate([reference, np.repeat(reference[-1:], num_frames - len(reference), 0)])
@@ -153,8 +156,6 @@ class CDFace:
         if progress:
             from tqdm import tqdm
             bar = tqdm(total=num_frames, desc="CDFace: frames", unit="frame")
-        from baselines.said.threads import torch_threads
-
         try:
             with torch_threads(self.config["training"]["num_threads"]):
                 lips, upper = self.model.sample(self.features(audio, num_frames), self.style_index(style), pairs,
@@ -165,10 +166,8 @@ class CDFace:
         disp = self.parts.compose(lips.double().numpy(), upper.double().numpy()) / self.motion_scale
         return tpl[None, None] + disp
 
-    def save(self, path) -> None:
+    def save(self, path: str | os.PathLike) -> None:
         """Write config, parts, styles, templates and the trained state to ``path`` (atomically)."""
-        from blendvoca.io.atomic import atomic_write
-
         payload = {
             "config": self.config,
             "parts": {"lips": self.parts.lips, "upper": self.parts.upper, "num_vertices": self.parts.num_vertices},
@@ -176,16 +175,24 @@ class CDFace:
             "templates": dict(self.templates),
             "state_dict": self.model.state_dict(),
         }
-        with atomic_write(Path(path), "wb") as fh:
-            torch.save(payload, fh)
+        save_checkpoint_file(path, payload)
 
     @classmethod
-    def load(cls, path) -> CDFace:
-        """Rebuild from :meth:`save`'s file."""
-        path = Path(path)
-        if not path.is_file():
-            raise FileNotFoundError(f"CDFace.load: expected a checkpoint file written by CDFace.save, got {path}")
-        payload = torch.load(path, map_location="cpu", weights_only=False)
+    def load(cls, path: str | os.PathLike) -> CDFace:
+        """Rebuild from :meth:`save`'s file.
+
+        Raises
+        ------
+        UserError
+            No file at ``path``.
+        DataError
+            A file that :meth:`save` did not write.
+        """
+        path = Path(os.fspath(path))
+        # the project's own file: it holds numpy arrays (parts, templates)
+        payload = load_checkpoint_file(path, where="CDFace.load", weights_only=False)
+        if not isinstance(payload, dict) or not {"config", "parts", "styles", "templates", "state_dict"} <= set(payload):
+            raise DataError(f"CDFace.load: {path} is not a checkpoint written by CDFace.save")
         parts = FaceParts(**payload["parts"])
         obj = cls(payload["config"], parts, payload["styles"], payload["templates"])
         obj.model.load_state_dict(payload["state_dict"])

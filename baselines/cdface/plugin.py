@@ -12,6 +12,7 @@ import numpy as np
 
 from benchmark.methods.base import Budget, Method, show_progress
 from benchmark.methods.contract import OUTPUT_VERTICES
+from blendvoca.errors import DataError, UserError
 
 CHECKPOINT_FILE = "cdface.pt"
 
@@ -67,7 +68,7 @@ class CDFaceMethod(Method):
         from baselines.cdface.presets import resolve_config
 
         if control not in CONTROL_MODES:
-            raise ValueError(f"cdface: expected control in {CONTROL_MODES}, got {control!r}")
+            raise UserError(f"cdface: expected control in {CONTROL_MODES}, got {control!r}")
         kwargs = {"preset": preset, "control": control, **overrides}
         if style is not None:
             kwargs["style"] = style
@@ -89,7 +90,7 @@ class CDFaceMethod(Method):
 
         train = list(dataset.split("train"))
         if not train:
-            raise ValueError("cdface: the dataset has no training speakers")
+            raise DataError("cdface: the dataset has no training speakers")
         everyone = [s for split in ("train", "val", "test") for s in dataset.split(split)]
         loaded = load_sentences(dataset, train)
         active = moving_vertices(loaded, self.resolved["model"]["active_threshold"])

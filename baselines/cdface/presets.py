@@ -12,7 +12,7 @@ priors on CodeTalker's and gives no sizes); it wants a GPU.
 
 from __future__ import annotations
 
-from baselines.said.presets import resolved_preset
+from baselines.common.presets import resolved_preset
 
 DEFAULT_PRESET = "cpu-demo"
 

@@ -20,7 +20,9 @@ import torch
 from baselines.cdface.closure import closure_mask
 from baselines.cdface.losses import lip_losses, upper_face_losses
 from baselines.cdface.vqvae import vq_loss
-from baselines.said.threads import torch_threads
+from baselines.common.dataset import sentence_audio
+from baselines.common.threads import torch_threads
+from blendvoca.errors import UserError
 
 __all__ = ["LR_SCHEDULES", "SentenceData", "WindowSampler", "cosine_lr", "load_sentences", "moving_vertices", "prepare_sentences", "stage_limits",
            "train_cdface"]
@@ -115,7 +117,7 @@ def stage_limits(training: dict, num_sentences: int, *, max_steps=None, max_seco
         if max_seconds is not None:
             seconds = float(max_seconds) * share if seconds is None else min(float(seconds), float(max_seconds) * share)
         if steps is None and seconds is None:
-            raise ValueError("CDFace training: every stage needs a step or time limit (epochs, max_steps or max_seconds)")
+            raise UserError("CDFace training: every stage needs a step or time limit (epochs, max_steps or max_seconds)")
         out.append((steps, seconds))
     return out
 
@@ -144,7 +146,7 @@ def _run_stage(name, params, loss_fn, sampler, steps, seconds, training, progres
     opt = torch.optim.AdamW(params, lr=training["lr"], weight_decay=training["weight_decay"])
     schedule = training.get("lr_schedule", "constant")
     if schedule not in LR_SCHEDULES:
-        raise ValueError(f"CDFace training: expected lr_schedule in {LR_SCHEDULES}, got {schedule!r}")
+        raise UserError(f"CDFace training: expected lr_schedule in {LR_SCHEDULES}, got {schedule!r}")
     history = []
     started = time.perf_counter()
     bar = tqdm(total=steps, desc=f"CDFace: {name}", unit="step", disable=not progress)
@@ -181,12 +183,10 @@ def load_sentences(dataset, subjects) -> list[dict]:
     for subject in subjects:
         template = dataset.template(subject)
         for sentence in dataset.sentences(subject):
-            audio, rate = dataset.audio(subject, sentence)
-            if rate != 16000:
-                raise ValueError(f"CDFace: expected 16 kHz audio, got {rate} Hz for {subject}/{sentence}")
+            audio = sentence_audio(dataset, subject, sentence, where="CDFace")
             out.append({"subject": subject, "sentence": sentence,
                         "vertices": np.asarray(dataset.vertices(subject, sentence), dtype=np.float32),
-                        "template": template, "audio": np.asarray(audio, dtype=np.float32)})
+                        "template": template, "audio": audio})
     return out
 
 

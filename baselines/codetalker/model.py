@@ -2,9 +2,9 @@
 
 Names as the authors' ``CodeTalker``: ``audio_encoder`` (wav2vec 2.0),
 ``audio_feature_map``, ``vertice_map``, ``PPE``, ``transformer_decoder`` (FaceFormer's
-biased causal decoder), ``feat_map`` (to ``face_quan_num * zquant_dim`` per frame),
-``learnable_style_emb`` (an embedding over the training speakers) and
-``autoencoder`` (the frozen stage-1 :class:`~baselines.codetalker.vqvae.VQAutoEncoder`).
+biased causal decoder, :mod:`baselines.common.motion_decoder`), ``feat_map`` (to
+``face_quan_num * zquant_dim`` per frame), ``learnable_style_emb`` (an embedding over
+the training speakers) and ``autoencoder`` (the frozen stage-1 :class:`~baselines.codetalker.vqvae.VQAutoEncoder`).
 Each predicted frame feature is quantized with the codebook and decoded by the
 VQ-VAE decoder; the decoded motion of the last frame is fed back as the next input.
 """
@@ -17,10 +17,10 @@ import torch
 from torch import nn
 
 from baselines.codetalker.vqvae import VQAutoEncoder
-from baselines.faceformer.audio import LogMelContextEncoder, wav2vec2_motion_features
-from baselines.faceformer.decoding import decode_step, decode_teacher_forced, motion_decoder
-from baselines.faceformer.model import build_audio_encoder
-from baselines.faceformer.positional import PeriodicPositionalEncoding, periodic_encoding
+from baselines.common.encoders.trainable import build_audio_encoder, motion_audio_features
+from baselines.common.motion_decoder import decode_step, decode_teacher_forced, motion_decoder
+from baselines.common.positional import PeriodicPositionalEncoding
+from blendvoca.errors import UserError
 
 __all__ = ["STAGE2_DEFAULTS", "CodeTalker"]
 
@@ -59,7 +59,7 @@ class CodeTalker(nn.Module):
         super().__init__()
         unknown = sorted(set(config or {}) - set(STAGE2_DEFAULTS))
         if unknown:
-            raise ValueError(f"CodeTalker stage 2: unknown keys {unknown}; expected some of {sorted(STAGE2_DEFAULTS)}")
+            raise UserError(f"CodeTalker stage 2: unknown keys {unknown}; expected some of {sorted(STAGE2_DEFAULTS)}")
         self.config = {**copy.deepcopy(STAGE2_DEFAULTS), **copy.deepcopy(config or {})}
         cfg = self.config
         self.autoencoder = autoencoder if autoencoder is not None else VQAutoEncoder(stage1)
@@ -91,11 +91,7 @@ class CodeTalker(nn.Module):
 
     def audio_features(self, audio: torch.Tensor, num_frames: int | None = None) -> torch.Tensor:
         """Mapped speech features ``(B, T, feature_dim)``, one per motion frame."""
-        if isinstance(self.audio_encoder, LogMelContextEncoder):
-            hidden = self.audio_encoder(audio, num_frames, fps=self.fps)
-        else:
-            hidden = wav2vec2_motion_features(self.audio_encoder, audio, num_frames, fps=self.fps)
-        return self.audio_feature_map(hidden)
+        return self.audio_feature_map(motion_audio_features(self.audio_encoder, audio, num_frames, fps=self.fps))
 
     def style(self, one_hot: torch.Tensor) -> torch.Tensor:
         """Style embedding ``(B, 1, feature_dim)`` of the arg-max speaker of ``one_hot``."""
@@ -157,7 +153,7 @@ class CodeTalker(nn.Module):
         cache = [None] * len(self.transformer_decoder.layers)
         token, quantized = style, []
         for i in range(frames):
-            x = self.PPE.dropout(token + self._pe(i, token))
+            x = self.PPE.dropout(token + self.PPE.at(i, token))
             feat = self._codes(self.feat_map(decode_step(self.transformer_decoder, x, memory, cache, **self._kw())))
             q, _, _ = self.autoencoder.quantize(feat)
             quantized.append(q)
@@ -169,8 +165,3 @@ class CodeTalker(nn.Module):
                 decoded = self.autoencoder.decode_frame(torch.cat(quantized, dim=-1), -1)
             token = self.vertice_map(decoded) + style
         return self.autoencoder.decode(torch.cat(quantized, dim=-1)) + template
-
-    def _pe(self, t: int, like: torch.Tensor) -> torch.Tensor:
-        if t < self.PPE.pe.shape[1]:
-            return self.PPE.pe[:, t : t + 1]
-        return periodic_encoding(like.shape[2], self.period, t + 1)[:, t:].to(like)

@@ -8,21 +8,26 @@
 
 from __future__ import annotations
 
-from baselines.faceformer.official import _count_layers, _require, checkpoint_state, load_into, period_of_encoding
+import os
+
+from baselines.codetalker.model import CodeTalker
+from baselines.codetalker.vqvae import VQAutoEncoder
+from baselines.common.checkpoint import checkpoint_state, count_layers, load_into, require_key
+from baselines.common.motion_decoder import decoder_config_from_state
 
 __all__ = ["load_official", "stage1_config_from_state", "stage2_config_from_state"]
 
 
 def stage1_config_from_state(state: dict, *, num_attention_heads: int = 8, where: str = "codetalker stage 1") -> dict:
     """VQ-VAE config that fits a stage-1 state dict (keys without the ``autoencoder.`` prefix)."""
-    mapping = _require(state, "encoder.vertice_mapping.0.weight", where)
-    codebook = _require(state, "quantize.embedding.weight", where)
-    l1 = _require(state, "encoder.encoder_transformer.net.1.fn.fn.l1.weight", where)
+    mapping = require_key(state, "encoder.vertice_mapping.0.weight", where)
+    codebook = require_key(state, "quantize.embedding.weight", where)
+    l1 = require_key(state, "encoder.encoder_transformer.net.1.fn.fn.l1.weight", where)
     hidden = int(mapping.shape[0])
     return {
         "in_dim": int(mapping.shape[1]),
         "hidden_size": hidden,
-        "num_hidden_layers": _count_layers(state, "encoder.encoder_transformer.net.") // 2,
+        "num_hidden_layers": count_layers(state, "encoder.encoder_transformer.net.") // 2,
         "num_attention_heads": int(num_attention_heads),
         "intermediate_size": int(l1.shape[0]),
         "quant_factor": 0,
@@ -35,31 +40,22 @@ def stage1_config_from_state(state: dict, *, num_attention_heads: int = 8, where
 
 def stage2_config_from_state(state: dict, *, audio: dict | None = None, n_head: int = 4, dataset: str = "vocaset",
                              where: str = "codetalker stage 2") -> dict:
-    """Stage-2 config that fits a stage-2 state dict."""
-    vertice_map = _require(state, "vertice_map.weight", where)
-    style = _require(state, "learnable_style_emb.weight", where)
-    pe = _require(state, "PPE.pe", where)
-    period = period_of_encoding(pe)
-    return {
-        "dataset": dataset,
-        "vertice_dim": int(vertice_map.shape[1]),
-        "feature_dim": int(vertice_map.shape[0]),
-        "period": period,
-        "n_head": int(n_head),
-        "num_layers": _count_layers(state, "transformer_decoder.layers."),
-        "num_subjects": int(style.shape[0]),
-        "max_seq_len": int(pe.shape[1]) - period,
-        "audio": audio or {"kind": "wav2vec2", "config": "base"},
-    }
+    """Stage-2 config that fits a stage-2 state dict.
+
+    The speakers are the rows of the style embedding ``learnable_style_emb`` ``(num_subjects, feature_dim)``.
+    """
+    num_subjects = int(require_key(state, "learnable_style_emb.weight", where).shape[0])
+    return decoder_config_from_state(state, num_subjects=num_subjects, audio=audio, n_head=n_head, dataset=dataset,
+                                     where=where)
 
 
-def load_official(stage2_path, stage1_path, *, wav2vec2_config=None, n_head: int = 4, vq_heads: int = 8,
-                  dataset: str = "vocaset"):
+def load_official(stage2_path: str | os.PathLike, stage1_path: str | os.PathLike, *, wav2vec2_config=None,
+                  n_head: int = 4, vq_heads: int = 8, dataset: str = "vocaset"):
     """The authors' CodeTalker from their stage-2 and stage-1 files, in eval mode.
 
     Parameters
     ----------
-    stage2_path, stage1_path : path-like
+    stage2_path, stage1_path : str or os.PathLike
         ``vocaset_stage2.pth.tar`` and ``vocaset_stage1.pth.tar``.
     wav2vec2_config : "base", "tiny" or dict, optional
         Default: the shipped base-960h configuration.
@@ -72,9 +68,7 @@ def load_official(stage2_path, stage1_path, *, wav2vec2_config=None, n_head: int
     baselines.codetalker.model.CodeTalker
         ``predict(audio, template, one_hot)`` as the authors'.
     """
-    from baselines.codetalker.model import CodeTalker
-    from baselines.codetalker.vqvae import VQAutoEncoder
-
+    stage2_path, stage1_path = os.fspath(stage2_path), os.fspath(stage1_path)
     where1 = f"codetalker.load_official stage 1 ({stage1_path})"
     where2 = f"codetalker.load_official stage 2 ({stage2_path})"
     s1 = checkpoint_state(stage1_path, where=where1)

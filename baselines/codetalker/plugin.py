@@ -7,13 +7,17 @@ the authors' released weights are used as they are.
 
 from __future__ import annotations
 
-import numpy as np
-import torch
+import os
+from pathlib import Path
 
+from baselines.codetalker.model import CodeTalker
+from baselines.codetalker.official import load_official
 from baselines.codetalker.presets import resolve_config
-from baselines.faceformer.plugin import load_pretrained_wav2vec2, official_style_names
-from baselines.faceformer.vertex_method import StyleVertexMethod, training_limits
+from baselines.codetalker.train import split_budget, train_stage1, train_stage2
+from baselines.common.encoders.trainable import load_pretrained_wav2vec2
+from baselines.common.vertex_method import StyleVertexMethod, official_style_names, training_limits
 from benchmark.methods import show_progress
+from blendvoca.errors import UserError
 
 __all__ = ["CodeTalkerMethod"]
 
@@ -24,7 +28,7 @@ class CodeTalkerMethod(StyleVertexMethod):
     Parameters
     ----------
     preset : {"cpu-demo", "paper"}, default "cpu-demo"
-    official, official_stage1 : str, optional
+    official, official_stage1 : str or os.PathLike, optional
         The authors' ``vocaset_stage2.pth.tar`` and ``vocaset_stage1.pth.tar``; then nothing is trained.
     official_wav2vec2 : "base", "tiny" or dict, default "base"
         wav2vec 2.0 architecture of those files (the released ones: base-960h).
@@ -42,18 +46,20 @@ class CodeTalkerMethod(StyleVertexMethod):
     # each style is predicted alone, at position 0, as the authors do.
     batch_styles = False
 
-    def __init__(self, preset: str = "cpu-demo", official: str | None = None, official_stage1: str | None = None,
-                 official_wav2vec2="base", resolved: dict | None = None, **overrides):
+    def __init__(self, preset: str = "cpu-demo", official: str | os.PathLike | None = None,
+                 official_stage1: str | os.PathLike | None = None, official_wav2vec2="base", resolved: dict | None = None,
+                 **overrides):
+        # recorded in the JSON config
+        official = None if official is None else os.fspath(official)
+        official_stage1 = None if official_stage1 is None else os.fspath(official_stage1)
         super().__init__(preset=preset, official=official, official_stage1=official_stage1,
                          official_wav2vec2=official_wav2vec2, **overrides)
         self.settings = resolve_config(preset, **overrides)
         self.motion_scale = float(self.settings["training"]["motion_scale"])
         if (official is None) != (official_stage1 is None):
-            raise ValueError("CodeTalkerMethod: expected both official (stage 2) and official_stage1 (stage 1) paths, "
-                             f"got official={official!r}, official_stage1={official_stage1!r}")
+            raise UserError("CodeTalkerMethod: expected both official (stage 2) and official_stage1 (stage 1) paths, "
+                            f"got official={official!r}, official_stage1={official_stage1!r}")
         if official is not None:
-            from baselines.codetalker.official import load_official
-
             self.network = load_official(official, official_stage1, wav2vec2_config=official_wav2vec2)
             self.subjects = official_style_names(self.network.config["num_subjects"])
             self.motion_scale = 1.0
@@ -62,38 +68,32 @@ class CodeTalkerMethod(StyleVertexMethod):
         return {**super().config(), "resolved": self.settings}
 
     @classmethod
-    def from_official_checkpoint(cls, path, **config) -> CodeTalkerMethod:
+    def from_official_checkpoint(cls, path: str | os.PathLike, **config) -> CodeTalkerMethod:
         """The method with the authors' stage-2 file ``path`` (``benchmark.run --checkpoint FILE``).
 
         The stage-1 file is ``official_stage1`` when given, else the sibling named like
         ``path`` with ``stage2`` replaced by ``stage1`` (the released files' names).
         """
-        from pathlib import Path
-
         config.pop("official", None)
         stage1 = config.pop("official_stage1", None)
+        path = Path(os.fspath(path))
         if stage1 is None:
-            path = Path(path)
             if "stage2" not in path.name:
-                raise ValueError(f"CodeTalker: cannot tell the stage-1 file for {path}; expected a name with 'stage2' "
-                                 "(vocaset_stage2.pth.tar) or --config official_stage1=PATH")
+                raise UserError(f"CodeTalker: cannot tell the stage-1 file for {path}; expected a name with 'stage2' "
+                                "(vocaset_stage2.pth.tar) or --config official_stage1=PATH")
             stage1 = path.with_name(path.name.replace("stage2", "stage1"))
             if not stage1.is_file():
-                raise FileNotFoundError(f"CodeTalker: expected the stage-1 file {stage1} next to {path}, not found "
-                                        "(or pass --config official_stage1=PATH)")
-        return cls(official=str(path), official_stage1=str(stage1), **config)
+                raise UserError(f"CodeTalker: expected the stage-1 file {stage1} next to {path}, not found "
+                                "(or pass --config official_stage1=PATH)")
+        return cls(official=path, official_stage1=stage1, **config)
 
     def build_network(self, num_subjects: int, vertice_dim: int) -> None:
-        from baselines.codetalker.model import CodeTalker
-
         self.network = CodeTalker({**self.settings["model"], "num_subjects": num_subjects, "vertice_dim": vertice_dim},
                                   {**self.settings["stage1"], "in_dim": vertice_dim})
         if self.settings["model"]["audio"]["kind"] == "wav2vec2" and self.settings.get("wav2vec2_path"):
             load_pretrained_wav2vec2(self.network.audio_encoder, self.settings["wav2vec2_path"])
 
     def fit(self, train, val, *, seed, budget):
-        from baselines.codetalker.train import split_budget, train_stage1, train_stage2
-
         t = self.settings["training"]
         steps, seconds = training_limits(budget, t["max_steps"], t["max_seconds"])
         (s1, t1), (s2, t2) = split_budget(steps, seconds, t["stage1_fraction"])
@@ -113,8 +113,6 @@ class CodeTalkerMethod(StyleVertexMethod):
                 "stage1_config": self.network.stage1, "motion_scale": self.motion_scale}
 
     def restore_network(self, payload: dict) -> None:
-        from baselines.codetalker.model import CodeTalker
-
         self.network = CodeTalker(payload["model_config"], payload["stage1_config"])
         self.network.load_state_dict(payload["state_dict"])
         self.motion_scale = float(payload["motion_scale"])

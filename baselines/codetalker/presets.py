@@ -15,6 +15,8 @@ from __future__ import annotations
 
 import copy
 
+from blendvoca.errors import UserError
+
 __all__ = ["PRESETS", "resolve_config"]
 
 PRESETS = {
@@ -46,7 +48,7 @@ PRESETS = {
 def resolve_config(preset: str, **overrides) -> dict:
     """The nested config of ``preset`` with flat overrides (``vq_<key>`` for the VQ-VAE's keys)."""
     if preset not in PRESETS:
-        raise ValueError(f"unknown preset {preset!r}; expected one of {sorted(PRESETS)}")
+        raise UserError(f"unknown preset {preset!r}; expected one of {sorted(PRESETS)}")
     cfg = copy.deepcopy(PRESETS[preset])
     for key, value in overrides.items():
         if key.startswith("vq_") and key[3:] in cfg["stage1"]:
@@ -59,5 +61,5 @@ def resolve_config(preset: str, **overrides) -> dict:
             cfg[key] = value
         else:
             known = sorted({*cfg["model"], *cfg["training"], *(f"vq_{k}" for k in cfg["stage1"]), "wav2vec2_path"})
-            raise ValueError(f"unknown config key {key!r}; expected one of {known}")
+            raise UserError(f"unknown config key {key!r}; expected one of {known}")
     return cfg

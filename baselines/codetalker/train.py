@@ -23,7 +23,8 @@ import math
 
 import torch
 
-from baselines.faceformer.train import epochs_to_steps, fit_sequences, sequence_tensors
+from baselines.common.sequences import sequence_tensors
+from baselines.common.training import epochs_to_steps, fit_sequences
 
 __all__ = ["split_budget", "train_stage1", "train_stage2"]
 

@@ -3,6 +3,8 @@
 ``Faceformer`` is the network with the authors' parameter names, ``load_official``
 loads their released ``vocaset.pth``; the benchmark plug-in is
 ``baselines.faceformer.plugin:FaceFormerMethod`` (registered as ``faceformer``).
+The parts CodeTalker reuses (speech front ends, periodic positional encoding, biased
+causal decoder, training loop, vertex plug-in base) are in :mod:`baselines.common`.
 """
 
 from baselines.faceformer.model import DEFAULT_CONFIG, Faceformer

@@ -15,11 +15,12 @@ import copy
 import torch
 from torch import nn
 
-from baselines.faceformer.audio import LogMelContextEncoder, wav2vec2_motion_features
-from baselines.faceformer.decoding import decode_step, decode_teacher_forced, motion_decoder
-from baselines.faceformer.positional import PeriodicPositionalEncoding
+from baselines.common.encoders.trainable import build_audio_encoder, motion_audio_features
+from baselines.common.motion_decoder import decode_step, decode_teacher_forced, motion_decoder
+from baselines.common.positional import PeriodicPositionalEncoding
+from blendvoca.errors import UserError
 
-__all__ = ["DEFAULT_CONFIG", "Faceformer", "build_audio_encoder", "resolved_model_config"]
+__all__ = ["DEFAULT_CONFIG", "Faceformer", "resolved_model_config"]
 
 #: The authors' VOCASET settings (main.py defaults; 4 heads, 1 layer, wav2vec 2.0 base).
 DEFAULT_CONFIG = {
@@ -41,41 +42,10 @@ def resolved_model_config(**overrides) -> dict:
     """:data:`DEFAULT_CONFIG` with ``overrides`` (unknown keys are an error)."""
     unknown = sorted(set(overrides) - set(DEFAULT_CONFIG))
     if unknown:
-        raise ValueError(f"model config: unknown keys {unknown}; expected some of {sorted(DEFAULT_CONFIG)}")
+        raise UserError(f"model config: unknown keys {unknown}; expected some of {sorted(DEFAULT_CONFIG)}")
     cfg = copy.deepcopy(DEFAULT_CONFIG)
     cfg.update(copy.deepcopy(overrides))
     return cfg
-
-
-def build_audio_encoder(spec: dict) -> tuple[nn.Module, int]:
-    """The speech encoder of ``spec`` and its feature size.
-
-    ``{"kind": "wav2vec2", "config": "base" | "tiny" | {Wav2Vec2Config fields}}``: a
-    randomly initialised wav2vec 2.0 (weights come from a checkpoint), CNN frozen as
-    the authors do; ``{"kind": "logmel", "n_mels": 80, "hidden_size": 64, "layers": 2}``:
-    :class:`~baselines.faceformer.audio.LogMelContextEncoder`.
-    """
-    kind = spec.get("kind")
-    if kind == "wav2vec2":
-        from baselines.wav2vec2 import base_config, tiny_config, wav2vec2_model
-
-        which = spec.get("config", "base")
-        if which == "base":
-            config = base_config()
-        elif which == "tiny":
-            config = tiny_config()
-        elif isinstance(which, dict):
-            config = base_config(**which)
-        else:
-            raise ValueError(f"audio encoder: expected config 'base', 'tiny' or a dict, got {which!r}")
-        model = wav2vec2_model(config)
-        model.feature_extractor._freeze_parameters()
-        return model, int(config.hidden_size)
-    if kind == "logmel":
-        options = {k: v for k, v in spec.items() if k != "kind"}
-        encoder = LogMelContextEncoder(**options)
-        return encoder, encoder.hidden_size
-    raise ValueError(f"audio encoder: expected kind 'wav2vec2' or 'logmel', got {kind!r}")
 
 
 class Faceformer(nn.Module):
@@ -112,16 +82,12 @@ class Faceformer(nn.Module):
         Parameters
         ----------
         audio : (B, N) Tensor
-            16 kHz speech, normalised (:func:`~baselines.faceformer.audio.normalized_speech`)
+            16 kHz speech, normalised (:func:`~baselines.common.encoders.wav2vec2.normalize_waveform`)
             for wav2vec 2.0.
         num_frames : int, optional
             Default: the authors' count from the audio length.
         """
-        if isinstance(self.audio_encoder, LogMelContextEncoder):
-            hidden = self.audio_encoder(audio, num_frames, fps=self.fps)
-        else:
-            hidden = wav2vec2_motion_features(self.audio_encoder, audio, num_frames, fps=self.fps)
-        return self.audio_feature_map(hidden)
+        return self.audio_feature_map(motion_audio_features(self.audio_encoder, audio, num_frames, fps=self.fps))
 
     def _decode_kwargs(self) -> dict:
         return {"period": self.period, "dataset": self.dataset, "bias_heads": self.n_head}
@@ -167,15 +133,8 @@ class Faceformer(nn.Module):
         token = style
         outputs = []
         for t in range(memory.shape[1]):
-            x = self.PPE.dropout(token + self._pe(t, token))
+            x = self.PPE.dropout(token + self.PPE.at(t, token))
             out = self.vertice_map_r(decode_step(self.transformer_decoder, x, memory, cache, **self._decode_kwargs()))
             outputs.append(out)
             token = self.vertice_map(out) + style
         return torch.cat(outputs, dim=1) + template
-
-    def _pe(self, t: int, like: torch.Tensor) -> torch.Tensor:
-        from baselines.faceformer.positional import periodic_encoding
-
-        if t < self.PPE.pe.shape[1]:
-            return self.PPE.pe[:, t : t + 1]
-        return periodic_encoding(like.shape[2], self.period, t + 1)[:, t:].to(like)

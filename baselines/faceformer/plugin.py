@@ -7,34 +7,17 @@ released weights are used as they are (their 8 VOCASET styles).
 
 from __future__ import annotations
 
-import numpy as np
-import torch
+import os
 
-from baselines.faceformer.presets import VOCASET_TRAIN_SUBJECTS, resolve_config
-from baselines.faceformer.vertex_method import StyleVertexMethod, training_limits
+from baselines.common.encoders.trainable import load_pretrained_wav2vec2
+from baselines.common.vertex_method import StyleVertexMethod, official_style_names, training_limits
+from baselines.faceformer.model import Faceformer
+from baselines.faceformer.official import load_official
+from baselines.faceformer.presets import resolve_config
+from baselines.faceformer.train import train_faceformer
 from benchmark.methods import show_progress
 
-__all__ = ["FaceFormerMethod", "load_pretrained_wav2vec2", "official_style_names"]
-
-
-def official_style_names(n: int) -> list[str]:
-    """Names of the styles of an authors' checkpoint: VOCASET's training speakers when there are 8."""
-    return list(VOCASET_TRAIN_SUBJECTS) if n == len(VOCASET_TRAIN_SUBJECTS) else [f"style{k}" for k in range(n)]
-
-
-def load_pretrained_wav2vec2(model, path) -> None:
-    """Copy the weights of a local ``from_pretrained`` wav2vec 2.0 directory into ``model`` (a Wav2Vec2Model)."""
-    from pathlib import Path
-
-    from baselines.said.presets import expand_path
-    from baselines.wav2vec2.config import _transformers
-
-    path = Path(expand_path(str(path))).expanduser()
-    if not (path / "config.json").is_file():
-        raise FileNotFoundError(f"wav2vec 2.0: expected a local directory with config.json at {path}; "
-                                "download facebook/wav2vec2-base-960h there first (or set BLENDVOCA_WAV2VEC2)")
-    pretrained = _transformers().Wav2Vec2Model.from_pretrained(str(path))
-    model.load_state_dict(pretrained.state_dict(), strict=False)
+__all__ = ["FaceFormerMethod"]
 
 
 class FaceFormerMethod(StyleVertexMethod):
@@ -43,7 +26,7 @@ class FaceFormerMethod(StyleVertexMethod):
     Parameters
     ----------
     preset : {"cpu-demo", "paper"}, default "cpu-demo"
-    official : str, optional
+    official : str or os.PathLike, optional
         Path of the authors' ``vocaset.pth``; then nothing is trained.
     official_wav2vec2 : "base", "tiny" or dict, default "base"
         wav2vec 2.0 architecture of that file (the released one: base-960h).
@@ -57,14 +40,13 @@ class FaceFormerMethod(StyleVertexMethod):
     label = "FaceFormer"
     checkpoint_file = "faceformer.pt"
 
-    def __init__(self, preset: str = "cpu-demo", official: str | None = None, official_wav2vec2="base",
+    def __init__(self, preset: str = "cpu-demo", official: str | os.PathLike | None = None, official_wav2vec2="base",
                  resolved: dict | None = None, **overrides):
+        official = None if official is None else os.fspath(official)  # recorded in the JSON config
         super().__init__(preset=preset, official=official, official_wav2vec2=official_wav2vec2, **overrides)
         self.settings = resolve_config(preset, **overrides)
         self.motion_scale = float(self.settings["training"]["motion_scale"])
         if official is not None:
-            from baselines.faceformer.official import load_official
-
             self.network = load_official(official, wav2vec2_config=official_wav2vec2)
             self.subjects = official_style_names(self.network.config["num_subjects"])
             self.motion_scale = 1.0
@@ -73,21 +55,17 @@ class FaceFormerMethod(StyleVertexMethod):
         return {**super().config(), "resolved": self.settings}
 
     @classmethod
-    def from_official_checkpoint(cls, path, **config) -> FaceFormerMethod:
+    def from_official_checkpoint(cls, path: str | os.PathLike, **config) -> FaceFormerMethod:
         """The method with the authors' ``vocaset.pth`` (``benchmark.run --checkpoint FILE``)."""
         config.pop("official", None)
-        return cls(official=str(path), **config)
+        return cls(official=os.fspath(path), **config)
 
     def build_network(self, num_subjects: int, vertice_dim: int) -> None:
-        from baselines.faceformer.model import Faceformer
-
         self.network = Faceformer({**self.settings["model"], "num_subjects": num_subjects, "vertice_dim": vertice_dim})
         if self.settings["model"]["audio"]["kind"] == "wav2vec2" and self.settings.get("wav2vec2_path"):
             load_pretrained_wav2vec2(self.network.audio_encoder, self.settings["wav2vec2_path"])
 
     def fit(self, train, val, *, seed, budget):
-        from baselines.faceformer.train import train_faceformer
-
         t = self.settings["training"]
         steps, seconds = training_limits(budget, t["max_steps"], t["max_seconds"])
         return train_faceformer(self.network, train, val, self.subjects, training=t, seed=seed,
@@ -98,8 +76,6 @@ class FaceFormerMethod(StyleVertexMethod):
                 "motion_scale": self.motion_scale}
 
     def restore_network(self, payload: dict) -> None:
-        from baselines.faceformer.model import Faceformer
-
         self.network = Faceformer(payload["model_config"])
         self.network.load_state_dict(payload["state_dict"])
         self.motion_scale = float(payload["motion_scale"])

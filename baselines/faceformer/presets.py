@@ -10,13 +10,9 @@ from __future__ import annotations
 
 import copy
 
-__all__ = ["PRESETS", "VOCASET_TRAIN_SUBJECTS", "resolve_config"]
+from blendvoca.errors import UserError
 
-#: The authors' VOCASET training speakers, in their one-hot order.
-VOCASET_TRAIN_SUBJECTS = (
-    "FaceTalk_170728_03272_TA", "FaceTalk_170904_00128_TA", "FaceTalk_170725_00137_TA", "FaceTalk_170915_00223_TA",
-    "FaceTalk_170811_03274_TA", "FaceTalk_170913_03279_TA", "FaceTalk_170904_03276_TA", "FaceTalk_170912_03278_TA",
-)
+__all__ = ["PRESETS", "resolve_config"]
 
 PRESETS = {
     "cpu-demo": {
@@ -42,7 +38,7 @@ _TRAIN_KEYS = ("lr", "max_steps", "max_seconds", "max_epochs", "motion_scale", "
 def resolve_config(preset: str, presets: dict = PRESETS, **overrides) -> dict:
     """The nested config of ``preset`` with flat ``overrides`` (model, training or top-level keys)."""
     if preset not in presets:
-        raise ValueError(f"unknown preset {preset!r}; expected one of {sorted(presets)}")
+        raise UserError(f"unknown preset {preset!r}; expected one of {sorted(presets)}")
     cfg = copy.deepcopy(presets[preset])
     for key, value in overrides.items():
         if key in cfg.get("model", {}) or key in _MODEL_KEYS and "model" in cfg:
@@ -53,5 +49,5 @@ def resolve_config(preset: str, presets: dict = PRESETS, **overrides) -> dict:
             cfg[key] = value
         else:
             known = sorted(set(cfg) | set(cfg.get("model", {})) | set(cfg.get("training", {})))
-            raise ValueError(f"unknown config key {key!r}; expected one of {known}")
+            raise UserError(f"unknown config key {key!r}; expected one of {known}")
     return cfg

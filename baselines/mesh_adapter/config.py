@@ -14,8 +14,11 @@ Example (``voca.yaml``)::
 
 from __future__ import annotations
 
+import os
 from dataclasses import asdict, dataclass
 from pathlib import Path
+
+from blendvoca.errors import DataError, UserError
 
 __all__ = ["TEMPLATE_MODES", "AdapterConfig", "adapter_config", "read_adapter_config"]
 
@@ -40,33 +43,36 @@ class AdapterConfig:
         return asdict(self)
 
 
-def adapter_config(mapping: dict, *, base_dir=None, where: str = "mesh-adapter config") -> AdapterConfig:
-    """An :class:`AdapterConfig` from a plain mapping; ``vertices`` is resolved against ``base_dir``.
+def adapter_config(mapping: dict, *, base_dir: str | os.PathLike | None = None,
+                   where: str = "mesh-adapter config") -> AdapterConfig:
+    """An :class:`AdapterConfig` from a plain mapping; ``vertices`` (text or ``os.PathLike``) is resolved
+    against ``base_dir``.
 
     Raises
     ------
-    ValueError
+    UserError
         Unknown keys, missing ``vertices``, a non-positive fps, an unknown template mode.
     """
     if not isinstance(mapping, dict):
         raise TypeError(f"{where}: expected a mapping of settings, got {type(mapping).__name__}")
     unknown = sorted(set(mapping) - set(_KEYS))
     if unknown:
-        raise ValueError(f"{where}: unknown key(s) {unknown}; expected some of {list(_KEYS)}")
+        raise UserError(f"{where}: unknown key(s) {unknown}; expected some of {list(_KEYS)}")
     if not mapping.get("vertices"):
-        raise ValueError(f"{where}: 'vertices' (folder of vertex outputs) is required")
-    vertices = Path(str(mapping["vertices"])).expanduser()
+        raise UserError(f"{where}: 'vertices' (folder of vertex outputs) is required")
+    raw = mapping["vertices"]
+    vertices = Path(os.fspath(raw) if isinstance(raw, os.PathLike) else str(raw)).expanduser()
     if base_dir is not None and not vertices.is_absolute():
-        vertices = Path(base_dir) / vertices
+        vertices = Path(os.fspath(base_dir)) / vertices
     fps = mapping.get("fps", 60.0)
     if isinstance(fps, bool) or not isinstance(fps, (int, float)) or fps <= 0:
-        raise ValueError(f"{where}: 'fps' must be a positive number (30 or 60), got {fps!r}")
+        raise UserError(f"{where}: 'fps' must be a positive number (30 or 60), got {fps!r}")
     template = mapping.get("template", "absolute")
     if template not in TEMPLATE_MODES:
-        raise ValueError(f"{where}: 'template' must be one of {TEMPLATE_MODES}, got {template!r}")
+        raise UserError(f"{where}: 'template' must be one of {TEMPLATE_MODES}, got {template!r}")
     subset = mapping.get("vertex_subset")
     if subset is not None and subset != "flame-head" and not isinstance(subset, list):
-        raise ValueError(f"{where}: 'vertex_subset' must be null, 'flame-head' or a list of indices, got {subset!r}")
+        raise UserError(f"{where}: 'vertex_subset' must be null, 'flame-head' or a list of indices, got {subset!r}")
     delta = mapping.get("delta", 0.1)
     return AdapterConfig(
         name=str(mapping.get("name") or vertices.name),
@@ -80,13 +86,26 @@ def adapter_config(mapping: dict, *, base_dir=None, where: str = "mesh-adapter c
     )
 
 
-def read_adapter_config(path) -> AdapterConfig:
-    """Read a YAML adapter file (``vertices`` relative to the file's folder)."""
+def read_adapter_config(path: str | os.PathLike) -> AdapterConfig:
+    """Read a YAML adapter file (``vertices`` relative to the file's folder).
+
+    Raises
+    ------
+    UserError
+        No file at ``path``, or settings :func:`adapter_config` refuses.
+    DataError
+        The file is not YAML, or not a mapping.
+    """
     import yaml
 
-    path = Path(path)
+    path = Path(os.fspath(path))
     if not path.is_file():
-        raise FileNotFoundError(f"mesh-adapter config {path} does not exist")
+        raise UserError(f"mesh-adapter config {path} does not exist")
     with path.open() as handle:
-        mapping = yaml.safe_load(handle)
+        try:
+            mapping = yaml.safe_load(handle)
+        except yaml.YAMLError as exc:
+            raise DataError(f"mesh-adapter config {path}: not YAML: {exc}") from exc
+    if mapping is not None and not isinstance(mapping, dict):
+        raise DataError(f"mesh-adapter config {path}: expected a mapping of settings, got {type(mapping).__name__}")
     return adapter_config(mapping or {}, base_dir=path.parent, where=str(path))

@@ -8,24 +8,28 @@ scoring on coefficients) loses little.
 
 from __future__ import annotations
 
-import argparse
+import os
 import sys
 from pathlib import Path
 
 import numpy as np
 
+from blendvoca import cli
+from blendvoca.errors import UserError
+
 __all__ = ["exported_corpus_meshes", "main"]
 
 
-def exported_corpus_meshes(vocaset_root, out_dir, *, split: str = "test", fps: int = 60, offsets: bool = False,
-                           name: str | None = None, sentences=None, progress: bool = True) -> Path:
+def exported_corpus_meshes(vocaset_root: str | os.PathLike, out_dir: str | os.PathLike, *, split: str = "test",
+                           fps: int = 60, offsets: bool = False, name: str | None = None, sentences=None,
+                           progress: bool = True) -> Path:
     """Write ``<out>/vertices/<subject>/<sentence>.npy`` and ``<out>/adapter.yaml``.
 
     Parameters
     ----------
-    vocaset_root : path-like
+    vocaset_root : str or os.PathLike
         VOCASET (official or processed layout), e.g. the bundled synthetic corpus.
-    out_dir : path-like
+    out_dir : str or os.PathLike
     split : str
         Which split's speakers to export.
     fps : {60, 30}
@@ -42,15 +46,22 @@ def exported_corpus_meshes(vocaset_root, out_dir, *, split: str = "test", fps: i
     -------
     Path
         The adapter YAML file, ready for ``--config config=PATH``.
+
+    Raises
+    ------
+    UserError
+        ``fps`` other than 30 or 60, a split the corpus does not have.
     """
     import yaml
 
     from blendvoca.vocaset import open_vocaset
 
     if fps not in (30, 60):
-        raise ValueError(f"exported_corpus_meshes: fps must be 30 or 60, got {fps!r}")
+        raise UserError(f"exported_corpus_meshes: fps must be 30 or 60, got {fps!r}")
     corpus = open_vocaset(vocaset_root)
-    out_dir = Path(out_dir)
+    if split not in corpus.splits:
+        raise UserError(f"--split: expected one of {sorted(corpus.splits)}, got {split!r}")
+    out_dir = Path(os.fspath(out_dir))
     vertex_dir = out_dir / "vertices"
     items = [(s, q) for s in corpus.splits[split] if s in corpus.subjects for q in corpus.sentences(s)
              if sentences is None or q in sentences]
@@ -82,14 +93,17 @@ def exported_corpus_meshes(vocaset_root, out_dir, *, split: str = "test", fps: i
     return path
 
 
+@cli.command
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m baselines.mesh_adapter.export", description=__doc__.split("\n\n")[0])
+    """Command line entry point (see the module docstring)."""
+    parser = cli.parser("baselines.mesh_adapter.export", __doc__)
     parser.add_argument("--vocaset", default=None, help="VOCASET root (default: the bundled synthetic corpus)")
     parser.add_argument("--out", required=True, help="output folder (vertices/ + adapter.yaml)")
     parser.add_argument("--split", default="test")
     parser.add_argument("--fps", type=int, choices=(30, 60), default=60)
     parser.add_argument("--offsets", action="store_true", help="store offsets from the template")
     parser.add_argument("--name", default=None, help="leaderboard label")
+    cli.add_quiet_option(parser)
     args = parser.parse_args(argv)
     vocaset = args.vocaset
     if vocaset is None:
@@ -97,9 +111,9 @@ def main(argv=None) -> int:
 
         vocaset = default_corpus()
     path = exported_corpus_meshes(vocaset, args.out, split=args.split, fps=args.fps, offsets=args.offsets,
-                                  name=args.name)
+                                  name=args.name, progress=not args.quiet)
     print(path)
-    return 0
+    return cli.EXIT_OK
 
 
 if __name__ == "__main__":

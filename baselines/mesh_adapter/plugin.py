@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import os
 import sys
 
-from baselines.reference.lookup import TrackLookupMethod
+from baselines.common.track_lookup import TrackLookupMethod
 from benchmark.methods import show_progress
+from blendvoca.errors import UserError
 
 from .adapt import adapted_coefficients, resolve_vertex_subset
 from .config import adapter_config, read_adapter_config
@@ -24,7 +26,7 @@ class MeshAdapterMethod(TrackLookupMethod):
 
     Parameters
     ----------
-    config : str
+    config : str or os.PathLike
         Path of the YAML adapter file (see :mod:`baselines.mesh_adapter.config`).
     split : str
         Split whose sentences must all have outputs.
@@ -37,7 +39,11 @@ class MeshAdapterMethod(TrackLookupMethod):
     name = "mesh-adapter"
     stochastic = False
 
-    def __init__(self, config: str | None = None, split: str = "test", adapter: dict | None = None, **settings):
+    def __init__(self, config: str | os.PathLike | None = None, split: str = "test", adapter: dict | None = None,
+                 **settings):
+        # paths as text: they are recorded in the JSON config
+        config = None if config is None else os.fspath(config)
+        settings = {k: os.fspath(v) if isinstance(v, os.PathLike) else v for k, v in settings.items()}
         super().__init__(config=config, split=split, **settings)
         if adapter is not None:  # resolved settings, as saved with a trained method
             self.adapter = adapter_config(adapter, where="mesh-adapter saved settings")
@@ -48,8 +54,8 @@ class MeshAdapterMethod(TrackLookupMethod):
         elif settings:
             self.adapter = adapter_config(settings, where="mesh-adapter settings")
         else:
-            raise ValueError("mesh-adapter: expected config=PATH.yaml (--config config=PATH.yaml) or inline "
-                             "settings such as vertices=DIR, got neither")
+            raise UserError("mesh-adapter: expected config=PATH.yaml (--config config=PATH.yaml) or inline "
+                            "settings such as vertices=DIR, got neither")
         self.label = self.adapter.name
         self.reference = self.adapter.reference
         self.max_frame_mismatch = self.adapter.max_frame_mismatch

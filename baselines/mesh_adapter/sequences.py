@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+import os
 import re
 from pathlib import Path
 
 import numpy as np
+
+from blendvoca.errors import DataError, UserError
 
 __all__ = ["MESH_SUFFIXES", "find_sequences", "read_vertex_sequence"]
 
@@ -13,15 +16,20 @@ MESH_SUFFIXES = (".ply", ".obj")
 _DIGITS = re.compile(r"(\d+)")
 
 
-def find_sequences(root) -> dict[tuple[str, str], Path]:
+def find_sequences(root: str | os.PathLike) -> dict[tuple[str, str], Path]:
     """``{(subject, sentence): path}`` of every output under ``root``.
 
     Accepted layouts: ``<root>/<subject>/<sentence>.npy`` (a ``(T, V, 3)`` array)
     and ``<root>/<subject>/<sentence>/`` holding one ``.ply`` / ``.obj`` per frame.
+
+    Raises
+    ------
+    UserError
+        ``root`` is not a folder.
     """
-    root = Path(root)
+    root = Path(os.fspath(root))
     if not root.is_dir():
-        raise FileNotFoundError(f"mesh-adapter: vertex output folder {root} does not exist")
+        raise UserError(f"mesh-adapter: vertex output folder {root} does not exist")
     found = {}
     for subject_dir in sorted(p for p in root.iterdir() if p.is_dir()):
         for item in sorted(subject_dir.iterdir()):
@@ -37,7 +45,7 @@ def _frame_order(path: Path):
     return [int(t) if t.isdigit() else t for t in _DIGITS.split(path.name)]
 
 
-def read_vertex_sequence(path) -> np.ndarray:
+def read_vertex_sequence(path: str | os.PathLike) -> np.ndarray:
     """Vertices of one output sequence.
 
     Parameters
@@ -49,8 +57,13 @@ def read_vertex_sequence(path) -> np.ndarray:
     Returns
     -------
     (T, V, 3) float64 ndarray
+
+    Raises
+    ------
+    DataError
+        No frames, another shape, or NaN / infinite values.
     """
-    path = Path(path)
+    path = Path(os.fspath(path))
     if path.is_file():
         frames = np.load(path, allow_pickle=False)
         if frames.ndim == 2 and frames.shape[1] % 3 == 0:
@@ -58,7 +71,7 @@ def read_vertex_sequence(path) -> np.ndarray:
     else:
         files = sorted((f for f in path.iterdir() if f.suffix in MESH_SUFFIXES), key=_frame_order)
         if not files:
-            raise ValueError(f"mesh-adapter: {path} holds no .ply/.obj frames")
+            raise DataError(f"mesh-adapter: {path} holds no .ply/.obj frames")
         if all(f.suffix == ".ply" for f in files):
             from blendvoca.io.mesh import read_ply_sequence
 
@@ -69,7 +82,7 @@ def read_vertex_sequence(path) -> np.ndarray:
             frames = np.stack([read_mesh(f)[0] for f in files])
     frames = np.asarray(frames, dtype=np.float64)
     if frames.ndim != 3 or frames.shape[2] != 3 or frames.shape[0] == 0:
-        raise ValueError(f"mesh-adapter: {path}: expected (T, V, 3) vertices, got shape {frames.shape}")
+        raise DataError(f"mesh-adapter: {path}: expected (T, V, 3) vertices, got shape {frames.shape}")
     if not np.all(np.isfinite(frames)):
-        raise ValueError(f"mesh-adapter: {path}: vertex sequence contains NaN or infinite values")
+        raise DataError(f"mesh-adapter: {path}: vertex sequence contains NaN or infinite values")
     return frames

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .lookup import TrackLookupMethod
+from baselines.common.track_lookup import TrackLookupMethod
 
 __all__ = ["GroundTruthMethod"]
 

@@ -4,21 +4,16 @@ from __future__ import annotations
 
 import numpy as np
 
+from baselines.common import mel as common_mel
+from baselines.common.mel import hz_to_mel, mel_to_hz
+
 __all__ = ["hz_to_mel", "log_mel_spectrogram", "mel_filterbank", "mel_to_hz"]
 
 
-def hz_to_mel(hz):
-    """HTK mel scale: ``2595 log10(1 + f / 700)``."""
-    return 2595.0 * np.log10(1.0 + np.asarray(hz, dtype=np.float64) / 700.0)
-
-
-def mel_to_hz(mel):
-    """Inverse of :func:`hz_to_mel`."""
-    return 700.0 * (10.0 ** (np.asarray(mel, dtype=np.float64) / 2595.0) - 1.0)
-
-
 def mel_filterbank(n_mels: int, n_fft: int, rate: int, fmin: float = 0.0, fmax: float | None = None) -> np.ndarray:
-    """Triangular filters equally spaced on the mel scale, peak value 1 (no area norm).
+    """Triangular filters equally spaced on the mel scale, peak value 1 (no area norm), one column per filter.
+
+    The filters of :func:`baselines.common.mel.mel_filterbank`, transposed for ``power @ filters``.
 
     Parameters
     ----------
@@ -35,15 +30,8 @@ def mel_filterbank(n_mels: int, n_fft: int, rate: int, fmin: float = 0.0, fmax: 
     -------
     (n_fft // 2 + 1, n_mels) float64 ndarray
     """
-    fmax = rate / 2.0 if fmax is None else float(fmax)
-    if not 0 <= fmin < fmax <= rate / 2.0:
-        raise ValueError(f"mel_filterbank: expected 0 <= fmin < fmax <= rate/2 = {rate / 2}, got {fmin}, {fmax}")
-    bins_hz = np.linspace(0.0, rate / 2.0, n_fft // 2 + 1)
-    edges_hz = mel_to_hz(np.linspace(hz_to_mel(fmin), hz_to_mel(fmax), n_mels + 2))
-    lower, centre, upper = edges_hz[:-2], edges_hz[1:-1], edges_hz[2:]
-    rising = (bins_hz[:, None] - lower) / (centre - lower)
-    falling = (upper - bins_hz[:, None]) / (upper - centre)
-    return np.maximum(0.0, np.minimum(rising, falling))
+    # C order, as the filters were built here before: ``power @ filters`` takes the same BLAS path
+    return np.ascontiguousarray(common_mel.mel_filterbank(n_fft, n_mels, rate, fmin, fmax).T)
 
 
 def log_mel_spectrogram(audio, *, rate: int = 16000, n_fft: int = 512, win_length: int = 400,

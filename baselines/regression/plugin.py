@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from benchmark.methods.base import Budget, Method, show_progress
+from blendvoca.errors import DataError
 
 from .features import motion_rate_features
 
@@ -33,7 +34,7 @@ class RegressionMethod(Method):
     lr : float
         Adam learning rate.
     threads : int or None
-        ``torch.set_num_threads`` while training and generating.
+        Torch threads while training and generating (the previous count is restored after).
     """
 
     name = "regression"
@@ -60,42 +61,39 @@ class RegressionMethod(Method):
                 targets.append(coeffs)
         return feats, targets
 
-    def _threads(self):
-        import torch
-
-        if self._config["threads"]:
-            torch.set_num_threads(int(self._config["threads"]))
-
     def train(self, dataset, *, seed: int, budget: Budget) -> None:
+        from baselines.common.threads import torch_threads
+
         from .training import feature_statistics, trained_regressor
 
-        self._threads()
-        feats, targets = self._sentences(dataset, "train")
-        if not feats:
-            raise ValueError("regression: the dataset's train split has no sentences")
-        try:
-            val_feats, val_targets = self._sentences(dataset, "val")
-        except (KeyError, ValueError):
-            val_feats, val_targets = [], []
-        mean, std = feature_statistics(feats)
-        self.stats = (mean, std)
-        norm = lambda fs: [((f - mean) / std).astype(np.float32) for f in fs]
-        cfg = self._config
-        self.model, self.history = trained_regressor(
-            norm(feats), targets, val_features=norm(val_feats), val_targets=val_targets, seed=seed, budget=budget,
-            default_steps=cfg["steps"], batch=cfg["batch"], window=cfg["window"], lr=cfg["lr"],
-            model_kwargs={"channels": cfg["channels"], "hidden": cfg["hidden"]}, progress=show_progress(),
-        )
+        with torch_threads(self._config["threads"]):
+            feats, targets = self._sentences(dataset, "train")
+            if not feats:
+                raise DataError("regression: the dataset's train split has no sentences")
+            try:
+                val_feats, val_targets = self._sentences(dataset, "val")
+            except (KeyError, ValueError):
+                val_feats, val_targets = [], []
+            mean, std = feature_statistics(feats)
+            self.stats = (mean, std)
+            norm = lambda fs: [((f - mean) / std).astype(np.float32) for f in fs]
+            cfg = self._config
+            self.model, self.history = trained_regressor(
+                norm(feats), targets, val_features=norm(val_feats), val_targets=val_targets, seed=seed,
+                budget=budget, default_steps=cfg["steps"], batch=cfg["batch"], window=cfg["window"], lr=cfg["lr"],
+                model_kwargs={"channels": cfg["channels"], "hidden": cfg["hidden"]}, progress=show_progress(),
+            )
 
     def generate(self, utterance, *, samples=1, seed=0):
         import torch
 
+        from baselines.common.threads import torch_threads
+
         if self.model is None:
             raise RuntimeError("regression: generate called before train/load")
-        self._threads()
         mean, std = self.stats
         x = (self._features(utterance.audio, utterance.num_frames) - mean) / std
-        with torch.no_grad():
+        with torch.no_grad(), torch_threads(self._config["threads"]):
             y = self.model(torch.from_numpy(x[None].astype(np.float32)))[0].double().numpy()
         return np.repeat(y[None], int(samples), axis=0)
 

@@ -7,7 +7,8 @@ from pathlib import Path
 
 import torch
 
-from blendvoca.io.atomic import atomic_write
+from baselines.common.checkpoint import load_checkpoint_file, save_checkpoint_file
+from blendvoca.errors import DataError
 
 FORMAT = "blendvoca-said/1"
 
@@ -24,7 +25,7 @@ def save_checkpoint(path: str | os.PathLike, model, config: dict, names: tuple[s
 
     Parameters
     ----------
-    path : path-like
+    path : str or os.PathLike
         Target file (``.pt``); parent directories are created.
     model : baselines.said.model.SAiDModel
     config : dict
@@ -38,12 +39,8 @@ def save_checkpoint(path: str | os.PathLike, model, config: dict, names: tuple[s
     -------
     path : Path
     """
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     payload = {"format": FORMAT, "config": config, "names": list(names), "state_dict": _stored_state(model), "history": history or {}}
-    with atomic_write(path, "wb") as handle:
-        torch.save(payload, handle)
-    return path
+    return save_checkpoint_file(path, payload)
 
 
 def read_checkpoint(path: str | os.PathLike) -> dict:
@@ -51,13 +48,14 @@ def read_checkpoint(path: str | os.PathLike) -> dict:
 
     Raises
     ------
-    ValueError
-        If the file is missing or is not a SAiD checkpoint.
+    UserError
+        If the file is missing.
+    DataError
+        If it is not a SAiD checkpoint.
     """
-    path = Path(path)
-    if not path.is_file():
-        raise ValueError(f"SAiD checkpoint: expected a file at {path}, found none")
-    payload = torch.load(path, map_location="cpu", weights_only=True)
+    path = Path(os.fspath(path))
+    payload = load_checkpoint_file(path, where="SAiD checkpoint")
     if not isinstance(payload, dict) or payload.get("format") != FORMAT:
-        raise ValueError(f"SAiD checkpoint: expected format {FORMAT!r} in {path}, got {payload.get('format') if isinstance(payload, dict) else type(payload).__name__!r}")
+        got = payload.get("format") if isinstance(payload, dict) else type(payload).__name__
+        raise DataError(f"SAiD checkpoint: expected format {FORMAT!r} in {path}, got {got!r}")
     return payload

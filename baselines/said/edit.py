@@ -5,6 +5,7 @@ from __future__ import annotations
 import torch
 
 from baselines.said.schedule import add_noise
+from blendvoca.errors import UserError
 
 
 def masked_replace(x: torch.Tensor, kept: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
@@ -61,7 +62,7 @@ def noised_reference(
 
 
 def check_edit_inputs(reference, mask, num_frames: int, num_coeffs: int) -> None:
-    """Raise ValueError unless reference and mask are both given, shaped ``(T, K)``, mask in {0, 1}.
+    """Raise a UserError unless reference and mask are both given, shaped ``(T, K)``, mask in {0, 1}.
 
     Parameters
     ----------
@@ -70,14 +71,14 @@ def check_edit_inputs(reference, mask, num_frames: int, num_coeffs: int) -> None
         Expected ``T`` and ``K``.
     """
     if (reference is None) != (mask is None):
-        raise ValueError("editing: expected both a reference and a mask, or neither")
+        raise UserError("editing: expected both a reference and a mask, or neither")
     if reference is None:
         return
     for name, arr in (("reference", reference), ("mask", mask)):
         if tuple(arr.shape) != (num_frames, num_coeffs):
-            raise ValueError(
+            raise UserError(
                 f"editing: expected {name} of shape ({num_frames}, {num_coeffs}), got {tuple(arr.shape)}"
             )
     m = torch.as_tensor(mask)
     if not bool(((m == 0) | (m == 1)).all()):
-        raise ValueError("editing: expected a binary mask (0 = generate, 1 = keep)")
+        raise UserError("editing: expected a binary mask (0 = generate, 1 = keep)")

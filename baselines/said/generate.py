@@ -22,59 +22,72 @@ CSV + PNG, ``1`` = the last) and ``--image PNG`` (the coefficients as an image).
 
 from __future__ import annotations
 
-import argparse
-import sys
 import os
+import sys
 from pathlib import Path
 
+from baselines.common.checkpoint import load_checkpoint_file
+from baselines.common.device import torch_device
+from baselines.said.checkpoint import FORMAT
+from baselines.said.coeff_image import write_coefficient_image
+from baselines.said.official import is_official_state, model_from_state
 from baselines.said.official_pipeline import OfficialSAiD
 from baselines.said.pipeline import SAiD
+from blendvoca import cli
+from blendvoca.errors import DataError, UserError
 
 CHECKPOINT_ENV = "BLENDVOCA_SAID_CHECKPOINT"
 
 
 def checkpoint_file(path: str | os.PathLike | None) -> Path:
-    """Return the checkpoint file named by ``path`` (file or directory with ``said.pt``) or by the environment."""
+    """Return the checkpoint file named by ``path`` (file or directory with ``said.pt``) or by the environment.
+
+    Raises
+    ------
+    UserError
+        Neither ``path`` nor ``$BLENDVOCA_SAID_CHECKPOINT``, or no checkpoint file there.
+    """
     if path is None:
         path = os.environ.get(CHECKPOINT_ENV)
         if not path:
-            raise ValueError(
+            raise UserError(
                 f"SAiD generate: expected --checkpoint or ${CHECKPOINT_ENV}; train one with "
                 "`python -m baselines.said.train --data DIR --out said.pt` or `python -m benchmark.run --method said`"
             )
-    path = Path(path).expanduser()
+    path = Path(os.fspath(path)).expanduser()
     if path.is_dir():
         path = path / "said.pt" if (path / "said.pt").is_file() or not (path / "SAiD.pth").is_file() else path / "SAiD.pth"
     if not path.is_file():
-        raise ValueError(f"SAiD generate: expected a checkpoint file at {path}, found none")
+        raise UserError(f"SAiD generate: expected a checkpoint file at {path}, found none")
     return path
 
 
-def load_pipeline(path: Path, official: bool | None = None):
-    """Return the pipeline in ``path``: a ``said.pt`` checkpoint, or the authors' ``SAiD.pth`` (detected by its keys)."""
-    import torch
+def load_pipeline(path: str | os.PathLike, official: bool | None = None):
+    """Return the pipeline in ``path``: a ``said.pt`` checkpoint, or the authors' ``SAiD.pth`` (detected by its keys).
 
-    from baselines.said.checkpoint import FORMAT
-    from baselines.said.official import is_official_state
-
-    payload = torch.load(path, map_location="cpu", weights_only=True)
+    Raises
+    ------
+    UserError
+        No file at ``path``, or ``official`` and the file is not the authors'.
+    DataError
+        The file is neither a SAiD checkpoint nor the authors' weights.
+    """
+    path = Path(os.fspath(path))
+    payload = load_checkpoint_file(path, where="SAiD generate")
     if is_official_state(payload):
-        from baselines.said.official import model_from_state
-
         return OfficialSAiD(model_from_state(payload, where=str(path)))
     if official:
-        raise ValueError(f"SAiD generate: --official expects the authors' SAID_UNet1D state_dict, got a different file {path}")
+        raise UserError(f"SAiD generate: --official expects the authors' SAID_UNet1D state_dict, got a different file {path}")
     if not isinstance(payload, dict) or payload.get("format") != FORMAT:
-        raise ValueError(f"SAiD generate: expected a {FORMAT} checkpoint or the authors' SAiD.pth at {path}")
+        raise DataError(f"SAiD generate: expected a {FORMAT} checkpoint or the authors' SAiD.pth at {path}")
     return SAiD.load(path)
 
 
-def write_intermediates(directory, states, names) -> None:
+def write_intermediates(directory: str | os.PathLike, states, names) -> None:
     """Write the chain's states (first sample) as ``<k>.csv`` and ``<k>.png``, ``k = 1`` being the last state."""
-    from baselines.said.coeff_image import write_coefficient_image
     from blendvoca.io.coeffs import write_coeffs_csv
 
-    directory = Path(directory)
+    directory = Path(os.fspath(directory))
     directory.mkdir(parents=True, exist_ok=True)
     for k, state in enumerate(reversed(states), start=1):
         write_coeffs_csv(directory / f"{k}.csv", state[0], names)
@@ -83,21 +96,21 @@ def write_intermediates(directory, states, names) -> None:
 
 def output_paths(out: str | os.PathLike, samples: int) -> list[Path]:
     """Return the CSV paths for ``samples`` outputs: ``out`` itself, or ``<stem>-<k><suffix>``."""
-    out = Path(out)
+    out = Path(os.fspath(out))
     if samples == 1:
         return [out]
     return [out.with_name(f"{out.stem}-{k}{out.suffix or '.csv'}") for k in range(samples)]
 
 
 def generate_files(
-    audio_path,
-    out_path,
+    audio_path: str | os.PathLike,
+    out_path: str | os.PathLike,
     *,
-    checkpoint=None,
+    checkpoint: str | os.PathLike | None = None,
     samples: int = 1,
     seed: int = 0,
-    reference_path=None,
-    mask_path=None,
+    reference_path: str | os.PathLike | None = None,
+    mask_path: str | os.PathLike | None = None,
     sampler: str | None = None,
     num_steps: int | None = None,
     guidance: float | None = None,
@@ -108,46 +121,57 @@ def generate_files(
     eta: float | None = None,
     guidance_rescale: float | None = None,
     strength: float = 1.0,
-    intermediates_dir=None,
-    image_path=None,
+    intermediates_dir: str | os.PathLike | None = None,
+    image_path: str | os.PathLike | None = None,
+    device: str = "cpu",
 ) -> list[Path]:
     """Read a WAV (and optional reference/mask CSVs), sample, write coefficient CSVs.
 
     ``export`` is a :data:`blendvoca.export.FORMATS` name; ``rig`` (a Rig or its path)
-    is needed by ``glb`` and ``usd``.
+    is needed by ``glb`` and ``usd``; ``device`` (``auto``, ``cpu``, ``cuda``,
+    ``cuda:N``) is where the network samples. Paths are ``str`` or ``os.PathLike``.
 
     Returns
     -------
     paths : list of Path
         The files written.
+
+    Raises
+    ------
+    UserError
+        A bad option, a missing checkpoint or options that need the other kind of weights.
+    DataError
+        A checkpoint that is not SAiD's, a mask of another shape than the reference.
     """
     from blendvoca.export import FORMATS, NEEDS_RIG, export_track, load_rig
     from blendvoca.io.audio import load_audio
     from blendvoca.io.coeffs import read_coeffs_csv, write_coeffs_csv
 
     if export not in FORMATS:
-        raise ValueError(f"SAiD generate: expected --export one of {FORMATS}, got {export!r}")
+        raise UserError(f"SAiD generate: expected --export one of {FORMATS}, got {export!r}")
     if export in NEEDS_RIG and rig is None:
-        raise ValueError(f"SAiD generate: --export {export} needs --rig (a rig .npz or SAiD folder)")
+        raise UserError(f"SAiD generate: --export {export} needs --rig (a rig .npz or SAiD folder)")
     if isinstance(rig, (str, os.PathLike)):
         rig = load_rig(rig)
 
-    said = load_pipeline(checkpoint_file(checkpoint), official)
+    device = torch_device(device)
+    said = load_pipeline(checkpoint_file(checkpoint), official).to(device)
     authors_only = {"--guidance-rescale": guidance_rescale, "--intermediates": intermediates_dir,
                     "--strength": None if strength == 1.0 else strength}
     if not isinstance(said, OfficialSAiD) and any(v is not None for v in authors_only.values()):
-        raise ValueError(f"SAiD generate: {', '.join(k for k, v in authors_only.items() if v is not None)} "
-                         "need the authors' weights (--official SAiD.pth)")
+        raise UserError(f"SAiD generate: {', '.join(k for k, v in authors_only.items() if v is not None)} "
+                        "need the authors' weights (--official SAiD.pth)")
     audio = load_audio(audio_path, rate=16000)
     reference = mask = None
     num_frames = None
     if (reference_path is None) != (mask_path is None) and not (isinstance(said, OfficialSAiD) and mask_path is None):
-        raise ValueError("SAiD generate: expected both --reference and --mask, or neither")
+        raise UserError("SAiD generate: expected both --reference and --mask, or neither")
     if reference_path is not None:
         reference, _ = read_coeffs_csv(reference_path, names=said.names)
         mask = reference * 0.0 if mask_path is None else read_coeffs_csv(mask_path, names=said.names)[0]
         if mask.shape != reference.shape:
-            raise ValueError(f"SAiD generate: expected the mask {mask_path} to have the reference's shape {reference.shape}, got {mask.shape}")
+            raise DataError(f"SAiD generate: expected the mask {os.fspath(mask_path)} to have the reference's shape "
+                            f"{reference.shape}, got {mask.shape}")
         num_frames = reference.shape[0]
     extra = {}
     if isinstance(said, OfficialSAiD):
@@ -160,8 +184,6 @@ def generate_files(
         tracks, states = tracks
         write_intermediates(intermediates_dir, states, said.names)
     if image_path is not None:
-        from baselines.said.coeff_image import write_coefficient_image
-
         for path, track in zip(output_paths(image_path, samples), tracks):
             write_coefficient_image(path, track)
     paths = output_paths(out_path, samples)
@@ -174,9 +196,10 @@ def generate_files(
     return paths
 
 
+@cli.command
 def main(argv=None) -> int:
     """Command line entry point (see the module docstring); a user mistake is one ``error:`` line and exit 2."""
-    p = argparse.ArgumentParser(prog="python -m baselines.said.generate", description=__doc__.split("\n\n")[0])
+    p = cli.parser("baselines.said.generate", __doc__)
     p.add_argument("--audio", required=True, help="input WAV (any rate, mono or stereo)")
     p.add_argument("--out", required=True, help="output CSV (header = blendshape names, 60 fps) or --export file")
     p.add_argument("--export", default="csv", choices=("csv", "livelink", "arkit-json", "a2f-json", "glb", "usd"),
@@ -188,6 +211,7 @@ def main(argv=None) -> int:
     p.add_argument("--mask", default=None, help="mask CSV for editing: 1 = keep the reference")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--sampler", choices=("ddim", "ddpm"), default=None, help="default: the checkpoint's")
+    # the DDIM/DDPM sampling steps of generation, not a training budget
     p.add_argument("--steps", type=int, default=None, help="sampling steps (default: the checkpoint's)")
     p.add_argument("--guidance", type=float, default=None, help="classifier-free guidance gamma (default: the checkpoint's)")
     p.add_argument("--official", action="store_true", help="the checkpoint is the authors' SAiD.pth (detected anyway)")
@@ -196,23 +220,20 @@ def main(argv=None) -> int:
     p.add_argument("--strength", type=float, default=1.0, help="editing strength in (0, 1] with --reference (authors' weights)")
     p.add_argument("--intermediates", default=None, metavar="DIR", help="write the chain's states here (authors' weights)")
     p.add_argument("--image", default=None, metavar="PNG", help="also write the coefficients as a grayscale image")
+    cli.add_device_option(p, default="cpu")
+    cli.add_quiet_option(p)
     args = p.parse_args(argv)
-    from blendvoca.errors import error_line
-
-    try:
-        paths = generate_files(
-            args.audio, args.out, checkpoint=args.checkpoint, samples=args.samples, seed=args.seed,
-            reference_path=args.reference, mask_path=args.mask, sampler=args.sampler,
-            num_steps=args.steps, guidance=args.guidance, export=args.export, rig=args.rig,
-            official=args.official or None, eta=args.eta, guidance_rescale=args.guidance_rescale,
-            strength=args.strength, intermediates_dir=args.intermediates, image_path=args.image,
-        )
-    except (ValueError, OSError, KeyError) as error:  # bad paths, files or options: the message names them
-        print(error_line(error), file=sys.stderr)
-        return 2
+    paths = generate_files(
+        args.audio, args.out, checkpoint=args.checkpoint, samples=args.samples, seed=args.seed,
+        reference_path=args.reference, mask_path=args.mask, sampler=args.sampler,
+        num_steps=args.steps, guidance=args.guidance, export=args.export, rig=args.rig,
+        official=args.official or None, eta=args.eta, guidance_rescale=args.guidance_rescale,
+        strength=args.strength, intermediates_dir=args.intermediates, image_path=args.image,
+        device=args.device, progress=not args.quiet,
+    )
     for path in paths:
         print(path)
-    return 0
+    return cli.EXIT_OK
 
 
 if __name__ == "__main__":

@@ -24,6 +24,7 @@ from tqdm.auto import tqdm
 from baselines.said.guidance import classifier_free_guidance, rescale_guidance
 from baselines.said.samplers import SAMPLERS, ddim_step, ddpm_step
 from baselines.said.schedule import add_noise, authors_alphas_cumprod, leading_timesteps
+from blendvoca.errors import UserError
 
 PREDICTION_TYPES = ("epsilon", "v_prediction", "sample")
 
@@ -115,9 +116,9 @@ def said_inference(
     InferenceOutput
     """
     if sampler not in SAMPLERS:
-        raise ValueError(f"said_inference: expected sampler in {SAMPLERS}, got {sampler!r}")
+        raise UserError(f"said_inference: expected sampler in {SAMPLERS}, got {sampler!r}")
     if not 0.0 < strength <= 1.0:
-        raise ValueError(f"said_inference: expected 0 < strength <= 1, got {strength}")
+        raise UserError(f"said_inference: expected 0 < strength <= 1, got {strength}")
     if mask is not None and init_samples is None:
         raise ValueError("said_inference: a mask needs init_samples")
     emb_batch, frames, _ = audio_embedding.shape

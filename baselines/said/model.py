@@ -4,7 +4,7 @@ Stable-Diffusion-style blocks simplified as in the paper: one encoder block, one
 middle block, one decoder block, no down- or up-sampling.  A sinusoidal timestep
 embedding enters every residual block; every transformer block has self-attention
 over frames, cross-attention whose keys and values are audio features (with the
-alignment bias of :func:`baselines.said.attention_bias.alignment_bias`) and a
+alignment bias of :func:`baselines.common.attention_bias.alignment_bias`) and a
 feed-forward layer.  :class:`SAiDModel` adds the frozen speech encoder, a small
 trainable audio adapter and the trainable null condition of classifier-free guidance.
 """
@@ -17,8 +17,8 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from baselines.said.attention_bias import alignment_bias
-from baselines.said.encoders import build_encoder
+from baselines.common.attention_bias import alignment_bias
+from baselines.common.encoders import build_encoder
 from baselines.said.unet1d import ZERO_INIT_GROUPS, ConditionalUNet1D
 
 ARCHITECTURES = ("authors", "compact")
@@ -244,7 +244,7 @@ class SAiDModel(nn.Module):
         ``heads = channels / num_head_channels``); ``compact``: the smaller
         :class:`UNet1DCondition` (three transformer blocks) of earlier checkpoints.
     encoder : dict, default ``{"kind": "logmel"}``
-        Spec for :func:`baselines.said.encoders.build_encoder`.
+        Spec for :func:`baselines.common.encoders.build_encoder`.
     adapter_layers : int, default 2
     adapter_kernel : int, default 5
     attention_half_width : int, default 1

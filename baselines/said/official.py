@@ -28,9 +28,17 @@ from pathlib import Path
 import torch
 from torch import nn
 
-from baselines.said.encoders.wav2vec2 import normalize_waveform
+from baselines.common.checkpoint import load_checkpoint_file
+from baselines.common.encoders.wav2vec2 import normalize_waveform
 from baselines.said.unet1d import ConditionalUNet1D
-from baselines.wav2vec2 import base_config, current_layout_state, interpolated_features, wav2vec2_model
+from baselines.wav2vec2 import (
+    base_config,
+    current_layout_state,
+    interpolated_features,
+    legacy_layout_state,
+    wav2vec2_model,
+)
+from blendvoca.errors import DataError
 
 SAMPLE_RATE = 16000
 FPS = 60
@@ -145,8 +153,6 @@ def is_official_state(state) -> bool:
 def official_state_keys(feature_dim: int = -1, audio_config=None) -> list[str]:
     """The keys of an authors' ``SAID_UNet1D`` state_dict (legacy ``weight_g``/``weight_v`` names for the
     positional convolution, as in the published file)."""
-    from baselines.wav2vec2 import legacy_layout_state
-
     with torch.device("meta"):
         model = SAID_UNet1D(audio_config, feature_dim=feature_dim)
     return list(legacy_layout_state(model.state_dict()))
@@ -161,7 +167,8 @@ def load_official(path: str | os.PathLike, *, audio_config=None, num_head_channe
 
     Parameters
     ----------
-    path : path-like
+    path : str or os.PathLike
+        ``~`` is expanded.
     audio_config : transformers.Wav2Vec2Config, optional
     num_head_channels : int, default 32
         Not recorded in the weights; the published model's value.
@@ -170,18 +177,19 @@ def load_official(path: str | os.PathLike, *, audio_config=None, num_head_channe
 
     Raises
     ------
-    ValueError
-        If the file is missing, is not in the authors' layout, or does not match
-        the architecture (names the missing and unexpected keys).
+    UserError
+        If the file is missing.
+    DataError
+        If it is not in the authors' layout, or does not match the architecture
+        (names the missing and unexpected keys).
     """
-    path = Path(path).expanduser()
-    if not path.is_file():
-        raise ValueError(f"SAiD official weights: expected a file at {path}, found none")
-    state = torch.load(path, map_location=map_location, weights_only=True)
+    path = Path(os.fspath(path)).expanduser()
+    state = load_checkpoint_file(path, where="SAiD official weights", map_location=map_location)
     if isinstance(state, dict) and "state_dict" in state and not is_official_state(state):
         state = state["state_dict"]
     if not is_official_state(state):
-        raise ValueError(f"SAiD official weights: expected a SAID_UNet1D state_dict (null_cond_emb, denoiser.model.*) in {path}")
+        raise DataError(f"SAiD official weights: expected a SAID_UNet1D state_dict (null_cond_emb, denoiser.model.*) "
+                        f"in {path}")
     return model_from_state(state, audio_config=audio_config, num_head_channels=num_head_channels,
                             prediction_type=prediction_type, where=str(path))
 
@@ -193,7 +201,7 @@ def model_from_state(state: dict, *, audio_config=None, num_head_channels: int =
     try:
         conv_in = state["denoiser.model.input_blocks.0.0.weight"]
     except KeyError as exc:
-        raise ValueError(f"SAiD official weights: {where} has no denoiser.model.input_blocks.0.0.weight") from exc
+        raise DataError(f"SAiD official weights: {where} has no denoiser.model.input_blocks.0.0.weight") from exc
     proj = state.get("audio_proj_layer.weight")
     model = SAID_UNet1D(
         audio_config,
@@ -206,9 +214,9 @@ def model_from_state(state: dict, *, audio_config=None, num_head_channels: int =
     try:
         result = model.load_state_dict(state, strict=False)
     except RuntimeError as exc:  # shape mismatches
-        raise ValueError(f"SAiD official weights: {where} does not match SAID_UNet1D: {exc}") from exc
+        raise DataError(f"SAiD official weights: {where} does not match SAID_UNet1D: {exc}") from exc
     if result.missing_keys or result.unexpected_keys:
-        raise ValueError(
+        raise DataError(
             f"SAiD official weights: {where} does not match SAID_UNet1D "
             f"(missing {result.missing_keys[:5]}{'...' if len(result.missing_keys) > 5 else ''}, "
             f"unexpected {result.unexpected_keys[:5]}{'...' if len(result.unexpected_keys) > 5 else ''})"

@@ -19,6 +19,8 @@ import torch
 from baselines.said.inference import said_inference
 from baselines.said.official import FPS, SAMPLE_RATE, load_official
 from baselines.said.sample import padded_batch, utterance_noise
+from blendvoca.errors import DataError
+from blendvoca.names import BLENDVOCA_NAMES
 
 #: The authors' inference script defaults.
 OFFICIAL_SAMPLING = {"sampler": "ddim", "num_steps": 1000, "guidance": 2.0, "guidance_rescale": 0.0, "eta": 0.0}
@@ -54,8 +56,6 @@ class OfficialSAiD:
     """
 
     def __init__(self, model, sampling: dict | None = None):
-        from blendvoca.names import BLENDVOCA_NAMES
-
         self.model = model.eval()
         self.names = tuple(BLENDVOCA_NAMES)
         self.sampling = {**OFFICIAL_SAMPLING, **(sampling or {})}
@@ -65,7 +65,7 @@ class OfficialSAiD:
     @classmethod
     def load(cls, path: str | os.PathLike, **sampling) -> OfficialSAiD:
         """Load ``SAiD.pth`` strictly (:func:`baselines.said.official.load_official`)."""
-        return cls(load_official(Path(path)), sampling)
+        return cls(load_official(Path(os.fspath(path))), sampling)
 
     def to(self, device) -> OfficialSAiD:
         self.device = torch.device(device)
@@ -84,7 +84,7 @@ class OfficialSAiD:
         """
         audio = np.asarray(audio, dtype=np.float32)
         if audio.ndim != 1 or audio.size == 0:
-            raise ValueError(f"OfficialSAiD.generate: expected (N,) mono audio at 16 kHz, got shape {audio.shape}")
+            raise DataError(f"OfficialSAiD.generate: expected (N,) mono audio at 16 kHz, got shape {audio.shape}")
         s = self.sampling
         if reference is not None:
             num_frames = int(np.asarray(reference).shape[0]) if num_frames is None else num_frames
@@ -147,8 +147,8 @@ class OfficialSAiD:
         for index, (audio, num_frames) in enumerate(utterances):
             audio = np.asarray(audio, dtype=np.float32)
             if audio.ndim != 1 or audio.size == 0:
-                raise ValueError(f"OfficialSAiD.generate_many: utterance {index}: expected (N,) mono audio at 16 kHz, "
-                                 f"got shape {audio.shape}")
+                raise DataError(f"OfficialSAiD.generate_many: utterance {index}: expected (N,) mono audio at 16 kHz, "
+                                f"got shape {audio.shape}")
             wav, frames, wanted = padded_waveform(audio, num_frames)
             embeddings.append(self.model.get_audio_embedding(self.model.process_audio(wav.to(self.device)), frames))
             out_frames.append(wanted)

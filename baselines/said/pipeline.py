@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from baselines.common.threads import torch_threads
 from baselines.said.checkpoint import read_checkpoint, save_checkpoint
 from baselines.said.edit import check_edit_inputs
 from baselines.said.guidance import classifier_free_guidance
@@ -22,7 +23,7 @@ from baselines.said.presets import resolve_config
 from baselines.said.sample import padded_batch, sample_diffusion, utterance_noise
 from baselines.said.samplers import SAMPLERS
 from baselines.said.schedule import alphas_cumprod_schedule, alphas_of
-from baselines.said.threads import torch_threads
+from blendvoca.errors import DataError, UserError
 
 FPS = 60
 SAMPLE_RATE = 16000
@@ -34,7 +35,7 @@ def frames_for_audio(num_samples: int, fps: int = FPS, sample_rate: int = SAMPLE
 
 
 def check_sampling(sampling: dict, num_train_steps: int) -> None:
-    """ValueError naming the key unless ``sampling`` (a config's sampling section) can drive the samplers."""
+    """A UserError naming the key unless ``sampling`` (a config's sampling section) can drive the samplers."""
     problems = []
     if sampling.get("sampler") not in SAMPLERS:
         problems.append(f"sampler in {SAMPLERS}, got {sampling.get('sampler')!r}")
@@ -46,7 +47,7 @@ def check_sampling(sampling: dict, num_train_steps: int) -> None:
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not value >= 0:
             problems.append(f"{key} a number >= 0, got {value!r}")
     if problems:
-        raise ValueError("SAiD sampling: expected " + "; ".join(problems))
+        raise UserError("SAiD sampling: expected " + "; ".join(problems))
 
 
 class SAiD:
@@ -135,12 +136,12 @@ class SAiD:
         """
         audio = np.asarray(audio)
         if audio.ndim != 1 or audio.size == 0:
-            raise ValueError(f"SAiD.generate: expected (N,) mono audio at 16 kHz, got shape {audio.shape}")
+            raise DataError(f"SAiD.generate: expected (N,) mono audio at 16 kHz, got shape {audio.shape}")
         if int(samples) != samples or samples < 1:
-            raise ValueError(f"SAiD.generate: expected samples >= 1, got {samples!r}")
+            raise UserError(f"SAiD.generate: expected samples >= 1, got {samples!r}")
         num_frames = frames_for_audio(audio.shape[0]) if num_frames is None else int(num_frames)
         if num_frames < 2:
-            raise ValueError(f"SAiD.generate: expected num_frames >= 2, got {num_frames}")
+            raise UserError(f"SAiD.generate: expected num_frames >= 2, got {num_frames}")
         k = len(self.names)
         check_edit_inputs(reference, mask, num_frames, k)
         s = self.config["sampling"]
@@ -153,7 +154,7 @@ class SAiD:
         if reference is not None:
             ref = np.asarray(reference, dtype=np.float64)
             if ref.min() < 0 or ref.max() > 1:
-                raise ValueError("SAiD.generate: expected reference coefficients in [0, 1]")
+                raise DataError("SAiD.generate: expected reference coefficients in [0, 1]")
             ref_x = self.to_diffusion(torch.from_numpy(ref).float().to(self.device))
             mask_t = torch.from_numpy(np.asarray(mask, dtype=np.float32)).to(self.device)
 
@@ -213,16 +214,16 @@ class SAiD:
             return [self.generate(audio, frames, samples=samples, seed=seed, **options)
                     for (audio, frames), seed in zip(utterances, seeds)]
         if int(samples) != samples or samples < 1:
-            raise ValueError(f"SAiD.generate_many: expected samples >= 1, got {samples!r}")
+            raise UserError(f"SAiD.generate_many: expected samples >= 1, got {samples!r}")
         waves, lengths = [], []
         for index, (audio, frames) in enumerate(utterances):
             audio = np.asarray(audio)
             if audio.ndim != 1 or audio.size == 0:
-                raise ValueError(f"SAiD.generate_many: utterance {index}: expected (N,) mono audio at 16 kHz, "
-                                 f"got shape {audio.shape}")
+                raise DataError(f"SAiD.generate_many: utterance {index}: expected (N,) mono audio at 16 kHz, "
+                                f"got shape {audio.shape}")
             frames = frames_for_audio(audio.shape[0]) if frames is None else int(frames)
             if frames < 2:
-                raise ValueError(f"SAiD.generate_many: utterance {index}: expected num_frames >= 2, got {frames}")
+                raise UserError(f"SAiD.generate_many: utterance {index}: expected num_frames >= 2, got {frames}")
             waves.append(torch.from_numpy(audio.astype(np.float32))[None].to(self.device))
             lengths.append(frames)
         s = self.config["sampling"]
@@ -297,6 +298,6 @@ class SAiD:
         missing, unexpected = said.model.load_state_dict(payload["state_dict"], strict=False)
         missing = [m for m in missing if not m.startswith("encoder.")]
         if missing or unexpected:
-            raise ValueError(f"SAiD checkpoint {path}: weights do not match the config (missing {missing[:5]}, unexpected {unexpected[:5]})")
+            raise DataError(f"SAiD checkpoint {path}: weights do not match the config (missing {missing[:5]}, unexpected {unexpected[:5]})")
         said.history = payload.get("history", {})
         return said

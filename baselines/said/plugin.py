@@ -7,42 +7,22 @@ Only this module imports the benchmark.
 from __future__ import annotations
 
 import copy
+import os
 from pathlib import Path
 
-import numpy as np
 import torch
 
+from baselines.common.checkpoint import load_checkpoint_file
+from baselines.said.dataset import dataset_pairs, mirror_for
+from baselines.said.official import is_official_state, model_from_state
 from baselines.said.official_pipeline import OfficialSAiD
 from baselines.said.pipeline import SAiD, check_sampling
 from baselines.said.train import train_said
 from benchmark.methods.base import Budget, Method, show_progress
+from blendvoca.errors import DataError, UserError
+from blendvoca.names import BLENDVOCA_NAMES
 
 CHECKPOINT_FILE = "said.pt"
-
-
-def dataset_pairs(dataset, split: str) -> list[tuple[np.ndarray, np.ndarray]]:
-    """Return ``(coeffs (T, K), audio (N,) float32 16 kHz)`` for every sentence of a split.
-
-    Parameters
-    ----------
-    dataset : benchmark.data dataset
-    split : {"train", "val", "test"}
-    """
-    pairs = []
-    for subject in dataset.split(split):
-        for sentence in dataset.sentences(subject):
-            audio, rate = dataset.audio(subject, sentence)
-            if rate != 16000:
-                raise ValueError(f"SAiD: expected 16 kHz audio from the dataset, got {rate} Hz for {subject}/{sentence}")
-            pairs.append((np.asarray(dataset.coeffs(subject, sentence), dtype=np.float32), np.asarray(audio, dtype=np.float32)))
-    return pairs
-
-
-def mirror_for(names) -> np.ndarray:
-    """Return the mirror permutation of ``names`` (``blendvoca.names.mirror_permutation``)."""
-    from blendvoca.names import mirror_permutation
-
-    return np.asarray(mirror_permutation(tuple(names)), dtype=np.int64)
 
 
 class SAiDMethod(Method):
@@ -66,8 +46,6 @@ class SAiDMethod(Method):
 
     def __init__(self, preset: str = "cpu-demo", resolved: dict | None = None, **overrides):
         super().__init__(preset=preset, **overrides)
-        from blendvoca.names import BLENDVOCA_NAMES
-
         self.said = SAiD.from_preset(BLENDVOCA_NAMES, preset, **overrides)
 
     def config(self) -> dict:
@@ -80,7 +58,7 @@ class SAiDMethod(Method):
             return  # the authors' published weights: nothing to train
         names = tuple(dataset.names)
         if names != self.said.names:
-            raise ValueError(f"SAiDMethod.train: expected dataset columns {self.said.names}, got {names}")
+            raise DataError(f"SAiDMethod.train: expected dataset columns {self.said.names}, got {names}")
         # the initial weights from the seed too (the constructor drew them from the global RNG):
         # a step budget then gives the same model in every process
         torch.manual_seed(int(seed))
@@ -110,8 +88,8 @@ class SAiDMethod(Method):
         """The same trained network sampling with another ``sampler``, ``num_steps``, ``guidance`` or ``eta``."""
         self.check_sampling_options(options)
         if isinstance(self.said, OfficialSAiD):
-            raise ValueError("SAiDMethod: the authors' weights sample with their inference settings; "
-                             "set the DDIM steps with --config official_steps=N")
+            raise UserError("SAiDMethod: the authors' weights sample with their inference settings; "
+                            "set the DDIM steps with --config official_steps=N")
         config = copy.deepcopy(self.said.config)
         config["sampling"].update(options)
         check_sampling(config["sampling"], config["diffusion"]["num_train_steps"])
@@ -121,36 +99,34 @@ class SAiDMethod(Method):
         twin.said.history = self.said.history
         return twin
 
-    def save(self, directory) -> None:
+    def save(self, directory: str | os.PathLike) -> None:
         """Write the config and the checkpoint ``said.pt`` into ``directory`` (not for published weights)."""
         if isinstance(self.said, OfficialSAiD):
-            raise ValueError("SAiDMethod.save: the authors' published weights are used from their file; nothing to save")
+            raise UserError("SAiDMethod.save: the authors' published weights are used from their file; nothing to save")
         Method.save(self, directory)
-        self.said.save(Path(directory) / CHECKPOINT_FILE)
+        self.said.save(Path(os.fspath(directory)) / CHECKPOINT_FILE)
 
     @classmethod
-    def from_official_checkpoint(cls, path, *, official_steps: int | None = None, **config) -> SAiDMethod:
+    def from_official_checkpoint(cls, path: str | os.PathLike, *, official_steps: int | None = None,
+                                 **config) -> SAiDMethod:
         """The method with the authors' ``SAiD.pth`` (``benchmark.run --checkpoint SAiD.pth``; detected by its keys).
 
         It samples with the authors' inference settings (DDIM 1000, gamma 2);
         ``official_steps`` (``--config official_steps=50``) sets fewer DDIM steps.
         """
-        from baselines.said.official import is_official_state, model_from_state
-
-        path = Path(path)
-        state = torch.load(path, map_location="cpu", weights_only=True)
+        path = Path(os.fspath(path))
+        state = load_checkpoint_file(path, where="SAiDMethod")
         if not is_official_state(state):
-            raise ValueError(f"SAiDMethod: {path} is a file but not the authors' SAID_UNet1D state_dict; "
-                             "expected that or a directory written by SAiDMethod.save")
+            raise DataError(f"SAiDMethod: {path} is a file but not the authors' SAID_UNet1D state_dict; "
+                            "expected that or a directory written by SAiDMethod.save")
         method = cls(**config)
         method.said = OfficialSAiD(model_from_state(state, where=str(path)),
                                    {"num_steps": int(official_steps)} if official_steps else None)
         return method
 
     @classmethod
-    def load(cls, directory) -> SAiDMethod:
+    def load(cls, directory: str | os.PathLike) -> SAiDMethod:
         """Rebuild from :meth:`save`'s output."""
-        path = Path(directory)
         method = super().load(directory)
-        method.said = SAiD.load(path / CHECKPOINT_FILE)
+        method.said = SAiD.load(Path(os.fspath(directory)) / CHECKPOINT_FILE)
         return method

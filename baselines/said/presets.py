@@ -7,9 +7,7 @@ directory, 1000 diffusion steps, DDIM 1000, lr 1e-5, EMA 0.9999) and wants a GPU
 
 from __future__ import annotations
 
-import copy
-import difflib
-import os
+from baselines.common.presets import resolved_preset
 
 DEFAULT_PRESET = "cpu-demo"
 
@@ -98,14 +96,6 @@ PRESETS: dict[str, dict[str, dict]] = {
 }
 
 
-def expand_path(value: str) -> str:
-    """Expand ``${VAR:-default}`` then ``~`` in a preset path."""
-    if value.startswith("${") and value.endswith("}") and ":-" in value:
-        var, default = value[2:-1].split(":-", 1)
-        value = os.environ.get(var, default)
-    return os.path.expanduser(value)
-
-
 def resolve_config(preset: str = DEFAULT_PRESET, **overrides) -> dict[str, dict]:
     """Return the nested config of ``preset`` with flat ``overrides`` applied.
 
@@ -124,40 +114,3 @@ def resolve_config(preset: str = DEFAULT_PRESET, **overrides) -> dict[str, dict]
         ``{"preset", "model", "diffusion", "sampling", "training"}``.
     """
     return resolved_preset(PRESETS, preset, overrides, method="SAiD")
-
-
-def resolved_preset(presets: dict, preset: str, overrides: dict, *, method: str) -> dict:
-    """``presets[preset]`` (sections of keys) deep-copied with flat ``overrides`` applied
-    and ``"preset"`` set: the rule SAiD's and CDFace's configs share.
-
-    ``encoder`` may be a spec dict or a kind string, ``wav2vec2_path`` sets the wav2vec2
-    directory (required, and ``${VAR:-default}`` / ``~`` expanded, for that encoder); an
-    unknown preset or key is a ValueError naming ``method`` and the close matches.
-    """
-    if preset not in presets:
-        close = difflib.get_close_matches(str(preset), presets, n=3)
-        raise ValueError(f"{method} preset: expected one of {sorted(presets)}, got {preset!r}"
-                         + (f" (did you mean {close}?)" if close else ""))
-    config = copy.deepcopy(presets[preset])
-    overrides = dict(overrides)
-    path = overrides.pop("wav2vec2_path", None)
-    if isinstance(overrides.get("encoder"), str):
-        kind = overrides["encoder"]
-        overrides["encoder"] = {"kind": kind, "path": path} if kind == "wav2vec2" else {"kind": kind}
-    elif path is not None:
-        overrides.setdefault("encoder", {"kind": "wav2vec2", "path": path})
-    sections = {key: section for section, values in config.items() for key in values}
-    for key, value in overrides.items():
-        if key not in sections:
-            close = difflib.get_close_matches(key, sections, n=3)
-            raise ValueError(f"{method} config: unknown key {key!r}"
-                             + (f" (did you mean {close}?)" if close else f"; known keys: {sorted(sections)}"))
-        config[sections[key]][key] = copy.deepcopy(value)
-    encoder = config["model"]["encoder"]
-    if encoder.get("kind") == "wav2vec2":
-        if not encoder.get("path"):
-            raise ValueError(f"{method} config: the wav2vec2 encoder needs a local directory "
-                             "(wav2vec2_path=... or BLENDVOCA_WAV2VEC2)")
-        encoder["path"] = expand_path(str(encoder["path"]))
-    config["preset"] = preset
-    return config

@@ -10,6 +10,7 @@ from tqdm.auto import tqdm
 from baselines.said.edit import masked_replace, noised_reference
 from baselines.said.samplers import SAMPLERS, ddim_step, ddpm_step
 from baselines.said.schedule import sampling_timesteps
+from blendvoca.errors import UserError
 
 NoiseFn = Callable[[torch.Tensor, torch.Tensor], torch.Tensor]
 
@@ -83,7 +84,7 @@ def sample_diffusion(
     x0 : (B, T, K) Tensor
     """
     if sampler not in SAMPLERS:
-        raise ValueError(f"sample_diffusion: expected sampler in {SAMPLERS}, got {sampler!r}")
+        raise UserError(f"sample_diffusion: expected sampler in {SAMPLERS}, got {sampler!r}")
     if (reference is None) != (mask is None):
         raise ValueError("sample_diffusion: expected both reference and mask, or neither")
     batch = shape[0]

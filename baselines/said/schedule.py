@@ -7,6 +7,8 @@ import math
 import numpy as np
 import torch
 
+from blendvoca.errors import UserError
+
 SCHEDULES = ("cosine", "linear", "scaled_linear")
 
 
@@ -72,7 +74,7 @@ def sampling_timesteps(num_train_steps: int, num_steps: int) -> np.ndarray:
         Strictly decreasing, from ``N - 1``.
     """
     if int(num_steps) != num_steps or not 1 <= num_steps <= num_train_steps:
-        raise ValueError(
+        raise UserError(
             f"sampling_timesteps: expected 1 <= num_steps <= {num_train_steps}, got {num_steps!r}"
         )
     steps = np.round(np.arange(num_train_steps, 0, -num_train_steps / num_steps)).astype(np.int64) - 1
@@ -152,6 +154,6 @@ def leading_timesteps(num_train_steps: int, num_steps: int) -> np.ndarray:
     timesteps : (num_steps,) int64 ndarray, strictly decreasing
     """
     if int(num_steps) != num_steps or not 1 <= num_steps <= num_train_steps:
-        raise ValueError(f"leading_timesteps: expected 1 <= num_steps <= {num_train_steps}, got {num_steps!r}")
+        raise UserError(f"leading_timesteps: expected 1 <= num_steps <= {num_train_steps}, got {num_steps!r}")
     ratio = int(num_train_steps) // int(num_steps)
     return (np.arange(int(num_steps) - 1, -1, -1) * ratio).astype(np.int64)

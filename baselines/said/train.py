@@ -4,27 +4,34 @@ model selection on the validation loss.
 Command line (needs a built BlendVOCA directory)::
 
     python -m baselines.said.train --data DIR --out said.pt [--preset cpu-demo] [--max-seconds S]
+        [--max-steps N | --budget 500 | --budget 5m] [--config KEY=VALUE ...] [--device cpu] [--quiet]
 """
 
 from __future__ import annotations
 
-import argparse
 import copy
 import math
+import os
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import torch
 from tqdm.auto import tqdm
 
+from baselines.common.device import torch_device
+from baselines.common.threads import torch_threads
 from baselines.said.augment import training_batch, validation_windows
+from baselines.said.dataset import dataset_pairs, mirror_for
 from baselines.said.ema import EMA
 from baselines.said.losses import said_loss
 from baselines.said.normalization import coefficient_normalization
 from baselines.said.parametrization import noise_from_output
 from baselines.said.pipeline import SAiD
 from baselines.said.schedule import add_noise, alphas_of
-from baselines.said.threads import torch_threads
+from blendvoca import cli
+from blendvoca.errors import DataError, UserError
 
 
 def _check_pairs(pairs, k: int, where: str):
@@ -80,7 +87,7 @@ def diffusion_loss(said: SAiD, coeffs: torch.Tensor, audio: torch.Tensor, *, gen
         # so that the nearly pure-noise steps, whose x0 prediction the first sampling
         # steps use, are trained too (the plain noise loss gives them no gradient).
         if prediction != "v":
-            raise ValueError(f"diffusion_loss: loss_space 'v' needs prediction 'v', got {prediction!r}")
+            raise UserError(f"diffusion_loss: loss_space 'v' needs prediction 'v', got {prediction!r}")
         a = alphas_of(t, said.alphas_cumprod).to(x0.dtype)[:, None, None]
         return said_loss(a.sqrt() * noise - (1.0 - a).sqrt() * x0, output, velocity_weight=velocity_weight)
     eps = noise_from_output(output, x_t, alphas_of(t, said.alphas_cumprod), prediction)
@@ -103,7 +110,7 @@ def budget_decay(kind: str, done: float) -> float:
         return 1.0 - done
     if kind == "cosine":
         return 0.5 * (1.0 + math.cos(math.pi * done))
-    raise ValueError(f"SAiD training: expected lr_decay in {LR_DECAYS}, got {kind!r}")
+    raise UserError(f"SAiD training: expected lr_decay in {LR_DECAYS}, got {kind!r}")
 
 
 def train_said(
@@ -145,13 +152,13 @@ def train_said(
     k = len(said.names)
     train_pairs = _check_pairs(train_pairs, k, "train_said train_pairs")
     if not train_pairs:
-        raise ValueError("train_said: expected at least one training pair, got none")
+        raise DataError("train_said: expected at least one training pair, got none")
     val_pairs = _check_pairs(val_pairs or [], k, "train_said val_pairs")
     if max_seconds is None and max_steps is None:
         max_seconds = cfg["max_seconds"]  # a step budget alone stays deterministic: no time cap then
     max_steps = cfg["max_steps"] if max_steps is None else max_steps
     if max_steps is None and max_seconds is None:
-        raise ValueError("train_said: expected max_steps or max_seconds, got neither")
+        raise UserError("train_said: expected max_steps or max_seconds, got neither")
     max_steps = math.inf if max_steps is None else int(max_steps)
     max_seconds = math.inf if max_seconds is None else float(max_seconds)
 
@@ -247,31 +254,77 @@ def train_said(
     return history
 
 
-def main(argv=None) -> None:
-    """Command line: train SAiD on a built BlendVOCA directory and write a checkpoint."""
-    p = argparse.ArgumentParser(prog="python -m baselines.said.train", description=__doc__.split("\n\n")[0])
-    p.add_argument("--data", required=True, help="BlendVOCA directory (python -m blendvoca.build --out DIR)")
-    p.add_argument("--out", required=True, help="checkpoint file to write (.pt)")
-    p.add_argument("--preset", default="cpu-demo", help="cpu-demo (default) or paper")
-    p.add_argument("--max-steps", type=int, default=None)
-    p.add_argument("--max-seconds", type=float, default=None)
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--wav2vec2-path", default=None, help="local wav2vec2 directory (paper preset)")
-    args = p.parse_args(argv)
-    from baselines.said.plugin import dataset_pairs, mirror_for
+def train_file(data: str | os.PathLike, out: str | os.PathLike, *, preset: str = "cpu-demo", config: dict | None = None,
+               seed: int = 0, max_steps: int | None = None, max_seconds: float | None = None,
+               device: str = "cpu", progress: bool = True) -> dict:
+    """Train SAiD on the BlendVOCA build ``data`` and write the checkpoint ``out``.
+
+    Parameters
+    ----------
+    data : str or os.PathLike
+        A built BlendVOCA directory (train and val splits).
+    out : str or os.PathLike
+        The checkpoint file to write (``.pt``).
+    preset : {"cpu-demo", "paper"}
+    config : dict, optional
+        Flat overrides of the preset (:func:`baselines.said.presets.resolve_config`).
+    seed : int
+        Fixes the initial weights, the batches and the noise.
+    max_steps, max_seconds : optional
+        As :func:`train_said`.
+    device : str
+        ``auto``, ``cpu``, ``cuda`` or ``cuda:N``.
+    progress : bool
+
+    Returns
+    -------
+    history : dict
+        From :func:`train_said`.
+
+    Raises
+    ------
+    UserError
+        ``data`` is not a directory; a bad preset, config key or device.
+    DataError
+        ``data`` is not a BlendVOCA build (``benchmark.data.open_blendvoca``).
+    """
     from benchmark.data import open_blendvoca
 
-    dataset = open_blendvoca(args.data)
-    overrides = {"wav2vec2_path": args.wav2vec2_path} if args.wav2vec2_path else {}
-    torch.manual_seed(args.seed)  # the initial weights follow --seed too
-    said = SAiD.from_preset(tuple(dataset.names), args.preset, **overrides)
+    dataset = open_blendvoca(Path(os.fspath(data)))
+    device = torch_device(device)
+    torch.manual_seed(seed)  # the initial weights follow the seed too
+    said = SAiD.from_preset(tuple(dataset.names), preset, **(config or {})).to(device)
     history = train_said(
         said, dataset_pairs(dataset, "train"), dataset_pairs(dataset, "val"),
-        seed=args.seed, max_steps=args.max_steps, max_seconds=args.max_seconds, mirror=mirror_for(dataset.names),
+        seed=seed, max_steps=max_steps, max_seconds=max_seconds, mirror=mirror_for(dataset.names), progress=progress,
     )
-    said.save(args.out)
-    print(f"wrote {args.out}: {history['steps']} steps in {history['seconds']:.0f} s, best validation loss {history['best_val_loss']}")
+    said.save(out)
+    return history
+
+
+@cli.command
+def main(argv=None) -> int:
+    """Command line: train SAiD on a built BlendVOCA directory and write a checkpoint."""
+    p = cli.parser("baselines.said.train", __doc__)
+    p.add_argument("--out", required=True, help="checkpoint file to write (.pt)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--wav2vec2-path", default=None, help="local wav2vec2 directory (paper preset)")
+    cli.add_data_option(p, required=True, help="BlendVOCA directory (python -m blendvoca.build --out DIR)")
+    cli.add_budget_options(p)
+    cli.add_config_options(p, preset_default="cpu-demo", preset_help="cpu-demo (default) or paper")
+    cli.add_device_option(p, default="cpu")
+    cli.add_quiet_option(p)
+    args = p.parse_args(argv)
+    max_steps, max_seconds = cli.budget_limits(args)
+    config = cli.parse_config(args.config)
+    if args.wav2vec2_path:
+        config["wav2vec2_path"] = args.wav2vec2_path
+    history = train_file(args.data, args.out, preset=args.preset, config=config, seed=args.seed,
+                         max_steps=max_steps, max_seconds=max_seconds, device=args.device, progress=not args.quiet)
+    print(f"wrote {args.out}: {history['steps']} steps in {history['seconds']:.0f} s, "
+          f"best validation loss {history['best_val_loss']}")
+    return cli.EXIT_OK
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

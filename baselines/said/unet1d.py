@@ -17,7 +17,7 @@ published SAiD state_dict loads strictly into :class:`ConditionalUNet1D`:
 The last convolution of every residual block, every transformer's ``proj_out``
 and the output convolution start at zero.  The transformer's cross-attention
 sees the audio features through the alignment mask of
-:func:`baselines.said.attention_bias.alignment_mask`; its feed-forward is a GEGLU.
+:func:`baselines.common.attention_bias.alignment_mask`; its feed-forward is a GEGLU.
 
 For sampling, :meth:`ConditionalUNet1D.context_cache` precomputes the
 cross-attention keys and values of a condition once, so that the denoising
@@ -45,7 +45,7 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from baselines.said.attention_bias import alignment_mask
+from baselines.common.attention_bias import alignment_mask
 
 
 def timestep_embedding(timesteps: torch.Tensor, dim: int, max_period: float = 10000.0) -> torch.Tensor:

@@ -10,6 +10,8 @@ shapes). ``masked_spec_embed`` exists only when spec augment was configured.
 
 from __future__ import annotations
 
+from .config import _transformers, base_config
+
 __all__ = ["current_layout_state", "legacy_layout_state", "wav2vec2_model"]
 
 _LEGACY = ("pos_conv_embed.conv.weight_g", "pos_conv_embed.conv.weight_v")
@@ -45,8 +47,6 @@ def wav2vec2_model(config=None):
     The attention implementation is the eager one, which every transformers version
     has and which returns the same values as the authors' forward passes.
     """
-    from .config import _transformers, base_config
-
     config = base_config() if config is None else config
     try:
         config._attn_implementation = "eager"

@@ -10,13 +10,16 @@ of each cycle); AdamW, constant learning rate after a linear warm-up over the fi
 the weights (decay 0.99, ramped up as ``(1 + step) / (10 + step)`` early on) that
 is what gets saved.
 
-``python -m benchmark.features.train --data DIR --out vae.pth [--steps N]``
+``python -m benchmark.features.train --data DIR --out vae.pth [--max-steps N]`` (``--steps N``
+is the older spelling of ``--max-steps``; ``--max-seconds S`` stops earlier, keeping the
+schedules of the step count).
 """
 
 from __future__ import annotations
 
-import argparse
 import copy
+import sys
+import time
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -26,6 +29,12 @@ from tqdm import tqdm
 
 from benchmark.features.vae import CoeffsVAE
 from benchmark.metrics.windows import WINDOW
+from blendvoca import cli
+from blendvoca.errors import DataError, UserError
+
+#: Training steps when no budget is given (the learning-rate warm-up and the KL
+#: cycles are laid out over them).
+DEFAULT_STEPS = 300
 
 
 def cyclical_beta(step: int, total_steps: int, n_cycles: int = 10, ratio: float = 0.5, stop: float = 1.0) -> float:
@@ -87,7 +96,8 @@ def random_windows(tracks: Sequence[np.ndarray], count: int, rng: np.random.Gene
     """``count`` windows at uniformly random (track, start), (count, window, C)."""
     usable = [t for t in tracks if len(t) >= window]
     if not usable:
-        raise ValueError(f"random_windows: no track has >= {window} frames")
+        raise DataError(f"random_windows: no track has >= {window} frames; the training split's sentences are "
+                        "too short for the VAE's windows")
     which = rng.integers(len(usable), size=count)
     out = []
     for i in which:
@@ -100,7 +110,8 @@ def train_vae(
     tracks: Sequence[np.ndarray],
     coeffs_std: np.ndarray,
     *,
-    steps: int = 300,
+    steps: int = DEFAULT_STEPS,
+    max_seconds: float | None = None,
     batch_size: int = 8,
     lr: float = 1e-4,
     beta: float = 1.0,
@@ -118,7 +129,11 @@ def train_vae(
     tracks : sequence of (T_i, C) ndarrays
         Training tracks (60 fps, columns in BlendVOCA order).
     coeffs_std : (C,) ndarray
-    steps, batch_size, lr, beta, weight_vel, ema_decay, warmup_fraction, n_cycles, seed
+    steps : int
+        Training steps; the warm-up and the KL annealing cycles are laid out over them.
+    max_seconds : float, optional
+        Stop after this much training time even before ``steps`` (the EMA so far is returned).
+    batch_size, lr, beta, weight_vel, ema_decay, warmup_fraction, n_cycles, seed
         See the module docstring.
 
     Returns
@@ -129,9 +144,9 @@ def train_vae(
     coeffs_std = np.asarray(coeffs_std, dtype=np.float32).ravel()
     channels = {t.shape[1] for t in tracks}
     if channels != {len(coeffs_std)}:
-        raise ValueError(f"train_vae: tracks have {channels} channels, coeffs_std has {len(coeffs_std)}")
+        raise DataError(f"train_vae: tracks have {channels} channels, coeffs_std has {len(coeffs_std)}")
     if np.any(coeffs_std <= 0):
-        raise ValueError("train_vae: coeffs_std must be positive")
+        raise DataError("train_vae: coeffs_std must be positive")
     torch.manual_seed(seed)
     rng = np.random.default_rng(seed)
     model = CoeffsVAE(channels=len(coeffs_std))
@@ -142,7 +157,10 @@ def train_vae(
     std = torch.as_tensor(coeffs_std)
     model.train()
     bar = tqdm(range(steps), disable=not progress, desc="VAE")
+    start = time.perf_counter()
     for step in bar:
+        if max_seconds is not None and time.perf_counter() - start >= max_seconds:
+            break
         batch = torch.as_tensor(random_windows(tracks, batch_size, rng))
         reconst, kl, velocity = vae_losses(model, batch, std)
         b = cyclical_beta(step, steps, n_cycles, stop=beta)
@@ -162,16 +180,21 @@ def train_vae(
     return ema.eval()
 
 
-def main(argv: Sequence[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(description="Train the BlendVOCA VAE feature extractor")
-    parser.add_argument("--data", required=True, help="BlendVOCA build (or SAiD-layout folder)")
+@cli.command
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = cli.parser("benchmark.features.train", __doc__)
     parser.add_argument("--out", required=True, help="output state_dict (.pth)")
-    parser.add_argument("--steps", type=int, default=300)
     parser.add_argument("--batch-size", type=int, default=8)
     parser.add_argument("--lr", type=float, default=1e-4)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--coeffs-std", default=None, help="coeffs_std.csv (default: the asset coeffs-std)")
+    cli.add_data_option(parser, required=True, help="BlendVOCA build (or SAiD-layout folder)")
+    cli.add_budget_options(parser, default_steps=DEFAULT_STEPS, aliases=("--steps",))
     args = parser.parse_args(argv)
+    steps, seconds = cli.budget_limits(args)
+    steps = DEFAULT_STEPS if steps is None else steps
+    if args.batch_size < 1:
+        raise UserError(f"--batch-size: expected >= 1, got {args.batch_size}")
 
     from benchmark.data import open_blendvoca
     from blendvoca.io.coeffs import read_coeffs_csv
@@ -185,11 +208,13 @@ def main(argv: Sequence[str] | None = None) -> None:
     else:
         std_path = args.coeffs_std
     std, _ = read_coeffs_csv(std_path, names=dataset.names)
-    model = train_vae(tracks, std[0], steps=args.steps, batch_size=args.batch_size, lr=args.lr, seed=args.seed)
+    model = train_vae(tracks, std[0], steps=steps, max_seconds=seconds, batch_size=args.batch_size, lr=args.lr,
+                      seed=args.seed)
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
     torch.save(model.state_dict(), args.out)
     print(f"saved {args.out}")
+    return cli.EXIT_OK
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

@@ -17,6 +17,8 @@ import numpy as np
 import torch
 from torch import nn
 
+from blendvoca.errors import DataError, UserError
+
 WINDOW = 120
 CHANNELS = 32
 LATENT = 64
@@ -121,7 +123,7 @@ class CoeffsVAE(nn.Module):
         if not isinstance(coeffs, torch.Tensor):
             coeffs = torch.as_tensor(np.asarray(coeffs))
         if coeffs.ndim != 3 or tuple(coeffs.shape[1:]) != (self.seq_len, self.channels):
-            raise ValueError(
+            raise UserError(
                 f"CoeffsVAE: expected coeffs of shape (B, {self.seq_len}, {self.channels}), "
                 f"got {tuple(coeffs.shape)}"
             )
@@ -150,8 +152,22 @@ class CoeffsVAE(nn.Module):
         return mean, log_var, latent, self.decode(latent)
 
 
+class VaeWeightsError(DataError, RuntimeError):
+    """Weights that are not a BlendVOCA VAE's state_dict: a missing key, a shape that does
+    not fit, or a file torch cannot read (a :class:`~blendvoca.errors.DataError`, exit 2
+    on the command line; also a ``RuntimeError``, as ``load_state_dict``'s own error)."""
+
+
 def load_vae_state(state: Mapping[str, torch.Tensor]) -> CoeffsVAE:
-    """A :class:`CoeffsVAE` in eval mode holding ``state`` (strict key/shape match)."""
+    """A :class:`CoeffsVAE` in eval mode holding ``state`` (strict key/shape match).
+
+    Raises
+    ------
+    TypeError
+        ``state`` is not a mapping.
+    VaeWeightsError
+        A key is missing or a tensor's shape does not fit the model.
+    """
     if not isinstance(state, Mapping):
         raise TypeError(f"load_vae_state: expected a state_dict mapping, got {type(state).__name__}")
     try:
@@ -159,9 +175,12 @@ def load_vae_state(state: Mapping[str, torch.Tensor]) -> CoeffsVAE:
         channels = int(state["encoder.conv_layers.0.weight"].shape[1])
         seq_len = int(state["decoder.fc_layers.0.weight"].shape[0]) // 2
     except KeyError as err:
-        raise ValueError(f"load_vae_state: state_dict lacks the key {err}; not a BlendVOCA VAE") from err
+        raise VaeWeightsError(f"load_vae_state: state_dict lacks the key {err}; not a BlendVOCA VAE") from err
     model = CoeffsVAE(channels=channels, seq_len=seq_len, latent=latent)
-    model.load_state_dict(state, strict=True)
+    try:
+        model.load_state_dict(state, strict=True)
+    except RuntimeError as err:  # torch's message lists the missing, unexpected and mismatched keys
+        raise VaeWeightsError(f"load_vae_state: not a BlendVOCA VAE state_dict: {err}") from None
     return model.eval()
 
 
@@ -182,7 +201,14 @@ def load_published_vae(path: str | PathLike | None = None) -> CoeffsVAE:
         from blendvoca.assets import resolve
 
         path = resolve("said-vae")
-    state = torch.load(path, map_location="cpu", weights_only=True)
+    try:
+        state = torch.load(path, map_location="cpu", weights_only=True)
+    except FileNotFoundError:
+        raise
+    except Exception as error:  # noqa: BLE001 - torch raises many types for a file that is no checkpoint
+        raise VaeWeightsError(f"load_published_vae: {path} is not a readable torch checkpoint ({error})") from None
+    if not isinstance(state, Mapping):
+        raise VaeWeightsError(f"load_published_vae: {path} holds a {type(state).__name__}, expected a state_dict")
     if isinstance(state, Mapping) and "state_dict" in state and "encoder.fc_mu.weight" not in state:
         state = state["state_dict"]
     return load_vae_state(state)
@@ -204,9 +230,9 @@ def encode_windows(extractor, windows: np.ndarray, batch_size: int = 512) -> np.
     """
     windows = np.asarray(windows)
     if windows.ndim != 3:
-        raise ValueError(f"encode_windows: expected windows (N, T, C), got shape {windows.shape}")
+        raise UserError(f"encode_windows: expected windows (N, T, C), got shape {windows.shape}")
     if windows.shape[0] == 0:
-        raise ValueError("encode_windows: no windows to encode")
+        raise UserError("encode_windows: no windows to encode")
     out = []
     if hasattr(extractor, "encode") and isinstance(extractor, nn.Module):
         was_training = extractor.training

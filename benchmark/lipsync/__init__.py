@@ -4,7 +4,7 @@ tracks (:func:`load_expert`) and a weight-free geometric one."""
 from benchmark.lipsync.envelope import speech_envelope
 from benchmark.lipsync.expert import SyncExpert, load_expert, save_expert
 from benchmark.lipsync.expert_metrics import expert_sync_metrics
-from benchmark.lipsync.expert_train import cached_expert, train_expert
+from benchmark.lipsync.expert_training import cached_expert, train_expert
 from benchmark.lipsync.geometric import (
     SyncEstimate,
     geometric_sync,

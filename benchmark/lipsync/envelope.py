@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from blendvoca.errors import UserError
+
 
 def speech_envelope(samples, rate: int = 16000, fps: float = 60.0, num_frames: int | None = None,
                     window: float = 0.04, floor_db: float = -60.0) -> np.ndarray:
@@ -33,9 +35,9 @@ def speech_envelope(samples, rate: int = 16000, fps: float = 60.0, num_frames: i
     """
     x = np.asarray(samples, dtype=np.float64)
     if x.ndim != 1 or x.size == 0:
-        raise ValueError(f"speech_envelope: expected mono samples (N,), got shape {x.shape}")
+        raise UserError(f"speech_envelope: expected mono samples (N,), got shape {x.shape}")
     if rate <= 0 or fps <= 0:
-        raise ValueError(f"speech_envelope: rate and fps must be positive, got {rate}, {fps}")
+        raise UserError(f"speech_envelope: rate and fps must be positive, got {rate}, {fps}")
     if num_frames is None:
         num_frames = int(np.floor(len(x) / rate * fps))
     half = max(1, round(window * rate / 2))

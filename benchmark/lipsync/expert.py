@@ -5,7 +5,7 @@ the coefficient track (32 channels, standardised with the training statistics)
 and a window of the speech's log-mel spectrogram (sampled at the same frame
 times, normalised per utterance, so loudness alone carries no information) onto
 the unit sphere. Trained contrastively on the training split
-(:mod:`benchmark.lipsync.expert_train`): the audio window at the true lag must be
+(:mod:`benchmark.lipsync.expert_training`): the audio window at the true lag must be
 the nearest among all shifts.
 
 Scoring is SyncNet's: the mean embedding distance between motion frame ``t`` and
@@ -27,6 +27,7 @@ from torch import nn
 
 from benchmark.lipsync.geometric import SyncEstimate, offset_from_scores
 from benchmark.lipsync.mfcc import mel_filterbank
+from blendvoca.errors import DataError, UserError
 
 FPS = 60
 RATE = 16000
@@ -58,7 +59,7 @@ def audio_features(samples, *, num_frames: int, rate: int = RATE, fps: float = F
     """
     x = np.asarray(samples, dtype=np.float64)
     if x.ndim != 1 or x.size == 0:
-        raise ValueError(f"audio_features: expected mono samples (N,), got shape {x.shape}")
+        raise UserError(f"audio_features: expected mono samples (N,), got shape {x.shape}")
     half = nfft // 2
     padded = np.concatenate([np.zeros(half), x, np.zeros(half + nfft)])
     centres = np.round(np.arange(num_frames) * rate / fps).astype(np.int64)
@@ -125,7 +126,7 @@ class SyncExpert:
     """A trained expert: network, coefficient statistics and provenance.
 
     Use :meth:`sync`; create with :func:`load_expert` or
-    :func:`benchmark.lipsync.expert_train.train_expert`.
+    :func:`benchmark.lipsync.expert_training.train_expert`.
     """
 
     net: SyncExpertNet
@@ -142,12 +143,12 @@ class SyncExpert:
     def _padded_inputs(self, coeffs, audio, rate: int):
         coeffs = np.asarray(coeffs, dtype=np.float64)
         if coeffs.ndim != 2 or coeffs.shape[1] != self.config["num_coeffs"] or len(coeffs) < 1:
-            raise ValueError(f"SyncExpert.sync: expected coeffs (T, {self.config['num_coeffs']}), got {coeffs.shape}")
+            raise UserError(f"SyncExpert.sync: expected coeffs (T, {self.config['num_coeffs']}), got {coeffs.shape}")
         if not np.all(np.isfinite(coeffs)):
-            raise ValueError("SyncExpert.sync: coeffs hold NaN or infinite values")
+            raise UserError("SyncExpert.sync: coeffs hold NaN or infinite values")
         audio = np.asarray(audio, dtype=np.float32)
         if audio.ndim != 1 or audio.size == 0:
-            raise ValueError(f"SyncExpert.sync: expected mono audio (N,), got shape {audio.shape}")
+            raise UserError(f"SyncExpert.sync: expected mono audio (N,), got shape {audio.shape}")
         if rate != RATE:
             from blendvoca.io.audio import resample_audio
 
@@ -225,7 +226,7 @@ def load_expert(path: str | PathLike) -> SyncExpert:
 
     Raises
     ------
-    ValueError
+    DataError
         The file is not a sync-expert checkpoint (names the path and what it holds).
     """
     try:
@@ -233,13 +234,13 @@ def load_expert(path: str | PathLike) -> SyncExpert:
     except FileNotFoundError:
         raise
     except Exception as error:
-        raise ValueError(f"load_expert: {path} is not a readable torch checkpoint ({error})") from error
+        raise DataError(f"load_expert: {path} is not a readable torch checkpoint ({error})") from error
     if not isinstance(state, dict) or state.get("format") != FORMAT:
         what = type(state).__name__ if not isinstance(state, dict) else f"keys {sorted(state)[:6]}"
-        raise ValueError(f"load_expert: {path} is not a {FORMAT} checkpoint (holds {what}); "
+        raise DataError(f"load_expert: {path} is not a {FORMAT} checkpoint (holds {what}); "
                          "train one with python -m benchmark.lipsync.train_expert")
     if state.get("version") != FORMAT_VERSION:
-        raise ValueError(f"load_expert: {path} has format version {state.get('version')}, expected {FORMAT_VERSION}")
+        raise DataError(f"load_expert: {path} has format version {state.get('version')}, expected {FORMAT_VERSION}")
     expert = build_expert(state["config"], state["coeff_mean"].numpy(), state["coeff_std"].numpy(),
                           state["names"], state.get("trained_on"))
     expert.net.load_state_dict(state["state_dict"], strict=True)

@@ -6,6 +6,8 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from blendvoca.errors import DataError
+
 
 def expert_sync_metrics(generated: Mapping, audio: Mapping, expert, *, progress: bool = False) -> dict:
     """AV offset and confidence of every generated sample by a sync expert.
@@ -41,7 +43,7 @@ def expert_sync_metrics(generated: Mapping, audio: Mapping, expert, *, progress:
     offsets, conf, keys = [], [], []
     for (subject, sentence), tracks in tqdm(generated.items(), disable=not progress, desc="sync expert"):
         if (subject, sentence) not in audio:
-            raise ValueError(f"expert_sync_metrics: no audio for {subject}/{sentence}")
+            raise DataError(f"expert_sync_metrics: no audio for {subject}/{sentence}")
         samples, rate = audio[(subject, sentence)]
         for s, track in enumerate(tracks):
             est = expert.sync(np.asarray(track, dtype=np.float64), samples, rate)

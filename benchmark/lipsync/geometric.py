@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from benchmark.lipsync.envelope import speech_envelope
+from blendvoca.errors import UserError
 
 
 def mouth_activity(vertices, neutral, lip_idx) -> np.ndarray:
@@ -31,7 +32,7 @@ def mouth_activity(vertices, neutral, lip_idx) -> np.ndarray:
     vertices = np.asarray(vertices, dtype=np.float64)
     neutral = np.asarray(neutral, dtype=np.float64)
     if vertices.ndim != 3 or vertices.shape[1:] != neutral.shape:
-        raise ValueError(f"mouth_activity: expected vertices (T, V, 3) and neutral (V, 3), got {vertices.shape}, {neutral.shape}")
+        raise UserError(f"mouth_activity: expected vertices (T, V, 3) and neutral (V, 3), got {vertices.shape}, {neutral.shape}")
     idx = np.asarray(lip_idx, dtype=np.int64)
     # Distances laid out (L, T) as vertices[:, idx] would leave them, so the mean
     # over the lip vertices adds in that order (np.take is several times faster).
@@ -83,7 +84,7 @@ def offset_from_scores(scores, max_lag: int, higher_is_better: bool = True) -> S
     (lags ``-max_lag..max_lag``)."""
     scores = np.asarray(scores, dtype=np.float64)
     if scores.shape != (2 * max_lag + 1,) or np.all(np.isnan(scores)):
-        raise ValueError(f"offset_from_scores: expected {2 * max_lag + 1} scores with some finite, got {scores.shape}")
+        raise UserError(f"offset_from_scores: expected {2 * max_lag + 1} scores with some finite, got {scores.shape}")
     best = np.nanargmax(scores) if higher_is_better else np.nanargmin(scores)
     conf = abs(scores[best] - np.nanmedian(scores))
     return SyncEstimate(offset=int(best) - max_lag, confidence=float(conf), scores=scores)
@@ -111,7 +112,7 @@ def geometric_sync(activity, samples, rate: int = 16000, fps: float = 60.0, max_
     """
     activity = np.asarray(activity, dtype=np.float64)
     if activity.ndim != 1:
-        raise ValueError(f"geometric_sync: expected activity (T,), got {activity.shape}")
+        raise UserError(f"geometric_sync: expected activity (T,), got {activity.shape}")
     env = speech_envelope(samples, rate, fps, num_frames=len(activity))
     scores = lagged_correlation(activity, env, max_lag)
     if np.all(np.isnan(scores)):

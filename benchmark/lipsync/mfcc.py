@@ -12,6 +12,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.fft import dct
 
+from blendvoca.errors import UserError
+
 
 def _hz_to_mel(hz):
     return 2595.0 * np.log10(1.0 + np.asarray(hz) / 700.0)
@@ -60,7 +62,7 @@ def mfcc(samples, rate: int = 16000, num_ceps: int = 13, num_filters: int = 26, 
     """
     x = np.asarray(samples, dtype=np.float64)
     if x.ndim != 1 or x.size == 0:
-        raise ValueError(f"mfcc: expected mono samples (N,), got shape {x.shape}")
+        raise UserError(f"mfcc: expected mono samples (N,), got shape {x.shape}")
     x = np.append(x[0], x[1:] - preemph * x[:-1])
     frames = frame_signal(x, round(win * rate), round(step * rate))
     power = np.abs(np.fft.rfft(frames, nfft)) ** 2 / nfft

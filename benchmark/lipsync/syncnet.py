@@ -14,6 +14,8 @@ from os import PathLike
 import torch
 from torch import nn
 
+from blendvoca.errors import DataError
+
 
 def _conv2d_bn(cin, cout, k, pad, pool=None):
     layers = [nn.Conv2d(cin, cout, kernel_size=k, stride=1, padding=pad), nn.BatchNorm2d(cout), nn.ReLU()]
@@ -72,20 +74,41 @@ class SyncNet(nn.Module):
         return self.netfclip(self.netcnnlip(clips).flatten(1))
 
 
+class SyncNetWeightsError(DataError, RuntimeError):
+    """A weights file that is not SyncNet's state_dict: unreadable, not a mapping, or with
+    keys or shapes that do not fit (a :class:`~blendvoca.errors.DataError`, exit 2 on the
+    command line; also a ``RuntimeError``, as ``load_state_dict``'s own error)."""
+
+
 def load_syncnet(path: str | PathLike | None = None) -> SyncNet:
     """SyncNet in eval mode with weights from ``path`` (default: the manifest asset
     ``syncnet-weights``, which must be placed by hand; see data_manifest.yaml).
 
     The file is a state_dict (``syncnet_v2.model``); it must match strictly.
+
+    Raises
+    ------
+    FileNotFoundError
+        No file at ``path``.
+    SyncNetWeightsError
+        The file is not a SyncNet state_dict (naming the file, and torch's list of keys).
     """
     if path is None:
         from blendvoca.assets import resolve
 
         path = resolve("syncnet-weights")
-    state = torch.load(path, map_location="cpu", weights_only=True)
+    try:
+        state = torch.load(path, map_location="cpu", weights_only=True)
+    except FileNotFoundError:
+        raise
+    except Exception as error:  # noqa: BLE001 - torch raises many types for a file that is no checkpoint
+        raise SyncNetWeightsError(f"load_syncnet: {path} is not a readable torch checkpoint ({error})") from None
     if not isinstance(state, Mapping):
-        raise TypeError(f"load_syncnet: {path} holds a {type(state).__name__}, expected a state_dict")
+        raise SyncNetWeightsError(f"load_syncnet: {path} holds a {type(state).__name__}, expected a state_dict")
     embedding = int(state["netfcaud.3.weight"].shape[0]) if "netfcaud.3.weight" in state else 1024
     model = SyncNet(embedding)
-    model.load_state_dict(state, strict=True)
+    try:
+        model.load_state_dict(state, strict=True)
+    except RuntimeError as error:  # torch's message lists the missing, unexpected and mismatched keys
+        raise SyncNetWeightsError(f"load_syncnet: {path}: {error}") from None
     return model.eval()

@@ -14,6 +14,7 @@ import torch
 
 from benchmark.lipsync.geometric import SyncEstimate
 from benchmark.lipsync.mfcc import mfcc
+from blendvoca.errors import DataError, UserError
 
 VIDEO_FPS = 25
 AUDIO_RATE = 16000
@@ -39,16 +40,16 @@ def syncnet_inputs(frames, samples, rate: int = AUDIO_RATE):
     """
     frames = np.asarray(frames)
     if frames.ndim != 4 or frames.shape[3] != 3:
-        raise ValueError(f"syncnet_inputs: expected frames (T, H, W, 3), got {frames.shape}")
+        raise UserError(f"syncnet_inputs: expected frames (T, H, W, 3), got {frames.shape}")
     if rate != AUDIO_RATE:
-        raise ValueError(f"syncnet_inputs: audio must be at {AUDIO_RATE} Hz, got {rate}")
+        raise UserError(f"syncnet_inputs: audio must be at {AUDIO_RATE} Hz, got {rate}")
     samples = np.asarray(samples, dtype=np.float64)
     # SyncNet reads 16-bit PCM integers: use that scale (it changes cepstrum 0)
     ceps = mfcc(samples * 32768.0, rate).T  # (13, F), 100 per second
     length = min(len(frames), len(samples) // (rate // VIDEO_FPS))
     clips = length - CLIP
     if clips < 1:
-        raise ValueError(f"syncnet_inputs: need more than {CLIP} frames of video and audio, got {length}")
+        raise UserError(f"syncnet_inputs: need more than {CLIP} frames of video and audio, got {length}")
     video = torch.as_tensor(frames[:length, :, :, ::-1].astype(np.float32)).permute(3, 0, 1, 2)  # (3, T, H, W) BGR
     if video.shape[2:] != (CROP, CROP):
         video = torch.nn.functional.interpolate(video, size=(CROP, CROP), mode="bilinear", align_corners=False)
@@ -138,7 +139,7 @@ def syncnet_sync_video(model, path, vshift: int = 15) -> SyncEstimate:
 
     frames, fps, audio = read_video(path, rate=AUDIO_RATE)
     if len(audio) == 0:
-        raise ValueError(f"syncnet_sync_video: {path} has no audio stream")
+        raise DataError(f"syncnet_sync_video: {path} has no audio stream")
     if abs(fps - VIDEO_FPS) > 1e-3:
         frames = np.clip(np.rint(resample_frames(frames, fps, VIDEO_FPS)), 0, 255).astype(np.uint8)
     return syncnet_sync(model, frames, audio, AUDIO_RATE, vshift)

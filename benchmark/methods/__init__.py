@@ -1,4 +1,5 @@
-"""Method plug-ins: the contract (:class:`Method`, :class:`Budget`) and the registry.
+"""Method plug-ins: the contract (:class:`Method`, :class:`Budget`, :class:`Dataset`,
+:class:`Utterance`) and the registry.
 
 Built-in methods are registered lazily here, so importing this package imports no
 baseline (and no torch).
@@ -9,6 +10,7 @@ from .contract import (
     AUDIO_RATE,
     COEFFICIENT_NAMES,
     FPS,
+    Dataset,
     NUM_COEFFS,
     OUTPUT_COEFFICIENTS,
     OUTPUT_KINDS,
@@ -30,6 +32,7 @@ __all__ = [
     "AUDIO_RATE",
     "BUILTIN_METHODS",
     "COEFFICIENT_NAMES",
+    "Dataset",
     "FPS",
     "NUM_COEFFS",
     "OUTPUT_COEFFICIENTS",

@@ -1,13 +1,15 @@
-"""The constants and the per-utterance value of the method contract (docs/methods.md).
+"""The constants and the values of the method contract (docs/methods.md).
 
 Everything a plug-in needs to agree with the runner lives here: the audio rate and
-frame rate, the coefficient names, the output kinds and :class:`Utterance`, the one
-value ``Method.generate`` receives.
+frame rate, the coefficient names, the output kinds, :class:`Dataset`, what
+``Method.train`` is given, and :class:`Utterance`, the one value ``Method.generate``
+receives.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Protocol, runtime_checkable
 
 import numpy as np
 
@@ -16,6 +18,7 @@ from blendvoca.names import BLENDVOCA_NAMES
 __all__ = [
     "AUDIO_RATE",
     "COEFFICIENT_NAMES",
+    "Dataset",
     "FPS",
     "NUM_COEFFS",
     "OUTPUT_COEFFICIENTS",
@@ -85,3 +88,63 @@ class Utterance:
     def duration(self) -> float:
         """Audio length in seconds."""
         return self.audio.shape[0] / AUDIO_RATE
+
+
+@runtime_checkable
+class Dataset(Protocol):
+    """What ``Method.train`` is given: the dataset a method may learn from.
+
+    :class:`benchmark.data.BlendVOCADataset` (a BlendVOCA folder, from
+    ``benchmark.data.open_blendvoca``) and :class:`benchmark.testing.FakeBlendVOCA`
+    (a small in-memory one for tests) are datasets; ``isinstance(x, Dataset)``
+    checks that an object has every member below.
+
+    Attributes
+    ----------
+    names : tuple of str
+        The coefficient column order (:data:`COEFFICIENT_NAMES`).
+    subjects : list of str
+        Every speaker of the dataset.
+    manifest_hash : str
+        The data's identity (the result files record it).
+    splits : dict
+        Split name -> list of subjects.
+    """
+
+    names: tuple[str, ...]
+    subjects: list[str]
+    manifest_hash: str
+
+    @property
+    def splits(self) -> dict[str, list[str]]:
+        """Split name (``"train"``, ``"val"``, ``"test"``) -> list of subjects."""
+
+    def split(self, name: str) -> list[str]:
+        """The subjects of a split; an unknown split raises ``ValueError``."""
+
+    def sentences(self, subject: str) -> list[str]:
+        """The speaker's sentences (``sentenceNN``) with a ground-truth track, sorted."""
+
+    def coeffs(self, subject: str, sentence: str) -> np.ndarray:
+        """The ground-truth track, ``(T, K)`` float64 in ``names`` order at :data:`FPS`."""
+
+    def samples(self, subject: str, sentence: str) -> np.ndarray:
+        """Every stored track of a sentence, ``(S, T, K)`` (``S = 1``: the ground truth alone)."""
+
+    def audio(self, subject: str, sentence: str) -> tuple[np.ndarray, int]:
+        """The speech: ``((N,) float32 mono, AUDIO_RATE)``."""
+
+    def utterance(self, subject: str, sentence: str, split: str | None = None) -> Utterance:
+        """The :class:`Utterance` of a sentence, as ``generate`` receives it (``split``: the subject's)."""
+
+    def rig(self, subject: str):
+        """The speaker's rig (:class:`blendvoca.rig.Rig`: neutral, ``(K, V, 3)`` deltas, names, faces)."""
+
+    def vertices(self, subject: str, sentence: str) -> np.ndarray:
+        """The source mesh sequence, ``(T, V, 3)`` float64 metres at :data:`FPS` (vertex-trained methods)."""
+
+    def template(self, subject: str) -> np.ndarray:
+        """The speaker's neutral mesh on the source topology, ``(V, 3)`` float64 metres."""
+
+    def faces(self) -> np.ndarray:
+        """Triangles of the source topology, ``(F, 3)`` int64."""

@@ -8,6 +8,8 @@ import importlib
 import importlib.metadata
 import re
 
+from blendvoca.errors import UserError
+
 from .base import Method
 
 __all__ = [
@@ -25,7 +27,7 @@ __all__ = [
 #: Entry point group through which installed packages declare methods.
 ENTRY_POINT_GROUP = "blendvoca.methods"
 
-class UnknownMethodError(KeyError):
+class UnknownMethodError(UserError, KeyError):
     """No usable method of that name: unknown (the message lists the close matches), or
     its target cannot be imported (:class:`MethodImportError`) or is not a method class
     (:class:`MethodClassError`). Command-line tools report it as one ``error:`` line."""

@@ -4,15 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from blendvoca.errors import MethodError, MethodOutputError
+
 __all__ = ["MethodError", "MethodOutputError", "validated_tracks", "validated_vertices"]
-
-
-class MethodError(RuntimeError):
-    """A plug-in raised while being built, trained, loaded or asked to generate."""
-
-
-class MethodOutputError(ValueError):
-    """A plug-in returned tracks of the wrong shape, non-finite or out-of-range values."""
 
 
 def _where(method: str, subject: str, sentence: str | None) -> str:

@@ -14,6 +14,8 @@ from benchmark.render.camera import face_box, face_camera, front_camera, project
 from benchmark.render.software import rasterize
 from benchmark.render.timing import resample_frames
 from benchmark.render.video import read_video, write_video
+from blendvoca.errors import DataError, UserError
+from blendvoca.io.arrays import float_array
 
 BACKENDS = ("auto", "pyrender", "software")
 
@@ -46,18 +48,22 @@ def render_sequence(vertices, faces, *, size: int = 256, backend: str = "auto", 
     -------
     (T, size, size, 3) uint8 ndarray
     """
-    vertices = np.asarray(vertices, dtype=np.float64)
+    vertices = float_array(vertices, where="render_sequence", name="vertices", shape="(T, V, 3)")
     faces = np.asarray(faces, dtype=np.int64)
     if vertices.ndim != 3 or vertices.shape[2] != 3 or faces.ndim != 2 or faces.shape[1] != 3:
-        raise ValueError(f"render_sequence: expected vertices (T, V, 3) and faces (F, 3), got {vertices.shape}, {faces.shape}")
+        raise UserError(f"render_sequence: expected vertices (T, V, 3) and faces (F, 3), got {vertices.shape}, {faces.shape}")
     if faces.size and (faces.min() < 0 or faces.max() >= vertices.shape[1]):
-        raise ValueError(f"render_sequence: face indices out of range for {vertices.shape[1]} vertices")
+        raise UserError(f"render_sequence: face indices out of range for {vertices.shape[1]} vertices")
     if backend not in BACKENDS:
-        raise ValueError(f"render_sequence: backend must be one of {BACKENDS}, got {backend!r}")
+        raise UserError(f"render_sequence: backend must be one of {BACKENDS}, got {backend!r}")
     if pose is None:
         pose = front_camera(vertices, yfov=yfov)
     if backend == "auto":
         backend = "pyrender" if _egl_ok() else "software"
+    elif backend == "pyrender" and not _egl_ok():
+        raise UserError("render_sequence: backend 'pyrender' cannot open a headless EGL context here (pyrender, "
+                        "PyOpenGL and an EGL driver are needed: pip install 'blendvoca[render]'); use backend "
+                        "'software' or 'auto'")
     if backend == "pyrender":
         from benchmark.render.pyrender_backend import render_pyrender
 
@@ -86,14 +92,15 @@ def render_coeffs(coeffs, rig, *, fps: float = 60.0, out_fps: float | None = Non
     """
     from benchmark.metrics.vertex import rig_vertices
 
-    coeffs = np.asarray(coeffs, dtype=np.float64)
+    coeffs = float_array(coeffs, where="render_coeffs", name="coeffs", shape="(T, K)")
     if out_fps is not None and out_fps != fps:
         coeffs = resample_frames(coeffs, fps, out_fps)
     return render_sequence(rig_vertices(rig.neutral, rig.deltas, coeffs), rig.faces, **kwargs)
 
 
-class RenderError(RuntimeError):
-    """A render that shows nothing (no face in the picture)."""
+class RenderError(DataError, RuntimeError):
+    """A render that shows nothing (no face in the picture): the mesh's faces or the camera
+    do not fit the data (a :class:`~blendvoca.errors.DataError`, exit 2; still a ``RuntimeError``)."""
 
 
 def visible_fraction(frames, background: int = 250) -> np.ndarray:

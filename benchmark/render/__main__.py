@@ -1,15 +1,19 @@
-"""``python -m benchmark.render``: render a coefficient track (through a rig), a mesh
-sequence, or a stored run's ground truth next to the method's track, to MP4 with the
-audio and a waveform strip."""
+"""Render a coefficient track (through a rig), a mesh sequence, or a stored run's ground
+truth next to the method's track, to MP4 with the audio and a waveform strip.
+
+``python -m benchmark.render (--coeffs CSV --rig RIG | --meshes SEQ | --run JSON ...) --out MP4``.
+"""
 
 from __future__ import annotations
 
-import argparse
 import sys
 from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
+
+from blendvoca import cli
+from blendvoca.errors import DataError, UserError
 
 # At 512 px with the face framing, a FLAME mouth is about 135 px wide.
 DEFAULT_SIZE = 512
@@ -20,7 +24,7 @@ def _load_rig(path):
 
     path = Path(path)
     if not path.exists():
-        raise FileNotFoundError(f"rig not found: {path}")
+        raise UserError(f"rig not found: {path}")
     return Rig.load(path) if path.suffix == ".npz" else Rig.load_said_folder(path)
 
 
@@ -43,9 +47,9 @@ def _mesh_faces(faces, num_vertices: int, faces_path, where: str):
     if faces_path:
         F = read_mesh(faces_path)[1]
         if len(F) == 0:
-            raise ValueError(f"--faces {faces_path}: the mesh has no faces")
+            raise UserError(f"--faces {faces_path}: the mesh has no faces")
         if F.max() >= num_vertices:
-            raise ValueError(f"--faces {faces_path}: faces index {F.max() + 1} vertices, the frames have {num_vertices}")
+            raise UserError(f"--faces {faces_path}: faces index {F.max() + 1} vertices, the frames have {num_vertices}")
         return F
     if faces is not None and len(faces):
         return faces
@@ -57,12 +61,12 @@ def _mesh_faces(faces, num_vertices: int, faces_path, where: str):
         try:
             F = read_mesh(resolve("flame-sample", download_missing=False))[1]
         except (AssetError, FileNotFoundError) as error:
-            raise ValueError(f"{where}: the frames have no faces and the FLAME template is unavailable ({error}); "
+            raise UserError(f"{where}: the frames have no faces and the FLAME template is unavailable ({error}); "
                              "pass --faces MESH") from None
         print(f"note: {where}: vertex-only frames with FLAME's 5023 vertices: drawn with the FLAME template's faces",
               file=sys.stderr)
         return F
-    raise ValueError(f"{where}: the frames have no faces (vertex-only); pass --faces MESH, a mesh with the same "
+    raise UserError(f"{where}: the frames have no faces (vertex-only); pass --faces MESH, a mesh with the same "
                      f"{num_vertices} vertices such as the subject's template")
 
 
@@ -73,27 +77,39 @@ def _mesh_sequence(path, faces_path):
     if path.is_dir():
         files = sorted(p for p in path.iterdir() if p.suffix.lower() in (".ply", ".obj"))
         if not files:
-            raise ValueError(f"{path} holds no .ply/.obj frames")
+            raise UserError(f"{path} holds no .ply/.obj frames")
         first_v, first_f = read_mesh(files[0])
         if all(p.suffix.lower() == ".ply" for p in files):
             vertices = read_ply_sequence(files, num_vertices=len(first_v))
         else:
-            vertices = np.stack([read_mesh(p)[0] for p in files])
+            frames = [read_mesh(p)[0] for p in files]
+            for p, v in zip(files, frames):
+                if v.shape != first_v.shape:
+                    raise DataError(f"{p}: {len(v)} vertices, the first frame {files[0].name} has {len(first_v)}; "
+                                    "the frames of a sequence share one topology")
+            vertices = np.stack(frames)
         return vertices, _mesh_faces(first_f, vertices.shape[1], faces_path, str(path))
     if not path.is_file():
-        raise FileNotFoundError(f"mesh sequence not found: {path}")
+        raise UserError(f"mesh sequence not found: {path}")
     if path.suffix != ".npy":
-        raise ValueError(f"{path}: expected a .npy (T, V, 3) array or a folder of .ply/.obj frames")
-    vertices = np.load(path)
-    if vertices.ndim != 3 or vertices.shape[2] != 3:
-        raise ValueError(f"{path}: expected an array (T, V, 3), got shape {vertices.shape}")
+        raise UserError(f"{path}: expected a .npy (T, V, 3) array or a folder of .ply/.obj frames")
+    try:
+        vertices = np.load(path, allow_pickle=False)
+    except (ValueError, EOFError) as error:  # not a .npy file, truncated, pickled objects
+        raise DataError(f"{path}: not a readable .npy array ({error})") from None
+    if vertices.ndim != 3 or vertices.shape[2] != 3 or not np.issubdtype(vertices.dtype, np.number):
+        raise DataError(f"{path}: expected a numeric array (T, V, 3), got {vertices.dtype} of shape {vertices.shape}")
+    if not np.all(np.isfinite(vertices)):
+        raise DataError(f"{path}: NaN or infinite coordinates (first in frame "
+                        f"{int(np.argwhere(~np.isfinite(vertices))[0][0])})")
     if not faces_path:
-        raise ValueError("a .npy sequence needs --faces MESH")
+        raise UserError("a .npy sequence needs --faces MESH")
     return vertices, _mesh_faces(None, vertices.shape[1], faces_path, str(path))
 
 
+@cli.command
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m benchmark.render", description=__doc__)
+    parser = cli.parser("benchmark.render", __doc__)
     src = parser.add_mutually_exclusive_group(required=True)
     src.add_argument("--coeffs", help="coefficient CSV (60 fps; BlendVOCA or Live Link Face columns); needs --rig")
     src.add_argument("--meshes", help="mesh sequence: .npy (T, V, 3) or a folder of .ply/.obj frames")
@@ -115,11 +131,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--no-waveform", action="store_true", help="no waveform strip under the views")
     parser.add_argument("--backend", default="auto", choices=("auto", "pyrender", "software"))
     args = parser.parse_args(argv)
-    try:
-        return _render(args)
-    except (ValueError, FileNotFoundError, RuntimeError) as error:
-        print(f"error: {error}", file=sys.stderr)
-        return 2
+    return _render(args)
 
 
 def _render(args) -> int:
@@ -128,13 +140,16 @@ def _render(args) -> int:
     from benchmark.render.video import match_audio_length
 
     if args.size < 16:
-        raise ValueError(f"--size must be at least 16 pixels, got {args.size}")
+        raise UserError(f"--size must be at least 16 pixels, got {args.size}")
+    for flag, rate in (("--fps", args.fps), ("--out-fps", args.out_fps)):
+        if rate is not None and not (np.isfinite(rate) and rate > 0):
+            raise UserError(f"{flag} must be a positive number of frames per second, got {rate}")
     audio_path = args.audio
     if args.run:
         from benchmark.render.stored_run import locate_sentence
 
         if not (args.subject and args.sentence):
-            raise ValueError("--run needs --subject and --sentence")
+            raise UserError("--run needs --subject and --sentence")
         files = locate_sentence(args.run, args.subject, args.sentence, args.sample)
         rig = _load_rig(files.rig)
         where = f"{args.subject}/{args.sentence}"
@@ -144,7 +159,7 @@ def _render(args) -> int:
         audio_path = audio_path or files.audio
     elif args.coeffs:
         if not args.rig:
-            raise ValueError("--coeffs needs --rig")
+            raise UserError("--coeffs needs --rig")
         rig = _load_rig(args.rig)
         panels = [("", _track_vertices(args.coeffs, rig, args.coeffs))]
         faces = rig.faces
@@ -175,7 +190,7 @@ def _render(args) -> int:
         from blendvoca.io.audio import load_audio
 
         if not Path(audio_path).is_file():
-            raise FileNotFoundError(f"audio file not found: {audio_path}")
+            raise UserError(f"audio file not found: {audio_path}")
         audio = load_audio(audio_path, rate=16000)
         rendered = [match_audio_length(r, out_fps, len(audio), 16000) for r in rendered]
         if not args.no_waveform:
@@ -184,7 +199,7 @@ def _render(args) -> int:
     video = side_by_side(rendered, strip)
     write_video(args.out, video, out_fps, audio=audio, rate=16000)
     print(f"wrote {args.out} ({len(video)} frames at {out_fps:g} fps, {video.shape[2]}x{video.shape[1]} px)")
-    return 0
+    return cli.EXIT_OK
 
 
 if __name__ == "__main__":

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from blendvoca.errors import UserError
+
 
 def front_camera(vertices, yfov: float = np.pi / 8, margin: float = 1.15, aspect: float = 1.0) -> np.ndarray:
     """Camera-to-world pose (4, 4) of a perspective camera on the +z axis of the
@@ -26,7 +28,7 @@ def front_camera(vertices, yfov: float = np.pi / 8, margin: float = 1.15, aspect
     """
     v = np.asarray(vertices, dtype=np.float64).reshape(-1, 3)
     if v.size == 0 or not np.all(np.isfinite(v)):
-        raise ValueError("front_camera: expected finite vertices (V, 3)")
+        raise UserError("front_camera: expected finite vertices (V, 3)")
     lo, hi = v.min(axis=0), v.max(axis=0)
     centre = 0.5 * (lo + hi)
     half_h = 0.5 * (hi[1] - lo[1]) * margin
@@ -85,7 +87,7 @@ def face_box(vertices, depth_fraction: float = 0.3, up: float = 0.45, down: floa
     v = np.asarray(vertices, dtype=np.float64)
     v = v[0] if v.ndim == 3 else v
     if v.ndim != 2 or v.shape[1] != 3 or len(v) == 0 or not np.all(np.isfinite(v)):
-        raise ValueError(f"face_box: expected finite vertices (V, 3), got shape {v.shape}")
+        raise UserError(f"face_box: expected finite vertices (V, 3), got shape {v.shape}")
     extent = float(np.ptp(v, axis=0).max())
     tip = v[np.argmax(v[:, 2])]
     front = v[v[:, 2] >= tip[2] - depth_fraction * extent]

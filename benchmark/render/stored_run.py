@@ -12,6 +12,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+from blendvoca.errors import DataError
+
 
 @dataclass(frozen=True)
 class StoredSentence:
@@ -38,10 +40,11 @@ def locate_sentence(result_json, subject: str, sentence: str, sample: int = 0) -
     ------
     FileNotFoundError
         Naming the missing file and, for a missing sample or sentence, what the run has.
-    ValueError
+    DataError
         When the JSON lacks ``tracks`` or ``dataset.path``.
     """
     from benchmark.runs import read_run
+    from blendvoca.format import audio_path, coeffs_path, rig_path
 
     result_json = Path(result_json)
     if not result_json.is_file():
@@ -50,7 +53,7 @@ def locate_sentence(result_json, subject: str, sentence: str, sample: int = 0) -
     result = stored.result
     dataset = result.get("dataset") or {}
     if not isinstance(dataset, dict) or not dataset.get("path"):
-        raise ValueError(f"{result_json}: no 'dataset.path'; expected the BlendVOCA build root the run used")
+        raise DataError(f"{result_json}: no 'dataset.path'; expected the BlendVOCA build root the run used")
     root = Path(dataset["path"])
     if not root.is_absolute():
         root = (result_json.parent / root).resolve()
@@ -68,9 +71,8 @@ def locate_sentence(result_json, subject: str, sentence: str, sample: int = 0) -
     method = result.get("method")
     if isinstance(method, dict):
         method = method.get("name")
-    files = StoredSentence(str(method or result_json.stem), generated,
-                           root / "blendshape_coeffs" / subject / f"{sentence}.csv",
-                           root / "audio" / subject / f"{sentence}.wav", root / "rigs" / f"{subject}.npz")
+    files = StoredSentence(str(method or result_json.stem), generated, coeffs_path(root, subject, sentence),
+                           audio_path(root, subject, sentence), rig_path(root, subject))
     for what in ("ground_truth", "audio", "rig"):
         if not getattr(files, what).is_file():
             raise FileNotFoundError(f"{result_json}: the {what.replace('_', ' ')} of {subject}/{sentence} is missing: "

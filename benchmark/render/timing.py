@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from blendvoca.errors import UserError
+
 
 def resample_frames(frames, src_fps: float, dst_fps: float) -> np.ndarray:
     """Linearly interpolate a sequence to another frame rate.
@@ -22,9 +24,9 @@ def resample_frames(frames, src_fps: float, dst_fps: float) -> np.ndarray:
     """
     x = np.asarray(frames, dtype=np.float64)
     if x.ndim < 1 or len(x) == 0:
-        raise ValueError(f"resample_frames: expected a non-empty sequence (T, ...), got shape {x.shape}")
+        raise UserError(f"resample_frames: expected a non-empty sequence (T, ...), got shape {x.shape}")
     if src_fps <= 0 or dst_fps <= 0:
-        raise ValueError(f"resample_frames: frame rates must be positive, got {src_fps}, {dst_fps}")
+        raise UserError(f"resample_frames: frame rates must be positive, got {src_fps}, {dst_fps}")
     count = int(np.floor((len(x) - 1) * dst_fps / src_fps + 1e-9)) + 1
     pos = np.arange(count) * (src_fps / dst_fps)
     lo = np.clip(np.floor(pos).astype(np.int64), 0, len(x) - 1)

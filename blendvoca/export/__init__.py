@@ -19,12 +19,14 @@ lacks are 0 and reported in the returned :class:`~blendvoca.export.align.Aligned
 
 from __future__ import annotations
 
-import json
+import os
 from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
+from blendvoca.errors import DataError, UserError
+from blendvoca.export._support import read_json
 from blendvoca.export.align import AlignedTrack, align_track
 
 FORMATS: tuple[str, ...] = ("livelink", "arkit-json", "a2f-json", "glb", "usd", "csv")
@@ -53,11 +55,11 @@ def export_track(out, coeffs, names: Sequence[str], fmt: str, *, rig=None, fps: 
     AlignedTrack : the track as written (its ``notes()`` say what was 0 or left out)
     """
     if fmt not in FORMATS:
-        raise ValueError(f"export_track: unknown format {fmt!r}; expected one of {FORMATS}")
+        raise UserError(f"export_track: unknown format {fmt!r}; expected one of {FORMATS}")
     if fmt in NEEDS_RIG and rig is None:
-        raise ValueError(f"export_track: format {fmt!r} needs a rig (the mesh and its blendshapes)")
+        raise UserError(f"export_track: format {fmt!r} needs a rig (the mesh and its blendshapes)")
     if fps <= 0:
-        raise ValueError(f"export_track: fps must be positive, got {fps}")
+        raise UserError(f"export_track: fps must be positive, got {fps}")
     if fmt == "livelink":
         from blendvoca.export.livelink import write_livelink_csv
 
@@ -88,25 +90,24 @@ def export_track(out, coeffs, names: Sequence[str], fmt: str, *, rig=None, fps: 
 
 def detect_format(path) -> str:
     """The format of an exported file, from its suffix and (CSV/JSON) its first bytes."""
-    path = Path(path)
+    path = Path(os.fspath(path))
     suffix = path.suffix.lower()
     if suffix == ".glb":
         return "glb"
     if suffix in (".usd", ".usda", ".usdc"):
         return "usd"
     if suffix == ".json":
-        with open(path, encoding="utf-8") as f:
-            doc = json.load(f)
+        doc = read_json(path)
         if "weightMat" in doc:
             return "a2f-json"
         if "blendShapeNames" in doc:
             return "arkit-json"
-        raise ValueError(f"{path}: a JSON file that is neither ARKit (blendShapeNames) nor Audio2Face (weightMat) weights")
+        raise DataError(f"{path}: a JSON file that is neither ARKit (blendShapeNames) nor Audio2Face (weightMat) weights")
     if suffix == ".csv":
         with open(path, encoding="utf-8-sig") as f:
             first = f.readline()
         return "livelink" if first.split(",")[0].strip() == "Timecode" else "csv"
-    raise ValueError(f"{path}: unknown suffix {suffix!r}; expected .csv, .json, .glb, .usd, .usda or .usdc")
+    raise UserError(f"{path}: unknown suffix {suffix!r}; expected .csv, .json, .glb, .usd, .usda or .usdc")
 
 
 def read_track(path, fmt: str | None = None, *, fps: float = 60.0) -> tuple[np.ndarray, tuple[str, ...], float]:
@@ -152,14 +153,14 @@ def read_track(path, fmt: str | None = None, *, fps: float = 60.0) -> tuple[np.n
 
         coeffs, names = read_coeffs_csv(path)
         return coeffs, names, fps
-    raise ValueError(f"read_track: unknown format {fmt!r}; expected one of {FORMATS}")
+    raise UserError(f"read_track: unknown format {fmt!r}; expected one of {FORMATS}")
 
 
 def load_rig(path):
     """A rig from a ``.npz`` (blendvoca.rig.Rig) or a SAiD folder (Neutral.obj + <name>.obj)."""
     from blendvoca.rig import Rig
 
-    path = Path(path)
+    path = Path(os.fspath(path))
     if path.is_dir():
         return Rig.load_said_folder(path)
     return Rig.load(path)

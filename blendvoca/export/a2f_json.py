@@ -12,6 +12,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from blendvoca.errors import DataError
+from blendvoca.export._support import read_json
 from blendvoca.export.align import AlignedTrack, align_track
 from blendvoca.export.arkit_json import _weights
 from blendvoca.io.atomic import atomic_write
@@ -42,13 +44,12 @@ def write_a2f_json(path, coeffs, names: Sequence[str], fps: float = 60.0, track_
 
 def read_a2f_json(path) -> tuple[np.ndarray, tuple[str, ...], float]:
     """``(coeffs (T, numPoses), facsNames, exportFps)`` of an A2F blendshape JSON."""
-    with open(path, encoding="utf-8") as f:
-        doc = json.load(f)
+    doc = read_json(path)
     for key in ("exportFps", "numPoses", "numFrames", "facsNames", "weightMat"):
         if key not in doc:
-            raise ValueError(f"{path}: not an Audio2Face blendshape JSON: missing key {key!r}")
+            raise DataError(f"{path}: not an Audio2Face blendshape JSON: missing key {key!r}")
     names = tuple(doc["facsNames"])
     if int(doc["numPoses"]) != len(names) or int(doc["numFrames"]) != len(doc["weightMat"]):
-        raise ValueError(f"{path}: numPoses/numFrames ({doc['numPoses']}, {doc['numFrames']}) disagree with "
+        raise DataError(f"{path}: numPoses/numFrames ({doc['numPoses']}, {doc['numFrames']}) disagree with "
                          f"facsNames/weightMat ({len(names)}, {len(doc['weightMat'])})")
     return _weights(doc["weightMat"], names, path), names, float(doc["exportFps"])

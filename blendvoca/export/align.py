@@ -7,6 +7,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from blendvoca.errors import UserError
+from blendvoca.io.arrays import float_array
 from blendvoca.names import arkit_name
 
 
@@ -44,25 +46,26 @@ def check_track(coeffs, names: Sequence[str], *, where: str) -> tuple[np.ndarray
 
     Raises
     ------
-    ValueError
-        Naming ``where``, the expected and the received shape, or the unknown names or first bad frame.
+    UserError
+        Naming ``where``, the expected and the received shape, or the unknown names or first bad frame;
+        also when ``coeffs`` are not real numbers (any float or integer dtype converts).
     """
-    coeffs = np.asarray(coeffs, dtype=np.float64)
+    coeffs = float_array(coeffs, where=where, name="coeffs", shape=f"(T, {len(names)})")
     names = tuple(str(n) for n in names)
     if coeffs.ndim != 2 or coeffs.shape[1] != len(names):
-        raise ValueError(f"{where}: expected a (T, {len(names)}) track for {len(names)} names, got shape {coeffs.shape}")
+        raise UserError(f"{where}: expected a (T, {len(names)}) track for {len(names)} names, got shape {coeffs.shape}")
     if len(coeffs) == 0:
-        raise ValueError(f"{where}: the track has no frames")
+        raise UserError(f"{where}: the track has no frames")
     unknown = [n for n in names if arkit_name(n) is None]
     if unknown:
-        raise ValueError(f"{where}: unknown blendshape names {unknown}; expected ARKit names (any case)")
+        raise UserError(f"{where}: unknown blendshape names {unknown}; expected ARKit names (any case)")
     canonical = tuple(arkit_name(n) for n in names)
     repeated = sorted({n for n in canonical if canonical.count(n) > 1})
     if repeated:
-        raise ValueError(f"{where}: blendshape names repeated: {repeated}")
+        raise UserError(f"{where}: blendshape names repeated: {repeated}")
     if not np.all(np.isfinite(coeffs)):
         t, k = np.argwhere(~np.isfinite(coeffs))[0]
-        raise ValueError(f"{where}: NaN/inf at frame {t}, column {names[k]!r}")
+        raise UserError(f"{where}: NaN/inf at frame {t}, column {names[k]!r}")
     return coeffs, canonical
 
 

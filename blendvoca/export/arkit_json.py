@@ -12,6 +12,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from blendvoca.errors import DataError
+from blendvoca.export._support import read_json
 from blendvoca.export.align import AlignedTrack, align_track
 from blendvoca.io.atomic import atomic_write
 from blendvoca.names import ARKIT_FACE_ORDER
@@ -50,11 +52,10 @@ def read_arkit_json(path) -> tuple[np.ndarray, tuple[str, ...], float]:
     ValueError
         Naming the file and the missing key or the frame whose vector has the wrong length.
     """
-    with open(path, encoding="utf-8") as f:
-        doc = json.load(f)
+    doc = read_json(path)
     for key in ("frameRate", "blendShapeNames", "weights"):
         if key not in doc:
-            raise ValueError(f"{path}: not an ARKit blendshape JSON: missing key {key!r}")
+            raise DataError(f"{path}: not an ARKit blendshape JSON: missing key {key!r}")
     names = tuple(doc["blendShapeNames"])
     return _weights(doc["weights"], names, path), names, float(doc["frameRate"])
 
@@ -62,5 +63,5 @@ def read_arkit_json(path) -> tuple[np.ndarray, tuple[str, ...], float]:
 def _weights(rows, names, path) -> np.ndarray:
     for t, row in enumerate(rows):
         if len(row) != len(names):
-            raise ValueError(f"{path}: frame {t} has {len(row)} weights, expected {len(names)} (one per name)")
+            raise DataError(f"{path}: frame {t} has {len(row)} weights, expected {len(names)} (one per name)")
     return np.asarray(rows, dtype=np.float64).reshape(len(rows), len(names))

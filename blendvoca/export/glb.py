@@ -8,12 +8,15 @@ morph target (POSITION offsets) per blendshape named in ``mesh.extras.targetName
 
 from __future__ import annotations
 
+import os
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from blendvoca.errors import DataError
+from blendvoca.export._support import optional_module
 from blendvoca.export.align import AlignedTrack, align_track
 from blendvoca.io.atomic import atomic_write
 
@@ -43,7 +46,7 @@ class GlbContents:
 def glb_bytes(rig, coeffs, names: Sequence[str], fps: float = 60.0) -> tuple[bytes, AlignedTrack]:
     """The GLB file of ``rig`` animated by a track (columns mapped to ``rig.names`` by
     name; rig shapes the track lacks stay at 0)."""
-    import pygltflib as g
+    g = optional_module("pygltflib", "pygltflib", "the glb format")
 
     aligned = align_track(coeffs, names, rig.names, where="glb")
     neutral = np.asarray(rig.neutral, dtype=np.float32)
@@ -104,12 +107,12 @@ def write_glb(path, rig, coeffs, names: Sequence[str], fps: float = 60.0) -> Ali
 def read_glb(path) -> GlbContents:
     """Read back the mesh, morph targets and weights animation of a GLB written here
     (or any GLB whose first mesh has morph targets and whose first animation drives them)."""
-    import pygltflib as g
+    g = optional_module("pygltflib", "pygltflib", "the glb format")
 
-    gltf = g.GLTF2().load_binary(str(path))
+    gltf = g.GLTF2().load_binary(os.fspath(path))
     blob = gltf.binary_blob()
     if not gltf.meshes or not gltf.meshes[0].primitives:
-        raise ValueError(f"{path}: the GLB has no mesh")
+        raise DataError(f"{path}: the GLB has no mesh")
 
     def read(index: int) -> np.ndarray:
         accessor = gltf.accessors[index]
@@ -128,7 +131,7 @@ def read_glb(path) -> GlbContents:
     deltas = np.stack([read(t["POSITION"]) for t in targets]).astype(np.float64) if targets else np.zeros((0, *neutral.shape))
     names = tuple((mesh.extras or {}).get("targetNames", [f"target{k}" for k in range(len(targets))]))
     if not gltf.animations:
-        raise ValueError(f"{path}: the GLB has no animation")
+        raise DataError(f"{path}: the GLB has no animation")
     sampler = gltf.animations[0].samplers[gltf.animations[0].channels[0].sampler]
     times = read(sampler.input).astype(np.float64)
     weights = read(sampler.output).astype(np.float64).reshape(len(times), len(targets))
@@ -149,7 +152,6 @@ def validate_glb(path, validator: str | Path | None = None) -> dict:
     dict : the validator's report (``report["issues"]["numErrors"]`` ...)
     """
     import json
-    import os
     import shutil
     import subprocess
 

@@ -15,6 +15,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from blendvoca.errors import DataError, UserError
 from blendvoca.export.align import AlignedTrack, align_track
 from blendvoca.io.atomic import atomic_write
 from blendvoca.io.coeffs import read_coeffs_csv
@@ -30,7 +31,7 @@ def livelink_timecode(frame: int, fps: float) -> str:
     (0 for a track sampled exactly at ``fps``).
     """
     if fps <= 0:
-        raise ValueError(f"livelink_timecode: fps must be positive, got {fps}")
+        raise UserError(f"livelink_timecode: fps must be positive, got {fps}")
     seconds_total = math.floor(frame / fps + 1e-9)
     within = frame - seconds_total * fps  # frames into the second, may be fractional
     whole = math.floor(within + 1e-9)
@@ -46,7 +47,7 @@ def parse_livelink_timecode(text: str, fps: float) -> float:
     """Seconds of an ``HH:MM:SS:FF[.fff]`` timecode at ``fps``."""
     match = _TIMECODE.match(text.strip())
     if not match:
-        raise ValueError(f"not a Live Link timecode: {text!r}; expected HH:MM:SS:FF.fff")
+        raise DataError(f"not a Live Link timecode: {text!r}; expected HH:MM:SS:FF.fff")
     h, m, s, f = (int(g) for g in match.groups()[:4])
     sub = float("0." + match.group(5)) if match.group(5) else 0.0
     return h * 3600 + m * 60 + s + (f + sub) / fps
@@ -89,12 +90,12 @@ def read_livelink_csv(path, fps: float = 60.0) -> tuple[np.ndarray, tuple[str, .
         reader = csv.reader(f)
         header = [h.strip() for h in next(reader)]
         if "Timecode" not in header:
-            raise ValueError(f"{path}: no Timecode column; expected Live Link Face's header {LIVELINK_HEADER[:3]}...")
+            raise DataError(f"{path}: no Timecode column; expected Live Link Face's header {LIVELINK_HEADER[:3]}...")
         column = header.index("Timecode")
         times = []
         for t, row in enumerate(r for r in reader if r):
             try:
                 times.append(parse_livelink_timecode(row[column], fps))
             except ValueError as error:
-                raise ValueError(f"{path}: row {t + 2} (frame {t}): {error}") from None
+                raise DataError(f"{path}: row {t + 2} (frame {t}): {error}") from None
     return coeffs, names, np.asarray(times, dtype=np.float64)

@@ -20,6 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
+from blendvoca.errors import DataError, UserError
+from blendvoca.export._support import optional_module
 from blendvoca.export.align import AlignedTrack, align_track
 from blendvoca.io.atomic import permissions_for
 
@@ -51,11 +53,12 @@ def write_usd(path, rig, coeffs, names: Sequence[str], fps: float = 60.0, audio=
     fps : float
     audio : path of a sound file to reference, optional
     """
+    optional_module("pxr", "usd-core", "the usd format")
     from pxr import Gf, Sdf, Usd, UsdGeom, UsdMedia, UsdSkel, Vt
 
-    path = Path(path)
+    path = Path(os.fspath(path))
     if path.suffix.lower() not in SUFFIXES:
-        raise ValueError(f"write_usd: {path}: expected a {'/'.join(SUFFIXES)} file")
+        raise UserError(f"write_usd: {path}: expected a {'/'.join(SUFFIXES)} file")
     aligned = align_track(coeffs, names, rig.names, where="usd")
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=path.suffix)
@@ -124,15 +127,16 @@ def write_usd(path, rig, coeffs, names: Sequence[str], fps: float = 60.0, audio=
 
 def read_usd(path) -> UsdContents:
     """Read back the first UsdSkel-bound mesh with blend shapes and its SkelAnimation."""
+    optional_module("pxr", "usd-core", "reading the usd format")
     from pxr import Usd, UsdMedia, UsdSkel
 
-    stage = Usd.Stage.Open(str(path))
+    stage = Usd.Stage.Open(os.fspath(path))
     if stage is None:
-        raise ValueError(f"{path}: not a USD stage")
+        raise DataError(f"{path}: not a USD stage")
     mesh_prim = next((p for p in stage.Traverse() if p.HasAPI(UsdSkel.BindingAPI)
                       and UsdSkel.BindingAPI(p).GetBlendShapesAttr().HasAuthoredValue()), None)
     if mesh_prim is None:
-        raise ValueError(f"{path}: no mesh with UsdSkel blend shapes")
+        raise DataError(f"{path}: no mesh with UsdSkel blend shapes")
     from pxr import UsdGeom
 
     mesh = UsdGeom.Mesh(mesh_prim)

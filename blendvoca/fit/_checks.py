@@ -6,6 +6,8 @@ import numbers
 
 import numpy as np
 
+from blendvoca.errors import UserError
+
 
 def as_float_array(value, name: str, ndim: int, where: str, *, keep_float: bool = False) -> np.ndarray:
     """Return ``value`` as a finite float64 array with ``ndim`` dimensions.
@@ -15,9 +17,9 @@ def as_float_array(value, name: str, ndim: int, where: str, *, keep_float: bool 
     Raises
     ------
     TypeError
-        If ``value`` is not numeric.
-    ValueError
-        If the number of dimensions is wrong or it holds NaN / inf.
+        If ``value`` is not numeric (any float or integer dtype converts).
+    UserError
+        If the number of dimensions is wrong or it holds NaN / inf (a ``ValueError``).
     """
     try:
         array = np.asarray(value)
@@ -30,12 +32,12 @@ def as_float_array(value, name: str, ndim: int, where: str, *, keep_float: bool 
     if not (keep_float and np.issubdtype(array.dtype, np.floating)):
         array = np.asarray(array, dtype=np.float64)
     if array.ndim != ndim:
-        raise ValueError(
+        raise UserError(
             f"{where}: {name} must have {ndim} dimensions, got shape {array.shape}"
         )
     if not np.all(np.isfinite(array)):
         bad = np.argwhere(~np.isfinite(array))[0]
-        raise ValueError(f"{where}: {name} holds a non-finite value at index {tuple(bad)}")
+        raise UserError(f"{where}: {name} holds a non-finite value at index {tuple(bad)}")
     return array
 
 
@@ -47,5 +49,5 @@ def check_delta(delta, where: str) -> float | None:
         raise TypeError(f"{where}: delta must be a positive number or None, got {delta!r}")
     delta = float(delta)
     if not np.isfinite(delta) or delta <= 0.0:
-        raise ValueError(f"{where}: delta must be a positive finite number, got {delta}")
+        raise UserError(f"{where}: delta must be a positive finite number, got {delta}")
     return delta

@@ -29,6 +29,8 @@ import numpy as np
 from scipy.linalg import cho_factor, cho_solve
 from scipy.linalg.lapack import dpbtrf, dpbtrs
 
+from blendvoca.errors import UserError
+
 from ._checks import as_float_array, check_delta
 
 
@@ -70,7 +72,7 @@ def _broadcast_bound(value, shape, name):
         return None
     array = np.broadcast_to(np.asarray(value, dtype=np.float64), shape)
     if not np.all(np.isfinite(array)):
-        raise ValueError(f"solve_banded_qp: {name} must be finite (use None for no bound)")
+        raise UserError(f"solve_banded_qp: {name} must be finite (use None for no bound)")
     return np.ascontiguousarray(array)
 
 
@@ -449,14 +451,14 @@ def solve_banded_qp(
     rhs = as_float_array(rhs, "rhs", 2, where)
     num_frames, k = rhs.shape
     if gram.shape != (k, k):
-        raise ValueError(
+        raise UserError(
             f"{where}: gram must be ({k}, {k}) to match rhs {rhs.shape}, got {gram.shape}"
         )
     delta = check_delta(delta, where)
     lo = _broadcast_bound(lower, rhs.shape, "lower")
     hi = _broadcast_bound(upper, rhs.shape, "upper")
     if lo is not None and hi is not None and np.any(lo > hi):
-        raise ValueError(f"{where}: every lower bound must not exceed its upper bound")
+        raise UserError(f"{where}: every lower bound must not exceed its upper bound")
 
     # Scale the objective so that the Hessian diagonal is at most 1: tolerances
     # are then meaningful whatever the mesh units (metres give ~1e-3 entries).
@@ -469,7 +471,7 @@ def solve_banded_qp(
     if warm_start is not None:
         x0 = as_float_array(warm_start, "warm_start", 2, where).copy()
         if x0.shape != rhs.shape:
-            raise ValueError(f"{where}: warm_start must be {rhs.shape}, got {x0.shape}")
+            raise UserError(f"{where}: warm_start must be {rhs.shape}, got {x0.shape}")
     else:
         x0 = x_free
     x0 = _clip(x0, lo, hi)

@@ -6,6 +6,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from blendvoca.errors import UserError
+
 from ._checks import check_delta
 from .banded_qp import solve_banded_qp
 from .diagnostics import constraint_activity, vertex_errors_of_checked
@@ -163,10 +165,10 @@ def fit_sequence(
     """
     where = "fit_coefficients"
     if method not in METHODS:
-        raise ValueError(f"{where}: method must be one of {METHODS}, got {method!r}")
+        raise UserError(f"{where}: method must be one of {METHODS}, got {method!r}")
     delta = check_delta(delta, where) if rate else None
     if rate and delta is None:
-        raise ValueError(f"{where}: rate=True needs a delta, got None")
+        raise UserError(f"{where}: rate=True needs a delta, got None")
     (neutral, deltas, frames), pose = _checked_frames(neutral, deltas, frames, vertex_subset, unposed, stable, where, fps)
     if fps != 60.0:
         frames = resample_sequence(frames, fps, 60.0)
@@ -176,7 +178,7 @@ def fit_sequence(
         iterations, converged = 0, True
         if framewise:
             if not bounds:
-                raise ValueError(f"{where}: framewise mode needs bounds=True")
+                raise UserError(f"{where}: framewise mode needs bounds=True")
             coeffs = framewise_coefficients(
                 system.gram, system.rhs, delta=delta, warm_start=warm_start
             )
@@ -245,7 +247,7 @@ def fit_coefficients(
     """
     where = "fit_coefficients"
     if method not in METHODS:
-        raise ValueError(f"{where}: method must be one of {METHODS}, got {method!r}")
+        raise UserError(f"{where}: method must be one of {METHODS}, got {method!r}")
     delta = check_delta(delta, where) if rate else None
     (neutral, deltas, frames), _ = _checked_frames(neutral, deltas, frames, vertex_subset, unposed, stable, where, fps)
     if fps != 60.0:
@@ -255,7 +257,7 @@ def fit_coefficients(
         system = normal_equations_of_checked(neutral, deltas, frames)
         if framewise:
             if not bounds:
-                raise ValueError(f"{where}: framewise mode needs bounds=True")
+                raise UserError(f"{where}: framewise mode needs bounds=True")
             return framewise_coefficients(system.gram, system.rhs, delta=delta, warm_start=warm_start)
         if not bounds and delta is None:
             return least_squares_coefficients(system.gram, system.rhs)

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from blendvoca.errors import UserError
+
 from .frame_crop import FrameCrop
 from .normal_equations import check_rig_and_frames
 
@@ -34,7 +36,7 @@ def vertex_errors(neutral, deltas, frames, coeffs, *, vertex_subset=None):
     )
     coeffs = np.asarray(coeffs, dtype=np.float64)
     if coeffs.shape != (frames.shape[0], deltas.shape[0]):
-        raise ValueError(
+        raise UserError(
             f"vertex_errors: coeffs must be ({frames.shape[0]}, {deltas.shape[0]}), got {coeffs.shape}"
         )
     return vertex_errors_of_checked(neutral, deltas, frames, coeffs)
@@ -89,7 +91,7 @@ def constraint_activity(coeffs, *, lower=0.0, upper=1.0, delta=0.1, tol=1e-6):
     """
     coeffs = np.asarray(coeffs, dtype=np.float64)
     if coeffs.ndim != 2 or coeffs.shape[0] == 0:
-        raise ValueError(f"constraint_activity: coeffs must be (T, K) with T >= 1, got {coeffs.shape}")
+        raise UserError(f"constraint_activity: coeffs must be (T, K) with T >= 1, got {coeffs.shape}")
     out = {
         "lower": np.mean(coeffs <= lower + tol, axis=0),
         "upper": np.mean(coeffs >= upper - tol, axis=0),

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from blendvoca.errors import UserError
+
 from ._checks import as_float_array, check_delta
 from .banded_qp import solve_banded_qp
 
@@ -44,7 +46,7 @@ def framewise_coefficients(gram, rhs, *, lower=0.0, upper=1.0, delta=0.1, warm_s
     if warm_start is not None:
         previous = np.asarray(warm_start, dtype=np.float64).reshape(-1)
         if previous.shape != (k,):
-            raise ValueError(f"{where}: warm_start must hold {k} coefficients, got {previous.shape}")
+            raise UserError(f"{where}: warm_start must hold {k} coefficients, got {previous.shape}")
     for t in range(num_frames):
         lo = np.full((1, k), lower)
         hi = np.full((1, k), upper)

@@ -5,6 +5,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.linalg import cho_factor, cho_solve, lstsq
 
+from blendvoca.errors import UserError
+
 from ._checks import as_float_array
 
 
@@ -26,7 +28,7 @@ def least_squares_coefficients(gram, rhs) -> np.ndarray:
     gram = as_float_array(gram, "gram", 2, "least_squares_coefficients")
     rhs = as_float_array(rhs, "rhs", 2, "least_squares_coefficients")
     if gram.shape != (rhs.shape[1], rhs.shape[1]):
-        raise ValueError(
+        raise UserError(
             f"least_squares_coefficients: gram must be ({rhs.shape[1]}, {rhs.shape[1]}) to "
             f"match rhs {rhs.shape}, got {gram.shape}"
         )

@@ -12,6 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from blendvoca.errors import UserError
+
 from ._checks import as_float_array
 from .frame_crop import FrameCrop
 
@@ -72,19 +74,19 @@ def check_rig_and_frames(neutral, deltas, frames, vertex_subset=None, where="fit
     frames = as_float_array(frames, "frames", 3, where, keep_float=lazy)
     num_vertices = neutral.shape[0]
     if neutral.shape[1] != 3:
-        raise ValueError(f"{where}: neutral must be (V, 3), got shape {neutral.shape}")
+        raise UserError(f"{where}: neutral must be (V, 3), got shape {neutral.shape}")
     if deltas.shape[1:] != neutral.shape:
-        raise ValueError(
+        raise UserError(
             f"{where}: deltas must be (K, {num_vertices}, 3) to match neutral, got {deltas.shape}"
         )
     if deltas.shape[0] == 0:
-        raise ValueError(f"{where}: deltas must hold at least one blendshape, got {deltas.shape}")
+        raise UserError(f"{where}: deltas must hold at least one blendshape, got {deltas.shape}")
     if frames.shape[1:] != neutral.shape:
-        raise ValueError(
+        raise UserError(
             f"{where}: frames must be (T, {num_vertices}, 3) to match neutral, got {frames.shape}"
         )
     if frames.shape[0] == 0:
-        raise ValueError(f"{where}: frames must hold at least one frame, got {frames.shape}")
+        raise UserError(f"{where}: frames must hold at least one frame, got {frames.shape}")
     if vertex_subset is not None:
         subset = np.asarray(vertex_subset)
         if subset.ndim != 1 or not np.issubdtype(subset.dtype, np.integer):
@@ -93,7 +95,7 @@ def check_rig_and_frames(neutral, deltas, frames, vertex_subset=None, where="fit
                 f"{subset.dtype} and shape {subset.shape}"
             )
         if subset.size == 0 or subset.min() < 0 or subset.max() >= num_vertices:
-            raise ValueError(
+            raise UserError(
                 f"{where}: vertex_subset must index 0..{num_vertices - 1}, got range "
                 f"[{subset.min() if subset.size else None}, {subset.max() if subset.size else None}]"
             )

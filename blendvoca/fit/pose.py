@@ -19,6 +19,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from blendvoca.errors import UserError
+
 from ._checks import as_float_array
 
 #: Vertex count of the FLAME topology (and its eyeballs: vertices 3931-5022).
@@ -90,7 +92,7 @@ def flame_stable_vertices(neutral, landmarks=None) -> np.ndarray:
     """
     V = as_float_array(neutral, "neutral", 2, "flame_stable_vertices")
     if V.shape != (FLAME_NUM_VERTICES, 3):
-        raise ValueError(f"flame_stable_vertices: expected a FLAME neutral ({FLAME_NUM_VERTICES}, 3), got {V.shape}")
+        raise UserError(f"flame_stable_vertices: expected a FLAME neutral ({FLAME_NUM_VERTICES}, 3), got {V.shape}")
     if landmarks is None:
         from blendvoca.assets import load_index_list
 
@@ -189,7 +191,7 @@ def remove_head_pose(frames, neutral, *, stable=None, iterations: int = 20, tol:
     frames = as_float_array(frames, "frames", 3, where)
     neutral = as_float_array(neutral, "neutral", 2, where)
     if neutral.shape[1] != 3 or frames.shape[1:] != neutral.shape or len(frames) == 0:
-        raise ValueError(f"{where}: expected frames (T>0, V, 3) and neutral (V, 3) of one topology, "
+        raise UserError(f"{where}: expected frames (T>0, V, 3) and neutral (V, 3) of one topology, "
                          f"got {frames.shape} and {neutral.shape}")
     if stable is None:
         if len(neutral) == FLAME_NUM_VERTICES:
@@ -201,11 +203,11 @@ def remove_head_pose(frames, neutral, *, stable=None, iterations: int = 20, tol:
         stable = np.flatnonzero(stable)
     stable = stable.astype(np.int64).reshape(-1)
     if len(stable) < 3 or stable.min() < 0 or stable.max() >= len(neutral):
-        raise ValueError(f"{where}: stable must hold at least 3 vertex indices in [0, {len(neutral)}), "
+        raise UserError(f"{where}: stable must hold at least 3 vertex indices in [0, {len(neutral)}), "
                          f"got {len(stable)} indices")
     src = neutral[stable]
     if np.linalg.matrix_rank(src - src.mean(axis=0), tol=1e-9) < 2:
-        raise ValueError(f"{where}: the {len(stable)} stable vertices are collinear; a rotation is not determined")
+        raise UserError(f"{where}: the {len(stable)} stable vertices are collinear; a rotation is not determined")
     rot, trans, w = _robust_fit(src, frames[:, stable], int(iterations), float(tol))
     aligned = np.matmul(frames - trans[:, None], rot)
     return HeadPose(frames=aligned, rotations=rot, translations=trans, stable=stable, weights=w)

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from blendvoca.errors import UserError
+
 
 def resample_sequence(frames, fps_in: float, fps_out: float = 60.0, *, num_frames=None) -> np.ndarray:
     """Return ``frames`` linearly interpolated in time from ``fps_in`` to ``fps_out``.
@@ -27,15 +29,15 @@ def resample_sequence(frames, fps_in: float, fps_out: float = 60.0, *, num_frame
     """
     frames = np.asarray(frames, dtype=np.float64)
     if frames.ndim < 1 or frames.shape[0] == 0:
-        raise ValueError(f"resample_sequence: frames must be (T, ...) with T >= 1, got {frames.shape}")
+        raise UserError(f"resample_sequence: frames must be (T, ...) with T >= 1, got {frames.shape}")
     for name, value in (("fps_in", fps_in), ("fps_out", fps_out)):
         if not np.isscalar(value) or not np.isfinite(value) or value <= 0:
-            raise ValueError(f"resample_sequence: {name} must be a positive number, got {value!r}")
+            raise UserError(f"resample_sequence: {name} must be a positive number, got {value!r}")
     num_in = frames.shape[0]
     if num_frames is None:
         num_frames = max(1, int(round(num_in * fps_out / fps_in)))
     if int(num_frames) != num_frames or num_frames < 1:
-        raise ValueError(f"resample_sequence: num_frames must be a positive integer, got {num_frames!r}")
+        raise UserError(f"resample_sequence: num_frames must be a positive integer, got {num_frames!r}")
     num_frames = int(num_frames)
     if fps_in == fps_out and num_frames == num_in:
         return frames.copy()

@@ -12,6 +12,8 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
+from blendvoca.errors import UserError
+
 from ._checks import as_float_array, check_delta
 
 #: Solver options that make each general solver's answer match an exact solver.
@@ -83,9 +85,9 @@ def solve_sparse_qp(
     rhs = as_float_array(rhs, "rhs", 2, where)
     delta = check_delta(delta, where)
     if solver not in SOLVER_OPTIONS:
-        raise ValueError(f"{where}: solver must be one of {sorted(SOLVER_OPTIONS)}, got {solver!r}")
+        raise UserError(f"{where}: solver must be one of {sorted(SOLVER_OPTIONS)}, got {solver!r}")
     if solver not in qpsolvers.available_solvers:
-        raise ValueError(f"{where}: solver {solver!r} is not installed (pip install {solver})")
+        raise UserError(f"{where}: solver {solver!r} is not installed (pip install {solver})")
     opts = {**SOLVER_OPTIONS[solver], **options}
     # Unit Hessian diagonal: the solvers' absolute tolerances then mean the
     # same thing whatever the mesh units.

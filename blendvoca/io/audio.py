@@ -6,25 +6,27 @@ soundfile reads every PCM/float WAV flavour; soxr does the band-limited resampli
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import numpy as np
 
-from blendvoca.errors import BlendVOCAError
+from blendvoca.errors import DataError, UserError
+from blendvoca.io.arrays import float_array
 from blendvoca.io.atomic import atomic_write
 
 SAMPLE_RATE = 16000
 
 
-class AudioFormatError(BlendVOCAError):
+class AudioFormatError(DataError):
     """An audio file that does not decode; the message names the file and the problem."""
 
 
 def resample_audio(samples: np.ndarray, rate_in: int, rate_out: int = SAMPLE_RATE) -> np.ndarray:
     """Resample mono ``(N,)`` audio from ``rate_in`` to ``rate_out`` Hz (float32)."""
-    samples = np.asarray(samples, dtype=np.float32)
+    samples = float_array(samples, where="resample_audio", name="samples", shape="(N,)").astype(np.float32)
     if samples.ndim != 1:
-        raise ValueError(f"resample_audio expects mono (N,) samples, got shape {samples.shape}")
+        raise UserError(f"resample_audio expects mono (N,) samples, got shape {samples.shape}")
     if int(rate_in) == int(rate_out):
         return samples
     import soxr
@@ -50,7 +52,7 @@ def read_wav(path) -> tuple[np.ndarray, int]:
     """
     import soundfile
 
-    path = Path(path)
+    path = Path(os.fspath(path))
     if not path.is_file():
         raise FileNotFoundError(f"audio file not found: {path}")
     try:
@@ -69,11 +71,13 @@ def load_audio(path, rate: int = SAMPLE_RATE) -> np.ndarray:
 
 
 def write_wav(path, samples: np.ndarray, rate: int = SAMPLE_RATE) -> None:
-    """Write mono or ``(N, C)`` float audio in [-1, 1] as 16-bit PCM WAV, atomically."""
+    """Write mono or ``(N, C)`` float audio in [-1, 1] (any real dtype) as 16-bit PCM WAV, atomically."""
     import soundfile
 
-    samples = np.asarray(samples, dtype=np.float32)
+    samples = float_array(samples, where=str(path), name="samples", shape="(N,) or (N, C)").astype(np.float32)
+    if samples.ndim not in (1, 2):
+        raise UserError(f"{path}: expected audio samples (N,) or (N, C), got shape {samples.shape}")
     if not np.all(np.isfinite(samples)):
-        raise ValueError(f"{path}: audio contains NaN or infinite samples")
+        raise UserError(f"{path}: audio contains NaN or infinite samples")
     with atomic_write(path, "wb") as f:
         soundfile.write(f, np.clip(samples, -1.0, 1.0), int(rate), subtype="PCM_16", format="WAV")

@@ -10,11 +10,14 @@ into camelCase ARKit columns; their timecode, count and rotation columns are ign
 from __future__ import annotations
 
 import csv
+import os
 from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
+from blendvoca.errors import DataError, UserError
+from blendvoca.io.arrays import float_array
 from blendvoca.io.atomic import atomic_write
 from blendvoca.names import LIVELINK_ROTATION_COLUMNS, arkit_name
 
@@ -37,7 +40,7 @@ def read_coeffs_csv(path, names: Sequence[str] | None = None, *,
 
     Parameters
     ----------
-    path : path-like
+    path : str or os.PathLike
     names : sequence of str, optional
         Wanted columns, in the wanted order (ARKit names in any case). Columns of the
         file that are not in ``names`` are ignored. Without ``names``, every column
@@ -52,30 +55,35 @@ def read_coeffs_csv(path, names: Sequence[str] | None = None, *,
 
     Raises
     ------
-    ValueError
+    FileNotFoundError
+        No file at ``path``.
+    DataError
         Naming the file, and the missing or unknown columns, or the row and frame of a bad value.
     """
     if missing not in ("error", "zero"):
-        raise ValueError(f"read_coeffs_csv: missing must be 'error' or 'zero', got {missing!r}")
-    path = Path(path)
+        raise UserError(f"read_coeffs_csv: missing must be 'error' or 'zero', got {missing!r}")
+    path = Path(os.fspath(path))
     if not path.is_file():
         raise FileNotFoundError(f"coefficient file not found: {path}")
     with open(path, newline="", encoding="utf-8-sig") as f:
-        lines = f.read().splitlines()
+        try:
+            lines = f.read().splitlines()
+        except UnicodeDecodeError as error:
+            raise DataError(f"{path}: not a UTF-8 text CSV ({error.reason} at byte {error.start})") from None
     try:
         header = [h.strip() for h in next(csv.reader(lines[:1]))]
     except StopIteration:
-        raise ValueError(f"{path}: empty file; expected a header row of blendshape names") from None
+        raise DataError(f"{path}: empty file; expected a header row of blendshape names") from None
     body = [line for line in lines[1:] if line]
     mapped = [_column_name(h) for h in header]
     kept = [m for m in mapped if m is not None]
     repeated = sorted({m for m in kept if kept.count(m) > 1})
     if repeated:
-        raise ValueError(f"{path}: repeated columns in the header (names match in any case): {repeated}")
+        raise DataError(f"{path}: repeated columns in the header (names match in any case): {repeated}")
     unknown = [h for h, m in zip(header, mapped) if m is not None and arkit_name(m) is None]
     if names is None:
         if unknown:
-            raise ValueError(f"{path}: unknown columns {unknown}; expected ARKit blendshape names "
+            raise DataError(f"{path}: unknown columns {unknown}; expected ARKit blendshape names "
                              "(any case) plus optionally Live Link Face's Timecode, BlendShapeCount and rotation columns")
         wanted = tuple(kept)
     else:
@@ -83,7 +91,7 @@ def read_coeffs_csv(path, names: Sequence[str] | None = None, *,
     absent = [n for n in wanted if n not in kept]
     if absent and missing == "error":
         extra = f"; columns with no ARKit name: {unknown}" if unknown else ""
-        raise ValueError(f"{path}: missing columns {absent}; the header has {header}{extra}")
+        raise DataError(f"{path}: missing columns {absent}; the header has {header}{extra}")
     columns = [mapped.index(n) if n in kept else -1 for n in wanted]
     present = [(k, c) for k, c in enumerate(columns) if c >= 0]
     fast = _parsed_columns(body, len(header), [c for _, c in present])
@@ -96,12 +104,12 @@ def read_coeffs_csv(path, names: Sequence[str] | None = None, *,
     data = np.zeros((len(rows), len(wanted)), dtype=np.float64)
     for t, row in enumerate(rows):
         if len(row) != len(header):
-            raise ValueError(f"{path}: row {t + 2} has {len(row)} fields, the header has {len(header)}")
+            raise DataError(f"{path}: row {t + 2} has {len(row)} fields, the header has {len(header)}")
         try:
             for k, c in present:
                 data[t, k] = float(row[c])
         except ValueError as error:
-            raise ValueError(f"{path}: row {t + 2} (frame {t}): {error}") from None
+            raise DataError(f"{path}: row {t + 2} (frame {t}): {error}") from None
     return data, wanted
 
 
@@ -127,13 +135,13 @@ def missing_columns(path, names: Sequence[str]) -> tuple[str, ...]:
 
 
 def format_coeffs_csv(coeffs: np.ndarray, names: Sequence[str]) -> str:
-    """The CSV text of a ``(T, K)`` track: deterministic formatting (%.6f, '\\n')."""
-    coeffs = np.asarray(coeffs, dtype=np.float64)
+    """The CSV text of a ``(T, K)`` track (any real dtype): deterministic formatting (%.6f, '\\n')."""
+    coeffs = float_array(coeffs, where="format_coeffs_csv", name="coeffs", shape=f"(T, {len(names)})")
     if coeffs.ndim != 2 or coeffs.shape[1] != len(names):
-        raise ValueError(f"coefficients must be (T, {len(names)}) for {len(names)} names, got shape {coeffs.shape}")
+        raise UserError(f"coefficients must be (T, {len(names)}) for {len(names)} names, got shape {coeffs.shape}")
     if not np.all(np.isfinite(coeffs)):
         bad = np.argwhere(~np.isfinite(coeffs))[0]
-        raise ValueError(f"coefficients contain NaN/inf (first at frame {bad[0]}, column {names[bad[1]]!r})")
+        raise UserError(f"coefficients contain NaN/inf (first at frame {bad[0]}, column {names[bad[1]]!r})")
     # %.6f keeps 1e-6 resolution (far below any visible motion) and, with
     # -0.000000 normalised, makes files byte-identical across runs and platforms.
     # One %-format over all rows: a field starts at its "-", so the replace only

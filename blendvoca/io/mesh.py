@@ -10,12 +10,14 @@ Vertices come back as ``(V, 3)`` float64, faces as ``(F, 3)`` int64.
 
 from __future__ import annotations
 
+import os
 from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
-from blendvoca.errors import BlendVOCAError
+from blendvoca.errors import DataError, UserError
+from blendvoca.io.arrays import float_array
 from blendvoca.io.atomic import atomic_write
 
 _PLY_TYPES = {
@@ -26,17 +28,32 @@ _PLY_TYPES = {
 }
 
 
-class MeshFormatError(BlendVOCAError):
+class MeshFormatError(DataError):
     """A mesh file that does not parse; the message names the file and the problem."""
 
 
 def read_index_list(path) -> np.ndarray:
-    """Whitespace-separated integer indices (landmark or crop lists) as ``(N,) int64``."""
-    text = Path(path).read_text()
+    """Whitespace-separated integer indices (landmark or crop lists) as ``(N,) int64``.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+
+    Raises
+    ------
+    DataError
+        The file is not text or holds something other than integers (naming the file).
+    """
+    path = Path(os.fspath(path))
+    try:
+        text = path.read_text()
+    except UnicodeDecodeError as error:
+        raise DataError(f"{path}: expected a text file of integer indices "
+                        f"({error.reason} at byte {error.start})") from None
     try:
         return np.array([int(tok) for tok in text.split()], dtype=np.int64)
     except ValueError as error:
-        raise ValueError(f"{path}: expected whitespace-separated integer indices: {error}") from None
+        raise DataError(f"{path}: expected whitespace-separated integer indices: {error}") from None
 
 
 # ----------------------------------------------------------------------------- OBJ
@@ -97,8 +114,7 @@ def write_obj(path, vertices, faces, *, face_records: str | None = None) -> None
     ``face_records``: :func:`obj_face_records` of ``faces``, formatted once for
     many meshes of one topology (a rig's blendshapes).
     """
-    V = np.asarray(vertices, dtype=np.float64)
-    _check_vertices(V, path)
+    V = _vertices(vertices, path)
     text = ("v %.9g %.9g %.9g\n" * len(V)) % tuple(V.ravel().tolist())
     text += obj_face_records(faces) if face_records is None else face_records
     with atomic_write(path, "w", encoding="utf-8", newline="\n") as f:
@@ -307,7 +323,7 @@ def read_ply_sequence(paths: Sequence, *, num_vertices: int | None = None) -> np
     """
     paths = list(paths)
     if not paths:
-        raise ValueError("read_ply_sequence: no frame files given")
+        raise UserError("read_ply_sequence: no frame files given")
     out = None
     for t, path in enumerate(paths):
         try:
@@ -348,8 +364,7 @@ def write_ply(path, vertices, faces=None, *, binary: bool = True) -> None:
     float32 is what VOCASET and most scanners store; pass float64 data and expect
     rounding to float32 (about 1e-7 relative).
     """
-    V = np.asarray(vertices, dtype=np.float64)
-    _check_vertices(V, path)
+    V = _vertices(vertices, path)
     F = np.zeros((0, 3), np.int64) if faces is None else np.asarray(faces, dtype=np.int64)
     with atomic_write(path, "wb") as f:
         f.write(ply_header(len(V), None if faces is None else len(F), binary=binary))
@@ -370,26 +385,49 @@ _READERS = {".obj": read_obj, ".ply": read_ply}
 
 
 def read_mesh(path) -> tuple[np.ndarray, np.ndarray]:
-    """Read an OBJ or PLY mesh (by suffix), keeping vertex order."""
-    suffix = Path(path).suffix.lower()
+    """Read an OBJ or PLY mesh (by suffix), keeping vertex order.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+
+    Returns
+    -------
+    vertices : (V, 3) float64 ndarray
+    faces : (F, 3) int64 ndarray
+
+    Raises
+    ------
+    UserError
+        A suffix other than .obj / .ply.
+    FileNotFoundError
+        No file at ``path``.
+    MeshFormatError
+        The file does not parse (naming the file and line or element).
+    """
+    path = Path(os.fspath(path))
+    suffix = path.suffix.lower()
     if suffix not in _READERS:
-        raise ValueError(f"{path}: unsupported mesh format {suffix!r}; expected one of {sorted(_READERS)}")
-    if not Path(path).is_file():
+        raise UserError(f"{path}: unsupported mesh format {suffix!r}; expected one of {sorted(_READERS)}")
+    if not path.is_file():
         raise FileNotFoundError(f"mesh file not found: {path}")
     return _READERS[suffix](path)
 
 
 def write_mesh(path, vertices, faces) -> None:
-    """Write an OBJ or PLY mesh (by suffix)."""
-    suffix = Path(path).suffix.lower()
+    """Write an OBJ or PLY mesh (by suffix): ``vertices (V, 3)`` of any real dtype, ``faces (F, 3)``."""
+    suffix = Path(os.fspath(path)).suffix.lower()
     if suffix == ".obj":
         write_obj(path, vertices, faces)
     elif suffix == ".ply":
         write_ply(path, vertices, faces)
     else:
-        raise ValueError(f"{path}: unsupported mesh format {suffix!r}; expected .obj or .ply")
+        raise UserError(f"{path}: unsupported mesh format {suffix!r}; expected .obj or .ply")
 
 
-def _check_vertices(V: np.ndarray, where) -> None:
+def _vertices(vertices, where) -> np.ndarray:
+    """``(V, 3)`` float64 vertices to write, or a :class:`UserError` naming ``where``."""
+    V = float_array(vertices, where=str(where), name="vertices", shape="(V, 3)")
     if V.ndim != 2 or V.shape[1] != 3:
-        raise ValueError(f"{where}: vertices must be (V, 3), got shape {V.shape}")
+        raise UserError(f"{where}: vertices must be (V, 3), got shape {V.shape}")
+    return V

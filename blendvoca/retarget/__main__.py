@@ -1,3 +1,8 @@
-from .cli import main
+"""``python -m blendvoca.retarget``: the command line of :mod:`blendvoca.retarget.cli`."""
 
-raise SystemExit(main())
+import sys
+
+from blendvoca.retarget.cli import main
+
+if __name__ == "__main__":
+    sys.exit(main())

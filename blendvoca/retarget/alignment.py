@@ -6,6 +6,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from blendvoca.errors import UserError
+
 from ._checks import as_vertices
 
 
@@ -70,18 +72,18 @@ def similarity_transform(source_points: np.ndarray, target_points: np.ndarray) -
     P = as_vertices(source_points, "similarity_transform", name="source_points")
     Q = as_vertices(target_points, "similarity_transform", name="target_points")
     if P.shape != Q.shape:
-        raise ValueError(
+        raise UserError(
             f"similarity_transform: source_points {P.shape} and target_points {Q.shape} must pair up"
         )
     if len(P) < 3:
-        raise ValueError(f"similarity_transform: need at least 3 landmark pairs, got {len(P)}")
+        raise UserError(f"similarity_transform: need at least 3 landmark pairs, got {len(P)}")
     mp, mq = P.mean(axis=0), Q.mean(axis=0)
     Pc, Qc = P - mp, Q - mq
     var_p = np.sum(Pc**2) / len(P)
     cov = Qc.T @ Pc / len(P)
     U, S, Vt = np.linalg.svd(cov)
     if var_p <= 0 or S[1] <= 1e-12 * max(S[0], 1e-300):
-        raise ValueError("similarity_transform: landmarks are coincident or collinear; the rotation is undetermined")
+        raise UserError("similarity_transform: landmarks are coincident or collinear; the rotation is undetermined")
     D = np.eye(3)
     D[2, 2] = np.sign(np.linalg.det(U) * np.linalg.det(Vt)) or 1.0
     R = U @ D @ Vt

@@ -1,29 +1,35 @@
-"""``python -m blendvoca.retarget``: retarget a rig onto a mesh from files."""
+"""Transfer the ARKit blendshapes (or another rig's) onto a head mesh by deformation transfer.
+
+``python -m blendvoca.retarget --target MESH --target-landmarks TXT --out DIR``: the
+command line over :func:`retarget_files`.
+"""
 
 from __future__ import annotations
 
-import argparse
-import sys
 import json
+import os
 from pathlib import Path
 
+from blendvoca import cli
+from blendvoca.assets import load_index_list
 from blendvoca.io.atomic import atomic_write
 from blendvoca.io.mesh import read_index_list, read_mesh
-from blendvoca.rig import Rig, shape_names
+from blendvoca.rig import Rig, load_arkit_reference, shape_names
 
 from .contact_sheet import contact_sheet
+from .crop import default_crop
 from .pipeline import plan_retarget, retargeted_deltas
 from .report import report_markdown, retarget_report
 
 
 def retarget_files(
-    target: Path,
-    target_landmarks: Path,
-    out: Path,
+    target: str | os.PathLike,
+    target_landmarks: str | os.PathLike,
+    out: str | os.PathLike,
     *,
-    source_rig: Path | None = None,
-    source_landmarks: Path | None = None,
-    crop: Path | None = None,
+    source_rig: str | os.PathLike | None = None,
+    source_landmarks: str | os.PathLike | None = None,
+    crop: str | os.PathLike | None = None,
     shapes: str = "speech",
     falloff: float = 0.02,
     sheet: bool = True,
@@ -39,17 +45,12 @@ def retarget_files(
     report : dict
         As written to ``report.json``.
     """
-    from blendvoca.assets import load_index_list
-    from blendvoca.rig import load_arkit_reference
-
     names = shape_names(shapes)
     source = load_arkit_reference(names) if source_rig is None else Rig.load_said_folder(source_rig, names)
     lm_s = load_index_list("arkit-landmarks") if source_landmarks is None else read_index_list(source_landmarks)
     V, F = read_mesh(target)
     lm_t = read_index_list(target_landmarks)
     if crop is None:
-        from .crop import default_crop
-
         keep, note = default_crop(F, len(V))
         if note:
             print(note)
@@ -57,7 +58,7 @@ def retarget_files(
         keep = read_index_list(crop)
     plan = plan_retarget(source.neutral, source.faces, V, F, lm_s, lm_t, crop=keep, falloff=falloff)
     rig = Rig(V, retargeted_deltas(plan, source.deltas), names, F)
-    out = Path(out)
+    out = Path(os.fspath(out))
     rig.save_said_folder(out)
     rig.save(out / "rig.npz")
     seam = plan.crop.vertex_index[plan.crop.seam]
@@ -72,7 +73,7 @@ def retarget_files(
     with atomic_write(out / "report.json", "w") as f:
         json.dump(report, f, indent=2)
     with atomic_write(out / "report.md", "w") as f:
-        f.write(report_markdown(report, title=f"Retargeting report: {Path(target).name}"))
+        f.write(report_markdown(report, title=f"Retargeting report: {Path(os.fspath(target)).name}"))
     if sheet:
         import matplotlib.image
 
@@ -82,11 +83,9 @@ def retarget_files(
     return report
 
 
+@cli.command
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(
-        prog="python -m blendvoca.retarget",
-        description="Transfer the ARKit blendshapes (or another rig's) onto a head mesh by deformation transfer.",
-    )
+    parser = cli.parser("blendvoca.retarget", __doc__)
     parser.add_argument("--target", type=Path, required=True, help="target neutral mesh (.obj or .ply)")
     parser.add_argument("--target-landmarks", type=Path, required=True,
                         help="68 iBUG landmark vertex indices on the full target mesh (one per line)")
@@ -100,18 +99,12 @@ def main(argv=None) -> int:
                         help="distance (target units) over which re-attached vertices blend back to rest")
     parser.add_argument("--no-sheet", action="store_true", help="skip the contact sheet image")
     args = parser.parse_args(argv)
-    from blendvoca.errors import BlendVOCAError, error_line
-
-    try:
-        report = retarget_files(
-            args.target, args.target_landmarks, args.out, source_rig=args.source_rig,
-            source_landmarks=args.source_landmarks, crop=args.crop, shapes=args.shapes,
-            falloff=args.falloff, sheet=not args.no_sheet,
-        )
-    except (BlendVOCAError, ValueError, OSError) as error:  # bad mesh / landmarks / paths: one line, exit 2
-        print(error_line(error), file=sys.stderr)
-        return 2
+    report = retarget_files(
+        args.target, args.target_landmarks, args.out, source_rig=args.source_rig,
+        source_landmarks=args.source_landmarks, crop=args.crop, shapes=args.shapes,
+        falloff=args.falloff, sheet=not args.no_sheet,
+    )
     s = report["summary"]
     print(f"{s['shapes']} shapes written to {args.out}; largest displacement {s['largest_displacement_mm']:.1f} mm; "
           f"landmark RMS {report['alignment']['landmark_rms_mm']:.2f} mm")
-    return 0
+    return cli.EXIT_OK

@@ -7,6 +7,8 @@ from dataclasses import dataclass
 import igl
 import numpy as np
 
+from blendvoca.errors import UserError
+
 from ._checks import as_faces, as_vertices
 from .registration import face_normals, vertex_normals
 
@@ -75,7 +77,7 @@ def triangle_correspondence(
     Vt = as_vertices(target_vertices, where, name="target_vertices")
     Ft = as_faces(target_faces, len(Vt), where, name="target_faces")
     if not max_distance > 0:
-        raise ValueError(f"{where}: expected a positive max_distance, got {max_distance}")
+        raise UserError(f"{where}: expected a positive max_distance, got {max_distance}")
     cs, ct = Vs[Fs].mean(axis=1), Vt[Ft].mean(axis=1)
     ns, nt = face_normals(Vs, Fs), face_normals(Vt, Ft)
 

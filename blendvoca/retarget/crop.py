@@ -9,6 +9,8 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components, dijkstra
 
+from blendvoca.errors import UserError
+
 from ._checks import as_faces, as_indices, as_vertices
 
 
@@ -53,7 +55,7 @@ def crop_mesh(faces: np.ndarray, n_vertices: int, keep: np.ndarray) -> Crop:
     F = as_faces(faces, n_vertices, "crop_mesh")
     idx = as_indices(keep, n_vertices, "crop_mesh", name="keep")
     if len(np.unique(idx)) != len(idx):
-        raise ValueError("crop_mesh: keep lists some vertex more than once")
+        raise UserError("crop_mesh: keep lists some vertex more than once")
     remap = np.full(n_vertices, -1, dtype=np.int64)
     remap[idx] = np.arange(len(idx))
     inside = remap[F] >= 0
@@ -198,7 +200,7 @@ def reattached_deltas(
     V = as_vertices(vertices, "reattached_deltas")
     F = as_faces(faces, len(V), "reattached_deltas")
     if not np.isfinite(falloff) or falloff < 0:
-        raise ValueError(f"reattached_deltas: expected a non-negative finite falloff, got {falloff}")
+        raise UserError(f"reattached_deltas: expected a non-negative finite falloff, got {falloff}")
     full = reattach_deltas(deltas_cropped, vertex_index, len(V))
     if falloff == 0 or len(full) == 0:
         return full

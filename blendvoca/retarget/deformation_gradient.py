@@ -10,6 +10,8 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
+from blendvoca.errors import DataError
+
 from ._checks import as_faces, as_vertices
 
 
@@ -34,7 +36,7 @@ def fourth_vertices(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     length = np.linalg.norm(n, axis=1)
     if np.any(length <= 0):
         bad = np.flatnonzero(length <= 0)[:5]
-        raise ValueError(f"fourth_vertices: degenerate (zero-area) triangles, e.g. faces {bad.tolist()}")
+        raise DataError(f"fourth_vertices: degenerate (zero-area) triangles, e.g. faces {bad.tolist()}")
     return v1 + n / np.sqrt(length)[:, None]
 
 

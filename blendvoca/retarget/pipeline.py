@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from blendvoca.errors import UserError
 from blendvoca.rig import Rig, shape_names
 
 from ._checks import as_faces, as_indices, as_vertices
@@ -116,7 +117,7 @@ def _cropped_target(target_vertices, target_faces, target_landmarks, crop, where
     position[c.vertex_index] = np.arange(len(c.vertex_index))
     lm_c = position[lm]
     if np.any(lm_c < 0):
-        raise ValueError(f"{where}: target landmarks {lm[lm_c < 0].tolist()} lie outside the crop")
+        raise UserError(f"{where}: target landmarks {lm[lm_c < 0].tolist()} lie outside the crop")
     pieces = connected_pieces(c.faces, len(c.vertex_index))
     # pieces without a landmark (eyeballs of FLAME) have no known counterpart on the
     # source face mask: they are carried at rest
@@ -174,7 +175,7 @@ def correspondence_for_target(
     lm_s = as_indices(source_landmarks, len(Vs), where, name="source_landmarks")
     V, _F, lm_t, c, lm_c, transferred = _cropped_target(target_vertices, target_faces, target_landmarks, crop, where)
     if len(lm_s) != len(lm_t):
-        raise ValueError(f"{where}: {len(lm_s)} source landmarks but {len(lm_t)} target landmarks")
+        raise UserError(f"{where}: {len(lm_s)} source landmarks but {len(lm_t)} target landmarks")
     sim = similarity_transform(Vs[lm_s], V[lm_t])
     Vc = V[c.vertex_index]
     dist = _default_max_distance(V[lm_t]) if max_distance is None else float(max_distance)
@@ -240,7 +241,7 @@ def plan_retarget(
     lm_s = as_indices(source_landmarks, len(Vs), where, name="source_landmarks")
     V, F, lm_t, c, _, transferred = _cropped_target(target_vertices, target_faces, target_landmarks, crop, where)
     if len(lm_s) != len(lm_t):
-        raise ValueError(f"{where}: {len(lm_s)} source landmarks but {len(lm_t)} target landmarks")
+        raise UserError(f"{where}: {len(lm_s)} source landmarks but {len(lm_t)} target landmarks")
     if correspondence is None:
         correspondence = correspondence_for_target(
             Vs, Fs, V, F, lm_s, lm_t, crop=crop, max_distance=max_distance
@@ -254,7 +255,7 @@ def plan_retarget(
             correspondence.n_target_faces,
         )
         if got != expected:
-            raise ValueError(
+            raise UserError(
                 f"{where}: the correspondence was computed for (source vertices, source faces, cropped target "
                 f"vertices, cropped target faces) = {got}, this source and target have {expected}"
             )
@@ -355,7 +356,7 @@ def retarget_rig(
     names = shape_names(shapes)
     missing = [n for n in names if n not in source.names]
     if missing:
-        raise ValueError(f"retarget_rig: the source rig has no shapes {missing}")
+        raise UserError(f"retarget_rig: the source rig has no shapes {missing}")
     src = source.select(names)
     plan = plan_retarget(
         src.neutral,

@@ -21,6 +21,8 @@ import igl
 import numpy as np
 import scipy.sparse as sp
 
+from blendvoca.errors import UserError
+
 from ._checks import as_faces, as_indices, as_vertices
 from .deformation_gradient import deformation_gradient_operator, fourth_vertices
 
@@ -155,15 +157,15 @@ def register_source_to_target(
     markers = as_indices(source_markers, len(Vs), where, name="source_markers")
     goal = as_vertices(target_marker_positions, where, name="target_marker_positions")
     if len(goal) != len(markers):
-        raise ValueError(f"{where}: {len(markers)} source markers but {len(goal)} target marker positions")
+        raise UserError(f"{where}: {len(markers)} source markers but {len(goal)} target marker positions")
     if len(np.unique(markers)) != len(markers):
-        raise ValueError(f"{where}: source_markers lists some vertex more than once")
+        raise UserError(f"{where}: source_markers lists some vertex more than once")
 
     # work in a unit-size frame so the weights do not depend on the units
     centre = goal.mean(axis=0)
     radius = float(np.sqrt(np.mean(np.sum((goal - centre) ** 2, axis=1))))
     if radius <= 0:
-        raise ValueError(f"{where}: target markers coincide; cannot set a scale")
+        raise UserError(f"{where}: target markers coincide; cannot set a scale")
     Vs_n, Vt_n, goal_n = (Vs - centre) / radius, (Vt - centre) / radius, (goal - centre) / radius
     threshold = 0.1 if max_distance is None else max_distance / radius
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
+from blendvoca.errors import UserError
 from blendvoca.names import mirror_pairs
 from blendvoca.rig import Rig
 
@@ -134,7 +135,7 @@ def retarget_report(
     """
     lm = as_indices(landmarks, rig.num_vertices, "retarget_report", name="landmarks")
     if len(lm) != 68:
-        raise ValueError(f"retarget_report: expected the 68 iBUG landmarks, got {len(lm)}")
+        raise UserError(f"retarget_report: expected the 68 iBUG landmarks, got {len(lm)}")
     mm = 1000.0
     shapes = {}
     for name, delta in zip(rig.names, rig.deltas):

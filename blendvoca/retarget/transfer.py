@@ -22,6 +22,8 @@ import igl
 import numpy as np
 import scipy.sparse as sp
 
+from blendvoca.errors import DataError
+
 from ._checks import as_faces, as_indices, as_vertices
 from .crop import connected_pieces
 from .deformation_gradient import deformation_gradient_operator
@@ -162,7 +164,7 @@ def transfer_system(
         try:
             igl.min_quad_with_fixed_precompute(K.tocsc(), known, sp.csc_matrix((0, nv)), False, factor)
         except RuntimeError as err:
-            raise ValueError(
+            raise DataError(
                 f"{where}: the deformation-transfer system of this target is singular; look for "
                 "degenerate (zero-area) or duplicated triangles in target_faces"
             ) from err

@@ -1,19 +1,22 @@
-"""``python -m blendvoca.synthetic --out DIR --speakers N --sentences M --seed S``."""
+"""Generate a synthetic VOCASET corpus with ground truth.
+
+``python -m blendvoca.synthetic --out DIR --speakers N --sentences M --seed S``.
+"""
 
 from __future__ import annotations
 
-import argparse
 import math
 import sys
 import time
 from pathlib import Path
 
-from blendvoca.errors import BlendVOCAError, error_line
+from blendvoca import cli
+from blendvoca.errors import UserError
 from blendvoca.synthetic.corpus import DEFAULT_CORPUS, generate_corpus
 
 
 def check_arguments(args) -> None:
-    """Refuse bad arguments before anything is written (``argparse`` reports them: exit 2)."""
+    """Refuse bad arguments before anything is written: one :class:`UserError` naming them all."""
     problems = []
     if args.speakers < 3:
         problems.append(f"--speakers: expected >= 3 (train/val/test), got {args.speakers}")
@@ -34,12 +37,12 @@ def check_arguments(args) -> None:
         problems.append(f"--overwrite: {out} is not a synthetic corpus (no synthetic.json); "
                         "refusing to replace a folder this tool did not write")
     if problems:
-        raise BlendVOCAError("; ".join(problems))
+        raise UserError("; ".join(problems))
 
 
+@cli.command
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m blendvoca.synthetic",
-                                     description="Generate a synthetic VOCASET corpus with ground truth.")
+    parser = cli.parser("blendvoca.synthetic", __doc__)
     parser.add_argument("--out", required=True, help="output folder (must not exist or be empty)")
     parser.add_argument("--speakers", type=int, default=DEFAULT_CORPUS["speakers"], help="number of speakers (>= 3)")
     parser.add_argument("--sentences", type=int, default=DEFAULT_CORPUS["sentences"], help="sentences per speaker (1-99)")
@@ -52,20 +55,17 @@ def main(argv: list[str] | None = None) -> int:
                         help="also write posed frames (registereddata/) with a smooth head motion of up to DEG "
                              "degrees per axis (default 3), recorded in the ground truth")
     parser.add_argument("--overwrite", action="store_true", help="replace an existing synthetic corpus in --out")
-    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    cli.add_quiet_option(parser)
     args = parser.parse_args(argv)
     start = time.perf_counter()
-    try:
-        check_arguments(args)
-        out = generate_corpus(args.out, speakers=args.speakers, sentences=args.sentences, seed=args.seed,
-                              layout=args.layout, duration=(args.min_duration, args.max_duration),
-                              frame_faces=args.frame_faces, head_motion=args.head_motion or False,
-                              overwrite=args.overwrite, progress=not args.quiet)
-    except (BlendVOCAError, ValueError, OSError) as error:  # FileExistsError, read-only, disk full: an OSError
-        print(error_line(error), file=sys.stderr)
-        return 2
+    check_arguments(args)
+    # FileExistsError, a read-only folder or a full disk are OSErrors: the command layer reports them (exit 2).
+    out = generate_corpus(args.out, speakers=args.speakers, sentences=args.sentences, seed=args.seed,
+                          layout=args.layout, duration=(args.min_duration, args.max_duration),
+                          frame_faces=args.frame_faces, head_motion=args.head_motion or False,
+                          overwrite=args.overwrite, progress=not args.quiet)
     print(f"wrote {out} ({args.layout} layout, {args.speakers} x {args.sentences}) in {time.perf_counter() - start:.1f} s")
-    return 0
+    return cli.EXIT_OK
 
 
 if __name__ == "__main__":

@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from blendvoca.errors import UserError
 from blendvoca.io.atomic import permissions_for
 from blendvoca.synthetic.audio import speech_audio
 from blendvoca.synthetic.groundtruth import write_npz
@@ -54,7 +55,7 @@ def sentence_lengths(speakers: int, sentences: int, seed: int, duration: tuple[f
     """Frame counts ``(speakers, sentences) int64`` at 60 fps, uniform in ``duration`` seconds."""
     lo, hi = duration
     if not 0.8 <= lo <= hi:
-        raise ValueError(f"duration must be (low, high) seconds with 0.8 <= low <= high, got {duration!r}")
+        raise UserError(f"duration must be (low, high) seconds with 0.8 <= low <= high, got {duration!r}")
     out = np.empty((speakers, sentences), dtype=np.int64)
     for i in range(speakers):
         for j in range(sentences):
@@ -126,9 +127,9 @@ def _write_corpus(out: Path, *, speakers: int, sentences: int, seed: int, layout
     elif layout == "processed":
         writer = ProcessedWriter(out, int(lengths.sum()), num_vertices=len(template))
     else:
-        raise ValueError(f"generate_corpus: layout must be 'official' or 'processed', got {layout!r}")
+        raise UserError(f"generate_corpus: layout must be 'official' or 'processed', got {layout!r}")
     if head_motion and layout != "official":
-        raise ValueError("generate_corpus: head motion is written as VOCASET's posed data (registereddata/), "
+        raise UserError("generate_corpus: head motion is written as VOCASET's posed data (registereddata/), "
                          f"which only the official layout has; got layout {layout!r}")
     names = [speaker_name(i) for i in range(speakers)]
     meta = {
@@ -245,9 +246,9 @@ def generate_corpus(
     """
     out = Path(out).expanduser()
     if not isinstance(speakers, (int, np.integer)) or speakers < 3:
-        raise ValueError(f"generate_corpus: speakers must be an integer >= 3 (train/val/test), got {speakers!r}")
+        raise UserError(f"generate_corpus: speakers must be an integer >= 3 (train/val/test), got {speakers!r}")
     if not isinstance(sentences, (int, np.integer)) or not 1 <= sentences <= 99:
-        raise ValueError(f"generate_corpus: sentences must be an integer in [1, 99], got {sentences!r}")
+        raise UserError(f"generate_corpus: sentences must be an integer in [1, 99], got {sentences!r}")
     if out.exists() and any(out.iterdir()) and not overwrite:
         raise FileExistsError(f"generate_corpus: {out} exists and is not empty; pass overwrite=True (--overwrite)")
     out.parent.mkdir(parents=True, exist_ok=True)
@@ -274,7 +275,7 @@ def _head_motion_degrees(head_motion) -> float:
         return 0.0
     if isinstance(head_motion, (int, float, np.integer, np.floating)) and 0 < float(head_motion) <= 30:
         return float(head_motion)
-    raise ValueError(f"generate_corpus: head_motion must be True/False or a peak angle in (0, 30] degrees, "
+    raise UserError(f"generate_corpus: head_motion must be True/False or a peak angle in (0, 30] degrees, "
                      f"got {head_motion!r}")
 
 

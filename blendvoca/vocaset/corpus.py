@@ -1,141 +1,42 @@
-"""The corpus interface shared by both VOCASET layouts, and ``open_vocaset``."""
+"""``open_vocaset``: open a VOCASET corpus in either layout, detected from its files."""
 
 from __future__ import annotations
 
-import json
+import os
 from pathlib import Path
 
-import numpy as np
+from blendvoca.errors import UserError
+from blendvoca.vocaset.base import SIDECAR, VocasetCorpus
+from blendvoca.vocaset.official import OfficialVocaset
+from blendvoca.vocaset.processed import ProcessedVocaset
+from blendvoca.vocaset.splits import NUM_VERTICES
 
-from blendvoca.vocaset.errors import Problem, VocasetError
-from blendvoca.vocaset.splits import FPS, NUM_VERTICES, corpus_splits
-
-SIDECAR = "synthetic.json"
-
-
-class VocasetCorpus:
-    """A VOCASET-like corpus: speakers, sentences, templates, 60 fps meshes, audio.
-
-    Subclasses implement the layouts; this class holds what they share: the
-    problem log, splits, scanning. Items that cannot be read raise
-    ``VocasetError`` naming subject, sentence and frame, and are logged in
-    ``problems``; everything else keeps reading.
-    """
-
-    layout: str = ""
-    fps: int = FPS
-
-    def __init__(self, root, *, num_vertices: int = NUM_VERTICES):
-        self.root = Path(root)
-        self.num_vertices = int(num_vertices)
-        self._problems: dict[tuple, Problem] = {}
-        self._sidecar = None
-        sidecar = self.root / SIDECAR
-        if sidecar.is_file():
-            self._sidecar = json.loads(sidecar.read_text(encoding="utf-8"))
-
-    # -- problems ----------------------------------------------------------
-    def _record(self, problem: Problem) -> Problem:
-        key = (problem.subject, problem.sentence, problem.kind)
-        self._problems.setdefault(key, problem)
-        return problem
-
-    def _fail(self, kind: str, subject: str, sentence: str | None, message: str, frame: int | None = None):
-        raise VocasetError(self._record(Problem(subject, sentence, frame, kind, message)))
-
-    @property
-    def problems(self) -> list[Problem]:
-        """Every problem found so far (at open time, by reads, or by ``scan``), sorted."""
-        return sorted(self._problems.values())
-
-    def scan(self, *, progress: bool = False) -> list[Problem]:
-        """Read every template, frame sequence and audio clip; return all problems.
-
-        Nothing raises: bad items are collected and the rest is read.
-        """
-        from tqdm.auto import tqdm
-
-        items = [(s, q) for s in self.subjects for q in self.sentences(s)]
-        for subject in self.subjects:
-            try:
-                self.template(subject)
-            except VocasetError:
-                pass
-        for subject, sentence in tqdm(items, desc="scan VOCASET", disable=not progress):
-            for read in (self.frames, self.audio):
-                try:
-                    read(subject, sentence)
-                except VocasetError:
-                    pass
-        return self.problems
-
-    # -- shared interface --------------------------------------------------
-    @property
-    def subjects(self) -> list[str]:
-        raise NotImplementedError
-
-    def sentences(self, subject: str) -> list[str]:
-        raise NotImplementedError
-
-    def template(self, subject: str) -> np.ndarray:
-        raise NotImplementedError
-
-    def frames(self, subject: str, sentence: str, dtype=np.float64) -> np.ndarray:
-        """Mesh sequence ``(T, V, 3)`` at 60 fps in ``dtype`` (None: the precision it is stored in)."""
-        raise NotImplementedError
-
-    def audio(self, subject: str, sentence: str) -> tuple[np.ndarray, int]:
-        raise NotImplementedError
-
-    @property
-    def faces(self) -> np.ndarray:
-        raise NotImplementedError
-
-    @property
-    def splits(self) -> dict[str, list[str]]:
-        """``{"train", "val", "test"}`` speaker lists: the synthetic sidecar's, else VOCASET's 8/2/2."""
-        if self._sidecar is not None and "splits" in self._sidecar:
-            return {k: list(v) for k, v in self._sidecar["splits"].items()}
-        return corpus_splits(self.subjects)
-
-    @property
-    def synthetic(self) -> dict | None:
-        """The synthetic corpus sidecar (seed, lags, durations), None for real data."""
-        return self._sidecar
-
-    def items(self) -> list[tuple[str, str]]:
-        """All ``(subject, sentence)`` pairs that have motion."""
-        return [(s, q) for s in self.subjects for q in self.sentences(s)]
-
-    def _check_subject(self, subject: str) -> None:
-        if subject not in self.subjects:
-            raise KeyError(f"{self.root}: unknown subject {subject!r}; expected one of {self.subjects}")
-
-    def _check_frames(self, subject: str, sentence: str, frames: np.ndarray, where: str) -> np.ndarray:
-        from blendvoca.vocaset.checks import first_bad_frame
-
-        if frames.ndim != 3 or frames.shape[1:] != (self.num_vertices, 3):
-            self._fail("vertex_count", subject, sentence,
-                       f"{where}: frames have shape {frames.shape}, expected (T, {self.num_vertices}, 3)")
-        bad = first_bad_frame(frames)
-        if bad is not None:
-            self._fail("nan", subject, sentence, f"{where}: NaN or infinite coordinates", frame=bad)
-        return frames
-
-    def __repr__(self) -> str:
-        return f"{type(self).__name__}({str(self.root)!r}, subjects={len(self.subjects)})"
+__all__ = ["SIDECAR", "VocasetCorpus", "detect_layout", "open_vocaset"]
 
 
 def detect_layout(root) -> str:
-    """``"processed"`` (data_verts.npy + pickles) or ``"official"`` (per-frame PLY folders)."""
-    root = Path(root)
+    """``"processed"`` (data_verts.npy + pickles) or ``"official"`` (per-frame PLY folders).
+
+    Parameters
+    ----------
+    root : str or os.PathLike
+        The corpus folder.
+
+    Raises
+    ------
+    FileNotFoundError
+        ``root`` does not exist (an ``OSError``: command-line tools report it as one line, exit 2).
+    UserError
+        ``root`` exists but holds neither layout.
+    """
+    root = Path(os.fspath(root))
     if not root.is_dir():
         raise FileNotFoundError(f"VOCASET root not found: {root}")
     if (root / "data_verts.npy").is_file() or (root / "subj_seq_to_idx.pkl").is_file():
         return "processed"
     if (root / "unposedcleaneddata").is_dir() or (root / "templates").is_dir():
         return "official"
-    raise ValueError(
+    raise UserError(
         f"{root}: not a VOCASET folder. Expected either the official download layout "
         "(templates/<subject>.ply, unposedcleaneddata/<subject>/sentenceNN/sentenceNN.NNNNNN.ply, "
         "audio/<subject>/sentenceNN.wav) or the processed layout (data_verts.npy, subj_seq_to_idx.pkl, "
@@ -148,7 +49,7 @@ def open_vocaset(root, *, num_vertices: int = NUM_VERTICES) -> VocasetCorpus:
 
     Parameters
     ----------
-    root : path
+    root : str or os.PathLike
         The folder of the official download (``templates/``,
         ``unposedcleaneddata/``, ``audio/``) or of the processed files
         (``data_verts.npy``, ``subj_seq_to_idx.pkl``, ``raw_audio_fixed.pkl``,
@@ -164,11 +65,5 @@ def open_vocaset(root, *, num_vertices: int = NUM_VERTICES) -> VocasetCorpus:
         ``audio(subject, sentence) -> (samples float32, rate)`` at the native rate,
         ``splits``, ``faces``, ``problems`` and ``scan()``.
     """
-    layout = detect_layout(root)
-    if layout == "processed":
-        from blendvoca.vocaset.processed import ProcessedVocaset
-
-        return ProcessedVocaset(root, num_vertices=num_vertices)
-    from blendvoca.vocaset.official import OfficialVocaset
-
-    return OfficialVocaset(root, num_vertices=num_vertices)
+    reader = ProcessedVocaset if detect_layout(root) == "processed" else OfficialVocaset
+    return reader(root, num_vertices=num_vertices)

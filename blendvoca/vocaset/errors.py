@@ -5,7 +5,7 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
-from blendvoca.errors import BlendVOCAError
+from blendvoca.errors import DataError
 
 PROBLEM_KINDS = (
     "missing_sentence",  # a sentence other subjects have, or audio without meshes
@@ -58,7 +58,7 @@ class Problem:
 SAFE_NAME = re.compile(r"^[A-Za-z0-9_-][A-Za-z0-9_.-]{0,127}$")
 
 
-class UnsafeNameError(BlendVOCAError):
+class UnsafeNameError(DataError):
     """A subject or sentence name that cannot safely become part of a path."""
 
 
@@ -82,7 +82,7 @@ def check_safe_name(name, what: str, where) -> str:
     return name
 
 
-class VocasetError(BlendVOCAError):
+class VocasetError(DataError):
     """A VOCASET item (template, frames or audio) that cannot be read.
 
     Carries the ``Problem``; ``subject``, ``sentence``, ``frame`` and ``kind`` are

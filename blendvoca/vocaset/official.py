@@ -22,7 +22,7 @@ import numpy as np
 from blendvoca.io.audio import read_wav, to_mono
 from blendvoca.io.mesh import MeshFormatError, read_ply, read_ply_sequence, read_ply_vertices
 from blendvoca.vocaset.checks import frame_gaps, wav_truncation
-from blendvoca.vocaset.corpus import VocasetCorpus
+from blendvoca.vocaset.base import VocasetCorpus
 from blendvoca.vocaset.errors import Problem, VocasetError, check_safe_name
 
 _FRAME = re.compile(r"^(?P<sentence>.+)\.(?P<number>\d+)\.ply$")

@@ -23,10 +23,11 @@ from pathlib import Path
 
 import numpy as np
 
+from blendvoca.errors import DataError
+from blendvoca.io.mesh import read_ply
+from blendvoca.vocaset.base import VocasetCorpus
 from blendvoca.vocaset.checks import frame_gaps
-from blendvoca.vocaset.corpus import VocasetCorpus
-from blendvoca.errors import BlendVOCAError
-from blendvoca.vocaset.errors import Problem, check_safe_name
+from blendvoca.vocaset.errors import Problem, VocasetError, check_safe_name
 
 FILES = ("data_verts.npy", "subj_seq_to_idx.pkl", "raw_audio_fixed.pkl", "templates.pkl")
 
@@ -50,12 +51,16 @@ def open_rows(path) -> tuple[np.ndarray, int]:
     """
     path = Path(path)
     with open(path, "rb") as f:
-        version = np.lib.format.read_magic(f)
-        read_header = np.lib.format.read_array_header_1_0 if version == (1, 0) else np.lib.format.read_array_header_2_0
-        shape, fortran, dtype = read_header(f)
+        try:
+            version = np.lib.format.read_magic(f)
+            read_header = (np.lib.format.read_array_header_1_0 if version == (1, 0)
+                           else np.lib.format.read_array_header_2_0)
+            shape, fortran, dtype = read_header(f)
+        except ValueError as error:  # numpy's own message for a bad magic string or header
+            raise DataError(f"{path}: not a readable .npy file ({error})") from None
         offset = f.tell()
     if fortran:
-        raise ValueError(f"{path}: Fortran-ordered arrays are not supported; expected C order (N, V, 3)")
+        raise DataError(f"{path}: Fortran-ordered arrays are not supported; expected C order (N, V, 3)")
     row_shape = tuple(shape[1:])
     row_bytes = int(np.prod(row_shape, dtype=np.int64)) * dtype.itemsize
     available = min(shape[0], (path.stat().st_size - offset) // max(row_bytes, 1))
@@ -65,7 +70,7 @@ def open_rows(path) -> tuple[np.ndarray, int]:
     return rows, shape[0]
 
 
-class UnsafePickleError(BlendVOCAError):
+class UnsafePickleError(DataError):
     """A pickle that is not plain data (names a class or function outside the allowed list) or does not parse."""
 
 
@@ -243,7 +248,6 @@ class ProcessedVocaset(VocasetCorpus):
         """FLAME triangles ``(9976, 3) int64`` (the processed layout stores none: asset ``flame-sample``)."""
         if getattr(self, "_faces", None) is None:
             from blendvoca.assets import resolve
-            from blendvoca.io.mesh import read_ply
 
             self._faces = read_ply(resolve("flame-sample"))[1]
         return self._faces
@@ -254,8 +258,6 @@ class ProcessedVocaset(VocasetCorpus):
         rows = self.frame_rows(subject, sentence)
         for p in self.problems:
             if (p.subject, p.sentence) == (subject, sentence) and p.kind in ("missing_frame", "truncated"):
-                from blendvoca.vocaset.errors import VocasetError
-
                 raise VocasetError(p)
         if rows.min() < 0:
             self._fail("unreadable", subject, sentence, f"subj_seq_to_idx.pkl: negative row {rows.min()}")

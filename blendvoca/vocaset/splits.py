@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
+from blendvoca.errors import DataError
+
 # VOCA = FaceFormer = SAiD.
 VOCASET_SPLITS: dict[str, tuple[str, ...]] = {
     "train": tuple(f"FaceTalk_{s}_TA" for s in (
@@ -37,9 +39,9 @@ def proportional_split(subjects: Sequence[str]) -> dict[str, list[str]]:
     """
     subjects = list(subjects)
     if len(set(subjects)) != len(subjects):
-        raise ValueError(f"proportional_split: duplicate speaker names in {subjects}")
+        raise DataError(f"proportional_split: duplicate speaker names in {subjects}")
     if len(subjects) < 3:
-        raise ValueError(f"proportional_split: need at least 3 speakers for train/val/test, got {len(subjects)}")
+        raise DataError(f"proportional_split: need at least 3 speakers for train/val/test, got {len(subjects)}")
     k = max(1, round(len(subjects) / 6))
     return {"train": subjects[: -2 * k], "val": subjects[-2 * k: -k], "test": subjects[-k:]}
 

@@ -7,15 +7,17 @@ from pathlib import Path
 
 import numpy as np
 
+from blendvoca.errors import UserError
 from blendvoca.io.audio import write_wav
 from blendvoca.io.mesh import ply_face_block, ply_header, write_ply
+from blendvoca.vocaset.errors import VocasetError
 from blendvoca.vocaset.splits import NUM_VERTICES
 
 
 def _check_sentence(subject: str, sentence: str, frames: np.ndarray, num_vertices: int) -> np.ndarray:
     frames = np.asarray(frames)
     if frames.ndim != 3 or frames.shape[1:] != (num_vertices, 3) or len(frames) == 0:
-        raise ValueError(f"{subject}/{sentence}: frames must be (T>0, {num_vertices}, 3), got shape {frames.shape}")
+        raise UserError(f"{subject}/{sentence}: frames must be (T>0, {num_vertices}, 3), got shape {frames.shape}")
     return frames
 
 
@@ -148,8 +150,6 @@ def convert_corpus(corpus, out, *, layout: str = "processed", progress: bool = T
     """
     from tqdm.auto import tqdm
 
-    from blendvoca.vocaset.errors import VocasetError
-
     good = []
     for subject, sentence in corpus.items():
         try:
@@ -163,7 +163,7 @@ def convert_corpus(corpus, out, *, layout: str = "processed", progress: bool = T
     elif layout == "official":
         writer = OfficialWriter(out, num_vertices=corpus.num_vertices)
     else:
-        raise ValueError(f"convert_corpus: layout must be 'processed' or 'official', got {layout!r}")
+        raise UserError(f"convert_corpus: layout must be 'processed' or 'official', got {layout!r}")
     for subject in corpus.subjects:
         try:
             writer.add_template(subject, corpus.template(subject), corpus.faces)

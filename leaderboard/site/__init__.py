@@ -20,6 +20,7 @@ import shutil
 import tempfile
 from pathlib import Path
 
+from blendvoca.errors import OutputDirError
 from blendvoca.io.atomic import permissions_for
 
 from .data import load_site_runs, with_dataset, write_site_data
@@ -34,9 +35,9 @@ _STATIC = Path(__file__).resolve().parent / "static"
 
 def _check_out(out: Path) -> None:
     if out.exists() and not out.is_dir():
-        raise ValueError(f"leaderboard.site: --out {out} is a file, expected a folder")
+        raise OutputDirError(f"leaderboard.site: --out {out} is a file, expected a folder")
     if out.is_dir() and any(out.iterdir()) and not (out / SITE_MARKER).is_file():
-        raise ValueError(f"leaderboard.site: --out {out} is a non-empty folder that is not a site written by this "
+        raise OutputDirError(f"leaderboard.site: --out {out} is a non-empty folder that is not a site written by this "
                          f"tool (no {SITE_MARKER}); choose an empty or new folder")
 
 

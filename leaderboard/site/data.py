@@ -20,6 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
+from blendvoca.errors import DataError, UserError
+
 
 __all__ = ["SiteRun", "load_site_runs", "with_dataset", "write_site_data"]
 
@@ -59,7 +61,7 @@ class SiteRun:
 
         try:
             stored = read_run(self.path)
-        except (ValueError, FileNotFoundError):
+        except (DataError, FileNotFoundError):  # a run stored without tracks: nothing to play back
             return {}
         return {key: stored.track_paths(*key) for key in stored.keys}
 
@@ -70,10 +72,10 @@ def load_site_runs(results_dir) -> list[SiteRun]:
 
     results_dir = Path(results_dir)
     if not results_dir.is_dir():
-        raise FileNotFoundError(f"leaderboard.site: results folder {results_dir} does not exist")
+        raise UserError(f"leaderboard.site: results folder {results_dir} does not exist")
     runs = [SiteRun(path, read_result(path)) for path in sorted(results_dir.glob("*.json"))]
     if not runs:
-        raise FileNotFoundError(f"leaderboard.site: {results_dir} holds no result *.json files")
+        raise UserError(f"leaderboard.site: {results_dir} holds no result *.json files")
     return runs
 
 
@@ -230,7 +232,7 @@ def with_dataset(runs, data) -> list[SiteRun]:
 
     Raises
     ------
-    ValueError
+    UserError
         No run was scored on ``data``.
     """
     from benchmark.data import open_blendvoca
@@ -239,7 +241,7 @@ def with_dataset(runs, data) -> list[SiteRun]:
     digest = open_blendvoca(data).manifest_hash
     matched = [run for run in runs if run.manifest_hash == digest]
     if not matched:
-        raise ValueError(f"leaderboard.site: --data {data} (manifest {digest[:12]}) is not the dataset of any run "
+        raise UserError(f"leaderboard.site: --data {data} (manifest {digest[:12]}) is not the dataset of any run "
                          f"(their manifests: {sorted({r.manifest_hash[:12] for r in runs})})")
     for run in matched:
         run.result = {**run.result, "dataset": {**run.result["dataset"], "path": str(data)}}

@@ -8,6 +8,8 @@ import re
 import threading
 from pathlib import Path
 
+from blendvoca.errors import UserError
+
 __all__ = ["serve_site", "site_server"]
 
 
@@ -75,7 +77,7 @@ def site_server(site_dir, *, host: str = "127.0.0.1", port: int = 0) -> http.ser
     """
     site_dir = Path(site_dir)
     if not (site_dir / "index.html").is_file():
-        raise FileNotFoundError(f"leaderboard.site: {site_dir} has no index.html; build the site first")
+        raise UserError(f"leaderboard.site: {site_dir} has no index.html; build the site first")
     handler = functools.partial(_SiteHandler, directory=str(site_dir))
     return http.server.ThreadingHTTPServer((host, int(port)), handler)
 

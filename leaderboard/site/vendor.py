@@ -10,6 +10,8 @@ from __future__ import annotations
 import shutil
 from pathlib import Path
 
+from blendvoca.errors import UserError
+
 __all__ = ["VENDOR_FILES", "WEB_DIR", "copy_vendor_files"]
 
 #: Folder holding ``package.json`` / ``package-lock.json`` of the site's libraries.
@@ -41,13 +43,13 @@ def copy_vendor_files(site_dir, node_modules=None) -> list[Path]:
 
     Raises
     ------
-    FileNotFoundError
+    UserError
         The npm packages are not installed; the message gives the command.
     """
     node_modules = Path(node_modules) if node_modules is not None else WEB_DIR / "node_modules"
     missing = [rel for rel in VENDOR_FILES if not (node_modules / rel).is_file()]
     if missing:
-        raise FileNotFoundError(
+        raise UserError(
             f"leaderboard.site: three.js is not installed ({node_modules / missing[0]} missing); run "
             f"`npm ci --prefix {WEB_DIR}` once (it installs the version pinned in {WEB_DIR / 'package-lock.json'})"
         )

@@ -1,10 +1,12 @@
-"""Fabricated BlendVOCA-like data for the benchmark tests: a rig on the FLAME
+"""Fabricated BlendVOCA data on disk for the benchmark tests: a rig on the FLAME
 sample head with localized smooth blendshapes, smooth random tracks, and speech-like
-audio whose loudness follows the mouth opening."""
+audio whose loudness follows the mouth opening, written as a BlendVOCA folder
+(:func:`make_dataset`) for the tests that read one through ``open_blendvoca``, the
+renderer or the region metrics (FLAME topology). Tests that need a dataset object
+in memory use ``benchmark.testing.FakeBlendVOCA``."""
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
@@ -65,31 +67,26 @@ def speech_for(opening: np.ndarray, rng, fps: float = FPS, rate: int = RATE) -> 
 
 def make_dataset(root: Path, assets_dir: Path, subjects=("FakeA", "FakeB", "FakeC"), sentences: int = 3,
                  frames: tuple[int, int] = (150, 200), seed: int = 0, samples: int = 0) -> Path:
-    """Write a tiny BlendVOCA build: rigs/, blendshape_coeffs/, audio/, splits.json, manifest.json.
+    """Write a tiny BlendVOCA folder through ``blendvoca.format``: rigs/, blendshape_coeffs/
+    (with ``samples`` extra noisy samples per sentence), audio/, splits.json, manifest.json.
 
     Split: the first subject is train, the second val, the others test.
     """
-    from blendvoca.io.audio import write_wav
-    from blendvoca.io.coeffs import write_coeffs_csv
+    from blendvoca import format as fmt
 
     rng = np.random.default_rng(seed)
     neutral, faces = flame_head(assets_dir)
-    (root / "rigs").mkdir(parents=True, exist_ok=True)
     jaw = BLENDVOCA_NAMES.index("jawOpen")
     for i, subject in enumerate(subjects):
-        fake_rig(neutral + rng.normal(scale=1e-4, size=neutral.shape), faces, seed=i).save(root / "rigs" / f"{subject}.npz")
+        fmt.write_rig(root, subject, fake_rig(neutral + rng.normal(scale=1e-4, size=neutral.shape), faces, seed=i))
         for j in range(1, sentences + 1):
+            sentence = f"sentence{j:02d}"
             track = smooth_track(int(rng.integers(*frames)), rng)
-            (root / "blendshape_coeffs" / subject).mkdir(parents=True, exist_ok=True)
-            (root / "audio" / subject).mkdir(parents=True, exist_ok=True)
-            write_coeffs_csv(root / "blendshape_coeffs" / subject / f"sentence{j:02d}.csv", track, BLENDVOCA_NAMES)
+            fmt.write_coeffs(root, subject, sentence, track, BLENDVOCA_NAMES)
             for k in range(samples):
                 noisy = np.clip(track + rng.normal(scale=0.05, size=track.shape), 0, 1)
-                write_coeffs_csv(root / "blendshape_coeffs" / subject / f"sentence{j:02d}-{k}.csv", noisy, BLENDVOCA_NAMES)
-            write_wav(root / "audio" / subject / f"sentence{j:02d}.wav", speech_for(track[:, jaw], rng), RATE)
-    splits = {"train": [subjects[0]], "val": [subjects[1]], "test": list(subjects[2:])}
-    (root / "splits.json").write_text(json.dumps(splits))
-    from blendvoca.build.manifest import write_folder_manifest
-
-    write_folder_manifest(root)  # what open_blendvoca reads: every file listed with its sha256
+                fmt.write_coeffs(root, subject, sentence, noisy, BLENDVOCA_NAMES, sample=k)
+            fmt.write_audio(root, subject, sentence, speech_for(track[:, jaw], rng), RATE)
+    fmt.write_splits(root, {"train": [subjects[0]], "val": [subjects[1]], "test": list(subjects[2:])})
+    fmt.write_folder_manifest(root)  # what open_blendvoca reads: every file listed with its sha256
     return root

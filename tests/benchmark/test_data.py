@@ -26,6 +26,25 @@ def test_reads_build(fake_dataset_dir):
     assert len(ds.manifest_hash) == 64 and ds.manifest_hash == open_blendvoca(fake_dataset_dir).manifest_hash
 
 
+def test_a_path_may_be_a_str_or_path_like(fake_dataset_dir):
+    from benchmark.data import BlendVOCADataset
+
+    for root in (str(fake_dataset_dir), fake_dataset_dir):
+        assert BlendVOCADataset(root).subjects == ["FakeA", "FakeB", "FakeC"]
+        assert open_blendvoca(root, vocaset=str(fake_dataset_dir)).manifest_hash == \
+            open_blendvoca(fake_dataset_dir).manifest_hash
+
+
+def test_the_dataset_and_the_test_fake_are_what_plug_ins_are_given(fake_dataset_dir):
+    from benchmark.methods import Dataset
+    from benchmark.testing import FakeBlendVOCA
+
+    assert isinstance(open_blendvoca(fake_dataset_dir), Dataset)
+    for fake in (FakeBlendVOCA(), FakeBlendVOCA(1, train=["A"], val=0, test=["B"], tracks="smooth", rig="random")):
+        assert isinstance(fake, Dataset)
+    assert not isinstance(object(), Dataset)
+
+
 def test_said_layout_fallback(fake_dataset_dir, tmp_path):
     import trimesh
 
@@ -41,7 +60,7 @@ def test_said_layout_fallback(fake_dataset_dir, tmp_path):
     (root / "blendshapes_head" / "FakeC" / "Neutral.obj").rename(root / "templates_head" / "FakeC.obj")
     with pytest.raises(ValueError, match=r"no manifest.json.*python -m blendvoca.build.manifest"):
         open_blendvoca(root)  # a hand-made folder is listed once, then opened
-    from blendvoca.build.manifest import main as list_folder
+    from blendvoca.format.manifest import main as list_folder
 
     assert list_folder([str(root)]) == 0
     ds = open_blendvoca(root)
@@ -57,7 +76,7 @@ def test_samples_and_manifest_hash(fake_dataset_dir, tmp_path):
     shutil.copytree(fake_dataset_dir, root)
     from blendvoca.io.coeffs import write_coeffs_csv
 
-    from blendvoca.build.manifest import write_folder_manifest
+    from blendvoca.format.manifest import write_folder_manifest
 
     base = open_blendvoca(root).coeffs("FakeC", "sentence02")
     for k in range(3):

@@ -1,16 +1,92 @@
-"""The benchmark protocol end to end with the real metrics: same seed and step budget,
+"""The benchmark protocol: its steps and their records composed by hand give what
+``run_method`` gives; and end to end with the real metrics, same seed and step budget,
 same numbers; intervals bracket the means; one per-sentence row and one stored CSV per
 sentence and sample."""
 
+import dataclasses
 import json
 
+import numpy as np
 import pytest
 
 from benchmark.methods import Budget
-from benchmark.run import run_method
+from benchmark.protocol import (
+    Generated,
+    RunSpec,
+    Scored,
+    Trained,
+    UsageError,
+    check_inputs,
+    generate,
+    run,
+    run_method,
+    score,
+    store,
+    track_writer,
+    train,
+)
 from benchmark.runs import read_run
+from tests.methods.fakes import fake_evaluate, speech_dataset
 
-pytestmark = pytest.mark.slow  # six scored runs with the VAE
+
+@pytest.mark.parametrize("field, value, flag", [("samples", 0, "--samples"), ("samples", True, "--samples"),
+                                                ("sentence_batch", 1.5, "--sentence-batch"),
+                                                ("generate_time_limit", 0, "--generate-time-limit")])
+def test_a_run_spec_is_checked_when_made(field, value, flag):
+    with pytest.raises(UsageError, match=flag):
+        RunSpec("mean", **{field: value})
+
+
+def test_a_run_spec_is_frozen_and_keeps_its_own_config():
+    config = {"split": "train"}
+    spec = RunSpec("mean", config=config, budget=None)
+    config["split"] = "val"
+    assert spec.config == {"split": "train"} and spec.budget == Budget()
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        spec.samples = 3
+
+
+def test_the_steps_by_hand_give_what_run_method_gives(tmp_path):
+    dataset = speech_dataset(seed=1, sentences=2, seconds=1.0)
+    spec = RunSpec("random", data_root="unused", samples=2, seed=3, budget=Budget(max_steps=2),
+                   results_dir=tmp_path / "steps", progress=False)
+    inputs = check_inputs(spec, open_dataset=lambda root: dataset, evaluation_assets=False)
+    assert inputs.subjects == ("D", "E") and inputs.results_dir.is_dir()
+    trained = train(spec, inputs.dataset)
+    assert isinstance(trained, Trained) and trained.stochastic and trained.load_s is None
+    assert trained.train_s is not None and trained.label == "random"
+    writer = track_writer(spec, inputs, trained)
+    generated = generate(spec, inputs.dataset, trained, store=writer)
+    assert isinstance(generated, Generated) and generated.vertices is None and generated.n_clipped == 0
+    assert list(generated.tracks) == [(s, q) for s in ("D", "E") for q in ("sentence01", "sentence02")]
+    assert all(t.shape[0] == 2 for t in generated.tracks.values())
+    scored = score(spec, inputs.dataset, generated, evaluate=fake_evaluate)
+    assert isinstance(scored, Scored) and set(scored.metrics) == {"coeff_mse", "sync"}
+    assert [(r["subject"], r["sentence"]) for r in scored.per_sentence] == list(generated.tracks)
+    timings = {**trained.timings, "generate_s": generated.seconds, "evaluate_s": scored.seconds, "total_s": 1.0}
+    by_hand = store(spec, inputs, trained, generated, scored, writer=writer, timings=timings, provenance={})
+    composed = run_method("random", "unused", samples=2, seed=3, budget=Budget(max_steps=2),
+                          results_dir=tmp_path / "run", evaluate=fake_evaluate, open_dataset=lambda root: dataset,
+                          progress=False)
+    a, b = json.loads(by_hand.read_text()), json.loads(composed.read_text())
+    assert by_hand.name == composed.name
+    for section in ("method", "dataset", "protocol", "metrics", "per_sentence", "tracks"):
+        assert a[section] == b[section], section
+    run_a, run_b = read_run(by_hand), read_run(composed)
+    assert run_a.keys == run_b.keys
+    assert all(np.array_equal(run_a.tracks(*key), run_b.tracks(*key)) for key in run_a.keys)
+
+
+def test_a_failing_step_leaves_nothing(tmp_path):
+    dataset = speech_dataset(seed=1, sentences=1, seconds=1.0)
+
+    def evaluate(tracks, dataset, split="test"):
+        raise RuntimeError("the evaluation broke")
+
+    spec = RunSpec("mean", data_root="unused", results_dir=tmp_path / "r", progress=False)
+    with pytest.raises(RuntimeError, match="evaluation broke"):
+        run(spec, evaluate=evaluate, open_dataset=lambda root: dataset)
+    assert list((tmp_path / "r").iterdir()) == []  # no result, no tracks, no staging folder
 
 
 def _evaluate(vae):
@@ -23,6 +99,7 @@ def _evaluate(vae):
     return evaluate
 
 
+@pytest.mark.slow  # six scored runs with the VAE
 @pytest.mark.parametrize("method, samples", [("mean", 1), ("regression", 1), ("random", 3)])
 def test_same_seed_and_steps_give_identical_metrics(fake_dataset_dir, assets_dir, tmp_path, method, samples):
     from benchmark.data import open_blendvoca

@@ -7,7 +7,7 @@ import torch
 
 from benchmark.lipsync import expert_sync_metrics, load_expert, save_expert
 from benchmark.lipsync.expert import audio_features, build_expert, shift_distances
-from benchmark.lipsync.expert_train import SyncItem, dataset_items, train_expert
+from benchmark.lipsync.expert_training import SyncItem, dataset_items, train_expert
 from benchmark.lipsync.train_expert import main as train_main
 
 
@@ -134,7 +134,7 @@ def test_dataset_items_carry_the_true_lags(built_dataset):
 
 
 def test_cached_expert_trains_once_per_build(built_dataset, tmp_path):
-    from benchmark.lipsync.expert_train import cached_expert
+    from benchmark.lipsync.expert_training import cached_expert
 
     expert, path = cached_expert(built_dataset, max_steps=2, cache_dir=tmp_path, progress=False)
     assert path.is_file() and path.parent == tmp_path / "sync-expert"

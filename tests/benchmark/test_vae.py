@@ -98,3 +98,44 @@ def test_training_cli(fake_dataset_dir, tmp_path, assets_dir, monkeypatch, one_t
     main(["--data", str(fake_dataset_dir), "--out", str(out), "--steps", "3", "--batch-size", "2"])
     model = load_published_vae(out)
     assert model.encode(torch.zeros(1, 120, 32)).shape == (1, 64)
+
+
+@pytest.mark.parametrize("argv, steps, seconds", [
+    ([], 300, None),
+    (["--steps", "7"], 7, None),
+    (["--max-steps", "7"], 7, None),
+    (["--budget", "12"], 12, None),
+    (["--budget", "5m"], 300, 300.0),
+    (["--budget", "steps=12,seconds=30", "--max-steps", "4"], 4, 30.0),
+])
+def test_training_cli_budget(fake_dataset_dir, tmp_path, assets_dir, monkeypatch, argv, steps, seconds):
+    import benchmark.features.train as train
+
+    monkeypatch.setenv("BLENDVOCA_ASSETS", str(assets_dir))
+    seen = {}
+
+    def fake_train(tracks, std, **kwargs):
+        seen.update(kwargs)
+        return CoeffsVAE()
+
+    monkeypatch.setattr(train, "train_vae", fake_train)
+    assert train.main(["--data", str(fake_dataset_dir), "--out", str(tmp_path / "vae.pth"), *argv]) == 0
+    assert (seen["steps"], seen["max_seconds"]) == (steps, seconds)
+
+
+def test_training_cli_refuses_a_bad_budget_in_one_line(fake_dataset_dir, tmp_path, capsys):
+    from benchmark.features.train import main
+
+    assert main(["--data", str(fake_dataset_dir), "--out", str(tmp_path / "vae.pth"), "--budget", "soon"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("error: --budget")
+
+
+def test_training_stops_at_the_time_budget(one_thread):
+    import time
+
+    rng = np.random.default_rng(0)
+    tracks = [rng.uniform(size=(150, 32)) for _ in range(2)]
+    start = time.perf_counter()
+    model = train_vae(tracks, np.full(32, 0.3), steps=10**6, max_seconds=0.5, batch_size=2, progress=False)
+    assert time.perf_counter() - start < 30 and not model.training

@@ -9,7 +9,7 @@ import torch
 from baselines.codetalker.plugin import CodeTalkerMethod
 from baselines.codetalker.train import split_budget, train_stage1
 from baselines.codetalker.vqvae import VQAutoEncoder
-from baselines.faceformer.sequences import MotionSequence
+from baselines.common.sequences import MotionSequence
 from benchmark.methods.base import Budget
 from benchmark.testing import FakeBlendVOCA, check_method
 
@@ -56,7 +56,7 @@ def test_stage2_training_leaves_the_vq_vae_frozen():
     assert m.history["stage1"]["steps"] == 2 and m.history["stage2"]["steps"] == 4
     vq_before = {k: v.clone() for k, v in m.network.autoencoder.state_dict().items()}
     from baselines.codetalker.train import train_stage2
-    from baselines.faceformer.sequences import motion_sequences
+    from baselines.common.sequences import motion_sequences
 
     train_stage2(m.network, motion_sequences(ds, "train"), [], m.subjects, training=m.settings["training"], seed=0,
                  max_steps=2, max_seconds=float("inf"), progress=False)
@@ -105,9 +105,27 @@ def test_official_checkpoints_through_the_runner(tmp_path):
                         checkpoint=tmp_path / "vocaset_stage2.pth.tar")
 
 
+def test_official_files_are_named_by_any_path_like(tmp_path):
+    import json
+
+    from baselines.codetalker import load_official
+    from tests.codetalker import test_official as official
+    from tests.faceformer.test_official import PathLikeText
+
+    torch.save({"state_dict": official.authors_stage1_state()}, tmp_path / "v_stage1.pth.tar")
+    torch.save({"state_dict": official.authors_stage2_state(True)}, tmp_path / "v_stage2.pth.tar")
+    model = load_official(PathLikeText(tmp_path / "v_stage2.pth.tar"), PathLikeText(tmp_path / "v_stage1.pth.tar"),
+                          wav2vec2_config="tiny")
+    assert not model.training
+    method = CodeTalkerMethod.from_official_checkpoint(PathLikeText(tmp_path / "v_stage2.pth.tar"), official_wav2vec2="tiny")
+    saved = json.loads(json.dumps(method.config()))  # the paths are recorded as text
+    assert (saved["official"], saved["official_stage1"]) == (str(tmp_path / "v_stage2.pth.tar"),
+                                                            str(tmp_path / "v_stage1.pth.tar"))
+
+
 def test_paper_schedule_is_epochs_when_no_budget_is_given():
-    from baselines.faceformer.train import epochs_to_steps
-    from baselines.faceformer.vertex_method import training_limits
+    from baselines.common.training import epochs_to_steps
+    from baselines.common.vertex_method import training_limits
 
     from baselines.codetalker.presets import resolve_config
 
@@ -146,7 +164,7 @@ def test_fed_back_frames_replace_the_ground_truth_inputs_only():
 def test_own_input_feeding_is_switchable_and_seeded():
     """``own_input_prob`` 0 is the authors' teacher forcing; > 0 trains differently, reproducibly."""
     from baselines.codetalker.train import train_stage2
-    from baselines.faceformer.sequences import motion_sequences
+    from baselines.common.sequences import motion_sequences
 
     ds = FakeBlendVOCA(0, train=2, sentences=1)
     train, subjects = motion_sequences(ds, "train"), list(ds.split("train"))

@@ -3,10 +3,10 @@
 import pytest
 import torch
 
-from baselines.faceformer.attention_bias import alibi_slopes, alignment_mask, biased_causal_mask
-from baselines.faceformer.audio import authors_frame_count, wav2vec2_motion_features
-from baselines.faceformer.decoding import decode_step, decode_teacher_forced, motion_decoder
-from baselines.faceformer.positional import PeriodicPositionalEncoding
+from baselines.common.attention_bias import alibi_slopes, biased_causal_mask, enc_dec_mask
+from baselines.common.encoders.trainable import authors_frame_count, wav2vec2_motion_features
+from baselines.common.motion_decoder import decode_step, decode_teacher_forced, motion_decoder
+from baselines.common.positional import PeriodicPositionalEncoding
 from tests.faceformer.authors_reference import (
     reference_autoregression,
     reference_biased_mask,
@@ -35,14 +35,14 @@ def test_biased_causal_mask(length, period):
                 assert mask[h, i, j].item() == want
 
 
-def test_alignment_mask():
-    m = alignment_mask(5, 5)
+def test_enc_dec_mask():
+    m = enc_dec_mask(5, 5)
     assert torch.equal(m, ~torch.eye(5, dtype=torch.bool))
-    b = alignment_mask(3, 6, "BIWI")
+    b = enc_dec_mask(3, 6, "BIWI")
     allowed = [[s for s in range(6) if not b[t, s]] for t in range(3)]
     assert allowed == [[0, 1], [2, 3], [4, 5]]
     with pytest.raises(ValueError, match="vocaset"):
-        alignment_mask(2, 2, "other")
+        enc_dec_mask(2, 2, "other")
 
 
 def test_periodic_positional_encoding():

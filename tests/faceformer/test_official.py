@@ -6,6 +6,7 @@ from torch import nn
 
 from baselines.faceformer import load_official
 from baselines.wav2vec2 import current_layout_state, legacy_layout_state, tiny_config, wav2vec2_model
+from blendvoca.errors import DataError, UserError
 from tests.faceformer.authors_reference import (
     reference_autoregression,
     reference_decoder,
@@ -92,8 +93,32 @@ def test_wrong_checkpoint_is_a_clear_error(tmp_path):
     torch.save(state, path)
     with pytest.raises(ValueError, match="missing.*vertice_map_r.bias"):
         load_official(path, wav2vec2_config="tiny")
-    with pytest.raises(FileNotFoundError, match="not found"):
+    with pytest.raises(UserError, match="not found"):  # a path the user named: exit 2 at a command line
         load_official(tmp_path / "nope.pth")
+    (tmp_path / "text.pth").write_text("not a checkpoint")
+    with pytest.raises(DataError, match="cannot read"):  # the file's content: exit 2 too
+        load_official(tmp_path / "text.pth")
+
+
+class PathLikeText:
+    """An ``os.PathLike`` that is not a ``pathlib.Path`` (CodeTalker's tests use it too)."""
+
+    def __init__(self, path):
+        self.path = str(path)
+
+    def __fspath__(self):
+        return self.path
+
+
+def test_official_files_are_named_by_any_path_like(tmp_path):
+    import json
+
+    from baselines.faceformer.plugin import FaceFormerMethod
+
+    torch.save(authors_state(legacy=True), tmp_path / "vocaset.pth")
+    assert load_official(PathLikeText(tmp_path / "vocaset.pth"), wav2vec2_config="tiny").config["num_subjects"] == NSUBJ
+    method = FaceFormerMethod.from_official_checkpoint(PathLikeText(tmp_path / "vocaset.pth"), official_wav2vec2="tiny")
+    assert json.loads(json.dumps(method.config()))["official"] == str(tmp_path / "vocaset.pth")  # saved as text
 
 
 def test_paper_architecture_key_shapes():

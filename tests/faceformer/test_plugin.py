@@ -4,10 +4,11 @@ import numpy as np
 import pytest
 import torch
 
+from baselines.common.sequences import motion_frames, to_benchmark_rate
+from baselines.common.vertex_method import style_indices
 from baselines.faceformer.plugin import FaceFormerMethod
-from baselines.faceformer.sequences import motion_frames, to_benchmark_rate
-from baselines.faceformer.vertex_method import style_indices
 from benchmark.testing import FakeBlendVOCA, check_method
+from blendvoca.errors import UserError
 
 TINY = {"feature_dim": 16, "max_seconds": None}
 
@@ -106,7 +107,7 @@ def test_official_checkpoint_through_the_runner(tmp_path):
     subject = ds.split("test")[0]
     vdim = ds.template(subject).size
     torch.save(authors_state(legacy=True, vdim=vdim), tmp_path / "vocaset.pth")
-    with pytest.raises(FileNotFoundError, match="missing.pth"):
+    with pytest.raises(UserError, match="missing.pth"):
         FaceFormerMethod(official=str(tmp_path / "missing.pth"))
     method, timings = prepared_method("faceformer", {"official_wav2vec2": "tiny"}, ds, seed=0,
                                       budget=Budget(max_steps=5), checkpoint=tmp_path / "vocaset.pth")
@@ -115,12 +116,12 @@ def test_official_checkpoint_through_the_runner(tmp_path):
     out = method.generate(u, samples=2, seed=3)
     assert out.shape == (2, u.num_frames, vdim // 3, 3)
     # sample 0 is style 3: the authors' predict with one-hot 3, at 30 fps, resampled to 60 fps
-    from baselines.faceformer.audio import normalized_speech
-    from baselines.faceformer.sequences import motion_frames, to_benchmark_rate
+    from baselines.common.encoders.wav2vec2 import normalize_waveform
+    from baselines.common.sequences import motion_frames, to_benchmark_rate
 
     model = load_official(tmp_path / "vocaset.pth", wav2vec2_config="tiny")
     with torch.no_grad():
-        ref = model.predict(normalized_speech(torch.from_numpy(u.audio)[None]),
+        ref = model.predict(normalize_waveform(torch.from_numpy(u.audio)[None]),
                             torch.from_numpy(ds.template(subject).reshape(1, -1)).float(),
                             torch.eye(8)[3:4], motion_frames(u.num_frames))[0].numpy()
     np.testing.assert_allclose(out[0], to_benchmark_rate(ref, u.num_frames).reshape(out[0].shape), atol=1e-6)

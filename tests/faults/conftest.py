@@ -31,7 +31,7 @@ def small_processed(tmp_path_factory, assets_dir) -> Path:
 
 @pytest.fixture(scope="session")
 def small_build(tmp_path_factory, small_corpus) -> Path:
-    from blendvoca.build import build_dataset
+    from blendvoca.builder import build_dataset
 
     out = tmp_path_factory.mktemp("faults") / "B"
     summary = build_dataset(out, small_corpus, workers=1, progress=False)
@@ -56,7 +56,7 @@ def tree(root) -> dict:
 
 def build_cli(capsys, *args) -> tuple[int, str]:
     """Run ``python -m blendvoca.build ARGS --quiet`` in-process; return (exit code, stderr)."""
-    from blendvoca.build.__main__ import main
+    from blendvoca.builder.__main__ import main
 
     code = main([*map(str, args), "--quiet"])
     return code, capsys.readouterr().err

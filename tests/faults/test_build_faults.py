@@ -1,5 +1,5 @@
 """The build under bad input and faults: nothing hangs, nothing of the user's is lost,
-nothing stale is listed, exit codes 0 / 1 / 2 as documented (docs/build.md, "What happens when")."""
+nothing stale is listed, exit codes 0 / 5 / 2 as documented (docs/build.md, "What happens when")."""
 
 from __future__ import annotations
 
@@ -14,9 +14,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from blendvoca.build import build_dataset
-from blendvoca.build import pipeline
-from blendvoca.errors import BlendVOCAError, OutputDirError
+from blendvoca.builder import build_dataset, pipeline
+from blendvoca.cli import EXIT_PARTIAL
+from blendvoca.errors import BlendVOCAError, DataError, MethodError, OutputDirError, UserError
 from tests.faults.conftest import assert_one_error_line, build_cli, tree
 
 S1 = "sentence01"
@@ -136,7 +136,7 @@ def test_a_rebuild_leaves_other_files_alone_and_does_not_list_them(copies):
 
 
 def test_a_second_build_on_the_same_out_is_refused_and_a_crashed_lock_recovers(copies, capsys):
-    from blendvoca.build.outdir import build_lock
+    from blendvoca.builder.outdir import build_lock
 
     corpus, out = copies
     with build_lock(out):
@@ -178,7 +178,7 @@ def test_a_sentence_that_fails_on_rebuild_loses_its_old_outputs(copies, capsys):
     subject = _subjects(corpus)[0]
     _nan_frame(corpus, subject, S1)
     code, err = build_cli(capsys, "--vocaset", corpus, "--out", out, "--workers", 1)
-    assert code == 1 and f"FAILED {subject} {S1}" in err and "NaN" in err
+    assert code == EXIT_PARTIAL and f"FAILED {subject} {S1}" in err and "NaN" in err
     assert not (out / "blendshape_coeffs" / subject / f"{S1}.csv").exists()
     assert not (out / "audio" / subject / f"{S1}.wav").exists()
     manifest = _manifest(out)
@@ -194,7 +194,7 @@ def test_a_deleted_sentence_folder_is_reported_and_its_outputs_removed(copies, c
     subject = _subjects(corpus)[1]
     shutil.rmtree(corpus / "unposedcleaneddata" / subject / S1)
     code, err = build_cli(capsys, "--vocaset", corpus, "--out", out, "--workers", 1)
-    assert code == 1 and f"FAILED {subject} {S1}" in err
+    assert code == EXIT_PARTIAL and f"FAILED {subject} {S1}" in err
     manifest = _manifest(out)
     failure = next(f for f in manifest["failures"] if (f["subject"], f["sentence"]) == (subject, S1))
     assert "no frames" in failure["reason"] and "previous outputs were removed" in failure["reason"]
@@ -209,9 +209,9 @@ def test_a_sentence_deleted_for_every_speaker_is_reported_once_removed(copies, c
         shutil.rmtree(corpus / "unposedcleaneddata" / subject / S1)
         (corpus / "audio" / subject / f"{S1}.wav").unlink()
     code, err = build_cli(capsys, "--vocaset", corpus, "--out", out, "--workers", 1)
-    assert code == 1 and err.count("no longer in the corpus") == 3
+    assert code == EXIT_PARTIAL and err.count("no longer in the corpus") == 3
     assert not list((out / "blendshape_coeffs").rglob(f"{S1}.csv"))
-    from blendvoca.build.report import TIMINGS
+    from blendvoca.builder.report import TIMINGS
 
     # Every output but the stage timings (volatile, by design not in the manifest) is listed.
     assert set(_manifest(out)["files"]) == {rel for rel in tree(out) if not rel.startswith(".buildstate")} - {
@@ -225,12 +225,12 @@ def test_zero_length_wav_fails_its_sentence(copies, capsys):
     subject = _subjects(corpus)[2]
     soundfile.write(corpus / "audio" / subject / f"{S1}.wav", np.zeros(0, np.float32), 22000, subtype="PCM_16")
     code, err = build_cli(capsys, "--vocaset", corpus, "--out", out, "--workers", 1)
-    assert code == 1 and "empty_audio" in err and f"{subject}/{S1}" in err
+    assert code == EXIT_PARTIAL and "empty_audio" in err and f"{subject}/{S1}" in err
     assert _manifest(out)["failures"][0]["sentence"] == S1
 
 
 def test_interrupted_rebuild_leaves_no_manifest_claiming_old_outputs(copies, monkeypatch):
-    from blendvoca.build import sentence as sentence_module
+    from blendvoca.builder import sentence as sentence_module
 
     corpus, out = copies
     original = sentence_module.sentence_fit
@@ -338,7 +338,7 @@ def test_ply_header_typo_fails_the_sentence_naming_file_and_problem(copies, caps
     frame = sorted((corpus / "unposedcleaneddata" / subject / S1).glob("*.ply"))[5]
     frame.write_bytes(frame.read_bytes().replace(b"property float x", b"property flaot x", 1))
     code, err = build_cli(capsys, "--vocaset", corpus, "--out", out, "--workers", 1)
-    assert code == 1
+    assert code == EXIT_PARTIAL
     failed = [line for line in err.splitlines() if line.startswith("FAILED")]
     assert len(failed) == 1 and frame.name in failed[0] and "flaot" in failed[0] and "frame 5" in failed[0]
     assert "KeyError" not in err
@@ -351,8 +351,14 @@ def test_success_is_exit_zero(copies, capsys):
 
 
 def test_build_errors_are_one_family():
-    assert issubclass(OutputDirError, BlendVOCAError) and issubclass(BlendVOCAError, ValueError)
-    assert issubclass(pipeline.BuildInputError, BlendVOCAError)
+    # One tree: what the user asked for or gave (UserError, DataError: both ValueErrors, exit 2)
+    # apart from a method plug-in that misbehaved (MethodError: a RuntimeError, exit 3).
+    assert issubclass(OutputDirError, UserError) and issubclass(pipeline.BuildInputError, UserError)
+    assert issubclass(pipeline.WorkerStartError, UserError)
+    for branch in (UserError, DataError):
+        assert issubclass(branch, BlendVOCAError) and issubclass(branch, ValueError)
+    assert issubclass(MethodError, BlendVOCAError) and issubclass(MethodError, RuntimeError)
+    assert not issubclass(MethodError, ValueError) and not issubclass(BlendVOCAError, ValueError)
 
 
 def test_a_build_from_before_the_marker_is_still_accepted(copies):
@@ -389,7 +395,7 @@ def test_every_reader_problem_is_a_listed_failure(copies, capsys):
     wav = corpus / "audio" / c / "sentence02.wav"
     wav.write_bytes(wav.read_bytes()[:-1000])  # truncated WAV
     code, err = build_cli(capsys, "--vocaset", corpus, "--out", out, "--workers", 1)
-    assert code == 1
+    assert code == EXIT_PARTIAL
     failures = {(f["subject"], f["sentence"]): f["reason"] for f in _manifest(out)["failures"]}
     assert set(failures) == {(a, "sentence02"), (b, "sentence02"), (c, "sentence02")}
     assert "[truncated]" in failures[a, "sentence02"] and frames[4].name in failures[a, "sentence02"]

@@ -205,7 +205,7 @@ def test_reproduction_corpus_generates(tmp_path, capsys):
 
 
 def test_a_malformed_frame_index_fails_only_its_sentence(tmp_path, small_processed, small_build):
-    from blendvoca.build import build_dataset
+    from blendvoca.builder import build_dataset
 
     root = _processed_copy(tmp_path, small_processed)
     index = _load(root / "subj_seq_to_idx.pkl")

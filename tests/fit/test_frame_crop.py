@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from blendvoca.build.hashing import array_digest
+from blendvoca.format.hashing import array_digest
 from blendvoca.fit import fit_sequence
 from blendvoca.fit.diagnostics import vertex_errors_of_checked
 from blendvoca.fit.frame_crop import CHUNK_FRAMES, FrameCrop

@@ -13,7 +13,7 @@ import pytest
 from benchmark.methods import ENTRY_POINT_GROUP, available_methods, get_method
 from benchmark.run import run_method
 
-from .fakes import FakeDataset, fake_evaluate
+from .fakes import fake_evaluate, speech_dataset
 
 pytestmark = pytest.mark.slow  # a pip install into a temporary folder
 
@@ -48,7 +48,7 @@ def test_example_found_through_entry_point(installed):
 
 
 def test_example_scored_without_touching_the_project(installed, tmp_path):
-    dataset = FakeDataset(seed=4, n_sentences=2, seconds=1.0)
+    dataset = speech_dataset(seed=4, sentences=2, seconds=1.0)
     path = run_method("example-energy", "fake", samples=3, seed=1, results_dir=tmp_path, evaluate=fake_evaluate,
                       open_dataset=lambda root: dataset, progress=False)
     result = json.loads(path.read_text())

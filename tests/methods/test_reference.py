@@ -1,18 +1,18 @@
 import numpy as np
 import pytest
 
-from baselines.reference.lookup import fit_track_length
+from baselines.common.track_lookup import fit_track_length
 from baselines.reference.mean import mean_coefficients
 from baselines.reference.random_walk import random_tracks
 from benchmark.methods import Budget, Utterance, get_method
 from benchmark.run import generated_tracks
 
-from .fakes import FakeDataset
+from .fakes import speech_dataset
 
 
 @pytest.fixture(scope="module")
 def dataset():
-    return FakeDataset(seed=1, n_sentences=2, seconds=1.0)
+    return speech_dataset(seed=1, sentences=2, seconds=1.0)
 
 
 def test_ground_truth_returns_the_dataset_tracks_and_round_trips(dataset, tmp_path):

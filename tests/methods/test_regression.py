@@ -12,7 +12,7 @@ from baselines.regression.training import window_batch
 from benchmark.methods import Budget, Utterance, get_method
 from benchmark.run import generated_tracks
 
-from .fakes import FakeDataset, fake_evaluate
+from .fakes import fake_evaluate, speech_dataset
 
 SMALL = {"steps": 100, "channels": 16, "hidden": 16, "batch": 8, "window": 40}
 
@@ -61,7 +61,7 @@ def test_window_batch_aligned():
 
 @pytest.fixture(scope="module")
 def dataset():
-    return FakeDataset(seed=2, n_sentences=3, seconds=1.5, train=("A", "B", "C"), val=("F",), test=("D", "E"))
+    return speech_dataset(seed=2, sentences=3, seconds=1.5, train=("A", "B", "C"), val=("F",), test=("D", "E"))
 
 
 @pytest.fixture(scope="module")

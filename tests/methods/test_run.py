@@ -12,21 +12,16 @@ from benchmark.methods import (
     show_progress,
     unregister,
 )
-from benchmark.run import (
-    generated_tracks,
-    main,
-    parse_budget,
-    parse_config,
-    run_method,
-    sentence_seed,
-)
+from benchmark.protocol import generated_tracks, sentence_seed
+from benchmark.run import main, parse_budget, parse_config, run_method
+from blendvoca.errors import UserError
 
-from .fakes import FakeDataset, fake_evaluate
+from .fakes import fake_evaluate, speech_dataset
 
 
 @pytest.fixture(scope="module")
 def dataset():
-    return FakeDataset(seed=0, n_sentences=2, seconds=1.0)
+    return speech_dataset(seed=0, sentences=2, seconds=1.0)
 
 
 def _run(name, dataset, tmp_path, **kw):
@@ -95,11 +90,16 @@ def test_bad_config_reported(dataset, tmp_path):
         _run("test-broken", dataset, tmp_path, config={"nope": 1})
 
 
-def test_cli_reports_misbehaviour_without_traceback(dataset, tmp_path, monkeypatch, capsys):
-    import benchmark.run as run_mod
+def _cli_on(dataset, monkeypatch):
+    """``main`` runs on ``dataset`` with the fake evaluation, whatever ``--data`` names."""
+    from benchmark.protocol import scoring, spec
 
-    monkeypatch.setattr(run_mod, "_open_default", lambda root: dataset)
-    monkeypatch.setattr(run_mod, "_evaluate_default", lambda *a, progress=True, **kw: fake_evaluate(*a, **kw))
+    monkeypatch.setattr(spec, "_open_default", lambda root: dataset)
+    monkeypatch.setattr(scoring, "_evaluate_default", lambda *a, progress=True, **kw: fake_evaluate(*a, **kw))
+
+
+def test_cli_reports_misbehaviour_without_traceback(dataset, tmp_path, monkeypatch, capsys):
+    _cli_on(dataset, monkeypatch)
     data = str(tmp_path)
     rc = main(["--method", "test-broken", "--data", data, "--config", "mode=nan", "--results",
                str(tmp_path / "r"), "--quiet"])
@@ -168,7 +168,7 @@ class _Batching(Method):
 
 
 def test_sentence_batches_go_by_length_with_each_sentence_seed():
-    data = FakeDataset(seed=4, n_sentences=4, seconds=1.0)
+    data = speech_dataset(seed=4, sentences=4, seconds=1.0)
     one = _Batching()
     alone, _ = generated_tracks(one, data, samples=2, seed=9, progress=False)
     assert one.calls == []  # one sentence per call: plain generate
@@ -204,10 +204,11 @@ def test_checkpoint_train_then_load(dataset, tmp_path):
     assert r1["timings"]["load_s"] is None and r2["timings"]["train_s"] is None
     assert r1["metrics"] == r2["metrics"]
     # the checkpoint is named by its content too: the digest of the folder's files
-    from blendvoca.build.hashing import content_digest
+    from blendvoca.format.hashing import content_digest
 
     assert r1["protocol"]["checkpoint_sha256"] == r2["protocol"]["checkpoint_sha256"] == content_digest(ckpt)
-    with pytest.raises(MethodError, match="holds method 'mean', not 'static'"):
+    # another method's checkpoint is the user's mistake (exit status 2), not the method's
+    with pytest.raises(UserError, match="holds method 'mean', not 'static'"):
         _run("static", dataset, tmp_path, checkpoint=ckpt)
 
 
@@ -231,8 +232,8 @@ def test_sentence_seeds_distinct():
 
 
 def test_default_data_root_builds_once_into_the_cache(tmp_path, monkeypatch):
-    from benchmark.run import default_data_root
-    from blendvoca.build import pipeline
+    from benchmark.protocol import default_data_root
+    from blendvoca.builder import pipeline
 
     calls = []
 
@@ -279,14 +280,14 @@ class _Slow(Method):
 
 
 def test_runner_enforces_generate_time_limit_and_training_budget(dataset, tmp_path, monkeypatch):
-    import benchmark.run as run_mod
+    from benchmark.protocol import training
     from benchmark.run import MethodTimeout
 
     register("test-slow")(_Slow)
     try:
         with pytest.raises(MethodTimeout, match="sentence 'sentence01'.*limit of 0.3 s"):
             _run("test-slow", dataset, tmp_path, generate_time_limit=0.3)
-        monkeypatch.setattr(run_mod, "TRAIN_GRACE_S", 0.2)
+        monkeypatch.setattr(training, "TRAIN_GRACE_S", 0.2)
         with pytest.raises(MethodTimeout, match="train"):
             _run("test-slow", dataset, tmp_path, config={"where": "train"}, budget=Budget(max_seconds=0.1))
         # a time budget is recorded as non-deterministic
@@ -309,9 +310,9 @@ def test_cli_user_mistakes_are_one_error_line(argv, message, capsys):
 
 
 def test_cli_results_must_be_a_writable_folder(dataset, tmp_path, monkeypatch, capsys):
-    import benchmark.run as run_mod
+    from benchmark.protocol import spec
 
-    monkeypatch.setattr(run_mod, "_open_default", lambda root: dataset)
+    monkeypatch.setattr(spec, "_open_default", lambda root: dataset)
     (tmp_path / "file").write_text("x")
     for argv in (["--results", str(tmp_path / "file")], ["--split", "nope", "--results", str(tmp_path / "r")],
                  ["--budget", "5 parsecs", "--results", str(tmp_path / "r")]):
@@ -352,7 +353,7 @@ class _Tunable(Method):
 
 
 def test_a_loaded_checkpoint_takes_sampling_options_and_refuses_other_config(dataset, tmp_path):
-    from benchmark.run import prepared_method
+    from benchmark.protocol import prepared_method
 
     register("test-tunable")(_Tunable)
     try:
@@ -366,7 +367,8 @@ def test_a_loaded_checkpoint_takes_sampling_options_and_refuses_other_config(dat
         # the result file records the option that sampled
         path = _run("test-tunable", dataset, tmp_path, checkpoint=ckpt, config={"level": 0.75})
         assert json.loads(path.read_text())["method"]["config"]["level"] == 0.75
-        with pytest.raises(MethodError, match=r"--config width=2 differs from the checkpoint .*trained with "
+        # a config the checkpoint was not trained with is the user's mistake (exit status 2)
+        with pytest.raises(UserError, match=r"--config width=2 differs from the checkpoint .*trained with "
                                               r"width=1.*here: \['level'\]"):
             prepared_method("test-tunable", {"width": 2}, dataset, seed=0, budget=Budget(max_steps=1),
                             checkpoint=ckpt)
@@ -375,7 +377,7 @@ def test_a_loaded_checkpoint_takes_sampling_options_and_refuses_other_config(dat
     # a method without sampling options refuses any changed key
     ckpt = tmp_path / "mean-ckpt"
     _run("mean", dataset, tmp_path, checkpoint=ckpt)
-    with pytest.raises(MethodError, match=r"--config split='val' differs .*trained with split='train'.*here: none"):
+    with pytest.raises(UserError, match=r"--config split='val' differs .*trained with split='train'.*here: none"):
         _run("mean", dataset, tmp_path, checkpoint=ckpt, config={"split": "val"})
 
 
@@ -419,3 +421,155 @@ def test_quiet_runs_silence_the_plugins_own_bars(progress, dataset, tmp_path, ca
     assert ("chatty training" in err and "chatty sampling" in err) is progress
     assert ("chatty" in err) is progress
     assert show_progress()  # the runner's setting ends with the run
+
+
+# ----------------------------------------------------------------------------- whose fault: exit status 2 or 3
+
+
+class _Released(Method):
+    """Loads released weights: an ``.npy`` of 32 levels (``bug=True``: its loader has a bug)."""
+
+    def __init__(self, level=0.5, bug=False):
+        super().__init__(level=level, bug=bug)
+
+    @classmethod
+    def from_official_checkpoint(cls, path, **config):
+        if config.get("bug"):
+            raise AttributeError("'NoneType' object has no attribute 'levels'")
+        levels = np.load(path, allow_pickle=False)
+        if levels.shape != (32,):
+            raise ValueError(f"{path}: expected 32 levels, got shape {levels.shape}")
+        return cls(**{**config, "level": float(levels.mean())})
+
+    def generate(self, utterance, *, samples=1, seed=0):
+        return np.full((1, utterance.num_frames, 32), self.config()["level"])
+
+
+class _Fragile(Method):
+    """Saves a checkpoint its own ``load`` then fails on."""
+
+    def generate(self, utterance, *, samples=1, seed=0):
+        return np.full((1, utterance.num_frames, 32), 0.5)
+
+    @classmethod
+    def load(cls, directory):
+        raise RuntimeError("index out of sync with the weights")
+
+
+@pytest.fixture()
+def checkpoint_methods():
+    register("test-released")(_Released)
+    register("test-fragile")(_Fragile)
+    yield
+    unregister("test-released")
+    unregister("test-fragile")
+
+
+def _cli(tmp_path, *argv):
+    return main(["--data", str(tmp_path), "--results", str(tmp_path / "r"), "--quiet", *map(str, argv)])
+
+
+def _one_error_line(capsys, *fragments):
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("error: "), err
+    assert all(f in err[0] for f in fragments), err[0]
+    return err[0]
+
+
+def test_cli_a_bad_checkpoint_is_a_user_error(dataset, tmp_path, monkeypatch, capsys, checkpoint_methods):
+    _cli_on(dataset, monkeypatch)
+    text = tmp_path / "notes.txt"
+    text.write_text("not weights\n")
+    assert _cli(tmp_path, "--method", "mean", "--checkpoint", text) == 2  # mean reads no released weights
+    _one_error_line(capsys, "is a file, but this method loads only directories")
+    assert _cli(tmp_path, "--method", "test-released", "--checkpoint", text) == 2  # not a weights file
+    _one_error_line(capsys, "--checkpoint", "cannot load this file", "pickled (object) data")
+    wrong = tmp_path / "wrong.npy"
+    np.save(wrong, np.zeros(7))
+    assert _cli(tmp_path, "--method", "test-released", "--checkpoint", wrong) == 2  # another method's weights
+    _one_error_line(capsys, "expected 32 levels")
+    cut = tmp_path / "cut.npz"
+    np.savez(cut, levels=np.zeros(32))
+    cut.write_bytes(cut.read_bytes()[:40])
+    assert _cli(tmp_path, "--method", "test-released", "--checkpoint", cut) == 2
+    _one_error_line(capsys, "damaged zip archive")
+    assert _cli(tmp_path, "--method", "mean", "--checkpoint", text / "ckpt") == 2  # cannot be made: before training
+    _one_error_line(capsys, "is a file, so no folder can be made there")
+    static = tmp_path / "static-ckpt"
+    assert _cli(tmp_path, "--method", "static", "--checkpoint", static) == 0
+    capsys.readouterr()
+    assert _cli(tmp_path, "--method", "mean", "--checkpoint", static) == 2  # another method's folder
+    _one_error_line(capsys, "holds method 'static', not 'mean'")
+    stray = tmp_path / "stray"
+    stray.mkdir()
+    (stray / "weights.bin").write_bytes(b"\0" * 8)
+    assert _cli(tmp_path, "--method", "mean", "--checkpoint", stray) == 2  # a folder of no method
+    _one_error_line(capsys, "not a method checkpoint (no method_config.json)")
+    assert not list((tmp_path / "r").glob("mean*"))
+    good = tmp_path / "good.npy"
+    np.save(good, np.full(32, 0.25))
+    assert _cli(tmp_path, "--method", "test-released", "--checkpoint", good) == 0
+    (path,) = (tmp_path / "r").glob("test-released*.json")
+    assert json.loads(path.read_text())["method"]["config"] == {"level": 0.25, "bug": False}
+
+
+def test_cli_a_method_failing_on_its_own_checkpoint_misbehaved(dataset, tmp_path, monkeypatch, capsys,
+                                                               checkpoint_methods):
+    _cli_on(dataset, monkeypatch)
+    own = tmp_path / "fragile-ckpt"
+    assert _cli(tmp_path, "--method", "test-fragile", "--checkpoint", own) == 0  # trained and saved
+    capsys.readouterr()
+    assert _cli(tmp_path, "--method", "test-fragile", "--checkpoint", own) == 3
+    _one_error_line(capsys, "the method misbehaved", "load from", "RuntimeError: index out of sync")
+    good = tmp_path / "good.npy"
+    np.save(good, np.full(32, 0.25))
+    assert _cli(tmp_path, "--method", "test-released", "--checkpoint", good, "--config", "bug=true") == 3
+    _one_error_line(capsys, "the method misbehaved", "AttributeError")
+
+
+class _MissingFile:
+    """``dataset`` with a file gone after the build: reading ``reader`` of ``key`` raises
+    ``error`` from its ``after + 1``-th read on."""
+
+    def __init__(self, dataset, reader, key, error, after=0):
+        self._dataset, self._reader, self._key, self._error, self._after = dataset, reader, key, error, after
+        self._reads = 0
+
+    def __getattr__(self, name):
+        value = getattr(self._dataset, name)
+        if name != self._reader:
+            return value
+
+        def read(subject, sentence):
+            if (subject, sentence) == self._key:
+                self._reads += 1
+                if self._reads > self._after:
+                    raise self._error
+            return value(subject, sentence)
+
+        return read
+
+
+@pytest.mark.parametrize("reader, key, error, after, fragment", [
+    # training reads the train split (the mean of its tracks)
+    ("coeffs", ("A", "sentence02"), "data", 0, "A/sentence02.csv"),
+    ("coeffs", ("B", "sentence01"), "missing", 0, "No such file or directory"),
+    # generating reads the test split's audio and frame counts
+    ("audio", ("E", "sentence01"), "missing", 0, "No such file or directory"),
+    ("coeffs", ("D", "sentence02"), "data", 0, "D/sentence02.csv"),
+    # scoring reads the ground truth again
+    ("coeffs", ("E", "sentence02"), "data", 1, "E/sentence02.csv"),
+    ("coeffs", ("E", "sentence02"), "missing", 1, "No such file or directory"),
+])
+def test_cli_a_build_file_gone_after_the_build_is_a_data_error(reader, key, error, after, fragment, dataset,
+                                                               tmp_path, monkeypatch, capsys):
+    from blendvoca.errors import DataError
+
+    path = f"/build/blendshape_coeffs/{key[0]}/{key[1]}.csv"
+    error = {"data": DataError(f"{path}: row 7 has 3 fields, the header has 32"),
+             "missing": FileNotFoundError(2, "No such file or directory", path)}[error]
+    _cli_on(_MissingFile(dataset, reader, key, error, after), monkeypatch)
+    assert _cli(tmp_path, "--method", "mean") == 2
+    line = _one_error_line(capsys, fragment)
+    assert "misbehaved" not in line
+    assert not (tmp_path / "r").exists() or not any((tmp_path / "r").iterdir())

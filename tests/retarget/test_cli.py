@@ -58,22 +58,22 @@ def test_flame_target_gets_the_head_crop_without_crop(assets_dir, monkeypatch):
 
 
 def test_cli_passes_the_flame_crop(assets_dir, tmp_path, monkeypatch, capsys):
-    import pytest
-
-    import blendvoca.retarget.cli as cli
+    import blendvoca.retarget.cli as retarget_cli
+    from blendvoca.errors import UserError
 
     seen = {}
 
-    class Stop(Exception):
-        pass
+    class Stop(UserError):
+        """Ends the command after the plan's arguments are seen (the command layer reports it: exit 2)."""
 
     def plan(*args, crop=None, **kwargs):
         seen["crop"] = crop
-        raise Stop
+        raise Stop("stopped after planning")
 
-    monkeypatch.setattr(cli, "plan_retarget", plan)
-    with pytest.raises(Stop):
-        main(["--target", str(assets_dir / "voca" / "FLAME_sample.ply"),
-              "--target-landmarks", str(assets_dir / "said" / "FLAME_landmarks.txt"), "--out", str(tmp_path / "o")])
+    monkeypatch.setattr(retarget_cli, "plan_retarget", plan)
+    assert main(["--target", str(assets_dir / "voca" / "FLAME_sample.ply"),
+                 "--target-landmarks", str(assets_dir / "said" / "FLAME_landmarks.txt"),
+                 "--out", str(tmp_path / "o")]) == 2
     assert len(seen["crop"]) == len(np.loadtxt(assets_dir / "said" / "FLAME_head_idx.txt"))
-    assert "using the FLAME head crop" in capsys.readouterr().out
+    captured = capsys.readouterr()
+    assert "using the FLAME head crop" in captured.out and "error: stopped after planning" in captured.err

@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 import torch
 
-from baselines.said.attention_bias import alignment_bias
+from baselines.common.attention_bias import alignment_bias
 from baselines.said.model import Attention
 
 

@@ -2,8 +2,8 @@ import numpy as np
 import pytest
 import torch
 
-from baselines.said.encoders import build_encoder, interpolate_features, mel_filterbank
-from baselines.said.encoders.logmel import LogMelEncoder
+from baselines.common.encoders import build_encoder, interpolate_features, mel_filterbank
+from baselines.common.encoders.logmel import LogMelEncoder
 
 
 def test_mel_filterbank_matches_transformers_htk():

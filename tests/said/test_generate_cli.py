@@ -80,3 +80,56 @@ def test_cli_mistake_is_one_error_line(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and len(err) == 1 and err[0].startswith("error: ")
     assert not (tmp_path / "o.csv").exists()
+
+
+class _PathLike:
+    """An ``os.PathLike`` that is not a ``pathlib.Path``: entry points must take any."""
+
+    def __init__(self, path):
+        self.path = str(path)
+
+    def __fspath__(self):
+        return self.path
+
+
+def test_entry_points_take_any_path_like(tmp_path, checkpoint, wav):
+    from baselines.said.generate import generate_files
+
+    said = SAiD.load(_PathLike(checkpoint))
+    said.save(_PathLike(tmp_path / "again.pt"))
+    paths = generate_files(_PathLike(wav), _PathLike(tmp_path / "y.csv"), checkpoint=_PathLike(tmp_path / "again.pt"),
+                           image_path=_PathLike(tmp_path / "y.png"), progress=False)
+    assert paths == [tmp_path / "y.csv"] and (tmp_path / "y.png").is_file()
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--samples", "0"], "samples >= 1"),                    # a bad option
+    (["--steps", "5000"], "num_steps"),                      # more sampling steps than the checkpoint's diffusion
+    (["--device", "tpu"], "--device"),
+    (["--strength", "0.5"], "authors' weights"),             # an option of the authors' weights only
+])
+def test_option_mistakes_are_one_error_line(tmp_path, capsys, checkpoint, wav, argv, message):
+    code = main(["--audio", str(wav), "--out", str(tmp_path / "o.csv"), "--checkpoint", str(checkpoint), "--quiet",
+                 *argv])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and err[0].startswith("error: ") and message in err[0], err
+    assert not (tmp_path / "o.csv").exists()
+
+
+def test_a_file_that_is_no_checkpoint_is_a_data_error(tmp_path, capsys, wav):
+    (tmp_path / "said.pt").write_text("not a checkpoint")
+    code = main(["--audio", str(wav), "--out", str(tmp_path / "o.csv"), "--checkpoint", str(tmp_path), "--quiet"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and "cannot read" in err[0], err
+
+
+def test_train_cli_mistakes_are_one_error_line(tmp_path, capsys):
+    from baselines.said.train import main as train_main
+
+    for argv, message in ((["--data", str(tmp_path / "none")], "not a directory"),
+                          (["--data", str(tmp_path), "--budget", "soon"], "--budget"),
+                          (["--data", str(tmp_path), "--max-steps", "0"], "--max-steps")):
+        code = train_main([*argv, "--out", str(tmp_path / "said.pt")])
+        err = capsys.readouterr().err.strip().splitlines()
+        assert code == 2 and len(err) == 1 and message in err[0], err
+    assert not (tmp_path / "said.pt").exists()

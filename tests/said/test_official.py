@@ -9,8 +9,8 @@ import torch.nn.functional as F
 
 pytest.importorskip("transformers")
 
+from baselines.common.attention_bias import alignment_mask  # noqa: E402
 from baselines.said import load_official  # noqa: E402
-from baselines.said.attention_bias import alignment_mask  # noqa: E402
 from baselines.said.official import SAID_UNet1D, official_state_keys  # noqa: E402
 from baselines.wav2vec2 import legacy_layout_state, tiny_config  # noqa: E402
 

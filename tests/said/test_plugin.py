@@ -1,35 +1,14 @@
 import numpy as np
 import pytest
 
-from blendvoca.names import BLENDVOCA_NAMES
+from benchmark.testing import FakeBlendVOCA
 
 TINY = {"channels": 16, "cond_dim": 16, "heads": 2, "window": 30, "batch_size": 4, "num_steps": 3, "val_every": 2, "num_threads": 1}
 
 
-class FakeDataset:
-    """The parts of benchmark.data's dataset that the plugin uses, over random arrays."""
-
-    names = BLENDVOCA_NAMES
-
-    def __init__(self):
-        rng = np.random.default_rng(0)
-        self._splits = {"train": ["s0", "s1"], "val": ["s2"], "test": ["s3"]}
-        self._data = {
-            (s, f"sentence0{i}"): (rng.random((40 + 5 * i, 32)), rng.standard_normal((40 + 5 * i) * 16000 // 60).astype(np.float32) * 0.1)
-            for subjects in self._splits.values() for s in subjects for i in (1, 2)
-        }
-
-    def split(self, name):
-        return self._splits[name]
-
-    def sentences(self, subject):
-        return sorted(sent for s, sent in self._data if s == subject)
-
-    def coeffs(self, subject, sentence):
-        return self._data[subject, sentence][0]
-
-    def audio(self, subject, sentence):
-        return self._data[subject, sentence][1], 16000
+def small_dataset(test=("s3",)):
+    """Four speakers (two train, one val, the test ones as given), two sentences of 40-50 frames each."""
+    return FakeBlendVOCA(0, train=["s0", "s1"], val=["s2"], test=list(test), sentences=2, frames=(40, 51))
 
 
 def test_said_is_registered():
@@ -45,7 +24,7 @@ def test_plugin_train_generate_save_load(tmp_path):
     from benchmark.methods.base import Budget
 
     method = SAiDMethod(**TINY)
-    method.train(FakeDataset(), seed=0, budget=Budget(max_steps=4))
+    method.train(small_dataset(), seed=0, budget=Budget(max_steps=4))
     assert method.said.history["steps"] == 4 and method.said.history["best_step"] in (2, 4)
     audio = np.random.default_rng(1).standard_normal(16000).astype(np.float32) * 0.1
     from benchmark.methods import Utterance
@@ -71,7 +50,7 @@ def test_a_step_budget_trains_the_same_weights_whatever_the_global_rng():
     for global_seed in (1, 2):
         torch.manual_seed(global_seed)
         method = SAiDMethod(**TINY)
-        method.train(FakeDataset(), seed=3, budget=Budget(max_steps=3))
+        method.train(small_dataset(), seed=3, budget=Budget(max_steps=3))
         states.append(method.said.model.state_dict())
     assert states[0].keys() == states[1].keys()
     for key in states[0]:
@@ -84,9 +63,8 @@ def test_plugin_batches_sentences_through_the_runner():
     from benchmark.run import generated_tracks
 
     method = SAiDMethod(**TINY)
-    method.train(FakeDataset(), seed=0, budget=Budget(max_steps=2))
-    data = FakeDataset()
-    data._splits["test"] = ["s0", "s1", "s3"]  # six sentences of two lengths
+    method.train(small_dataset(), seed=0, budget=Budget(max_steps=2))
+    data = small_dataset(test=["s0", "s1", "s3"])  # six sentences
     alone, _ = generated_tracks(method, data, samples=2, seed=3, progress=False)
     batched, _ = generated_tracks(method, data, samples=2, seed=3, progress=False, sentence_batch=4)
     assert list(alone) == list(batched)
@@ -111,13 +89,13 @@ def test_a_trained_checkpoint_samples_with_other_sampling_options(tmp_path):
     from benchmark.run import prepared_method
 
     method = SAiDMethod(**TINY)
-    method.train(FakeDataset(), seed=0, budget=Budget(max_steps=2))
+    method.train(small_dataset(), seed=0, budget=Budget(max_steps=2))
     method.save(tmp_path)
     audio = np.random.default_rng(1).standard_normal(16000).astype(np.float32) * 0.1
     utterance = Utterance(subject="s3", sentence="sentence01", split="test", audio=audio, num_frames=61)
 
     # through the runner, as `benchmark.run --checkpoint DIR --config guidance=2 --config num_steps=5`
-    loaded, _ = prepared_method("said", {**TINY, "guidance": 2.0, "num_steps": 5}, FakeDataset(), seed=0,
+    loaded, _ = prepared_method("said", {**TINY, "guidance": 2.0, "num_steps": 5}, small_dataset(), seed=0,
                                 budget=Budget(max_steps=2), checkpoint=tmp_path)
     assert loaded.said.model is not method.said.model  # loaded from the directory
     assert loaded.config()["guidance"] == 2.0 and loaded.config()["resolved"]["sampling"]["num_steps"] == 5

@@ -4,7 +4,7 @@ import pickle
 
 import numpy as np
 
-from blendvoca.build.said_residuals import RESIDUALS_FILE, blendshape_residuals, write_blendshape_residuals
+from blendvoca.builder.said_residuals import RESIDUALS_FILE, blendshape_residuals, write_blendshape_residuals
 from blendvoca.rig import Rig
 
 

@@ -77,7 +77,7 @@ class EnergyJawMethod(Method):
         num_frames = utterance.num_frames
         out = np.repeat(np.tile(self.mean, (num_frames, 1))[None], samples, axis=0)
         env = energy_envelope(utterance.audio, num_frames)
-        noise = rng.normal(0, self._config["noise"], size=(samples, num_frames + 8))
+        noise = rng.normal(0, self.config()["noise"], size=(samples, num_frames + 8))
         noise = np.stack([np.convolve(n, np.ones(9) / 9, mode="valid") for n in noise])
         out[:, :, self.jaw] = self.gain * env[None] + noise
         return np.clip(out, 0.0, 1.0)

@@ -1,0 +1,101 @@
+"""Stored tracks looked up by (subject, sentence), for oracle-like methods.
+
+Methods whose output is tied to a sentence (the ground truth, another method's
+stored outputs) return the track stored for the utterance's subject and sentence.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from benchmark.methods.base import Method
+from blendvoca.errors import DataError
+
+__all__ = ["TrackLookupMethod", "fit_track_length"]
+
+
+def fit_track_length(track, num_frames: int, *, max_mismatch: int, where: str):
+    """``track`` cropped or edge-padded to ``num_frames`` frames.
+
+    Parameters
+    ----------
+    track : (T, K) ndarray
+    num_frames : int
+        Wanted number of frames.
+    max_mismatch : int
+        Largest ``|T - num_frames|`` accepted (a frame or two differ between
+        methods that round the audio duration differently).
+    where : str
+        Named in the error message.
+
+    Returns
+    -------
+    (num_frames, K) ndarray
+
+    Raises
+    ------
+    DataError
+        The frame counts differ by more than ``max_mismatch``.
+    """
+    track = np.asarray(track)
+    diff = track.shape[0] - num_frames
+    if abs(diff) > max_mismatch:
+        raise DataError(
+            f"{where}: track has {track.shape[0]} frames, expected {num_frames} (at most {max_mismatch} "
+            f"frame(s) difference is padded/cropped)"
+        )
+    if diff >= 0:
+        return track[:num_frames]
+    return np.concatenate([track, np.repeat(track[-1:], -diff, axis=0)], axis=0)
+
+
+class TrackLookupMethod(Method):
+    """A method whose output is one stored ``(T, 32)`` track per (subject, sentence).
+
+    Subclasses fill ``self._tracks[(subject, sentence)] = track`` (in :meth:`train`
+    or on demand in :meth:`stored_track`); save/load store them in ``tracks.npz``.
+    """
+
+    #: largest frame-count mismatch padded or cropped in :meth:`generate`
+    max_frame_mismatch: int = 0
+
+    def __init__(self, **config):
+        super().__init__(**config)
+        self._tracks: dict[tuple[str, str], np.ndarray] = {}
+
+    def stored_track(self, utterance) -> np.ndarray:
+        """The ``(T', 32)`` track stored for the utterance (KeyError naming it if none)."""
+        if utterance.key not in self._tracks:
+            known = sorted({s for s, _ in self._tracks})
+            raise KeyError(
+                f"{self.name}: no stored track for {utterance.subject}/{utterance.sentence} "
+                f"({len(self._tracks)} tracks stored, subjects {known}); was the method trained on this dataset?"
+            )
+        return self._tracks[utterance.key]
+
+    def generate(self, utterance, *, samples=1, seed=0):
+        track = fit_track_length(
+            self.stored_track(utterance), utterance.num_frames, max_mismatch=self.max_frame_mismatch,
+            where=f"{self.name}: subject {utterance.subject!r}, sentence {utterance.sentence!r}",
+        )
+        return np.repeat(track[None], int(samples), axis=0)
+
+    def save(self, directory) -> None:
+        super().save(directory)
+        directory = Path(directory)
+        index = [[subject, sentence] for subject, sentence in sorted(self._tracks)]
+        arrays = {f"track_{i}": self._tracks[(s, q)] for i, (s, q) in enumerate(index)}
+        np.savez_compressed(directory / "tracks.npz", **arrays)
+        (directory / "tracks.json").write_text(json.dumps(index, indent=1) + "\n")
+
+    @classmethod
+    def load(cls, directory):
+        method = super().load(directory)
+        directory = Path(directory)
+        index = json.loads((directory / "tracks.json").read_text())
+        with np.load(directory / "tracks.npz") as arrays:
+            method._tracks = {(subject, sentence): arrays[f"track_{i}"] for i, (subject, sentence) in enumerate(index)}
+        return method

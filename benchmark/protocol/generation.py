@@ -1,0 +1,216 @@
+"""The protocol's second step: every sentence of the split asked of the method, each
+answer checked against the contract (:mod:`benchmark.methods.contract`)."""
+
+from __future__ import annotations
+
+import sys
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from benchmark.methods import (
+    AUDIO_RATE,
+    OUTPUT_COEFFICIENTS,
+    OUTPUT_KINDS,
+    OUTPUT_VERTICES,
+    Utterance,
+    validated_tracks,
+    validated_vertices,
+)
+from benchmark.methods.base import progress_bars
+from benchmark.protocol.limits import TimeLimit
+from blendvoca.errors import DataError, MethodError, MethodOutputError, MethodTimeout, UserError
+
+__all__ = ["Generated", "generate", "generated_tracks", "sentence_seed"]
+
+
+@dataclass(frozen=True)
+class Generated:
+    """What a method generated for a split, checked.
+
+    Attributes
+    ----------
+    tracks : dict
+        ``{(subject, sentence): (S, T, K) float64 ndarray}`` in the split's order, ``T``
+        the ground-truth frames; for ``output = "vertices"`` methods the tracks fitted
+        to their vertices with the speaker's rig.
+    n_clipped : int
+        Values clipped into [0, 1] (``clip`` runs only).
+    seconds : float
+        Wall time of the generation.
+    vertices : mapping or None
+        A vertex method's own ``(S, T, V, 3)`` vertices per key (read back from the
+        stored run, or kept in memory when nothing is stored); None for coefficient
+        methods.
+    """
+
+    tracks: dict
+    n_clipped: int = 0
+    seconds: float = 0.0
+    vertices: object = None
+
+
+def generate(spec, dataset, trained, *, store=None) -> Generated:
+    """Ask ``trained.method`` for every sentence of ``spec.split`` (:func:`generated_tracks`).
+
+    Parameters
+    ----------
+    spec : RunSpec
+    dataset : benchmark.data dataset
+    trained : Trained
+    store : benchmark.runs.TrackWriter, optional
+        Receives every checked track (and a vertex method's own vertices).
+
+    Returns
+    -------
+    Generated
+    """
+    vertex_method = trained.output == OUTPUT_VERTICES
+    in_memory = {} if vertex_method and store is None else None
+    start = time.perf_counter()
+    tracks, n_clipped = generated_tracks(trained.method, dataset, split=spec.split, samples=spec.samples,
+                                         seed=spec.seed, clip=spec.clip, name=spec.method, progress=spec.progress,
+                                         store=store, vertices_out=in_memory, time_limit=spec.generate_time_limit,
+                                         sentence_batch=spec.sentence_batch)
+    seconds = time.perf_counter() - start
+    vertices = None
+    if vertex_method:
+        vertices = store.stored_vertices() if store is not None else in_memory
+    return Generated(tracks=tracks, n_clipped=int(n_clipped), seconds=seconds, vertices=vertices)
+
+
+def sentence_seed(seed: int, index: int) -> int:
+    """Seed for the ``index``-th sentence of a run seeded with ``seed`` (independent streams)."""
+    return int(np.random.SeedSequence([int(seed), int(index)]).generate_state(1)[0] & 0x7FFFFFFF)
+
+
+def generated_tracks(method, dataset, *, split: str = "test", samples: int = 1, seed: int = 0,
+                     clip: bool = False, name: str | None = None, progress: bool = True, store=None,
+                     vertices_out=None, time_limit: float | None = None, sentence_batch: int = 1):
+    """Ask ``method`` for every sentence of ``split`` and check each answer.
+
+    Parameters
+    ----------
+    method : Method
+    dataset : benchmark.data dataset
+    split : str
+    samples : int
+        Samples per sentence for stochastic methods; deterministic methods are
+        asked for one.
+    seed : int
+    clip : bool
+        Clip values outside [0, 1] instead of refusing them.
+    store : benchmark.runs.TrackWriter, optional
+        Receives every scored track (and a vertex method's own vertices).
+    vertices_out : dict, optional
+        Filled with a vertex method's own ``(S, T, V, 3)`` vertices per key (memory
+        permitting; the runner reads them back from ``store`` instead).
+    time_limit : float, optional
+        Seconds one ``generate`` call may take (stopped with :class:`MethodTimeout`);
+        a call for ``n`` sentences may take ``n`` times that.
+    sentence_batch : int, default 1
+        Sentences per call: above 1, the sentences, in order of length, go to
+        ``method.generate_many`` in groups of this size (each with the seed it has
+        alone, :func:`sentence_seed` of its position in the split).
+
+    Returns
+    -------
+    generated : dict
+        ``{(subject, sentence): (S, T, 32) float64 ndarray}`` in the split's order,
+        ``T`` = ground-truth frames; for ``output = "vertices"`` methods the tracks
+        fitted to their vertices with the speaker's rig (:mod:`benchmark.vertex_fit`).
+    n_clipped : int
+
+    Raises
+    ------
+    MethodError
+        ``generate`` raised or ran past ``time_limit`` (message names method, subject and sentence).
+    MethodOutputError
+        The output broke the contract (shape, frames, NaN, range).
+    DataError
+        A file of the build is missing or does not read (the audio at another rate, too).
+    """
+    name = name or getattr(method, "name", type(method).__name__)
+    kind = getattr(method, "output", OUTPUT_COEFFICIENTS)
+    if kind not in OUTPUT_KINDS:
+        raise MethodOutputError(f"method {name!r}: output must be one of {OUTPUT_KINDS}, got {kind!r}")
+    if isinstance(sentence_batch, bool) or int(sentence_batch) != sentence_batch or int(sentence_batch) < 1:
+        raise UserError(f"sentence_batch: expected an integer >= 1, got {sentence_batch!r}")
+    num_samples = int(samples) if getattr(method, "stochastic", False) else 1
+    names = tuple(getattr(dataset, "names", ()) or ())
+    num_coeffs = len(names) if names else 32
+    items = [(subject, sentence) for subject in dataset.split(split) for sentence in dataset.sentences(subject)]
+    if not items:
+        raise DataError(f"dataset split {split!r} has no sentences")
+    frames = [int(np.asarray(dataset.coeffs(subject, sentence)).shape[0]) for subject, sentence in items]
+    if sentence_batch > 1:
+        by_length = sorted(range(len(items)), key=lambda i: (frames[i], i))
+        groups = [by_length[i:i + int(sentence_batch)] for i in range(0, len(items), int(sentence_batch))]
+    else:
+        groups = [[i] for i in range(len(items))]
+    try:
+        from tqdm import tqdm
+        bar = tqdm(total=len(items), desc=f"{name}: generate", unit="sentence", disable=not progress, file=sys.stderr)
+    except ImportError:
+        bar = None
+
+    def utterance_of(index):
+        subject, sentence = items[index]
+        audio, rate = dataset.audio(subject, sentence)
+        if rate != AUDIO_RATE:
+            raise DataError(f"dataset audio for {subject}/{sentence}: expected {AUDIO_RATE} Hz, got {rate}")
+        return Utterance(subject=subject, sentence=sentence, split=split, audio=audio, num_frames=frames[index])
+
+    def where_of(group):
+        return f"method {name!r}, " + "; ".join(f"subject {items[i][0]!r}, sentence {items[i][1]!r}" for i in group)
+
+    generated, n_clipped = {}, 0
+    for group in groups:
+        utterances = [utterance_of(index) for index in group]
+        seeds = [sentence_seed(seed, index) for index in group]
+        where = where_of(group)
+        limit = None if time_limit is None else time_limit * len(group)
+        try:
+            with TimeLimit(limit, f"{where}: generate"), progress_bars(progress):
+                many = getattr(method, "generate_many", None) if sentence_batch > 1 else None
+                if many is None:  # one sentence per call, or a method without generate_many
+                    outputs = [method.generate(u, samples=num_samples, seed=s) for u, s in zip(utterances, seeds)]
+                else:
+                    outputs = list(many(utterances, samples=num_samples, seeds=seeds))
+        except (MethodTimeout, UserError, DataError, OSError):
+            # a build file the method reads that is missing or wrong is the data's fault
+            raise
+        except Exception as exc:
+            raise MethodError(f"{where}: generate failed: {type(exc).__name__}: {exc}") from exc
+        if len(outputs) != len(group):
+            raise MethodOutputError(f"{where}: generate_many returned {len(outputs)} outputs for "
+                                    f"{len(group)} utterances")
+        for index, output in zip(group, outputs):
+            subject, sentence = items[index]
+            num_frames = frames[index]
+            if kind == OUTPUT_VERTICES:
+                rig = dataset.rig(subject)
+                verts = validated_vertices(output, method=name, subject=subject, sentence=sentence,
+                                           num_frames=num_frames, samples=num_samples,
+                                           num_vertices=int(np.asarray(rig.neutral).shape[0]))
+                from benchmark.vertex_fit import fitted_sample_tracks
+
+                tracks = fitted_sample_tracks(verts, rig, names or rig.names)
+                if store is not None:
+                    store.write_vertices(subject, sentence, verts, rig.neutral)
+                if vertices_out is not None:
+                    vertices_out[(subject, sentence)] = verts
+            else:
+                tracks, clipped = validated_tracks(output, method=name, subject=subject, sentence=sentence,
+                                                   num_frames=num_frames, samples=num_samples, num_coeffs=num_coeffs,
+                                                   clip=clip)
+                n_clipped += clipped
+            if store is not None:
+                store.write_tracks(subject, sentence, tracks)
+            generated[(subject, sentence)] = tracks
+        if bar is not None:
+            bar.update(len(group))
+    if bar is not None:
+        bar.close()
+    return {key: generated[key] for key in items}, n_clipped

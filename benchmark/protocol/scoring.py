@@ -1,0 +1,154 @@
+"""The protocol's third step: the metrics of what was generated
+(:func:`benchmark.evaluate.evaluate_split` unless a run brings its own evaluation)."""
+
+from __future__ import annotations
+
+import os
+import pickle
+import time
+import zipfile
+from dataclasses import dataclass
+
+from blendvoca.errors import BlendVOCAError, UserError
+
+__all__ = ["MODEL_LIPSYNC_METRICS", "Scored", "loaded_lipsync_models", "score", "score_lipsync_models"]
+
+#: The lip-sync metrics that need a model file: SyncNet weights or a learned sync expert.
+MODEL_LIPSYNC_METRICS = ("av_offset_expert", "av_confidence_expert", "av_offset_syncnet", "av_confidence_syncnet")
+
+#: What loading a file that holds no such model raises (torch's readers included; a
+#: state_dict of other shapes is torch's RuntimeError).
+_NOT_A_MODEL = (ValueError, KeyError, TypeError, RuntimeError, EOFError, pickle.UnpicklingError, zipfile.BadZipFile)
+
+
+@dataclass(frozen=True)
+class Scored:
+    """The metrics of a run.
+
+    Attributes
+    ----------
+    metrics : dict
+        ``{metric: {"mean", "std", "higher_is_better", "unit", ...}}`` as the
+        evaluation returned them (``benchmark.evaluate.Scores`` by default).
+    per_sentence : list of dict
+        One ``{"subject", "sentence", metric: value, ...}`` row per generated sentence,
+        in the generated order (subject and sentence only where the evaluation gives
+        no rows).
+    seconds : float
+        Wall time of the scoring.
+    """
+
+    metrics: dict
+    per_sentence: list
+    seconds: float = 0.0
+
+
+def _evaluate_default(generated, dataset, split="test", **kw):
+    from benchmark.evaluate import evaluate_split
+
+    return evaluate_split(generated, dataset, split=split, **kw)
+
+
+def loaded_lipsync_models(syncnet=None, sync_expert=None):
+    """SyncNet and the sync expert loaded where they are given as paths (models, None and
+    ``syncnet=True``, the manifest's asset, as ``benchmark.evaluate`` takes them).
+
+    Returns
+    -------
+    syncnet, sync_expert : model or None
+
+    Raises
+    ------
+    UserError
+        A file that holds no such model, naming ``--syncnet-weights`` or ``--sync-expert``.
+    """
+    from benchmark.evaluate import _load_models
+
+    return (_loaded(lambda: _load_models(syncnet, None)[0], "--syncnet-weights", syncnet),
+            _loaded(lambda: _load_models(None, sync_expert)[1], "--sync-expert", sync_expert))
+
+
+def _loaded(load, flag: str, value):
+    """``load()``; a file that holds no such model is a UserError naming ``flag``."""
+    try:
+        return load()
+    except BlendVOCAError:
+        raise
+    except _NOT_A_MODEL as exc:  # the file is the user's: one line naming it, not a traceback
+        where = os.fspath(value) if isinstance(value, os.PathLike) else value
+        raise UserError(f"{flag} {where}: {type(exc).__name__}: {exc}") from exc
+
+
+def _per_sentence_rows(metrics, generated) -> list:
+    """One row per scored sentence: the evaluation's rows (``Scores.per_sentence``) or, for an
+    evaluation that gives none, the sentence's subject and name."""
+    rows = {(r["subject"], r["sentence"]): r for r in getattr(metrics, "per_sentence", None) or []}
+    return [dict(rows.get(key, {"subject": key[0], "sentence": key[1]})) for key in generated]
+
+
+def score(spec, dataset, generated, *, evaluate=None) -> Scored:
+    """Score ``generated`` on ``spec.split``.
+
+    Parameters
+    ----------
+    spec : RunSpec
+    dataset : benchmark.data dataset
+    generated : Generated
+    evaluate : callable, optional
+        ``evaluate(tracks, dataset, split=..., [vertices=...]) -> {metric: {...}}``;
+        default ``benchmark.evaluate.evaluate_split`` with ``spec``'s lip-sync models
+        and progress bars.
+
+    Returns
+    -------
+    Scored
+    """
+    extra = {} if generated.vertices is None else {"vertices": generated.vertices}
+    start = time.perf_counter()
+    if evaluate is None:
+        if spec.evaluates_lipsync_models:
+            syncnet, sync_expert = loaded_lipsync_models(spec.syncnet, spec.sync_expert)
+            extra.update(syncnet=syncnet, sync_expert=sync_expert)
+        metrics = _evaluate_default(generated.tracks, dataset, split=spec.split, progress=spec.progress, **extra)
+    else:
+        metrics = evaluate(generated.tracks, dataset, split=spec.split, **extra)
+    seconds = time.perf_counter() - start
+    return Scored(metrics=metrics, per_sentence=_per_sentence_rows(metrics, generated.tracks), seconds=seconds)
+
+
+def score_lipsync_models(tracks, dataset, *, syncnet=None, sync_expert=None, progress: bool = True) -> Scored:
+    """The model-based lip-sync metrics (:data:`MODEL_LIPSYNC_METRICS`) of ``tracks``,
+    computed as :func:`score` computes them in a whole evaluation (same values, same
+    bootstrap seed and resamples).
+
+    Parameters
+    ----------
+    tracks : mapping (subject, sentence) -> (S, T, K) array_like
+    dataset : benchmark.data dataset
+        Gives the rigs, the audio and the column names.
+    syncnet, sync_expert : path-like or model, optional
+        At least one.
+    progress : bool
+
+    Returns
+    -------
+    Scored
+        Only the metrics of the models given; rows in the order of ``tracks``.
+    """
+    from benchmark.evaluate import _lipsync_values, _sentence_entries
+    from benchmark.metrics.bootstrap import BOOTSTRAP_RESAMPLES
+
+    if syncnet is None and sync_expert is None:
+        raise UserError("expected --sync-expert and/or --syncnet-weights, got neither")
+    keys = list(tracks)
+    start = time.perf_counter()
+    rigs = {s: dataset.rig(s) for s in {k[0] for k in keys}}
+    audio = {k: dataset.audio(*k) for k in keys}
+    syncnet_model, expert_model = loaded_lipsync_models(syncnet, sync_expert)
+    values = _lipsync_values(tracks, rigs, audio, dataset.names, syncnet=syncnet_model, sync_expert=expert_model,
+                             progress=progress)
+    values = {name: v for name, v in values.items() if name in MODEL_LIPSYNC_METRICS}
+    # evaluate_split's own bootstrap seed (0), as a run scores: same tracks, same intervals
+    metrics, rows = _sentence_entries(values, seed=0, resamples=BOOTSTRAP_RESAMPLES)
+    per_sentence = [{"subject": k[0], "sentence": k[1], **rows.get(k, {})} for k in keys]
+    return Scored(metrics=metrics, per_sentence=per_sentence, seconds=time.perf_counter() - start)

@@ -1,0 +1,261 @@
+"""What a benchmark run is asked to do (:class:`RunSpec`) and what it reads, checked
+before anything is trained (:func:`check_inputs`)."""
+
+from __future__ import annotations
+
+import os
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from benchmark.methods import OUTPUT_COEFFICIENTS, OUTPUT_VERTICES, Budget, MethodError, get_method
+from benchmark.protocol.training import make_method
+from blendvoca.errors import DataError, UserError
+from blendvoca.format import manifest_path
+
+__all__ = [
+    "Inputs",
+    "RunSpec",
+    "UsageError",
+    "check_inputs",
+    "check_results_dir",
+    "default_data_root",
+    "default_results_dir",
+    "open_data",
+]
+
+
+class UsageError(UserError):
+    """A mistake in what a run was asked to do (a flag, a path, a config entry): exit
+    status 2, one ``error:`` line, nothing trained or written."""
+
+
+def _is_count(value) -> bool:
+    """True for an integer >= 1 (``True`` is not a count)."""
+    try:
+        return not isinstance(value, bool) and int(value) == value and int(value) >= 1
+    except (TypeError, ValueError, OverflowError):
+        return False
+
+
+@dataclass(frozen=True)
+class RunSpec:
+    """What a run is asked to do; checked when made (:class:`UsageError` otherwise).
+
+    Parameters
+    ----------
+    method : str
+        Registered or installed method name.
+    config : dict, optional
+        Method constructor kwargs (``--config`` / ``--preset``).
+    data_root : path-like or None
+        BlendVOCA build; None means :func:`default_data_root`.
+    split : str, default "test"
+        The split generated and scored.
+    samples : int, default 10
+        Samples per sentence for stochastic methods (deterministic ones give one).
+    seed : int, default 0
+        Training and sampling seed.
+    budget : Budget, optional
+        Training limits (default: none, the method's own defaults).
+    checkpoint : path-like, optional
+        Load the trained method from here when it holds one, else train and save there;
+        a file is a method's released weights (``from_official_checkpoint``).
+    clip : bool
+        Clip out-of-range coefficients instead of refusing them.
+    generate_time_limit : float, optional
+        Seconds one ``generate`` call may take.
+    sentence_batch : int, default 1
+        Sentences per generation call.
+    vocaset : path-like, optional
+        The source VOCASET corpus (``dataset.vertices``) when the build's recorded one
+        is elsewhere.
+    syncnet, sync_expert : path-like or model, optional
+        SyncNet weights and a learned sync expert for the lip-sync metrics.
+    results_dir : path-like, optional
+        Where the result and its tracks go (default :func:`default_results_dir`).
+    progress : bool, default True
+        Progress bars, the plug-ins' own included.
+    """
+
+    method: str
+    config: dict = field(default_factory=dict)
+    data_root: object = None
+    split: str = "test"
+    samples: int = 10
+    seed: int = 0
+    budget: Budget = field(default_factory=Budget)
+    checkpoint: object = None
+    clip: bool = False
+    generate_time_limit: float | None = None
+    sentence_batch: int = 1
+    vocaset: object = None
+    syncnet: object = None
+    sync_expert: object = None
+    results_dir: object = None
+    progress: bool = True
+
+    def __post_init__(self):
+        if not _is_count(self.samples):
+            raise UsageError(f"--samples: expected an integer >= 1, got {self.samples!r}")
+        if self.generate_time_limit is not None and not self.generate_time_limit > 0:
+            raise UsageError(f"--generate-time-limit: expected seconds > 0, got {self.generate_time_limit!r}")
+        if not _is_count(self.sentence_batch):
+            raise UsageError(f"--sentence-batch: expected an integer >= 1, got {self.sentence_batch!r}")
+        # a copy: the caller's dict may change after the run was asked for
+        object.__setattr__(self, "config", dict(self.config or {}))
+        object.__setattr__(self, "budget", self.budget or Budget())
+        object.__setattr__(self, "samples", int(self.samples))
+        object.__setattr__(self, "sentence_batch", int(self.sentence_batch))
+
+    @property
+    def evaluates_lipsync_models(self) -> bool:
+        """True when SyncNet weights or a sync expert were given."""
+        return self.syncnet is not None or self.sync_expert is not None
+
+
+@dataclass(frozen=True)
+class Inputs:
+    """What a run reads, checked before anything is trained.
+
+    Attributes
+    ----------
+    dataset : benchmark.data dataset
+        The opened build (or what ``open_dataset`` returned).
+    data_root : path-like
+        The build's root as asked for (the bundled default when none was).
+    results_dir : Path
+        An existing, writable results folder.
+    subjects : tuple of str
+        The subjects of the run's split.
+    """
+
+    dataset: object
+    data_root: object
+    results_dir: Path
+    subjects: tuple
+
+
+def default_results_dir() -> Path:
+    """Where results go unless ``--results`` says otherwise: ``$BLENDVOCA_RESULTS``, else
+    ``$XDG_DATA_HOME/blendvoca/results`` (``~/.local/share/blendvoca/results``), never
+    inside the installed package. The committed leaderboard's folder is passed explicitly."""
+    if os.environ.get("BLENDVOCA_RESULTS"):
+        return Path(os.environ["BLENDVOCA_RESULTS"]).expanduser()
+    base = os.environ.get("XDG_DATA_HOME") or Path.home() / ".local" / "share"
+    return Path(base).expanduser() / "blendvoca" / "results"
+
+
+def default_data_root(*, progress: bool = True) -> Path:
+    """The bundled-default BlendVOCA build, built first if it is not there yet.
+
+    ``$BLENDVOCA_DATA`` names an existing build and wins; otherwise the build of the
+    bundled synthetic corpus lives in ``<user cache>/blendvoca-default`` (see
+    ``blendvoca.assets.cache_dir``) and is made with ``blendvoca.build`` when its
+    ``manifest.json`` is missing (the build is resumable).
+    """
+    env = os.environ.get("BLENDVOCA_DATA")
+    if env:
+        return Path(env).expanduser()
+    from blendvoca.builder.pipeline import build_dataset, default_output_dir  # the build stack, only when needed
+
+    root = default_output_dir()
+    if not manifest_path(root).is_file():
+        print(f"building the bundled-default BlendVOCA into {root} (once)", file=sys.stderr)
+        summary = build_dataset(root, None, progress=progress)
+        if summary.failures:
+            raise DataError(f"bundled-default build in {root} had {len(summary.failures)} failure(s), e.g. "
+                               f"{summary.failures[0]}")
+    return root
+
+
+def check_results_dir(path) -> Path:
+    """``path`` as a results folder: created if missing; UsageError if it is a file or not writable."""
+    import tempfile
+
+    path = Path(os.fspath(path)).expanduser()
+    if path.exists() and not path.is_dir():
+        raise UsageError(f"--results {path}: expected a folder, got a file")
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        with tempfile.NamedTemporaryFile(dir=path, prefix=".write-test-"):
+            pass
+    except OSError as exc:
+        raise UsageError(f"--results {path}: not writable ({exc.strerror or exc})") from None
+    return path
+
+
+def _open_default(root, vocaset=None):
+    from benchmark.data import open_blendvoca
+
+    return open_blendvoca(root, vocaset=vocaset)
+
+
+def open_data(root, *, vocaset=None, open_dataset=None):
+    """The build at ``root`` opened (``open_dataset(root)``, default
+    ``benchmark.data.open_blendvoca``); a folder that is not a readable build is a
+    :class:`UsageError` naming ``--data``."""
+    try:
+        if open_dataset is not None:
+            return open_dataset(root)
+        return _open_default(root, vocaset=vocaset) if vocaset is not None else _open_default(root)
+    except (ValueError, FileNotFoundError) as exc:  # the reader's word on the folder the user named
+        raise UsageError(f"--data {root}: {exc}") from None
+
+
+def _check_evaluation_assets(syncnet, sync_expert) -> None:
+    """UsageError unless the VAE (and the given SyncNet / expert files) are in place."""
+    from blendvoca.assets import find_local
+
+    if find_local("said-vae") is None:
+        raise UsageError("the evaluation needs the VAE feature extractor (asset 'said-vae'); "
+                         "run `python -m blendvoca.assets fetch said-vae` or set BLENDVOCA_ASSETS")
+    for flag, value in (("--syncnet-weights", syncnet), ("--sync-expert", sync_expert)):
+        if isinstance(value, (str, os.PathLike)) and not Path(value).expanduser().exists():
+            raise UsageError(f"{flag} {value}: no such file")
+
+
+def check_inputs(spec: RunSpec, *, open_dataset=None, evaluation_assets: bool = True) -> Inputs:
+    """Open the build and check everything a run can check before training: the results
+    folder, the split, a vertex method's source meshes, the evaluation's assets and the
+    method's config.
+
+    Parameters
+    ----------
+    spec : RunSpec
+    open_dataset : callable, optional
+        ``open_dataset(root) -> dataset`` (default ``benchmark.data.open_blendvoca``).
+    evaluation_assets : bool, default True
+        Check the default evaluation's assets (off when a run brings its own evaluation).
+
+    Raises
+    ------
+    UsageError
+        Any of them is not usable; nothing was trained or written.
+    """
+    data_root = spec.data_root if spec.data_root is not None else default_data_root(progress=spec.progress)
+    dataset = open_data(data_root, vocaset=spec.vocaset, open_dataset=open_dataset)
+    results_dir = check_results_dir(default_results_dir() if spec.results_dir is None else spec.results_dir)
+    splits = getattr(dataset, "splits", None)
+    if splits is not None and spec.split not in splits:
+        raise UsageError(f"--split: expected one of {sorted(splits)}, got {spec.split!r}")
+    try:
+        subjects = dataset.split(spec.split)
+    except (KeyError, ValueError):  # a dataset without ``splits``: its split() refuses the name
+        raise UsageError(f"--split: the dataset has no split {spec.split!r}") from None
+    if not subjects:
+        raise UsageError(f"--split {spec.split!r}: no subjects of that split in {data_root}")
+    cls = get_method(spec.method)
+    if getattr(cls, "output", OUTPUT_COEFFICIENTS) == OUTPUT_VERTICES and hasattr(dataset, "corpus_root"):
+        try:  # the vertex metrics compare with the source meshes: fail now, not after training
+            dataset.corpus_root()
+        except FileNotFoundError as exc:
+            raise UsageError(str(exc)) from None
+    if evaluation_assets:
+        _check_evaluation_assets(spec.syncnet, spec.sync_expert)
+    try:
+        make_method(spec.method, spec.config)
+    except MethodError as exc:
+        raise UsageError(f"--config: {exc}") from None
+    return Inputs(dataset=dataset, data_root=data_root, results_dir=results_dir, subjects=tuple(subjects))
+

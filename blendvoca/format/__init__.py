@@ -1,0 +1,166 @@
+"""The BlendVOCA folder format: the one owner of what a BlendVOCA dataset is on disk.
+
+A BlendVOCA folder is SAiD's layout (``blendshape_coeffs/``, ``audio/``,
+``templates_head/``, ``blendshapes_head/``, ``coeffs_std.csv``) plus BlendVOCA's
+additions (``rigs/``, ``splits.json``, ``blendshape_residuals.pickle``, ``report/``)
+and ``manifest.json``, which lists the files that make up the dataset. The build
+(:mod:`blendvoca.builder`) writes such a folder and the benchmark
+(:mod:`benchmark.data`) reads it, both through this package only:
+
+:mod:`~blendvoca.format.layout`
+    The folder and file names (the only module that spells them), the functions
+    that turn ``(root, subject, sentence[, sample])`` into paths
+    (``coeffs_path``, ``audio_path``, ``rig_path``, ...; ``*_relpath`` for the keys
+    a manifest lists), and the dataset's structure read off a manifest's listing
+    (``listed_subjects``, ``listed_sentences``, ``listed_samples``).
+:mod:`~blendvoca.format.items`
+    Reading and writing the items: coefficient tracks (CSV, 60 fps), audio (WAV,
+    mono 16 kHz), rigs (``.npz`` and SAiD's OBJ heads), ``coeffs_std.csv`` and
+    ``splits.json``.
+:mod:`~blendvoca.format.manifest`
+    ``manifest.json``: reading (``listed_files``, ``read_manifest``), writing
+    (``write_manifest`` for a build, ``write_folder_manifest`` for a hand-made
+    SAiD-layout folder, also ``python -m blendvoca.build.manifest DIR``), the
+    dataset's identity (``manifest_hash``) and the BLAS kernels a build ran on
+    (``blas_kernels``).
+:mod:`~blendvoca.format.hashing`
+    The sha256 digests of files, folders and arrays that manifests list and stage
+    keys are made of.
+
+Only the files ``manifest.json`` lists belong to the dataset: a reader never
+looks at anything else in the folder.
+"""
+
+from .hashing import array_digest, content_digest, file_digest, files_digests, stage_key
+from .items import (
+    read_audio,
+    read_coeffs,
+    read_coeffs_file,
+    read_rig,
+    read_said_rig,
+    read_splits,
+    write_audio,
+    write_coeffs,
+    write_coeffs_std,
+    write_rig,
+    write_said_rig,
+    write_splits,
+)
+from .layout import (
+    AUDIO_DIR,
+    AUDIO_RATE,
+    BLENDSHAPES_DIR,
+    COEFFS_DIR,
+    COEFFS_STD_FILE,
+    DATA_DIRS,
+    DATA_FILES,
+    FPS,
+    MANIFEST_FILE,
+    REPORT_DIR,
+    RESIDUALS_FILE,
+    RIGS_DIR,
+    SPLITS_FILE,
+    STATE_DIR,
+    TEMPLATES_DIR,
+    audio_path,
+    audio_relpath,
+    blendshape_path,
+    blendshape_relpath,
+    blendshapes_dir,
+    blendshapes_relpath,
+    coeffs_dir,
+    coeffs_path,
+    coeffs_relpath,
+    coeffs_std_path,
+    is_report_file,
+    listed_samples,
+    listed_sentences,
+    listed_subjects,
+    manifest_path,
+    report_dir,
+    residuals_path,
+    rig_path,
+    rig_relpath,
+    splits_path,
+    template_path,
+    template_relpath,
+)
+from .manifest import (
+    ManifestError,
+    blas_kernels,
+    listed_files,
+    manifest_hash,
+    read_manifest,
+    recorded_vocaset,
+    remove_manifest,
+    write_folder_manifest,
+    write_manifest,
+    written_by_build,
+)
+
+__all__ = [
+    "AUDIO_DIR",
+    "AUDIO_RATE",
+    "BLENDSHAPES_DIR",
+    "COEFFS_DIR",
+    "COEFFS_STD_FILE",
+    "DATA_DIRS",
+    "DATA_FILES",
+    "FPS",
+    "MANIFEST_FILE",
+    "ManifestError",
+    "REPORT_DIR",
+    "RESIDUALS_FILE",
+    "RIGS_DIR",
+    "SPLITS_FILE",
+    "STATE_DIR",
+    "TEMPLATES_DIR",
+    "array_digest",
+    "audio_path",
+    "audio_relpath",
+    "blas_kernels",
+    "blendshape_path",
+    "blendshape_relpath",
+    "blendshapes_dir",
+    "blendshapes_relpath",
+    "coeffs_dir",
+    "coeffs_path",
+    "coeffs_relpath",
+    "coeffs_std_path",
+    "content_digest",
+    "file_digest",
+    "files_digests",
+    "is_report_file",
+    "listed_files",
+    "listed_samples",
+    "listed_sentences",
+    "listed_subjects",
+    "manifest_hash",
+    "manifest_path",
+    "read_audio",
+    "read_coeffs",
+    "read_coeffs_file",
+    "read_manifest",
+    "read_rig",
+    "read_said_rig",
+    "read_splits",
+    "recorded_vocaset",
+    "remove_manifest",
+    "report_dir",
+    "residuals_path",
+    "rig_path",
+    "rig_relpath",
+    "splits_path",
+    "stage_key",
+    "template_path",
+    "template_relpath",
+    "write_audio",
+    "write_coeffs",
+    "write_coeffs_std",
+    "write_folder_manifest",
+    "write_manifest",
+    "write_rig",
+    "write_said_rig",
+    "write_splits",
+    "written_by_build",
+]

@@ -1,0 +1,297 @@
+"""``manifest.json``: the truth about a BlendVOCA folder.
+
+It lists exactly the outputs of the current build of the current inputs, each
+with its sha256, plus the inputs' checksums, the tool version, the parameters
+and the failures, and the BLAS kernels the build ran on (:func:`blas_kernels`: the
+outputs depend on them) (no timestamps: identical builds, identical bytes). Readers
+(``benchmark.data.open_blendvoca``) use only the files it lists
+(:func:`listed_files`); a folder without one is refused with the command that
+builds it. The dataset's identity, which result files record, is
+:func:`manifest_hash`: the listed data files and their sha256, the report left out.
+
+A hand-made SAiD-layout folder (``blendshape_coeffs/``, ``audio/``,
+``blendshapes_head/``, ``templates_head/``) is made readable by listing its
+files once: ``python -m blendvoca.build.manifest DIR`` (:func:`write_folder_manifest`, :func:`main`).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import sys
+from pathlib import Path
+
+from blendvoca import cli
+from blendvoca.errors import DataError
+from blendvoca.io.atomic import atomic_write
+
+from .hashing import file_digest
+from .layout import COEFFS_DIR, DATA_DIRS, DATA_FILES, MANIFEST_FILE, STATE_DIR, is_report_file, manifest_path
+
+__all__ = [
+    "BUILD_TOOL",
+    "DATA_DIRS",
+    "DATA_FILES",
+    "FOLDER_TOOL",
+    "MANIFEST_NAME",
+    "ManifestError",
+    "blas_kernels",
+    "folder_files",
+    "listed_files",
+    "manifest_dict",
+    "manifest_hash",
+    "read_manifest",
+    "recorded_vocaset",
+    "remove_manifest",
+    "write_folder_manifest",
+    "write_manifest",
+    "written_by_build",
+]
+
+MANIFEST_NAME = MANIFEST_FILE
+#: ``tool`` of a manifest a build wrote (and of the marker in a build's state folder).
+BUILD_TOOL = "blendvoca.build"
+#: ``tool`` of a manifest :func:`write_folder_manifest` wrote for a hand-made folder.
+FOLDER_TOOL = "blendvoca.build.manifest"
+
+
+class ManifestError(DataError):
+    """A dataset folder without a usable ``manifest.json``; the message says how to make one."""
+
+
+def _root(root) -> Path:
+    return Path(os.fspath(root))
+
+
+def _how_to_make(root: Path) -> str:
+    return (f"Build it with `python -m blendvoca.build --vocaset <VOCASET folder> --out {root}` (or "
+            f"`python -m blendvoca.build` for the bundled default); for a hand-made SAiD-layout folder, list its "
+            f"files with `python -m blendvoca.build.manifest {root}`")
+
+
+def read_manifest(root) -> dict:
+    """The parsed ``<root>/manifest.json``.
+
+    Raises
+    ------
+    ManifestError
+        No manifest, one that is not readable JSON, or not a JSON object; the
+        message gives the command that (re)makes it.
+    """
+    root = _root(root)
+    path = manifest_path(root)
+    if not path.is_file():
+        raise ManifestError(f"{root} has no {MANIFEST_NAME}, so which of its files are current is unknown "
+                            f"(a build that was interrupted or failed to write leaves none). {_how_to_make(root)}")
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as error:
+        raise ManifestError(f"{path}: not readable JSON ({error}). {_how_to_make(root)}") from None
+    if not isinstance(data, dict):
+        raise ManifestError(f"{path}: expected an object with \"files\": {{path: sha256}}, as blendvoca.build "
+                            f"writes. {_how_to_make(root)}")
+    return data
+
+
+def listed_files(root) -> dict[str, str]:
+    """``{relative path: sha256}`` of the files ``<root>/manifest.json`` lists.
+
+    Raises
+    ------
+    ManifestError
+        No manifest, or one that is not a BlendVOCA manifest (no ``files``
+        object of path -> sha256, or paths leaving the folder); the message
+        gives the command that (re)makes it.
+    """
+    root = _root(root)
+    path = manifest_path(root)
+    files = read_manifest(root).get("files")
+    if not isinstance(files, dict) or not all(isinstance(k, str) and isinstance(v, str) for k, v in files.items()):
+        raise ManifestError(f"{path}: expected an object with \"files\": {{path: sha256}}, as blendvoca.build "
+                            f"writes. {_how_to_make(root)}")
+    for rel in files:
+        parts = Path(rel).parts
+        if Path(rel).is_absolute() or ".." in parts or not parts:
+            raise ManifestError(f"{path}: listed file {rel!r} is not a relative path inside the folder")
+    return dict(files)
+
+
+def manifest_hash(root) -> str:
+    """The dataset's identity: sha256 over the data files ``manifest.json`` lists with their sha256.
+
+    The build report, the tool version, the parameters and the BLAS kernels do not
+    change what a method is scored on, so builds that differ only in those have one
+    hash (and their results land in one leaderboard table). A manifest without a
+    ``files`` object is its own identity (the whole file); a folder without a
+    manifest is identified by its sorted file listing (paths and sizes).
+
+    Returns
+    -------
+    str
+        64 hex digits.
+    """
+    root = _root(root)
+    path = manifest_path(root)
+    digest = hashlib.sha256()
+    if path.exists():
+        manifest = json.loads(path.read_text())
+        if isinstance(manifest, dict) and isinstance(manifest.get("files"), dict):
+            for name, sha in sorted(manifest["files"].items()):
+                if not is_report_file(name):
+                    digest.update(f"{name}\t{sha}\n".encode())
+        else:  # not written by blendvoca.build: the whole file is its identity
+            digest.update(path.read_bytes())
+    else:
+        for p in sorted(root.rglob("*")):
+            if p.is_file():
+                digest.update(f"{p.relative_to(root).as_posix()}\t{p.stat().st_size}\n".encode())
+    return digest.hexdigest()
+
+
+def recorded_vocaset(root) -> str | None:
+    """The VOCASET folder a build recorded (``inputs.vocaset.path``), or None (no manifest,
+    an unreadable one, or a hand-made folder's)."""
+    try:
+        inputs = read_manifest(root).get("inputs", {})
+        return inputs.get("vocaset", {}).get("path") or None
+    except (ManifestError, AttributeError):
+        return None
+
+
+def written_by_build(root) -> bool:
+    """True when ``<root>/manifest.json`` is readable and a build wrote it (``tool``)."""
+    try:
+        return read_manifest(root).get("tool") == BUILD_TOOL
+    except ManifestError:
+        return False
+
+
+def remove_manifest(root) -> None:
+    """Remove ``<root>/manifest.json`` if there is one: its files are about to change."""
+    manifest_path(root).unlink(missing_ok=True)
+
+
+def blas_kernels() -> list[str]:
+    """Return ``"<library> <version> <kernel>"`` for each BLAS loaded in this process (numpy's and scipy's at least), sorted.
+
+    OpenBLAS picks its kernel for the CPU it runs on (``OPENBLAS_CORETYPE`` overrides
+    it), and a build's outputs depend on it: the same code and inputs give other rigs
+    and fits under the ``Haswell`` kernel than under ``SkylakeX`` (docs/build.md).
+    """
+    import scipy.linalg  # noqa: F401 - loads scipy's BLAS too, so the list does not depend on what ran before
+    from threadpoolctl import threadpool_info
+
+    return sorted({f"{i.get('internal_api', '?')} {i.get('version', '?')} {i.get('architecture', '?')}"
+                   for i in threadpool_info() if i.get("user_api") == "blas"})
+
+
+def manifest_dict(out, *, files, vocaset, corpus, params, records, rig_records, failures, version) -> dict:
+    """Return the manifest of the build in ``out`` as a JSON-ready dict.
+
+    Parameters
+    ----------
+    out : path-like
+        The build folder.
+    files : iterable of str
+        The current build's outputs (relative paths); each is listed with its sha256.
+    vocaset : path-like
+        The corpus the build read.
+    corpus : blendvoca.vocaset.VocasetCorpus
+        Its subjects (in order), layout and, for the synthetic corpus, its seed and version.
+    params : dict
+        The build parameters.
+    records : dict
+        ``{(subject, sentence): stage record}`` of the fitted sentences (their ``inputs``).
+    rig_records : dict
+        ``{subject: stage record or None}`` of the speakers' rigs (their ``inputs``).
+    failures : list of dict
+    version : str
+        The tool version.
+    """
+    out = _root(out)
+    inputs = {"vocaset": {"root_name": Path(vocaset).name, "path": str(Path(vocaset).resolve()),
+                          "layout": getattr(corpus, "layout", "")},
+              "speakers": {}}
+    for subject in corpus.subjects:
+        rig_rec = rig_records.get(subject) or {}
+        sentences = {
+            sentence: rec.get("inputs", {})
+            for (subj, sentence), rec in sorted(records.items()) if subj == subject
+        }
+        inputs["speakers"][subject] = {"template": rig_rec.get("inputs", {}), "sentences": sentences}
+    from blendvoca.assets import resolve
+
+    inputs["assets"] = {asset: file_digest(resolve(asset)) for asset in
+                        ("arkit-reference-rig", "arkit-landmarks", "flame-landmarks", "flame-head-idx")}
+    synthetic = getattr(corpus, "synthetic", None)
+    if synthetic:
+        inputs["synthetic"] = {"seed": synthetic.get("seed"), "version": synthetic.get("version")}
+    return {
+        "tool": BUILD_TOOL,
+        "version": version,
+        "parameters": params,
+        "inputs": inputs,
+        "failures": failures,
+        "blas": blas_kernels(),
+        "files": {rel: file_digest(out / rel) for rel in sorted(set(files))},
+    }
+
+
+def _write(path: Path, data: dict) -> Path:
+    with atomic_write(path, "w", encoding="utf-8") as f:
+        f.write(json.dumps(data, indent=1, sort_keys=True) + "\n")
+    return path
+
+
+def write_manifest(out, **kwargs) -> Path:
+    """Write ``<out>/manifest.json`` atomically (see :func:`manifest_dict`) and return its path."""
+    return _write(manifest_path(out), manifest_dict(out, **kwargs))
+
+
+def folder_files(root) -> list[str]:
+    """Data files of a hand-made SAiD-layout folder: everything under :data:`DATA_DIRS` and
+    the top-level :data:`DATA_FILES` (hidden files and temporaries skipped)."""
+    root = _root(root)
+    found = [name for name in DATA_FILES if (root / name).is_file()]
+    for folder in DATA_DIRS:
+        for path in sorted((root / folder).rglob("*")):
+            rel = path.relative_to(root)
+            if path.is_file() and not any(part.startswith(".") for part in rel.parts):
+                found.append(rel.as_posix())
+    return sorted(found)
+
+
+def write_folder_manifest(root) -> Path:
+    """List the data files of a hand-made SAiD-layout folder in ``<root>/manifest.json``.
+
+    Refuses a folder a build wrote (it has its own manifest: rebuild it instead).
+
+    Raises
+    ------
+    ManifestError
+        A build's folder, or no ``blendshape_coeffs/<subject>/<sentence>.csv`` in it.
+    """
+    root = _root(root)
+    if (root / STATE_DIR).is_dir():
+        raise ManifestError(f"{root} is a blendvoca.build output: rerun the build to refresh its {MANIFEST_NAME}")
+    files = folder_files(root)
+    if not any(rel.startswith(f"{COEFFS_DIR}/") for rel in files):
+        raise ManifestError(f"{root}: no {COEFFS_DIR}/<subject>/<sentence>.csv found; not a SAiD-layout folder")
+    data = {"tool": FOLDER_TOOL, "files": {rel: file_digest(root / rel) for rel in files}}
+    return _write(manifest_path(root), data)
+
+
+@cli.command
+def main(argv: list[str] | None = None) -> int:
+    """``python -m blendvoca.build.manifest DIR``: list a hand-made SAiD-layout folder's files."""
+    p = cli.parser("blendvoca.build.manifest", "Write manifest.json for a hand-made SAiD-layout folder.")
+    p.add_argument("folder", help=f"the SAiD-layout folder ({', '.join(f'{d}/' for d in DATA_DIRS)} ...)")
+    args = p.parse_args(argv)
+    path = write_folder_manifest(args.folder)
+    print(f"{path}: {len(json.loads(path.read_text())['files'])} files listed")
+    return cli.EXIT_OK
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,161 @@
+"""No import cycles among the project's modules, counting imports inside functions too.
+
+An import inside a function only hides a cycle until that function runs (and makes
+the import order decide what works), so the graph here has an edge for every
+``import`` / ``from ... import`` anywhere in a module, except under
+``if TYPE_CHECKING:`` (never executed). ``from pkg import name`` points at the
+submodule ``pkg.name`` when there is one, else at ``pkg``; a package's
+``__init__`` being run on the way to a submodule is not an edge (it is the package
+re-exporting its own modules, not a dependency of the importer).
+"""
+
+from __future__ import annotations
+
+import ast
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+PACKAGES = ("blendvoca", "benchmark", "leaderboard", "baselines")
+
+
+def project_modules(packages=PACKAGES) -> dict[str, tuple[Path, bool]]:
+    """``{"pkg.mod": (file, is_package)}`` for every module of ``packages``."""
+    modules = {}
+    for package in packages:
+        for path in sorted((ROOT / package).rglob("*.py")):
+            if "node_modules" in path.parts or "__pycache__" in path.parts:
+                continue
+            parts = list(path.relative_to(ROOT).with_suffix("").parts)
+            is_package = parts[-1] == "__init__"
+            modules[".".join(parts[:-1] if is_package else parts)] = (path, is_package)
+    return modules
+
+
+def _type_checking(node: ast.If) -> bool:
+    test = node.test
+    return (isinstance(test, ast.Name) and test.id == "TYPE_CHECKING") or (
+        isinstance(test, ast.Attribute) and test.attr == "TYPE_CHECKING")
+
+
+def imported_modules(name: str, modules: dict) -> dict[str, list[tuple[int, bool]]]:
+    """Project modules ``name`` imports: ``{module: [(line, inside a function), ...]}``."""
+    path, is_package = modules[name]
+    package = name if is_package else name.rpartition(".")[0]
+    found: list[tuple[str, int, bool]] = []
+
+    def visit(node: ast.AST, in_function: bool) -> None:
+        for child in ast.iter_child_nodes(node):
+            if isinstance(child, ast.If) and _type_checking(child):
+                for other in child.orelse:
+                    visit_statement(other, in_function)
+                continue
+            visit_statement(child, in_function)
+
+    def visit_statement(node: ast.AST, in_function: bool) -> None:
+        inner = in_function or isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda))
+        if isinstance(node, ast.Import):
+            found.extend((alias.name, node.lineno, inner) for alias in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package.split(".")[: len(package.split(".")) - node.level + 1]
+                source = ".".join(base + ([node.module] if node.module else []))
+            else:
+                source = node.module or ""
+            for alias in node.names:
+                submodule = f"{source}.{alias.name}"
+                found.append((submodule if submodule in modules else source, node.lineno, inner))
+        visit(node, inner)
+
+    visit(ast.parse(path.read_text(encoding="utf-8")), False)
+    edges: dict[str, list[tuple[int, bool]]] = {}
+    for target, line, inner in found:
+        while target and target not in modules:  # "blendvoca.io.mesh.read_ply" -> "blendvoca.io.mesh"
+            target = target.rpartition(".")[0]
+        if target and target != name:
+            edges.setdefault(target, []).append((line, inner))
+    return edges
+
+
+def import_cycles(packages=PACKAGES) -> list[list[str]]:
+    """The strongly connected components of more than one module (Tarjan), each sorted."""
+    modules = project_modules(packages)
+    graph = {name: sorted(imported_modules(name, modules)) for name in modules}
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    cycles = []
+
+    def connect(v: str) -> None:
+        # Iterative Tarjan: the graph is deep enough to hit the recursion limit.
+        work = [(v, iter(graph[v]))]
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on_stack.add(v)
+        while work:
+            node, children = work[-1]
+            child = next(children, None)
+            if child is not None:
+                if child not in index:
+                    index[child] = low[child] = len(index)
+                    stack.append(child)
+                    on_stack.add(child)
+                    work.append((child, iter(graph[child])))
+                elif child in on_stack:
+                    low[node] = min(low[node], index[child])
+                continue
+            work.pop()
+            if work:
+                parent = work[-1][0]
+                low[parent] = min(low[parent], low[node])
+            if low[node] == index[node]:
+                component = []
+                while True:
+                    member = stack.pop()
+                    on_stack.discard(member)
+                    component.append(member)
+                    if member == node:
+                        break
+                if len(component) > 1:
+                    cycles.append(sorted(component))
+
+    for name in sorted(graph):
+        if name not in index:
+            connect(name)
+    return sorted(cycles)
+
+
+def describe(cycle: list[str], packages=PACKAGES) -> str:
+    """The edges inside one cycle, ``a:12 -> b (in a function)``, one per line."""
+    modules = project_modules(packages)
+    members = set(cycle)
+    lines = []
+    for name in cycle:
+        for target, sites in sorted(imported_modules(name, modules).items()):
+            if target in members:
+                lines += [f"  {name}:{line} -> {target}{' (in a function)' if inner else ''}" for line, inner in sites]
+    return "\n".join(lines)
+
+
+def test_the_graph_sees_imports_inside_functions(tmp_path, monkeypatch):
+    package = tmp_path / "cyc"
+    package.mkdir()
+    (package / "__init__.py").write_text("")
+    (package / "a.py").write_text("from cyc.b import g\n\ndef f():\n    return g()\n")
+    (package / "b.py").write_text("def g():\n    from cyc import a\n    return a\n")
+    (package / "c.py").write_text("from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    from cyc.a import f\n")
+    monkeypatch.setattr(sys.modules[__name__], "ROOT", tmp_path)
+    assert import_cycles(("cyc",)) == [["cyc.a", "cyc.b"]]
+    assert "cyc.b:2 -> cyc.a (in a function)" in describe(["cyc.a", "cyc.b"], ("cyc",))
+
+
+def test_no_import_cycle_in_blendvoca_benchmark_and_leaderboard():
+    packages = ("blendvoca", "benchmark", "leaderboard")
+    cycles = import_cycles(packages)
+    assert not cycles, "import cycles:\n" + "\n".join(describe(c, packages) for c in cycles)
+
+
+def test_no_import_cycle_through_baselines():
+    cycles = [c for c in import_cycles() if any(m.split(".")[0] == "baselines" for m in c)]
+    assert not cycles, "import cycles:\n" + "\n".join(describe(c) for c in cycles)
