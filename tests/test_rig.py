@@ -1,11 +1,10 @@
-import os
-
 import numpy as np
 import pytest
 
 from blendvoca.errors import DataError, UserError
 from blendvoca.names import ARKIT_NAMES, BLENDVOCA_NAMES
 from blendvoca.rig import Rig, load_arkit_reference
+from tests.fixtures.paths import FsPath
 
 
 @pytest.fixture()
@@ -72,16 +71,6 @@ def test_arkit_reference_from_the_asset(assets_dir):
     # jawOpen moves the chin by centimetres, in metres.
     jaw = np.linalg.norm(speech.deltas[BLENDVOCA_NAMES.index("jawOpen")], axis=1).max()
     assert 0.005 < jaw < 0.1
-
-
-class FsPath:
-    """An ``os.PathLike`` that is not a ``pathlib.Path`` (``str()`` of it is no path)."""
-
-    def __init__(self, path):
-        self._path = os.fspath(path)
-
-    def __fspath__(self):
-        return self._path
 
 
 @pytest.mark.parametrize("dtype", [np.float16, np.float32, np.float64])

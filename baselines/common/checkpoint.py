@@ -1,9 +1,10 @@
 """Checkpoint files of the baselines: reading and writing torch files, and the authors' state dicts.
 
-:func:`load_checkpoint_file` and :func:`save_checkpoint_file` are the one way a
-baseline reads or writes a ``.pt`` / ``.pth`` file: a path the user named that is
-missing is a :class:`~blendvoca.errors.UserError`, a file torch cannot read a
-:class:`~blendvoca.errors.DataError`, and a write is atomic. :func:`checkpoint_state`,
+:func:`load_checkpoint_file` and :func:`save_checkpoint_file` (the project's torch
+file reader and writer, :mod:`blendvoca.io.torch_file`, under the names the baselines
+use) are the one way a baseline reads or writes a ``.pt`` / ``.pth`` file: a path the
+user named that is missing is a :class:`~blendvoca.errors.UserError`, a file torch
+cannot read a :class:`~blendvoca.errors.DataError`, and a write is atomic. :func:`checkpoint_state`,
 :func:`require_key`, :func:`count_layers` and :func:`load_into` read the authors'
 released state dicts (FaceFormer, CodeTalker), whose wav2vec 2.0 part may be in the
 layout of an older transformers version.
@@ -12,66 +13,17 @@ layout of an older transformers version.
 from __future__ import annotations
 
 import os
-import pickle
 import re
-from pathlib import Path
 
 import torch
 
 from baselines.wav2vec2 import current_layout_state, legacy_layout_state
-from blendvoca.errors import DataError, UserError
+from blendvoca.errors import DataError
+from blendvoca.io.torch_file import read_torch_file as load_checkpoint_file
+from blendvoca.io.torch_file import write_torch_file as save_checkpoint_file
 
 __all__ = ["checkpoint_state", "count_layers", "load_checkpoint_file", "load_into", "require_key",
            "save_checkpoint_file"]
-
-
-def load_checkpoint_file(path: str | os.PathLike, *, where: str, weights_only: bool = True, map_location="cpu"):
-    """The object stored in the torch file ``path``, its tensors on ``map_location`` (default the CPU).
-
-    Parameters
-    ----------
-    path : str or os.PathLike
-        ``~`` is expanded.
-    where : str
-        Names the reader in the errors.
-    weights_only : bool, default True
-        ``torch.load``'s safe mode (tensors, containers, numbers, strings); False for
-        the project's own files that hold other objects (numpy arrays).
-    map_location : default "cpu"
-        As for ``torch.load``.
-
-    Raises
-    ------
-    UserError
-        No file at ``path``.
-    DataError
-        A file torch cannot read (not a checkpoint, truncated, or objects that
-        ``weights_only`` refuses).
-    """
-    path = Path(os.fspath(path)).expanduser()
-    if not path.is_file():
-        raise UserError(f"{where}: expected a file at {path}, not found")
-    try:
-        return torch.load(path, map_location=map_location, weights_only=weights_only)
-    except (pickle.UnpicklingError, EOFError, RuntimeError) as exc:  # what torch.load raises on a bad file
-        raise DataError(f"{where}: cannot read {path} as a torch checkpoint: {exc}") from exc
-
-
-def save_checkpoint_file(path: str | os.PathLike, payload) -> Path:
-    """Write ``payload`` with ``torch.save`` to ``path`` atomically (temporary file, then rename).
-
-    Parent folders are created; an interrupted write leaves ``path`` as it was.
-
-    Returns
-    -------
-    Path
-    """
-    from blendvoca.io.atomic import atomic_write
-
-    path = Path(os.fspath(path))
-    with atomic_write(path, "wb") as handle:
-        torch.save(payload, handle)
-    return path
 
 
 def checkpoint_state(path: str | os.PathLike, *, where: str) -> dict:

@@ -18,6 +18,7 @@ import torch
 from torch import nn
 
 from blendvoca.errors import DataError, UserError
+from blendvoca.io.torch_file import read_torch_file
 
 WINDOW = 120
 CHANNELS = 32
@@ -201,12 +202,7 @@ def load_published_vae(path: str | PathLike | None = None) -> CoeffsVAE:
         from blendvoca.assets import resolve
 
         path = resolve("said-vae")
-    try:
-        state = torch.load(path, map_location="cpu", weights_only=True)
-    except FileNotFoundError:
-        raise
-    except Exception as error:  # noqa: BLE001 - torch raises many types for a file that is no checkpoint
-        raise VaeWeightsError(f"load_published_vae: {path} is not a readable torch checkpoint ({error})") from None
+    state = read_torch_file(path, where="load_published_vae", error=VaeWeightsError)
     if not isinstance(state, Mapping):
         raise VaeWeightsError(f"load_published_vae: {path} holds a {type(state).__name__}, expected a state_dict")
     if isinstance(state, Mapping) and "state_dict" in state and "encoder.fc_mu.weight" not in state:

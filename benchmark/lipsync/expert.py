@@ -28,6 +28,7 @@ from torch import nn
 from benchmark.lipsync.geometric import SyncEstimate, offset_from_scores
 from benchmark.lipsync.mfcc import mel_filterbank
 from blendvoca.errors import DataError, UserError
+from blendvoca.io.torch_file import read_torch_file
 
 FPS = 60
 RATE = 16000
@@ -229,12 +230,7 @@ def load_expert(path: str | PathLike) -> SyncExpert:
     DataError
         The file is not a sync-expert checkpoint (names the path and what it holds).
     """
-    try:
-        state = torch.load(path, map_location="cpu", weights_only=True)
-    except FileNotFoundError:
-        raise
-    except Exception as error:
-        raise DataError(f"load_expert: {path} is not a readable torch checkpoint ({error})") from error
+    state = read_torch_file(path, where="load_expert")
     if not isinstance(state, dict) or state.get("format") != FORMAT:
         what = type(state).__name__ if not isinstance(state, dict) else f"keys {sorted(state)[:6]}"
         raise DataError(f"load_expert: {path} is not a {FORMAT} checkpoint (holds {what}); "

@@ -15,6 +15,7 @@ import torch
 from torch import nn
 
 from blendvoca.errors import DataError
+from blendvoca.io.torch_file import read_torch_file
 
 
 def _conv2d_bn(cin, cout, k, pad, pool=None):
@@ -88,7 +89,7 @@ def load_syncnet(path: str | PathLike | None = None) -> SyncNet:
 
     Raises
     ------
-    FileNotFoundError
+    UserError
         No file at ``path``.
     SyncNetWeightsError
         The file is not a SyncNet state_dict (naming the file, and torch's list of keys).
@@ -97,12 +98,7 @@ def load_syncnet(path: str | PathLike | None = None) -> SyncNet:
         from blendvoca.assets import resolve
 
         path = resolve("syncnet-weights")
-    try:
-        state = torch.load(path, map_location="cpu", weights_only=True)
-    except FileNotFoundError:
-        raise
-    except Exception as error:  # noqa: BLE001 - torch raises many types for a file that is no checkpoint
-        raise SyncNetWeightsError(f"load_syncnet: {path} is not a readable torch checkpoint ({error})") from None
+    state = read_torch_file(path, where="load_syncnet", error=SyncNetWeightsError)
     if not isinstance(state, Mapping):
         raise SyncNetWeightsError(f"load_syncnet: {path} holds a {type(state).__name__}, expected a state_dict")
     embedding = int(state["netfcaud.3.weight"].shape[0]) if "netfcaud.3.weight" in state else 1024

@@ -2,6 +2,7 @@ import numpy as np
 import pytest
 
 from tests.cdface.test_model import TINY, _tiny_cdface
+from tests.fixtures.paths import FsPath
 
 PLUGIN_TINY = {k: v for k, v in TINY.items() if k != "encoder"} | {"encoder": "logmel", "vq_max_seconds": None,
                                                                      "query_max_seconds": None}
@@ -48,25 +49,15 @@ def test_cli_writes_samples_for_any_wav(tmp_path, capsys):
     assert "error: --checkpoint" in capsys.readouterr().err
 
 
-class _PathLike:
-    """An ``os.PathLike`` that is not a ``pathlib.Path``."""
-
-    def __init__(self, path):
-        self.path = str(path)
-
-    def __fspath__(self):
-        return self.path
-
-
 def test_cli_file_mistakes_are_one_error_line_and_paths_any_path_like(tmp_path, capsys):
     from baselines.cdface.generate import generate_file, main
     from blendvoca.io.audio import write_wav
 
     cdface, _template = _tiny_cdface()
-    cdface.save(_PathLike(tmp_path / "cdface.pt"))
+    cdface.save(FsPath(tmp_path / "cdface.pt"))
     wav = tmp_path / "speech.wav"
     write_wav(wav, np.random.default_rng(0).normal(scale=0.1, size=8000).astype(np.float32), 16000)
-    out = generate_file(_PathLike(wav), _PathLike(tmp_path / "out.npy"), checkpoint=_PathLike(tmp_path), samples=2,
+    out = generate_file(FsPath(wav), FsPath(tmp_path / "out.npy"), checkpoint=FsPath(tmp_path), samples=2,
                         subject="A", progress=False)
     assert out == tmp_path / "out.npy" and np.load(out).shape == (2, 30, 7, 3)
     (tmp_path / "ref.npy").write_text("not an array")
@@ -74,7 +65,7 @@ def test_cli_file_mistakes_are_one_error_line_and_paths_any_path_like(tmp_path, 
     (tmp_path / "bad" / "cdface.pt").write_text("not a checkpoint")
     for argv, message in ((["--checkpoint", str(tmp_path), "--subject", "A", "--control", "lips",
                             "--reference", str(tmp_path / "ref.npy")], "--reference"),
-                          (["--checkpoint", str(tmp_path / "bad")], "cannot read"),
+                          (["--checkpoint", str(tmp_path / "bad")], "not a readable torch checkpoint"),
                           (["--checkpoint", str(tmp_path)], "--subject")):  # two stored speakers: which one?
         code = main([*argv, "--audio", str(wav), "--out", str(tmp_path / "o.npy"), "--quiet"])
         err = capsys.readouterr().err.strip().splitlines()

@@ -110,14 +110,14 @@ def test_official_files_are_named_by_any_path_like(tmp_path):
 
     from baselines.codetalker import load_official
     from tests.codetalker import test_official as official
-    from tests.faceformer.test_official import PathLikeText
+    from tests.fixtures.paths import FsPath
 
     torch.save({"state_dict": official.authors_stage1_state()}, tmp_path / "v_stage1.pth.tar")
     torch.save({"state_dict": official.authors_stage2_state(True)}, tmp_path / "v_stage2.pth.tar")
-    model = load_official(PathLikeText(tmp_path / "v_stage2.pth.tar"), PathLikeText(tmp_path / "v_stage1.pth.tar"),
+    model = load_official(FsPath(tmp_path / "v_stage2.pth.tar"), FsPath(tmp_path / "v_stage1.pth.tar"),
                           wav2vec2_config="tiny")
     assert not model.training
-    method = CodeTalkerMethod.from_official_checkpoint(PathLikeText(tmp_path / "v_stage2.pth.tar"), official_wav2vec2="tiny")
+    method = CodeTalkerMethod.from_official_checkpoint(FsPath(tmp_path / "v_stage2.pth.tar"), official_wav2vec2="tiny")
     saved = json.loads(json.dumps(method.config()))  # the paths are recorded as text
     assert (saved["official"], saved["official_stage1"]) == (str(tmp_path / "v_stage2.pth.tar"),
                                                             str(tmp_path / "v_stage1.pth.tar"))

@@ -1,23 +1,12 @@
 """``export_track``, ``read_track`` and ``load_rig`` take ``str`` or any ``os.PathLike``
 path and tracks of any real dtype, and say what they need when they cannot convert."""
 
-import os
-
 import numpy as np
 import pytest
 
 from blendvoca.errors import DataError, UserError
 from blendvoca.export import FORMATS, detect_format, export_track, load_rig, read_track
-
-
-class FsPath:
-    """An ``os.PathLike`` that is not a ``pathlib.Path`` (``str()`` of it is no path)."""
-
-    def __init__(self, path):
-        self._path = os.fspath(path)
-
-    def __fspath__(self):
-        return self._path
+from tests.fixtures.paths import FsPath
 
 
 SUFFIX = {"livelink": ".csv", "arkit-json": ".json", "a2f-json": ".json", "glb": ".glb", "usd": ".usda", "csv": ".csv"}

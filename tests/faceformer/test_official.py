@@ -13,6 +13,7 @@ from tests.faceformer.authors_reference import (
     reference_pe,
     reference_wav2vec2,
 )
+from tests.fixtures.paths import FsPath
 
 VDIM, D, NSUBJ, PERIOD = 5023 * 3, 64, 8, 30
 
@@ -96,18 +97,8 @@ def test_wrong_checkpoint_is_a_clear_error(tmp_path):
     with pytest.raises(UserError, match="not found"):  # a path the user named: exit 2 at a command line
         load_official(tmp_path / "nope.pth")
     (tmp_path / "text.pth").write_text("not a checkpoint")
-    with pytest.raises(DataError, match="cannot read"):  # the file's content: exit 2 too
+    with pytest.raises(DataError, match="not a readable torch checkpoint"):  # the file's content: exit 2 too
         load_official(tmp_path / "text.pth")
-
-
-class PathLikeText:
-    """An ``os.PathLike`` that is not a ``pathlib.Path`` (CodeTalker's tests use it too)."""
-
-    def __init__(self, path):
-        self.path = str(path)
-
-    def __fspath__(self):
-        return self.path
 
 
 def test_official_files_are_named_by_any_path_like(tmp_path):
@@ -116,8 +107,8 @@ def test_official_files_are_named_by_any_path_like(tmp_path):
     from baselines.faceformer.plugin import FaceFormerMethod
 
     torch.save(authors_state(legacy=True), tmp_path / "vocaset.pth")
-    assert load_official(PathLikeText(tmp_path / "vocaset.pth"), wav2vec2_config="tiny").config["num_subjects"] == NSUBJ
-    method = FaceFormerMethod.from_official_checkpoint(PathLikeText(tmp_path / "vocaset.pth"), official_wav2vec2="tiny")
+    assert load_official(FsPath(tmp_path / "vocaset.pth"), wav2vec2_config="tiny").config["num_subjects"] == NSUBJ
+    method = FaceFormerMethod.from_official_checkpoint(FsPath(tmp_path / "vocaset.pth"), official_wav2vec2="tiny")
     assert json.loads(json.dumps(method.config()))["official"] == str(tmp_path / "vocaset.pth")  # saved as text
 
 

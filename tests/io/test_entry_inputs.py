@@ -1,8 +1,6 @@
 """The readers and writers take ``str`` or any ``os.PathLike`` path and arrays of any
 real dtype, and say what they need when they cannot convert."""
 
-import os
-
 import numpy as np
 import pytest
 
@@ -20,16 +18,7 @@ from blendvoca.io.mesh import (
     write_obj,
     write_ply,
 )
-
-
-class FsPath:
-    """An ``os.PathLike`` that is not a ``pathlib.Path`` (``str()`` of it is no path)."""
-
-    def __init__(self, path):
-        self._path = os.fspath(path)
-
-    def __fspath__(self):
-        return self._path
+from tests.fixtures.paths import FsPath
 
 
 def _paths(tmp_path, name):

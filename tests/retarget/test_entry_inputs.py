@@ -2,7 +2,6 @@
 both say what they need when they cannot convert."""
 
 import json
-import os
 
 import numpy as np
 import pytest
@@ -14,16 +13,7 @@ from blendvoca.names import BLENDVOCA_NAMES
 from blendvoca.retarget import retarget_rig
 from blendvoca.retarget.cli import retarget_files
 from blendvoca.rig import Rig
-
-
-class FsPath:
-    """An ``os.PathLike`` that is not a ``pathlib.Path`` (``str()`` of it is no path)."""
-
-    def __init__(self, path):
-        self._path = os.fspath(path)
-
-    def __fspath__(self):
-        return self._path
+from tests.fixtures.paths import FsPath
 
 
 @pytest.fixture(scope="module")

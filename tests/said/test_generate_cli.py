@@ -6,6 +6,7 @@ import pytest
 
 from baselines.said.generate import checkpoint_file, main, output_paths
 from baselines.said.pipeline import SAiD
+from tests.fixtures.paths import FsPath
 
 
 @pytest.fixture(scope="module")
@@ -82,23 +83,13 @@ def test_cli_mistake_is_one_error_line(tmp_path, capsys):
     assert not (tmp_path / "o.csv").exists()
 
 
-class _PathLike:
-    """An ``os.PathLike`` that is not a ``pathlib.Path``: entry points must take any."""
-
-    def __init__(self, path):
-        self.path = str(path)
-
-    def __fspath__(self):
-        return self.path
-
-
 def test_entry_points_take_any_path_like(tmp_path, checkpoint, wav):
     from baselines.said.generate import generate_files
 
-    said = SAiD.load(_PathLike(checkpoint))
-    said.save(_PathLike(tmp_path / "again.pt"))
-    paths = generate_files(_PathLike(wav), _PathLike(tmp_path / "y.csv"), checkpoint=_PathLike(tmp_path / "again.pt"),
-                           image_path=_PathLike(tmp_path / "y.png"), progress=False)
+    said = SAiD.load(FsPath(checkpoint))
+    said.save(FsPath(tmp_path / "again.pt"))
+    paths = generate_files(FsPath(wav), FsPath(tmp_path / "y.csv"), checkpoint=FsPath(tmp_path / "again.pt"),
+                           image_path=FsPath(tmp_path / "y.png"), progress=False)
     assert paths == [tmp_path / "y.csv"] and (tmp_path / "y.png").is_file()
 
 
@@ -120,7 +111,7 @@ def test_a_file_that_is_no_checkpoint_is_a_data_error(tmp_path, capsys, wav):
     (tmp_path / "said.pt").write_text("not a checkpoint")
     code = main(["--audio", str(wav), "--out", str(tmp_path / "o.csv"), "--checkpoint", str(tmp_path), "--quiet"])
     err = capsys.readouterr().err.strip().splitlines()
-    assert code == 2 and len(err) == 1 and "cannot read" in err[0], err
+    assert code == 2 and len(err) == 1 and "not a readable torch checkpoint" in err[0], err
 
 
 def test_train_cli_mistakes_are_one_error_line(tmp_path, capsys):

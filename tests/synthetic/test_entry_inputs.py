@@ -1,24 +1,13 @@
 """``generate_corpus`` takes ``str`` or any ``os.PathLike`` folder; arguments it cannot
 use are :class:`~blendvoca.errors.UserError` (exit 2 on the command line)."""
 
-import os
-
 import pytest
 
 from blendvoca.errors import UserError
 from blendvoca.synthetic import generate_corpus
 from blendvoca.synthetic.__main__ import main
 from blendvoca.vocaset import open_vocaset
-
-
-class FsPath:
-    """An ``os.PathLike`` that is not a ``pathlib.Path`` (``str()`` of it is no path)."""
-
-    def __init__(self, path):
-        self._path = os.fspath(path)
-
-    def __fspath__(self):
-        return self._path
+from tests.fixtures.paths import FsPath
 
 
 def test_generate_corpus_into_a_pathlike(tmp_path, assets_dir):

@@ -1,7 +1,6 @@
 """``open_vocaset`` / ``detect_layout`` take ``str`` or any ``os.PathLike`` root and name
 the file when its content is wrong."""
 
-import os
 import shutil
 
 import numpy as np
@@ -9,16 +8,7 @@ import pytest
 
 from blendvoca.errors import DataError, UserError
 from blendvoca.vocaset import detect_layout, open_vocaset
-
-
-class FsPath:
-    """An ``os.PathLike`` that is not a ``pathlib.Path`` (``str()`` of it is no path)."""
-
-    def __init__(self, path):
-        self._path = os.fspath(path)
-
-    def __fspath__(self):
-        return self._path
+from tests.fixtures.paths import FsPath
 
 
 def test_both_layouts_open_from_any_path(synthetic_corpus, synthetic_corpus_processed):
