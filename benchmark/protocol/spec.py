@@ -199,7 +199,7 @@ def open_data(root, *, vocaset=None, open_dataset=None):
         if open_dataset is not None:
             return open_dataset(root)
         return _open_default(root, vocaset=vocaset) if vocaset is not None else _open_default(root)
-    except (ValueError, FileNotFoundError) as exc:  # the reader's word on the folder the user named
+    except (UserError, DataError, FileNotFoundError) as exc:  # the reader's word on the folder the user named
         raise UsageError(f"--data {root}: {exc}") from None
 
 
