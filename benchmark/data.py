@@ -35,7 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from blendvoca import format as fmt
-from blendvoca.errors import DataError, UserError
+from blendvoca.errors import CheckFailed, DataError, UserError
 
 
 class BlendVOCADataset:
@@ -153,6 +153,58 @@ class BlendVOCADataset:
                             f"{fmt.template_relpath(subject)} + {fmt.blendshapes_relpath(subject)}/ listed in "
                             f"{fmt.manifest_path(self.root)}")
         return said_layout_rig(self.root, subject, self.names)
+
+    def scored_files(self, subjects) -> list[str]:
+        """The files a run that scores ``subjects`` reads of them, as the manifest lists
+        them (relative paths, sorted): every coefficient track and audio file of those
+        speakers, and their rig (``rigs/<subject>.npz``, or the SAiD-layout heads where
+        there is none)."""
+        wanted = []
+        for subject in subjects:
+            self._check_subject(subject)
+            folders = (f"{fmt.COEFFS_DIR}/{subject}/", f"{fmt.AUDIO_DIR}/{subject}/")
+            wanted += [rel for rel in self._listed if rel.startswith(folders)]
+            if fmt.rig_relpath(subject) in self._listed:
+                wanted.append(fmt.rig_relpath(subject))
+            else:
+                heads = fmt.blendshapes_relpath(subject) + "/"
+                wanted += [rel for rel in self._listed
+                           if rel == fmt.template_relpath(subject) or rel.startswith(heads)]
+        return sorted(set(wanted))
+
+    def verify(self, subjects) -> int:
+        """Check that the files a run on ``subjects`` reads are the ones the build made:
+        each one's sha256 against the digest ``manifest.json`` lists for it.
+
+        Parameters
+        ----------
+        subjects : iterable of str
+
+        Returns
+        -------
+        int
+            The number of files checked.
+
+        Raises
+        ------
+        CheckFailed
+            A file whose content differs from the build's (edited, replaced or damaged
+            since); the message names the first one.
+        DataError
+            A listed file that is no longer there.
+        """
+        files = self.scored_files(subjects)
+        for rel in files:
+            path = self.root / rel
+            if not path.is_file():
+                raise DataError(f"{path}: listed in {fmt.manifest_path(self.root)} but missing; rebuild the "
+                                f"dataset")
+            if fmt.file_digest(path) != self._listed[rel]:
+                raise CheckFailed(
+                    f"{path}: its content is not what the build made (its sha256 differs from the one "
+                    f"{fmt.manifest_path(self.root)} lists), so results on it would be filed under a dataset "
+                    f"it no longer is; rebuild the dataset, or pass --no-verify to score the files as they are")
+        return len(files)
 
     def utterance(self, subject: str, sentence: str, split: str | None = None):
         """The :class:`benchmark.methods.contract.Utterance` of a sentence (what ``generate`` receives)."""

@@ -8,6 +8,12 @@ scores them (:func:`benchmark.protocol.score_lipsync_models`, the lip-sync stage
 :func:`benchmark.evaluate.evaluate_split`), and the result file is rewritten with
 those metrics, their per-sentence values and the models' provenance
 (``protocol.lipsync_models``). Other metrics are left as they are.
+
+Before scoring, the files of the rescored speakers (their audio, rigs and ground-truth
+tracks) are checked against the digests in the build's ``manifest.json``, as
+``benchmark.run`` checks them: a file changed since the build is refused (exit status
+4) unless ``--no-verify``, which scores the files as they are and records the run as
+not verified (``protocol.verified``).
 """
 
 from __future__ import annotations
@@ -21,7 +27,8 @@ from blendvoca.errors import UserError
 __all__ = ["main", "rescored_result"]
 
 
-def rescored_result(json_path, *, syncnet=None, sync_expert=None, data=None, progress: bool = True) -> dict:
+def rescored_result(json_path, *, syncnet=None, sync_expert=None, data=None, progress: bool = True,
+                    verify: bool = True) -> dict:
     """The result of a stored run with the model-based lip-sync metrics (re)computed.
 
     Parameters
@@ -32,6 +39,11 @@ def rescored_result(json_path, *, syncnet=None, sync_expert=None, data=None, pro
         SyncNet weights (authors' format) and a learned sync expert; at least one.
     data : str or path-like, optional
         The BlendVOCA build to read audio and rigs from (default: the run's ``dataset.path``).
+    progress : bool, default True
+        Show the scoring's progress.
+    verify : bool, default True
+        Check the rescored speakers' files against the build's manifest digests before
+        scoring; off, they are scored as they are and ``protocol.verified`` becomes False.
 
     Returns
     -------
@@ -43,7 +55,10 @@ def rescored_result(json_path, *, syncnet=None, sync_expert=None, data=None, pro
     UserError
         No model given, a model file that holds none, or a build other than the run's.
     DataError
-        The result file or its stored tracks do not read.
+        The result file or its stored tracks do not read, or a file the build's manifest
+        lists is gone.
+    CheckFailed
+        ``verify`` and a file of a rescored speaker differs from what the build made.
     """
     from benchmark.metrics.registry import ordered_metrics
     from benchmark.protocol import lipsync_models_provenance, open_data, score_lipsync_models
@@ -61,6 +76,11 @@ def rescored_result(json_path, *, syncnet=None, sync_expert=None, data=None, pro
                         f"{str(dataset.manifest_hash)[:12]}")
     keys = [(row["subject"], row["sentence"]) for row in result.get("per_sentence") or []] or stored.keys
     tracks = {key: stored.tracks(*key) for key in keys}
+    # the same check benchmark.run makes before it scores (benchmark.protocol.spec): only
+    # the files of the speakers whose tracks are rescored, since only those are read
+    check = getattr(dataset, "verify", None) if verify else None
+    if check is not None:
+        check(sorted({subject for subject, _ in keys}))
     scored = score_lipsync_models(tracks, dataset, syncnet=syncnet, sync_expert=sync_expert, progress=progress)
     metrics = {**result["metrics"], **scored.metrics}
     rows = {(row["subject"], row["sentence"]): row for row in scored.per_sentence}
@@ -70,6 +90,8 @@ def rescored_result(json_path, *, syncnet=None, sync_expert=None, data=None, pro
     result["protocol"] = {**result["protocol"],
                           "lipsync_models": {**result["protocol"].get("lipsync_models", {}),
                                              **lipsync_models_provenance(syncnet, sync_expert)}}
+    if not verify:  # metrics now come from files nobody checked, whatever the run checked
+        result["protocol"]["verified"] = False
     return result
 
 
@@ -80,13 +102,17 @@ def main(argv=None) -> int:
     p.add_argument("--sync-expert", default=None, metavar="PATH", help="learned sync expert (benchmark.lipsync)")
     p.add_argument("--syncnet-weights", default=None, metavar="PATH", help="SyncNet weights (syncnet_v2.model)")
     cli.add_data_option(p, help="BlendVOCA build folder (default: each run's dataset.path)")
+    p.add_argument("--no-verify", dest="verify", action="store_false",
+                   help="score the rescored speakers' files as they are, without checking them against the "
+                        "build's manifest.json digests first (a modified build is otherwise refused, exit 4; "
+                        "recorded in the result)")
     cli.add_quiet_option(p)
     args = p.parse_args(argv)
     from benchmark.protocol import write_run
 
     for run in args.runs:
         result = rescored_result(run, syncnet=args.syncnet_weights, sync_expert=args.sync_expert,
-                                 data=args.data, progress=not args.quiet)
+                                 data=args.data, progress=not args.quiet, verify=args.verify)
         path = Path(run)
         print(write_run(result, path.parent, path.name))
     return cli.EXIT_OK

@@ -237,6 +237,10 @@ def check_result(result, where: str = "result") -> dict:
     for key in ("name", "config"):
         if key not in result["method"]:
             raise ValueError(f"{where}: method section lacks {key!r}")
+    for section, key in (("method", "name"), ("method", "label"), ("dataset", "manifest_hash")):
+        value = result[section].get(key)
+        if value is not None and not isinstance(value, str):  # tables key and sort on these
+            raise ValueError(f"{where}: {section}.{key}: expected a string, got {type(value).__name__}")
     if not result["dataset"].get("manifest_hash"):
         raise ValueError(f"{where}: dataset section lacks 'manifest_hash'")
     _clean_metrics(result["metrics"])
@@ -289,9 +293,12 @@ def read_result(path) -> dict:
     path = Path(os.fspath(path))
     try:
         result = json.loads(path.read_text(encoding="utf-8"))
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise DataError(f"{path}: not valid JSON ({exc})") from exc
+    # ValueError: also an integer of more digits than Python converts; RecursionError: nesting too deep.
+    except (ValueError, RecursionError) as exc:
+        raise DataError(f"{path}: not valid JSON ({type(exc).__name__}: {exc})") from None
     try:
         return check_result(result, where=str(path))
-    except (TypeError, ValueError) as exc:  # check_result's word on a file's content
-        raise DataError(str(exc)) from exc
+    # check_result's word on a file's content; OverflowError: an integer too large for a float.
+    except (TypeError, ValueError, OverflowError) as exc:
+        message = str(exc)
+        raise DataError(message if message.startswith(str(path)) else f"{path}: {message}") from None

@@ -1,6 +1,10 @@
 """``python -m benchmark.run``: train or load a method, generate on the test split,
 score every metric and write one result JSON with its provenance.
 
+Before anything runs, the files of the scored split (coefficient tracks, audio,
+rigs) are checked against the digests of the build's ``manifest.json``: a build
+modified since it was made is refused (exit status 4) unless ``--no-verify``.
+
 The command line over :mod:`benchmark.protocol` (which holds the steps and
 :func:`run_method`), on the project's CLI layer :mod:`blendvoca.cli`: a mistake in
 what was asked or a build file that is missing is exit status 2, a method that
@@ -16,6 +20,7 @@ from pathlib import Path
 
 from benchmark.methods import Budget
 from benchmark.protocol import (
+    DEFAULT_GENERATE_LIMIT,
     TRAIN_GRACE_S,
     UsageError,
     check_results_dir,
@@ -81,7 +86,8 @@ def parse_config(pairs=(), *, preset: str | None = None) -> dict:
 
 def _parser() -> argparse.ArgumentParser:
     p = cli.parser("benchmark.run", __doc__)
-    p.add_argument("--method", required=False, help="registered or installed method name")
+    p.add_argument("--method", required=False,
+                   help="registered or installed method name, or a 'package.module:Class' to import")
     p.add_argument("--vocaset", default=None, metavar="DIR",
                    help="source VOCASET corpus for dataset.vertices (default: the one the build recorded)")
     p.add_argument("--samples", type=int, default=10, help="samples per sentence for stochastic methods")
@@ -91,7 +97,12 @@ def _parser() -> argparse.ArgumentParser:
                         "a file: the authors' released weights (faceformer, codetalker, said)")
     p.add_argument("--clip", action="store_true", help="clip out-of-range coefficients instead of failing")
     p.add_argument("--generate-time-limit", type=float, default=None, metavar="SECONDS",
-                   help="stop the run when one generate call takes longer")
+                   help="stop the run (exit 3) when one generate call takes longer than SECONDS; 0: no limit "
+                        f"(default: {DEFAULT_GENERATE_LIMIT.describe()}, recorded in the result)")
+    p.add_argument("--no-verify", dest="verify", action="store_false",
+                   help="score the split's files as they are, without checking them against the build's "
+                        "manifest.json digests first (a modified build is otherwise refused, exit 4; "
+                        "recorded in the result)")
     p.add_argument("--sentence-batch", type=int, default=1, metavar="N",
                    help="sentences per generation call, batched by methods that can (SAiD); recorded in the result")
     p.add_argument("--syncnet-weights", default=None, metavar="PATH",
@@ -137,7 +148,8 @@ def main(argv=None) -> int:
                       budget=Budget(max_steps=max_steps, max_seconds=max_seconds), results_dir=args.results,
                       config=config, split=args.split, checkpoint=args.checkpoint, clip=args.clip,
                       progress=not args.quiet, generate_time_limit=args.generate_time_limit, vocaset=args.vocaset,
-                      syncnet=args.syncnet_weights, sync_expert=args.sync_expert, sentence_batch=args.sentence_batch)
+                      syncnet=args.syncnet_weights, sync_expert=args.sync_expert, sentence_batch=args.sentence_batch,
+                      verify=args.verify)
     if not args.quiet:
         _print_summary(path)
     print(path)

@@ -10,6 +10,7 @@ from __future__ import annotations
 import io
 import os
 import zipfile
+import zlib
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -23,6 +24,31 @@ from blendvoca.io.mesh import obj_face_records, parse_obj, read_obj, write_obj
 from blendvoca.names import ARKIT_NAMES, BLENDVOCA_NAMES, check_names
 
 NEUTRAL_NAME = "Neutral"
+
+#: What reading a broken zip archive raises: a bad or truncated structure (BadZipFile,
+#: EOFError, ValueError for a seek before the start), a corrupted deflate stream
+#: (zlib.error), an unsupported compression method (NotImplementedError) or an
+#: encrypted member (RuntimeError).
+_BROKEN_ARCHIVE = (zipfile.BadZipFile, EOFError, ValueError, zlib.error, NotImplementedError, RuntimeError)
+
+
+#: How an ``.npz`` (a zip archive: a local file header, or the end record of an empty
+#: one) and, to be told apart in the error, a single ``.npy`` array begin.
+_NPZ_SIGNATURES = (b"PK\x03\x04", b"PK\x05\x06", b"\x93NUMPY")
+
+
+def _first_bytes(raw: bytes) -> str:
+    """What a file that is no archive begins with, for an error message."""
+    if not raw:
+        return "the file is empty"
+    head = raw[:16]
+    try:
+        text = head.decode("utf-8")
+    except UnicodeDecodeError:
+        return f"it begins with the bytes {head!r}"
+    if text.isprintable() or all(c.isprintable() or c in "\t\r\n" for c in text):
+        return f"it is text, beginning {text!r}"
+    return f"it begins with the bytes {head!r}"
 
 
 @dataclass(frozen=True, eq=False)
@@ -135,8 +161,17 @@ class Rig:
         path = Path(os.fspath(path))
         if not path.is_file():
             raise FileNotFoundError(f"rig file not found: {path}")
+        # Read into memory first: a broken archive's seeks then fail as the format errors
+        # below, and an OSError is only ever the file system's.
+        raw = path.read_bytes()
+        if not raw.startswith(_NPZ_SIGNATURES):
+            # np.load takes any other bytes for a pickle and answers with its allow_pickle
+            # advice, which misleads: the file is simply not an archive
+            raise DataError(f"{path}: not a .npz archive ({_first_bytes(raw)}); a BlendVOCA rig file is the "
+                            f".npz that Rig.save writes (or give a SAiD folder of OBJ files)")
+        content = io.BytesIO(raw)
         try:
-            data = np.load(path, allow_pickle=False)
+            data = np.load(content, allow_pickle=False)
             if not isinstance(data, np.lib.npyio.NpzFile):
                 raise DataError(f"{path}: not a BlendVOCA rig file: a single array, expected an .npz archive")
             with data:
@@ -146,8 +181,10 @@ class Rig:
                 arrays = {k: data[k] for k in ("neutral", "deltas", "names", "faces")}
         except DataError:
             raise
-        except (ValueError, EOFError, zipfile.BadZipFile) as error:  # not an .npz, truncated, pickled objects
+        except _BROKEN_ARCHIVE as error:  # not an .npz, truncated, corrupted, pickled objects
             raise DataError(f"{path}: not a readable BlendVOCA rig file (.npz): {error}") from None
+        if arrays["names"].ndim != 1:
+            raise DataError(f"{path}: names must be a 1-D array of shape names, got shape {arrays['names'].shape}")
         try:
             return cls(arrays["neutral"], arrays["deltas"], tuple(str(n) for n in arrays["names"]), arrays["faces"])
         except UserError as error:
@@ -205,14 +242,17 @@ def read_rig_zip(path, names: Sequence[str]) -> Rig:
     """A rig from a zip (str or os.PathLike) of ``<folder>/Neutral.obj`` and ``<folder>/<name>.obj`` files."""
     path = Path(os.fspath(path))
     meshes = {}
+    content = io.BytesIO(path.read_bytes())  # in memory, as in Rig.load: an OSError is the file system's
     try:
-        with zipfile.ZipFile(path) as archive:
+        with zipfile.ZipFile(content) as archive:
             for member in archive.namelist():
                 stem = Path(member).stem
                 if member.endswith(".obj") and (stem == NEUTRAL_NAME or stem in names):
                     text = archive.read(member).decode("utf-8", errors="replace")
                     meshes[stem] = parse_obj(text, where=f"{path}:{member}")
-    except zipfile.BadZipFile as error:
+    except DataError:  # an OBJ member that does not parse, named by parse_obj
+        raise
+    except _BROKEN_ARCHIVE as error:
         raise DataError(f"{path}: not a readable zip of OBJ files ({error})") from None
     missing = [n for n in (NEUTRAL_NAME, *names) if n not in meshes]
     if missing:

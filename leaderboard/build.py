@@ -9,6 +9,7 @@ import sys
 from pathlib import Path
 
 from blendvoca import cli
+from blendvoca.io.atomic import atomic_write
 
 from .collect import load_results, tables_by_manifest
 from .render import latex_tables, markdown_tables
@@ -32,13 +33,21 @@ def build_leaderboard(results_dir=DEFAULT_RESULTS_DIR, out_dir=DEFAULT_OUT_DIR) 
     -------
     list of Path
         The written files.
+
+    Raises
+    ------
+    UserError, DataError
+        No such folder, or a file in it that is not a result (named); nothing is
+        written then.
     """
+    tables = rendered_tables(load_results(results_dir))  # every file read before anything is written
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     written = []
-    for name, text in rendered_tables(load_results(results_dir)).items():
+    for name, text in tables.items():
         path = out_dir / name
-        path.write_text(text, encoding="utf-8")
+        with atomic_write(path, "w", encoding="utf-8") as handle:
+            handle.write(text)
         written.append(path)
     return written
 

@@ -75,11 +75,37 @@ def load_results(results_dir) -> list[dict]:
     ------
     UserError
         ``results_dir`` is not a folder.
+    DataError
+        A file that is not a result (not JSON, off the schema, or holding a field the
+        tables read with the wrong type); the message names the file.
     """
     results_dir = Path(results_dir)
     if not results_dir.is_dir():
         raise UserError(f"results directory {results_dir} does not exist")
-    return [read_result(path) for path in sorted(results_dir.glob("*.json"))]
+    return [_tabulable(read_result(path), path) for path in sorted(results_dir.glob("*.json"))]
+
+
+def _tabulable(result: dict, path: Path) -> dict:
+    """``result`` unchanged when the fields the tables read have their types (the schema
+    check leaves some free); DataError naming ``path`` and the field otherwise."""
+    expected = (
+        ("dataset", "manifest_hash", str, False),
+        ("dataset", "split", str, True),
+        ("dataset", "num_sentences", int, True),
+        ("method", "name", str, False),
+        ("method", "label", str, True),
+        ("method", "output", str, True),
+        ("protocol", "samples", int, True),
+        ("protocol", "seed", int, True),
+    )
+    for section, key, kind, optional in expected:
+        value = result[section].get(key)
+        if value is None and (optional or key not in result[section]):
+            continue
+        if isinstance(value, bool) or not isinstance(value, kind):
+            raise DataError(f"{path}: {section}.{key}: expected {'an integer' if kind is int else 'a string'}, "
+                            f"got {value!r}")
+    return result
 
 
 def _column(name: str, fields: dict) -> Column:

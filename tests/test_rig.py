@@ -111,7 +111,7 @@ def test_rig_files_through_any_path(tmp_path, rig):
 
 def test_a_file_that_is_no_rig_names_the_file(tmp_path, rig):
     (tmp_path / "text.npz").write_text("not a zip")
-    with pytest.raises(DataError, match=r"text\.npz: not a readable BlendVOCA rig file"):
+    with pytest.raises(DataError, match=r"text\.npz: not a \.npz archive \(it is text, beginning 'not a zip'\)"):
         Rig.load(FsPath(tmp_path / "text.npz"))
     np.save(tmp_path / "array.npy", rig.neutral)
     with pytest.raises(DataError, match=r"array\.npy: not a BlendVOCA rig file: a single array"):
@@ -125,3 +125,19 @@ def test_a_file_that_is_no_rig_names_the_file(tmp_path, rig):
         Rig.load(tmp_path / "names.npz")
     with pytest.raises(FileNotFoundError, match="rig file not found"):
         Rig.load(FsPath(tmp_path / "none.npz"))
+
+
+@pytest.mark.parametrize("content, begins", [
+    (b"neutral,deltas\n0.1,0.2\n", "it is text, beginning 'neutral,deltas"),
+    (b"", "the file is empty"),
+    (b"\x80\x04\x95\x10\x00", "it begins with the bytes"),
+])
+def test_a_file_that_is_no_archive_is_called_so_not_a_pickle(tmp_path, content, begins):
+    """numpy takes any bytes that are no archive for a pickle; the error says what the file is instead."""
+    path = tmp_path / "rig.npz"
+    path.write_bytes(content)
+    with pytest.raises(DataError) as caught:
+        Rig.load(path)
+    message = str(caught.value)
+    assert message.startswith(f"{path}: not a .npz archive") and begins in message, message
+    assert "pickle" not in message, message

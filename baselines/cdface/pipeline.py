@@ -19,7 +19,7 @@ import torch
 from baselines.cdface.model import CDFaceModel, sample_pairs
 from baselines.cdface.parts import FaceParts
 from baselines.cdface.presets import DEFAULT_PRESET, resolve_config
-from baselines.common.checkpoint import load_checkpoint_file, save_checkpoint_file
+from baselines.common.checkpoint import load_checkpoint_file, old_format_hint, safe_payload, save_checkpoint_file
 from baselines.common.encoders import build_encoder
 from baselines.common.threads import torch_threads
 from blendvoca.errors import DataError, UserError
@@ -167,7 +167,9 @@ class CDFace:
         return tpl[None, None] + disp
 
     def save(self, path: str | os.PathLike) -> None:
-        """Write config, parts, styles, templates and the trained state to ``path`` (atomically)."""
+        """Write config, parts, styles, templates and the trained state to ``path``
+        (atomically): tensors, numbers and strings only (the part indices as int64 and
+        the templates as float64 tensors), so the file loads with ``weights_only=True``."""
         payload = {
             "config": self.config,
             "parts": {"lips": self.parts.lips, "upper": self.parts.upper, "num_vertices": self.parts.num_vertices},
@@ -175,7 +177,7 @@ class CDFace:
             "templates": dict(self.templates),
             "state_dict": self.model.state_dict(),
         }
-        save_checkpoint_file(path, payload)
+        save_checkpoint_file(path, safe_payload(payload, where=f"CDFace.save {os.fspath(path)}"))
 
     @classmethod
     def load(cls, path: str | os.PathLike) -> CDFace:
@@ -186,16 +188,23 @@ class CDFace:
         UserError
             No file at ``path``.
         DataError
-            A file that :meth:`save` did not write.
+            A file that :meth:`save` did not write: not a torch file, pickled objects
+            (an earlier version's format: the message names the converter), or
+            weights that do not fit the stored configuration.
         """
         path = Path(os.fspath(path))
-        # the project's own file: it holds numpy arrays (parts, templates)
-        payload = load_checkpoint_file(path, where="CDFace.load", weights_only=False)
+        payload = load_checkpoint_file(path, where="CDFace.load", old_format_hint=old_format_hint(path))
         if not isinstance(payload, dict) or not {"config", "parts", "styles", "templates", "state_dict"} <= set(payload):
             raise DataError(f"CDFace.load: {path} is not a checkpoint written by CDFace.save")
-        parts = FaceParts(**payload["parts"])
-        obj = cls(payload["config"], parts, payload["styles"], payload["templates"])
-        obj.model.load_state_dict(payload["state_dict"])
+        try:
+            stored = payload["parts"]
+            parts = FaceParts(np.asarray(stored["lips"]), np.asarray(stored["upper"]), int(stored["num_vertices"]))
+            templates = {k: np.asarray(v) for k, v in payload["templates"].items()}
+            obj = cls(payload["config"], parts, payload["styles"], templates)
+            obj.model.load_state_dict(payload["state_dict"])
+        except (AttributeError, KeyError, TypeError, ValueError, RuntimeError) as exc:
+            raise DataError(f"CDFace.load: {path} does not hold a model CDFace can restore "
+                            f"({type(exc).__name__}: {' '.join(str(exc).split())[:300]})") from None
         obj.model.eval()
         obj.model.requires_grad_(False)
         return obj

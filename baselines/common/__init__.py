@@ -12,14 +12,16 @@ module                       holds
 ``attention_bias``           additive biases and boolean masks of the attention
                              layers (SAiD's alignment band, FaceFormer's periodic
                              causal bias and its encoder-decoder mask)
-``checkpoint``               reading and writing torch checkpoint files, the
-                             authors' state dicts (``module.`` prefixes, wav2vec 2.0
-                             layouts, required keys, layer counts)
+``checkpoint``               reading and writing torch checkpoint files (safe
+                             loads only, the converter hint), the authors' state
+                             dicts (``module.`` prefixes, wav2vec 2.0 layouts,
+                             required keys, layer counts)
 ``dataset``                  reading a benchmark dataset's sentences (16 kHz audio)
 ``device``                   the torch device of a ``--device`` option
 ``encoders``                 speech encoders: the frozen ones at the coefficient
                              frame rate (log-mel, wav2vec 2.0) and the trainable
                              front ends of FaceFormer and CodeTalker
+``npz_file``                 a method's ``.npz`` file, read without pickle
 ``mel``                      the HTK mel scale and its triangular filter bank
 ``motion_decoder``           FaceFormer's biased causal transformer decoder, which
                              CodeTalker's stage 2 reuses

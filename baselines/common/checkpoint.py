@@ -8,6 +8,15 @@ cannot read a :class:`~blendvoca.errors.DataError`, and a write is atomic. :func
 :func:`require_key`, :func:`count_layers` and :func:`load_into` read the authors'
 released state dicts (FaceFormer, CodeTalker), whose wav2vec 2.0 part may be in the
 layout of an older transformers version.
+
+Every checkpoint a baseline writes holds tensors, numbers, strings, lists and dicts
+only (numpy arrays are stored as tensors, :func:`safe_payload`, and turned back on
+loading), next to the method's JSON config; it is read with ``weights_only=True``, so
+a file cannot run code. A checkpoint of an earlier version, which pickled numpy
+arrays, is refused with :func:`old_format_hint`: the one-time converter
+``python -m benchmark.methods.convert_checkpoint OLD NEW --trust``.
+:func:`baselines.common.npz_file.read_npz_arrays` reads a method's ``.npz`` file
+without pickle.
 """
 
 from __future__ import annotations
@@ -20,10 +29,21 @@ import torch
 from baselines.wav2vec2 import current_layout_state, legacy_layout_state
 from blendvoca.errors import DataError
 from blendvoca.io.torch_file import read_torch_file as load_checkpoint_file
+from blendvoca.io.torch_file import safe_payload
 from blendvoca.io.torch_file import write_torch_file as save_checkpoint_file
 
-__all__ = ["checkpoint_state", "count_layers", "load_checkpoint_file", "load_into", "require_key",
-           "save_checkpoint_file"]
+__all__ = ["CONVERTER", "checkpoint_state", "count_layers", "load_checkpoint_file", "load_into", "old_format_hint",
+           "require_key", "safe_payload", "save_checkpoint_file"]
+
+#: The command that rewrites a checkpoint of an earlier version in the safe format.
+CONVERTER = "python -m benchmark.methods.convert_checkpoint"
+
+
+def old_format_hint(path: str | os.PathLike) -> str:
+    """What to do with ``path``, a checkpoint (file or folder) an earlier version wrote
+    with pickled numpy arrays: convert it once, knowingly."""
+    return (f"a checkpoint of an earlier BlendVOCA version? If you trust where it came from, convert it once with "
+            f"`{CONVERTER} {os.fspath(path)} NEW --trust` and use NEW")
 
 
 def checkpoint_state(path: str | os.PathLike, *, where: str) -> dict:

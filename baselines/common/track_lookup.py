@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
+from baselines.common.npz_file import read_npz_arrays
 from benchmark.methods.base import Method
 from blendvoca.errors import DataError
 
@@ -95,7 +96,19 @@ class TrackLookupMethod(Method):
     def load(cls, directory):
         method = super().load(directory)
         directory = Path(directory)
-        index = json.loads((directory / "tracks.json").read_text())
-        with np.load(directory / "tracks.npz") as arrays:
-            method._tracks = {(subject, sentence): arrays[f"track_{i}"] for i, (subject, sentence) in enumerate(index)}
+        listed = directory / "tracks.json"
+        if not listed.is_file():
+            raise DataError(f"{cls.__name__}.load: {directory} is not a complete checkpoint: it lacks tracks.json")
+        try:
+            index = json.loads(listed.read_text(encoding="utf-8"))
+            index = [(str(subject), str(sentence)) for subject, sentence in index]
+        except (UnicodeDecodeError, json.JSONDecodeError, TypeError, ValueError) as exc:
+            raise DataError(f"{cls.__name__}.load: {listed} is not a JSON list of [subject, sentence] pairs "
+                            f"({exc})") from None
+        path = directory / "tracks.npz"
+        arrays = read_npz_arrays(path, where=f"{cls.__name__}.load")  # no pickles: a file cannot run code
+        missing = [f"track_{i}" for i in range(len(index)) if f"track_{i}" not in arrays]
+        if missing:
+            raise DataError(f"{cls.__name__}.load: {path} lacks {missing[:3]} listed in tracks.json")
+        method._tracks = {(subject, sentence): arrays[f"track_{i}"] for i, (subject, sentence) in enumerate(index)}
         return method

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from baselines.common.checkpoint import load_checkpoint_file, save_checkpoint_file
+from baselines.common.checkpoint import load_checkpoint_file, old_format_hint, safe_payload, save_checkpoint_file
 from baselines.common.sequences import (
     MotionSequence,
     motion_frames,
@@ -160,23 +160,44 @@ class StyleVertexMethod(Method):
                          for m in motions])
 
     def save(self, directory: str | os.PathLike) -> None:
-        """Config, weights, style speakers and templates into ``directory``."""
+        """Config (JSON), weights, style speakers and templates into ``directory``: the
+        checkpoint file holds tensors, numbers and strings only (templates as float64
+        tensors), so it loads with ``weights_only=True``."""
         super().save(directory)
         payload = {**self.network_state(), "subjects": list(self.subjects),
                    "templates": {k: torch.from_numpy(np.asarray(v)) for k, v in self.templates.items()},
                    "history": self.history}
-        save_checkpoint_file(Path(os.fspath(directory)) / self.checkpoint_file, payload)
+        path = Path(os.fspath(directory)) / self.checkpoint_file
+        save_checkpoint_file(path, safe_payload(payload, where=f"{type(self).__name__}.save {path}"))
 
     @classmethod
     def load(cls, directory: str | os.PathLike):
-        """Rebuild from :meth:`save`'s output."""
+        """Rebuild from :meth:`save`'s output.
+
+        Raises
+        ------
+        UserError
+            No checkpoint file in ``directory``.
+        DataError
+            The checkpoint file is not one :meth:`save` wrote: not a torch file, pickled
+            objects (an earlier version's format: the message names the converter), or
+            weights that do not fit the stored configuration.
+        """
         method = super().load(directory)
-        path = Path(os.fspath(directory)) / cls.checkpoint_file
-        payload = load_checkpoint_file(path, where=f"{cls.__name__}.load", weights_only=False)
-        payload["templates"] = {k: v.numpy() for k, v in payload["templates"].items()}
-        method.subjects = list(payload["subjects"])
-        method.templates = payload["templates"]
-        method.history = payload.get("history", {})
-        method.restore_network(payload)
+        directory = Path(os.fspath(directory))
+        path = directory / cls.checkpoint_file
+        where = f"{cls.__name__}.load"
+        payload = load_checkpoint_file(path, where=where, old_format_hint=old_format_hint(directory))
+        if not isinstance(payload, dict) or not {"subjects", "templates", "state_dict"} <= set(payload):
+            raise DataError(f"{where}: {path} is not a checkpoint written by {cls.__name__}.save "
+                            f"(expected a dict with subjects, templates and state_dict)")
+        try:
+            method.templates = {str(k): v.numpy() for k, v in payload["templates"].items()}
+            method.subjects = list(payload["subjects"])
+            method.history = payload.get("history", {})
+            method.restore_network(payload)
+        except (AttributeError, KeyError, TypeError, ValueError, RuntimeError) as exc:
+            raise DataError(f"{where}: {path} does not hold weights this method can restore "
+                            f"({type(exc).__name__}: {' '.join(str(exc).split())[:300]})") from None
         method.network.eval()
         return method

@@ -98,17 +98,29 @@ class RegressionMethod(Method):
         return np.repeat(y[None], int(samples), axis=0)
 
     def save(self, directory) -> None:
-        import torch
+        """Config (JSON), the network's state_dict (``model.pt``), feature statistics
+        (``feature_stats.npz``) and the training history (JSON) into ``directory``."""
+        from baselines.common.checkpoint import save_checkpoint_file
 
         super().save(directory)
         directory = Path(directory)
-        torch.save(self.model.state_dict(), directory / "model.pt")
+        save_checkpoint_file(directory / "model.pt", self.model.state_dict())
         np.savez(directory / "feature_stats.npz", mean=self.stats[0], std=self.stats[1])
         (directory / "history.json").write_text(json.dumps(self.history, indent=1) + "\n")
 
     @classmethod
     def load(cls, directory):
-        import torch
+        """Rebuild from :meth:`save`'s output; its files are read without pickle.
+
+        Raises
+        ------
+        UserError
+            A file of the checkpoint is missing.
+        DataError
+            A file that :meth:`save` did not write (names the file).
+        """
+        from baselines.common.checkpoint import load_checkpoint_file, old_format_hint
+        from baselines.common.npz_file import read_npz_arrays
 
         from .model import AudioToCoefficients
 
@@ -116,10 +128,21 @@ class RegressionMethod(Method):
         directory = Path(directory)
         cfg = method._config
         method.model = AudioToCoefficients(n_mels=cfg["n_mels"], channels=cfg["channels"], hidden=cfg["hidden"])
-        method.model.load_state_dict(torch.load(directory / "model.pt", weights_only=True))
+        path = directory / "model.pt"
+        state = load_checkpoint_file(path, where="RegressionMethod.load", old_format_hint=old_format_hint(directory))
+        try:
+            method.model.load_state_dict(state)
+        except (AttributeError, TypeError, RuntimeError) as exc:
+            raise DataError(f"RegressionMethod.load: {path} does not hold this network's weights "
+                            f"({type(exc).__name__}: {' '.join(str(exc).split())[:300]})") from None
         method.model.eval()
-        with np.load(directory / "feature_stats.npz") as stats:
-            method.stats = (stats["mean"], stats["std"])
+        stats = read_npz_arrays(directory / "feature_stats.npz", where="RegressionMethod.load")
+        if not {"mean", "std"} <= set(stats):
+            raise DataError(f"RegressionMethod.load: {directory / 'feature_stats.npz'} lacks 'mean' and 'std'")
+        method.stats = (stats["mean"], stats["std"])
         history = directory / "history.json"
-        method.history = json.loads(history.read_text()) if history.is_file() else None
+        try:
+            method.history = json.loads(history.read_text(encoding="utf-8")) if history.is_file() else None
+        except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+            raise DataError(f"RegressionMethod.load: {history} is not JSON ({exc})") from None
         return method

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import torch
 
-from baselines.common.checkpoint import load_checkpoint_file, save_checkpoint_file
+from baselines.common.checkpoint import load_checkpoint_file, old_format_hint, safe_payload, save_checkpoint_file
 from blendvoca.errors import DataError
 
 FORMAT = "blendvoca-said/1"
@@ -21,7 +21,8 @@ def _stored_state(model) -> dict[str, torch.Tensor]:
 
 
 def save_checkpoint(path: str | os.PathLike, model, config: dict, names: tuple[str, ...], history: dict | None = None) -> Path:
-    """Write a checkpoint file atomically (temporary file + rename).
+    """Write a checkpoint file atomically (temporary file + rename): tensors, numbers,
+    strings, lists and dicts only, so that it loads with ``weights_only=True``.
 
     Parameters
     ----------
@@ -40,7 +41,7 @@ def save_checkpoint(path: str | os.PathLike, model, config: dict, names: tuple[s
     path : Path
     """
     payload = {"format": FORMAT, "config": config, "names": list(names), "state_dict": _stored_state(model), "history": history or {}}
-    return save_checkpoint_file(path, payload)
+    return save_checkpoint_file(path, safe_payload(payload, where=f"SAiD checkpoint {os.fspath(path)}"))
 
 
 def read_checkpoint(path: str | os.PathLike) -> dict:
@@ -54,7 +55,7 @@ def read_checkpoint(path: str | os.PathLike) -> dict:
         If it is not a SAiD checkpoint.
     """
     path = Path(os.fspath(path))
-    payload = load_checkpoint_file(path, where="SAiD checkpoint")
+    payload = load_checkpoint_file(path, where="SAiD checkpoint", old_format_hint=old_format_hint(path))
     if not isinstance(payload, dict) or payload.get("format") != FORMAT:
         got = payload.get("format") if isinstance(payload, dict) else type(payload).__name__
         raise DataError(f"SAiD checkpoint: expected format {FORMAT!r} in {path}, got {got!r}")

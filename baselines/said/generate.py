@@ -26,7 +26,7 @@ import os
 import sys
 from pathlib import Path
 
-from baselines.common.checkpoint import load_checkpoint_file
+from baselines.common.checkpoint import load_checkpoint_file, old_format_hint
 from baselines.common.device import torch_device
 from baselines.said.checkpoint import FORMAT
 from baselines.said.coeff_image import write_coefficient_image
@@ -73,7 +73,7 @@ def load_pipeline(path: str | os.PathLike, official: bool | None = None):
         The file is neither a SAiD checkpoint nor the authors' weights.
     """
     path = Path(os.fspath(path))
-    payload = load_checkpoint_file(path, where="SAiD generate")
+    payload = load_checkpoint_file(path, where="SAiD generate", old_format_hint=old_format_hint(path))
     if is_official_state(payload):
         return OfficialSAiD(model_from_state(payload, where=str(path)))
     if official:

@@ -295,7 +295,11 @@ class SAiD:
         """Return the pipeline stored in the checkpoint file ``path``."""
         payload = read_checkpoint(path)
         said = cls(payload["config"], payload["names"])
-        missing, unexpected = said.model.load_state_dict(payload["state_dict"], strict=False)
+        try:
+            missing, unexpected = said.model.load_state_dict(payload["state_dict"], strict=False)
+        except (AttributeError, KeyError, TypeError, RuntimeError) as exc:  # tensors of other shapes than the config's
+            raise DataError(f"SAiD checkpoint {path}: weights do not match the config "
+                            f"({type(exc).__name__}: {' '.join(str(exc).split())[:300]})") from None
         missing = [m for m in missing if not m.startswith("encoder.")]
         if missing or unexpected:
             raise DataError(f"SAiD checkpoint {path}: weights do not match the config (missing {missing[:5]}, unexpected {unexpected[:5]})")

@@ -21,7 +21,6 @@ import copy
 import sys
 import time
 from collections.abc import Sequence
-from pathlib import Path
 
 import numpy as np
 import torch
@@ -31,6 +30,7 @@ from benchmark.features.vae import CoeffsVAE
 from benchmark.metrics.windows import WINDOW
 from blendvoca import cli
 from blendvoca.errors import DataError, UserError
+from blendvoca.io.torch_file import write_torch_file
 
 #: Training steps when no budget is given (the learning-rate warm-up and the KL
 #: cycles are laid out over them).
@@ -210,8 +210,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     std, _ = read_coeffs_csv(std_path, names=dataset.names)
     model = train_vae(tracks, std[0], steps=steps, max_seconds=seconds, batch_size=args.batch_size, lr=args.lr,
                       seed=args.seed)
-    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-    torch.save(model.state_dict(), args.out)
+    write_torch_file(args.out, model.state_dict())  # atomic: an interrupted save leaves no partial file
     print(f"saved {args.out}")
     return cli.EXIT_OK
 

@@ -28,7 +28,7 @@ from torch import nn
 from benchmark.lipsync.geometric import SyncEstimate, offset_from_scores
 from benchmark.lipsync.mfcc import mel_filterbank
 from blendvoca.errors import DataError, UserError
-from blendvoca.io.torch_file import read_torch_file
+from blendvoca.io.torch_file import read_torch_file, write_torch_file
 
 FPS = 60
 RATE = 16000
@@ -212,14 +212,7 @@ def build_expert(config: dict, coeff_mean, coeff_std, names, trained_on=None) ->
 
 def save_expert(expert: SyncExpert, path: str | PathLike) -> None:
     """Write the checkpoint atomically (a torch file loadable with ``weights_only=True``)."""
-    from pathlib import Path
-
-    from blendvoca.io.atomic import atomic_write
-
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with atomic_write(path, "wb") as f:
-        torch.save(expert.state(), f)
+    write_torch_file(path, expert.state())
 
 
 def load_expert(path: str | PathLike) -> SyncExpert:

@@ -1,5 +1,9 @@
 """Name -> method class registry: decorator, lazy ``"module:Class"`` strings and the
-``blendvoca.methods`` entry point group of installed packages."""
+``blendvoca.methods`` entry point group of installed packages.
+
+A ``"package.module:Class"`` string that is not a registered name is itself a method:
+:func:`get_method` imports it the way :func:`register_lazy` targets are imported, so
+``benchmark.run --method my_pkg.module:MyMethod`` runs a plug-in nobody registered."""
 
 from __future__ import annotations
 
@@ -172,8 +176,16 @@ def _import_target(target: str, name: str):
     return obj
 
 
+def _is_target(name: str) -> bool:
+    """True for a ``"package.module:Class"`` string (dotted names on both sides of one colon)."""
+    module, sep, attr = name.partition(":")
+    dotted = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*$")
+    return bool(sep) and bool(dotted.match(module)) and bool(dotted.match(attr))
+
+
 def get_method(name: str) -> type[Method]:
-    """The method class registered (or installed) under ``name``.
+    """The method class registered (or installed) under ``name``, or named by ``name``
+    when it is a ``"package.module:Class"`` string (imported, not registered).
 
     Raises
     ------
@@ -187,6 +199,10 @@ def get_method(name: str) -> type[Method]:
     if not isinstance(name, str):
         raise TypeError(f"get_method: expected a method name (str), got {type(name).__name__}")
     merged = _merged()
+    if name not in merged and _is_target(name):
+        cls = _import_target(name, name)
+        _check_class(cls, name, where="get_method")
+        return cls
     if name not in merged:
         close = difflib.get_close_matches(name, list(merged), n=3, cutoff=0.5)
         hint = f"; did you mean {', '.join(repr(c) for c in close)}?" if close else ""

@@ -26,7 +26,7 @@ from pathlib import Path
 
 from benchmark.methods import Budget
 from benchmark.protocol.generation import Generated, generate, generated_tracks, sentence_seed
-from benchmark.protocol.limits import TimeLimit
+from benchmark.protocol.limits import DEFAULT_GENERATE_LIMIT, GenerateLimit, TimeLimit, generate_limit
 from benchmark.protocol.scoring import MODEL_LIPSYNC_METRICS, Scored, loaded_lipsync_models, score, score_lipsync_models
 from benchmark.protocol.spec import (
     Inputs,
@@ -43,6 +43,8 @@ from benchmark.protocol.training import TRAIN_GRACE_S, Trained, make_method, pre
 from benchmark.results import current_provenance
 
 __all__ = [
+    "DEFAULT_GENERATE_LIMIT",
+    "GenerateLimit",
     "MODEL_LIPSYNC_METRICS",
     "TRAIN_GRACE_S",
     "Generated",
@@ -57,6 +59,7 @@ __all__ = [
     "default_data_root",
     "default_results_dir",
     "generate",
+    "generate_limit",
     "generated_tracks",
     "lipsync_models_provenance",
     "loaded_lipsync_models",
@@ -129,6 +132,7 @@ def run_method(
     syncnet=None,
     sync_expert=None,
     sentence_batch: int = 1,
+    verify: bool = True,
 ) -> Path:
     """Train or load ``method_name``, generate on ``split``, score it and write the result.
 
@@ -158,8 +162,11 @@ def run_method(
         ``benchmark.evaluate.evaluate_split``.
     open_dataset : callable, optional
         ``open_dataset(root) -> dataset``; default ``benchmark.data.open_blendvoca``.
-    generate_time_limit : float, optional
-        Seconds one ``generate`` call may take before the run stops with an error.
+    generate_time_limit : float or GenerateLimit, optional
+        How long one ``generate`` call may take before the run stops with
+        :class:`~blendvoca.errors.MethodTimeout`: None for
+        :data:`DEFAULT_GENERATE_LIMIT` (120 s + 60 s per second of audio), seconds
+        per call, or 0 for no limit.
     vocaset : path-like, optional
         The source VOCASET corpus (for ``dataset.vertices``) when the build's
         recorded one is elsewhere.
@@ -170,6 +177,9 @@ def run_method(
         Sentences per generation call (:func:`generated_tracks`); recorded in the
         protocol when above 1, since batched samples may differ from one-by-one
         ones by float rounding.
+    verify : bool, default True
+        Check the split's files against the build's manifest digests first
+        (:class:`~blendvoca.errors.CheckFailed` for one that changed).
 
     Notes
     -----
@@ -185,5 +195,5 @@ def run_method(
     spec = RunSpec(method=method_name, config=config, data_root=data_root, split=split, samples=samples, seed=seed,
                    budget=budget, checkpoint=checkpoint, clip=clip, generate_time_limit=generate_time_limit,
                    sentence_batch=sentence_batch, vocaset=vocaset, syncnet=syncnet, sync_expert=sync_expert,
-                   results_dir=results_dir, progress=progress)
+                   results_dir=results_dir, verify=verify, progress=progress)
     return run(spec, evaluate=evaluate, open_dataset=open_dataset)

@@ -19,7 +19,7 @@ from benchmark.methods import (
     validated_vertices,
 )
 from benchmark.methods.base import progress_bars
-from benchmark.protocol.limits import TimeLimit
+from benchmark.protocol.limits import GenerateLimit, TimeLimit, generate_limit
 from blendvoca.errors import DataError, MethodError, MethodOutputError, MethodTimeout, UserError
 
 __all__ = ["Generated", "generate", "generated_tracks", "sentence_seed"]
@@ -71,7 +71,8 @@ def generate(spec, dataset, trained, *, store=None) -> Generated:
     start = time.perf_counter()
     tracks, n_clipped = generated_tracks(trained.method, dataset, split=spec.split, samples=spec.samples,
                                          seed=spec.seed, clip=spec.clip, name=spec.method, progress=spec.progress,
-                                         store=store, vertices_out=in_memory, time_limit=spec.generate_time_limit,
+                                         store=store, vertices_out=in_memory,
+                                         time_limit=generate_limit(spec.generate_time_limit),
                                          sentence_batch=spec.sentence_batch)
     seconds = time.perf_counter() - start
     vertices = None
@@ -106,9 +107,12 @@ def generated_tracks(method, dataset, *, split: str = "test", samples: int = 1, 
     vertices_out : dict, optional
         Filled with a vertex method's own ``(S, T, V, 3)`` vertices per key (memory
         permitting; the runner reads them back from ``store`` instead).
-    time_limit : float, optional
-        Seconds one ``generate`` call may take (stopped with :class:`MethodTimeout`);
-        a call for ``n`` sentences may take ``n`` times that.
+    time_limit : float or GenerateLimit, optional
+        How long one ``generate`` call may take (stopped with :class:`MethodTimeout`):
+        seconds per call, or a :class:`~benchmark.protocol.limits.GenerateLimit` that
+        grows with the audio; a call for several sentences may take the sum of
+        theirs. None: no limit (the runner passes
+        :data:`~benchmark.protocol.limits.DEFAULT_GENERATE_LIMIT` unless told otherwise).
     sentence_batch : int, default 1
         Sentences per call: above 1, the sentences, in order of length, go to
         ``method.generate_many`` in groups of this size (each with the seed it has
@@ -165,14 +169,21 @@ def generated_tracks(method, dataset, *, split: str = "test", samples: int = 1, 
     def where_of(group):
         return f"method {name!r}, " + "; ".join(f"subject {items[i][0]!r}, sentence {items[i][1]!r}" for i in group)
 
+    if time_limit is not None and not isinstance(time_limit, GenerateLimit):
+        time_limit = GenerateLimit(base_s=float(time_limit)) if float(time_limit) > 0 else None
+
     generated, n_clipped = {}, 0
     for group in groups:
         utterances = [utterance_of(index) for index in group]
         seeds = [sentence_seed(seed, index) for index in group]
         where = where_of(group)
-        limit = None if time_limit is None else time_limit * len(group)
+        limit = None if time_limit is None else sum(
+            time_limit.seconds(len(u.audio) / AUDIO_RATE) for u in utterances)
+        how = None  # how the limit was reckoned, where it is not simply the number said
+        if time_limit is not None and (time_limit.per_audio_second_s or len(group) > 1):
+            how = time_limit.describe() + (f" per sentence, {len(group)} sentences" if len(group) > 1 else "")
         try:
-            with TimeLimit(limit, f"{where}: generate"), progress_bars(progress):
+            with TimeLimit(limit, f"{where}: generate", how), progress_bars(progress):
                 many = getattr(method, "generate_many", None) if sentence_batch > 1 else None
                 if many is None:  # one sentence per call, or a method without generate_many
                     outputs = [method.generate(u, samples=num_samples, seed=s) for u, s in zip(utterances, seeds)]

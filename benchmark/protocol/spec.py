@@ -3,12 +3,14 @@ before anything is trained (:func:`check_inputs`)."""
 
 from __future__ import annotations
 
+import math
 import os
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from benchmark.methods import OUTPUT_COEFFICIENTS, OUTPUT_VERTICES, Budget, MethodError, get_method
+from benchmark.protocol.limits import GenerateLimit
 from benchmark.protocol.training import make_method
 from blendvoca.errors import DataError, UserError
 from blendvoca.format import manifest_path
@@ -28,6 +30,14 @@ __all__ = [
 class UsageError(UserError):
     """A mistake in what a run was asked to do (a flag, a path, a config entry): exit
     status 2, one ``error:`` line, nothing trained or written."""
+
+
+def _is_seconds(value) -> bool:
+    """True for a finite number >= 0 (``True`` is not one)."""
+    try:
+        return not isinstance(value, bool) and math.isfinite(float(value)) and float(value) >= 0
+    except (TypeError, ValueError, OverflowError):
+        return False
 
 
 def _is_count(value) -> bool:
@@ -63,8 +73,10 @@ class RunSpec:
         a file is a method's released weights (``from_official_checkpoint``).
     clip : bool
         Clip out-of-range coefficients instead of refusing them.
-    generate_time_limit : float, optional
-        Seconds one ``generate`` call may take.
+    generate_time_limit : float or GenerateLimit, optional
+        How long one ``generate`` call may take: None (default) for
+        :data:`~benchmark.protocol.limits.DEFAULT_GENERATE_LIMIT` (120 s + 60 s per
+        second of audio), a number of seconds per call, or 0 for no limit.
     sentence_batch : int, default 1
         Sentences per generation call.
     vocaset : path-like, optional
@@ -74,6 +86,9 @@ class RunSpec:
         SyncNet weights and a learned sync expert for the lip-sync metrics.
     results_dir : path-like, optional
         Where the result and its tracks go (default :func:`default_results_dir`).
+    verify : bool, default True
+        Check the files of the split against the build's ``manifest.json`` digests
+        before anything runs (``--no-verify`` turns it off; recorded in the result).
     progress : bool, default True
         Progress bars, the plug-ins' own included.
     """
@@ -87,19 +102,21 @@ class RunSpec:
     budget: Budget = field(default_factory=Budget)
     checkpoint: object = None
     clip: bool = False
-    generate_time_limit: float | None = None
+    generate_time_limit: object = None
     sentence_batch: int = 1
     vocaset: object = None
     syncnet: object = None
     sync_expert: object = None
     results_dir: object = None
+    verify: bool = True
     progress: bool = True
 
     def __post_init__(self):
         if not _is_count(self.samples):
             raise UsageError(f"--samples: expected an integer >= 1, got {self.samples!r}")
-        if self.generate_time_limit is not None and not self.generate_time_limit > 0:
-            raise UsageError(f"--generate-time-limit: expected seconds > 0, got {self.generate_time_limit!r}")
+        limit = self.generate_time_limit
+        if limit is not None and not isinstance(limit, GenerateLimit) and not _is_seconds(limit):
+            raise UsageError(f"--generate-time-limit: expected seconds >= 0 (0: no limit), got {limit!r}")
         if not _is_count(self.sentence_batch):
             raise UsageError(f"--sentence-batch: expected an integer >= 1, got {self.sentence_batch!r}")
         # a copy: the caller's dict may change after the run was asked for
@@ -128,12 +145,16 @@ class Inputs:
         An existing, writable results folder.
     subjects : tuple of str
         The subjects of the run's split.
+    verified : int or None
+        The number of the split's files checked against the build's manifest; None
+        when they were not (``verify`` off, or a dataset without a manifest).
     """
 
     dataset: object
     data_root: object
     results_dir: Path
     subjects: tuple
+    verified: int | None = None
 
 
 def default_results_dir() -> Path:
@@ -232,6 +253,9 @@ def check_inputs(spec: RunSpec, *, open_dataset=None, evaluation_assets: bool = 
     ------
     UsageError
         Any of them is not usable; nothing was trained or written.
+    CheckFailed
+        ``spec.verify`` and a file of the split differs from what the build made
+        (``dataset.verify``, where the dataset has one).
     """
     data_root = spec.data_root if spec.data_root is not None else default_data_root(progress=spec.progress)
     dataset = open_data(data_root, vocaset=spec.vocaset, open_dataset=open_dataset)
@@ -257,5 +281,9 @@ def check_inputs(spec: RunSpec, *, open_dataset=None, evaluation_assets: bool = 
         make_method(spec.method, spec.config)
     except MethodError as exc:
         raise UsageError(f"--config: {exc}") from None
-    return Inputs(dataset=dataset, data_root=data_root, results_dir=results_dir, subjects=tuple(subjects))
+    # last: the cheap checks above answer a mistyped flag before the files are read
+    verify = getattr(dataset, "verify", None) if spec.verify else None
+    verified = None if verify is None else int(verify(subjects))
+    return Inputs(dataset=dataset, data_root=data_root, results_dir=results_dir, subjects=tuple(subjects),
+                  verified=verified)
 

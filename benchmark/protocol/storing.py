@@ -8,6 +8,7 @@ import os
 from pathlib import Path
 
 from benchmark.methods.contract import COEFFICIENT_NAMES
+from benchmark.protocol.limits import generate_limit
 from benchmark.results import build_result, result_filename, write_result
 from benchmark.runs import TrackWriter, tracks_folder_name
 from blendvoca.errors import MethodError
@@ -51,6 +52,13 @@ def lipsync_models_provenance(syncnet=None, sync_expert=None) -> dict:
         expert = load_expert(sync_expert) if isinstance(sync_expert, (str, os.PathLike)) else sync_expert
         out["sync_expert"] = {**model_file(sync_expert), "trained_on": dict(getattr(expert, "trained_on", {}) or {})}
     return out
+
+
+def _limit_record(value) -> dict | None:
+    """What a result records of a run's generation limit: ``{"base_s", "per_audio_second_s"}``,
+    or None for a run without one."""
+    limit = generate_limit(value)
+    return None if limit is None else limit.to_dict()
 
 
 def _method_config(trained) -> dict:
@@ -123,7 +131,8 @@ def store(spec, inputs, trained, generated, scored, *, writer: TrackWriter, timi
             **({"checkpoint_sha256": content_digest(checkpoint)}
                if checkpoint is not None and Path(checkpoint).exists() else {}),
             "deterministic": spec.budget.max_seconds is None,
-            "generate_time_limit": spec.generate_time_limit,
+            "generate_time_limit": _limit_record(spec.generate_time_limit),
+            "verified": inputs.verified is not None,
             **({"sentence_batch": spec.sentence_batch} if spec.sentence_batch > 1 else {}),
             **({"lipsync_models": lipsync_models_provenance(spec.syncnet, spec.sync_expert)}
                if spec.evaluates_lipsync_models else {}),

@@ -33,6 +33,11 @@ def _track_vertices(csv_path, rig, where: str):
     from blendvoca.io.coeffs import missing_columns, read_coeffs_csv
 
     coeffs, _ = read_coeffs_csv(csv_path, names=rig.names, missing="zero")
+    bad = np.argwhere(~np.isfinite(coeffs))
+    if len(bad):  # a NaN vertex draws nothing: say so here, not "frames show no face" after rendering
+        frame, column = (int(i) for i in bad[0])
+        raise DataError(f"{csv_path}: {len(bad)} NaN or infinite coefficient(s), the first at frame {frame} "
+                        f"(line {frame + 2}), column {rig.names[column]!r}: {coeffs[frame, column]}")
     absent = missing_columns(csv_path, rig.names)
     if absent:
         print(f"note: {where}: the rig has {len(rig.names)} shapes, the track lacks {len(absent)}; "
@@ -134,11 +139,18 @@ def main(argv: Sequence[str] | None = None) -> int:
     return _render(args)
 
 
+#: What ``--out`` may be: the containers the H.264 + AAC encoding is written to.
+VIDEO_SUFFIXES = (".mp4",)
+
+
 def _render(args) -> int:
     from benchmark.render import check_visible, face_camera, front_camera, render_sequence, resample_frames, write_video
     from benchmark.render.compose import label, side_by_side, waveform_strip
     from benchmark.render.video import match_audio_length
 
+    if Path(args.out).suffix.lower() not in VIDEO_SUFFIXES:
+        raise UserError(f"--out {args.out}: unsupported file type {Path(args.out).suffix or '(none)'!r}; "
+                        f"supported: {', '.join(VIDEO_SUFFIXES)} (H.264 video with AAC audio)")
     if args.size < 16:
         raise UserError(f"--size must be at least 16 pixels, got {args.size}")
     for flag, rate in (("--fps", args.fps), ("--out-fps", args.out_fps)):

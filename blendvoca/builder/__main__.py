@@ -47,6 +47,8 @@ def main(argv: list[str] | None = None) -> int:
     print(f"{summary.out}: speakers built {summary.built['speakers']}, up to date {summary.skipped['speakers']}; "
           f"sentences built {summary.built['sentences']}, up to date {summary.skipped['sentences']}; "
           f"{len(summary.failures)} failed; {elapsed:.1f} s")
+    for warning in summary.warnings:
+        print(f"warning: {warning['subject']} {warning['sentence'] or ''}: {warning['message']}", file=sys.stderr)
     for failure in summary.failures:
         print(f"FAILED {failure['subject']} {failure['sentence'] or ''} ({failure['stage']}): {failure['reason']}",
               file=sys.stderr)

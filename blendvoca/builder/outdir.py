@@ -11,8 +11,12 @@ Rules (docs/build.md, "What happens when"):
   crashed build never blocks the next one).
 * Files the build removes (temporaries of killed writes, outputs of sentences
   that failed or left the corpus) are only ever its own: temporaries named
-  ``.<output>.<random>.tmp`` inside its own output folders, and outputs whose
-  sha256 is still the one its stage record holds.
+  ``.blendvoca-<pid>-<output>.<random>.tmp`` by a process no longer running,
+  inside its own output folders, and outputs whose sha256 is still the one its
+  stage record holds.
+* Nothing is written through a symbolic link: a link among the build's own
+  folders and files (a previous build's sub-folder replaced by a link to
+  another folder, a file replaced by a link) is refused before anything is written.
 """
 
 from __future__ import annotations
@@ -28,7 +32,7 @@ from blendvoca.errors import OutputDirError
 from blendvoca.format.hashing import file_digest
 from blendvoca.format.layout import DATA_DIRS, DATA_FILES, MANIFEST_FILE, REPORT_DIR, STATE_DIR
 from blendvoca.format.manifest import BUILD_TOOL, written_by_build
-from blendvoca.io.atomic import atomic_write
+from blendvoca.io.atomic import atomic_write, temporary_owner
 
 MARKER = "build.json"
 LOCK = "lock"
@@ -75,6 +79,7 @@ def claim_output_dir(out: Path) -> None:
         ``out`` holds files and no build marker, or cannot be written (read-only,
         permissions, disk full); the message names the path.
     """
+    refuse_links(out)
     if out.is_dir() and not is_build_folder(out):
         entries = sorted(p.name for p in out.iterdir())
         if entries:
@@ -90,6 +95,40 @@ def claim_output_dir(out: Path) -> None:
                 f.write(json.dumps({"tool": BUILD_TOOL, "layout": 1}, sort_keys=True) + "\n")
     except OSError as error:
         raise unwritable(error, out) from None
+
+
+def refuse_links(out: Path) -> None:
+    """Refuse a symbolic link among the build's own folders and files in ``out``.
+
+    The build writes into :data:`OUTPUT_DIRS` and :data:`OUTPUT_FILES`; a link
+    there (a previous build's ``audio/`` replaced by a link to another folder, a
+    CSV replaced by a link to the user's file) would make it write, or delete,
+    outside ``out``. ``out`` itself is taken as the user named it (resolved).
+
+    Raises
+    ------
+    OutputDirError
+        Naming the first link found and where it points.
+    """
+    if not out.is_dir():
+        return
+    for name in (*OUTPUT_DIRS, *OUTPUT_FILES):
+        top = out / name
+        if os.path.islink(top):
+            raise _link_error(out, top)
+        if name not in OUTPUT_DIRS or not top.is_dir():
+            continue
+        for dirpath, dirnames, filenames in os.walk(top):  # never follows links
+            for entry in sorted(dirnames + filenames):
+                path = os.path.join(dirpath, entry)
+                if os.path.islink(path):
+                    raise _link_error(out, Path(path))
+
+
+def _link_error(out: Path, link: Path) -> OutputDirError:
+    return OutputDirError(f"{link} is a symbolic link (to {os.readlink(link)}); the build writes only real files "
+                          f"and folders inside --out {out}, never through a link: remove the link (the build "
+                          "rewrites what it holds) or choose a new --out")
 
 
 def unwritable(error: OSError, out) -> OutputDirError:
@@ -121,9 +160,12 @@ def build_lock(out: Path, wait: float = 3.0):
 
     path = out / STATE_DIR / LOCK
     try:
-        fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+        fd = os.open(path, os.O_RDWR | os.O_CREAT | getattr(os, "O_NOFOLLOW", 0), 0o644)
     except OSError as error:
+        if error.errno == errno.ELOOP:
+            raise _link_error(out, path) from None
         raise unwritable(error, out) from None
+    _HELD_LOCKS.add(fd)
     try:
         deadline = time.monotonic() + wait
         while True:
@@ -134,6 +176,11 @@ def build_lock(out: Path, wait: float = 3.0):
                 # A killed build's worker processes may take a moment to exit (and drop the lock).
                 if time.monotonic() >= deadline:
                     holder = os.pread(fd, 64, 0).decode("ascii", errors="replace").strip() or "unknown"
+                    if holder.isdigit() and not is_running(int(holder)):
+                        # only processes that build started can hold its lock now (an older version's workers)
+                        raise OutputDirError(f"the build (pid {holder}) that wrote to {out} is no longer running, "
+                                             f"but processes it started still hold its lock {path} (`fuser -v "
+                                             f"{path}` lists them): end them, then rerun") from None
                     raise OutputDirError(f"another build (pid {holder}) is writing to {out}; wait for it to "
                                          "finish, or use another --out") from None
                 time.sleep(0.1)
@@ -141,27 +188,77 @@ def build_lock(out: Path, wait: float = 3.0):
         os.pwrite(fd, f"{os.getpid()}\n".encode("ascii"), 0)
         yield path
     finally:
+        _HELD_LOCKS.discard(fd)
         os.close(fd)  # releases the flock; the file itself stays (it is ours)
+
+
+#: Descriptors of the build locks this process holds (see :func:`drop_inherited_locks`).
+_HELD_LOCKS: set = set()
+
+
+def drop_inherited_locks() -> None:
+    """Close, in a forked worker process, its copies of the parent's lock descriptors.
+
+    An ``flock`` belongs to the open file, which a fork shares: as long as any
+    process holds a copy of the descriptor, the lock stays taken. A worker
+    therefore closes its copies at start (the parent's lock is unaffected), so
+    that nothing but the build process itself holds the build's lock.
+    """
+    for fd in list(_HELD_LOCKS):
+        try:
+            os.close(fd)
+        except OSError:
+            pass
+    _HELD_LOCKS.clear()
+
+
+def is_running(pid: int) -> bool:
+    """True when a process ``pid`` exists (and is not a zombie) on this machine."""
+    if pid <= 0:
+        return False
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True  # someone else's process
+    try:
+        with open(f"/proc/{pid}/stat", encoding="ascii", errors="replace") as stat:
+            return stat.read().rpartition(")")[2].split()[0] != "Z"
+    except (OSError, IndexError):
+        return True
 
 
 def remove_stale_temporaries(out) -> int:
     """Delete the temporaries of killed atomic writes in the build's own files; return the count.
 
-    ``atomic_write`` names them ``.<name>.<random>.tmp`` beside the target. Only
-    the build's output folders (:data:`OUTPUT_DIRS`) and its top-level files
-    (:data:`OUTPUT_FILES`) are looked at; the caller holds the build lock, so no
-    other build's in-flight temporaries can be among them.
+    ``atomic_write`` names them ``.blendvoca-<pid>-<name>.<random>.tmp`` beside
+    the target (:func:`blendvoca.io.atomic.temporary_owner`). Only such names
+    whose process is no longer running are removed, and only in the build's
+    output folders (:data:`OUTPUT_DIRS`) and beside its top-level files
+    (:data:`OUTPUT_FILES`): a user's own ``.notes.tmp`` is never taken for one.
     """
     out = Path(out)
+    running: dict[int, bool] = {}
+
+    def stale(name: str) -> bool:
+        pid = temporary_owner(name)
+        if pid is None:
+            return False
+        if pid not in running:
+            running[pid] = pid == os.getpid() or is_running(pid)
+        return not running[pid]
+
     count = 0
     for name in os.listdir(out):
-        if name.endswith(".tmp") and any(name.startswith(f".{target}.") for target in OUTPUT_FILES):
+        if stale(name) and any(name.startswith(f".blendvoca-{temporary_owner(name)}-{target}.")
+                               for target in OUTPUT_FILES):
             os.unlink(out / name)
             count += 1
     for folder in OUTPUT_DIRS:
         for dirpath, _, filenames in os.walk(out / folder):
             for name in filenames:
-                if name.startswith(".") and name.endswith(".tmp"):
+                if stale(name):
                     os.unlink(os.path.join(dirpath, name))
                     count += 1
     return count

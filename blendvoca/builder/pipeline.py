@@ -69,12 +69,16 @@ class BuildSummary:
         ``{"subject", "sentence", "stage", "reason"}`` per failed item; ``stage`` is
         ``"rig"``, ``"fit"`` or ``"input"`` (a sentence the corpus lacks, or one
         built before that is no longer in it).
+    warnings : list of dict
+        ``{"subject", "sentence", "message"}`` per implausible input that was
+        built all the same (audio and motion of different lengths); in the report too.
     """
 
     out: Path
     built: dict = field(default_factory=lambda: {"speakers": 0, "sentences": 0})
     skipped: dict = field(default_factory=lambda: {"speakers": 0, "sentences": 0})
     failures: list = field(default_factory=list)
+    warnings: list = field(default_factory=list)
     seconds: dict = field(default_factory=dict)
 
     @property
@@ -124,6 +128,17 @@ def _guarded_init(*initargs):
     except Exception as error:  # reported to the parent by the tasks
         _WORKER.clear()
         _WORKER["init_error"] = f"a worker process could not start: {_reason(error)}"
+
+
+def _pool_worker_init(parent, *initargs):
+    """A pool process's set-up: it ends with the build process (:mod:`.lifetime`), then `_guarded_init`."""
+    from .lifetime import die_with_parent, leave_interrupts_to_the_parent
+    from .outdir import drop_inherited_locks
+
+    leave_interrupts_to_the_parent()
+    die_with_parent(parent)
+    drop_inherited_locks()
+    _guarded_init(*initargs)
 
 
 def _guarded_call(function, task):
@@ -219,6 +234,7 @@ def _shared_correspondence(corpus, subjects, out, params):
     when no template can be read (every rig fails on its own then).
     """
     from blendvoca.retarget import correspondence_for_target
+    from blendvoca.vocaset.checks import template_scale_problem
 
     static = _static_inputs(params["shapes"])
     faces = corpus.faces
@@ -229,6 +245,9 @@ def _shared_correspondence(corpus, subjects, out, params):
         try:
             template = corpus.template(subject)
         except Exception:  # that speaker's rig task reports it
+            stale = True
+            continue
+        if template_scale_problem(template):  # that speaker's rig task refuses it
             stale = True
             continue
         digest = array_digest(template)
@@ -286,6 +305,7 @@ def _speaker_task(subject):
     clock = time.perf_counter()
     try:
         template = corpus.template(subject)
+        _check_template_scale(subject, template)
         faces = corpus.faces
         inputs = {"template": array_digest(template), "faces": array_digest(faces)}
         # Without a shared correspondence (no readable reference template) each rig uses its own.
@@ -323,6 +343,15 @@ def _speaker_task(subject):
         return {"subject": subject, "status": "failed", "reason": reason}
 
 
+def _check_template_scale(subject, template):
+    """Refuse a template in another unit than metres: its rig and every fit would be nonsense (errors in metres)."""
+    from blendvoca.vocaset.checks import template_scale_problem
+
+    problem = template_scale_problem(template)
+    if problem:
+        raise DataError(f"{subject}: {problem}")
+
+
 # ----------------------------------------------------------------------------- sentence stage
 
 
@@ -349,6 +378,7 @@ def _sentence_task(item):
         samples, rate = corpus.audio(subject, sentence)
         inputs = {"frames": array_digest(frames, dtype=np.float64), "audio": array_digest(samples),
                   "audio_rate": int(rate)}
+        warnings = _sentence_warnings(corpus, frames, samples, rate)
         key = stage_key({
             "stage": "sentence", "version": FIT_STAGE_VERSION, "rig": rig_key,
             "frames": inputs["frames"], "audio": inputs["audio"], "rate": int(rate),
@@ -356,7 +386,7 @@ def _sentence_task(item):
         })
         record = read_record(path)
         if is_up_to_date(out, record, key):
-            return {**base, "status": "skipped"}
+            return {**base, "status": "skipped", "warnings": warnings}
         _invalidate_manifest(out)
         rig = _load_rig(subject)
         read_s, clock = time.perf_counter() - clock, time.perf_counter()
@@ -368,7 +398,7 @@ def _sentence_task(item):
                  fmt.write_audio(out, subject, sentence, samples, rate)]
         write_record(path, {**base, "key": key, "status": "ok", "stats": stats, "inputs": inputs,
                             "files": {rel: file_digest(out / rel) for rel in files}})
-        return {**base, "status": "built",
+        return {**base, "status": "built", "warnings": warnings,
                 "seconds": {"compute": compute_s, "io": read_s + time.perf_counter() - clock}}
     except Exception as error:  # recorded, the build carries on
         if is_fatal_write_error(error):
@@ -377,6 +407,14 @@ def _sentence_task(item):
         reason = _reason(error) + _retire(out, read_record(path))
         write_record(path, {**base, "status": "failed", "reason": reason})
         return {**base, "status": "failed", "reason": reason}
+
+
+def _sentence_warnings(corpus, frames, samples, rate) -> list[str]:
+    """What is implausible about a sentence that is built all the same (audio and motion durations)."""
+    from blendvoca.vocaset.checks import duration_mismatch
+
+    mismatch = duration_mismatch(len(frames), corpus.fps, len(samples), rate)
+    return [mismatch] if mismatch else []
 
 
 def _reason(error: BaseException) -> str:
@@ -407,8 +445,8 @@ def _run(tasks, function, *, workers, initargs, desc, progress):
             from concurrent.futures.process import BrokenProcessPool
 
             context = multiprocessing.get_context("fork" if sys.platform.startswith("linux") else "spawn")
-            pool = ProcessPoolExecutor(min(workers, len(tasks)), mp_context=context, initializer=_guarded_init,
-                                       initargs=initargs)
+            pool = ProcessPoolExecutor(min(workers, len(tasks)), mp_context=context, initializer=_pool_worker_init,
+                                       initargs=(os.getpid(), *initargs))
             try:
                 for result in pool.map(functools.partial(_guarded_call, function), tasks):
                     results.append(result)
@@ -468,8 +506,11 @@ def build_dataset(
     Returns
     -------
     BuildSummary
-        Failed items (unreadable or empty inputs, fits that failed, sentences
-        that left the corpus) are listed in ``failures``, the report and the manifest.
+        Failed items (unreadable or empty inputs, templates of implausible
+        scale, fits that failed, sentences that left the corpus) are listed in
+        ``failures``, the report and the manifest; implausible inputs built all
+        the same (audio and motion durations more than 5 % apart) in
+        ``warnings`` and the report.
 
     Raises
     ------
@@ -477,7 +518,8 @@ def build_dataset(
         Before any work: bad arguments (``workers < 1``, ``delta <= 0``), a
         corpus that cannot be read or split (fewer than 3 speakers), unsafe
         names, missing or corrupted assets, an ``out`` that is a file, the
-        corpus, inside it, not empty and not a previous build, or locked by
+        corpus, inside it, not empty and not a previous build, holding a
+        symbolic link among the build's folders and files, or locked by
         another build (:class:`OutputDirError`). During the build: output that
         cannot be written (disk full, read-only; no manifest is left) and
         worker processes that cannot start or die (``WorkerStartError``).
@@ -641,6 +683,9 @@ def _build_stages(out, vocaset, corpus, params, *, workers, report, progress):
     sentence_results = _run(items, _sentence_task, workers=workers, initargs=initargs,
                             desc="sentences", progress=progress)
     for result in sentence_results:
+        for message in result.get("warnings", ()):
+            summary.warnings.append({"subject": result["subject"], "sentence": result["sentence"],
+                                     "message": message})
         if result["status"] == "failed":
             summary.failures.append({"subject": result["subject"], "sentence": result["sentence"],
                                      "stage": "fit", "reason": result["reason"]})
@@ -687,7 +732,8 @@ def _write_summary_files(out, corpus, vocaset, subjects, params, summary, *, rep
             for s in subjects for q in corpus.sentences(s)}
     keys.update({s: (read_record(record_path(out, "rigs", s)) or {}).get("key") for s in subjects})
     summary_key = stage_key({"stage": "summary", "keys": keys, "failures": summary.failures, "params": params,
-                             "report": report, "version": blendvoca.__version__, "splits": corpus.splits})
+                             "report": report, "version": blendvoca.__version__, "splits": corpus.splits,
+                             **({"warnings": summary.warnings} if summary.warnings else {})})
     previous = read_record(summary_path)
     if is_up_to_date(out, previous, summary_key):
         return None
@@ -719,7 +765,7 @@ def _write_summary_files(out, corpus, vocaset, subjects, params, summary, *, rep
     report_s = 0.0
     if report:
         clock = time.perf_counter()
-        write_report(out, records, names or (), summary.failures, params)
+        write_report(out, records, names or (), summary.failures, params, warnings=summary.warnings)
         report_s = time.perf_counter() - clock
     files += [rel for rel in SUMMARY_OUTPUTS if (out / rel).is_file()]
     manifest = write_manifest(out, files=files, vocaset=vocaset, corpus=corpus, params=params, records=records,

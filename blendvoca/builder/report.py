@@ -87,7 +87,7 @@ def _tracks_figure(path, out, items, names):
     plt.close(fig)
 
 
-def report_markdown(records: dict, names, failures, params, *, figures=()) -> str:
+def report_markdown(records: dict, names, failures, params, *, figures=(), warnings=()) -> str:
     """Return the report text.
 
     Parameters
@@ -99,6 +99,8 @@ def report_markdown(records: dict, names, failures, params, *, figures=()) -> st
     failures : list of dict
     params : dict
     figures : sequence of (title, relative path)
+    warnings : sequence of dict
+        ``{"subject", "sentence", "message"}`` of implausible inputs built all the same.
     """
     lines = ["# BlendVOCA build report", ""]
     lines.append(f"Parameters: shapes = {params.get('shapes')}, delta = {params.get('delta')}. "
@@ -115,6 +117,13 @@ def report_markdown(records: dict, names, failures, params, *, figures=()) -> st
         for f in failures:
             reason = str(f["reason"]).replace("|", "\\|").replace("\n", " ")
             lines.append(f"| {f['subject']} | {f['sentence'] or '-'} | {f['stage']} | {reason} |")
+        lines.append("")
+    if warnings:
+        lines += ["## Warnings", "", "Built all the same; check these inputs.", "",
+                  "| speaker | sentence | warning |", "|---|---|---|"]
+        for w in warnings:
+            message = str(w["message"]).replace("|", "\\|").replace("\n", " ")
+            lines.append(f"| {w['subject']} | {w['sentence'] or '-'} | {message} |")
         lines.append("")
     lines += ["## Per speaker", "", "| speaker | sentences | frames | RMSE mm (mean) | max error mm |",
               "|---|---:|---:|---:|---:|"]
@@ -201,7 +210,7 @@ def write_timings(out, stages: dict, *, workers: int) -> Path:
     return path
 
 
-def write_report(out, records: dict, names, failures, params, *, num_tracks: int = 3) -> Path:
+def write_report(out, records: dict, names, failures, params, *, num_tracks: int = 3, warnings=()) -> Path:
     """Write ``<out>/report/README.md`` with ``usage.png`` and ``tracks.png``; return its path."""
     readme, usage_png, tracks_png = REPORT_FILES
     folder = report_dir(out)
@@ -214,7 +223,7 @@ def write_report(out, records: dict, names, failures, params, *, num_tracks: int
         chosen = sorted(records.items())[:: max(1, len(records) // num_tracks)][:num_tracks]
         _tracks_figure(folder / tracks_png, out, chosen, list(names))
         figures.append(("Coefficient tracks against the lip aperture of the input meshes", tracks_png))
-    text = report_markdown(records, names, failures, params, figures=figures)
+    text = report_markdown(records, names, failures, params, figures=figures, warnings=warnings)
     path = folder / readme
     with atomic_write(path, "w", encoding="utf-8") as f:
         f.write(text)

@@ -19,6 +19,7 @@ lacks are 0 and reported in the returned :class:`~blendvoca.export.align.Aligned
 
 from __future__ import annotations
 
+import dataclasses
 import os
 from collections.abc import Sequence
 from pathlib import Path
@@ -26,8 +27,8 @@ from pathlib import Path
 import numpy as np
 
 from blendvoca.errors import DataError, UserError
-from blendvoca.export._support import read_json
-from blendvoca.export.align import AlignedTrack, align_track
+from blendvoca.export._support import read_json_object
+from blendvoca.export.align import AlignedTrack, align_track, check_track, unit_range_track
 
 FORMATS: tuple[str, ...] = ("livelink", "arkit-json", "a2f-json", "glb", "usd", "csv")
 NEEDS_RIG: frozenset[str] = frozenset({"glb", "usd"})
@@ -36,7 +37,7 @@ SUFFIX: dict[str, str] = {"livelink": ".csv", "arkit-json": ".json", "a2f-json":
 
 
 def export_track(out, coeffs, names: Sequence[str], fmt: str, *, rig=None, fps: float = 60.0,
-                 audio=None) -> AlignedTrack:
+                 audio=None, clip: bool = False) -> AlignedTrack:
     """Write a ``(T, K)`` track in format ``fmt``.
 
     Parameters
@@ -49,10 +50,19 @@ def export_track(out, coeffs, names: Sequence[str], fmt: str, *, rig=None, fps: 
     fps : float
     audio : path of the sound, optional (``a2f-json`` names it as ``trackPath``, ``usd``
         references it)
+    clip : bool
+        Clip weights outside [0, 1] instead of refusing the track.
 
     Returns
     -------
-    AlignedTrack : the track as written (its ``notes()`` say what was 0 or left out)
+    AlignedTrack : the track as written (its ``notes()`` say what was 0, left out or
+        clipped; ``clipped`` counts the values moved)
+
+    Raises
+    ------
+    UserError
+        An unknown format, a missing rig, or a track that is not (T, K) finite weights
+        in [0, 1] (``clip`` off), naming the first bad frame and column.
     """
     if fmt not in FORMATS:
         raise UserError(f"export_track: unknown format {fmt!r}; expected one of {FORMATS}")
@@ -60,6 +70,14 @@ def export_track(out, coeffs, names: Sequence[str], fmt: str, *, rig=None, fps: 
         raise UserError(f"export_track: format {fmt!r} needs a rig (the mesh and its blendshapes)")
     if fps <= 0:
         raise UserError(f"export_track: fps must be positive, got {fps}")
+    checked, _ = check_track(coeffs, names, where="export_track")
+    coeffs, clipped = unit_range_track(checked, tuple(str(n) for n in names), where="export_track", clip=clip)
+    aligned = _write(out, coeffs, names, fmt, rig=rig, fps=fps, audio=audio)
+    return dataclasses.replace(aligned, clipped=clipped)
+
+
+def _write(out, coeffs, names, fmt: str, *, rig, fps: float, audio) -> AlignedTrack:
+    """Write a checked track in ``fmt`` (:func:`export_track`)."""
     if fmt == "livelink":
         from blendvoca.export.livelink import write_livelink_csv
 
@@ -89,7 +107,16 @@ def export_track(out, coeffs, names: Sequence[str], fmt: str, *, rig=None, fps: 
 
 
 def detect_format(path) -> str:
-    """The format of an exported file, from its suffix and (CSV/JSON) its first bytes."""
+    """The format of an exported file, from its suffix and (CSV/JSON) its first bytes.
+
+    Raises
+    ------
+    UserError
+        An unknown suffix.
+    DataError
+        A JSON file that is not an object of either JSON format, or a CSV whose first
+        line is not UTF-8 (naming the file).
+    """
     path = Path(os.fspath(path))
     suffix = path.suffix.lower()
     if suffix == ".glb":
@@ -97,15 +124,20 @@ def detect_format(path) -> str:
     if suffix in (".usd", ".usda", ".usdc"):
         return "usd"
     if suffix == ".json":
-        doc = read_json(path)
+        doc = read_json_object(path, "an ARKit or Audio2Face weights JSON")
         if "weightMat" in doc:
             return "a2f-json"
         if "blendShapeNames" in doc:
             return "arkit-json"
         raise DataError(f"{path}: a JSON file that is neither ARKit (blendShapeNames) nor Audio2Face (weightMat) weights")
     if suffix == ".csv":
-        with open(path, encoding="utf-8-sig") as f:
-            first = f.readline()
+        with open(path, "rb") as f:
+            first_bytes = f.readline()
+        try:
+            first = first_bytes.decode("utf-8-sig")
+        except UnicodeDecodeError as error:
+            raise DataError(f"{path}: not a UTF-8 text file ({error.reason} at byte {error.start}); "
+                            f"a coefficient CSV is UTF-8") from None
         return "livelink" if first.split(",")[0].strip() == "Timecode" else "csv"
     raise UserError(f"{path}: unknown suffix {suffix!r}; expected .csv, .json, .glb, .usd, .usda or .usdc")
 
@@ -122,6 +154,15 @@ def read_track(path, fmt: str | None = None, *, fps: float = 60.0) -> tuple[np.n
     Returns
     -------
     coeffs : (T, K) float64, names : K camelCase ARKit names, fps : float
+
+    Raises
+    ------
+    DataError
+        A file that is not a readable track of its format, naming the file and what is
+        wrong (the parsers of the binary formats are third-party; what they raise on a
+        damaged file is reported as this too).
+    UserError
+        An unknown format or suffix.
     """
     fmt = fmt or detect_format(path)
     if fmt == "livelink":

@@ -1,10 +1,14 @@
 """Write a coefficient track as Live Link Face CSV, ARKit JSON, Audio2Face JSON, GLB or USD.
 
-``python -m blendvoca.export --coeffs CSV --format FMT --out FILE [--rig RIG] [--fps F] [--audio WAV]``.
+``python -m blendvoca.export --coeffs CSV --format FMT --out FILE [--rig RIG] [--fps F] [--audio WAV] [--clip]``.
+
+Weights outside [0, 1] are refused (the first frame and column named), as the
+benchmark refuses them, unless ``--clip`` clips them and says how many moved.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -12,6 +16,7 @@ from pathlib import Path
 from blendvoca import cli
 from blendvoca.errors import UserError
 from blendvoca.export import FORMATS, NEEDS_RIG, export_track, load_rig
+from blendvoca.export.align import check_track, unit_range_track
 from blendvoca.io.coeffs import read_coeffs_csv
 
 
@@ -24,6 +29,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--rig", help="rig .npz or SAiD folder (needed by glb and usd)")
     parser.add_argument("--fps", type=float, default=60.0, help="frame rate of the track (default 60)")
     parser.add_argument("--audio", help="WAV of the speech (a2f-json trackPath, usd sound prim)")
+    parser.add_argument("--clip", action="store_true",
+                        help="clip weights outside [0, 1] into it (and say how many moved) instead of refusing "
+                             "the track")
     args = parser.parse_args(argv)
     if args.fmt in NEEDS_RIG and not args.rig:
         raise UserError(f"--format {args.fmt} needs --rig (a rig .npz or SAiD folder)")
@@ -33,7 +41,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         raise UserError(f"audio file not found: {args.audio}")
     rig = load_rig(args.rig) if args.rig else None
     coeffs, names = read_coeffs_csv(args.coeffs)
+    # checked here too so that a bad value is reported against the file the user gave
+    coeffs, _ = check_track(coeffs, names, where=args.coeffs)
+    coeffs, clipped = unit_range_track(coeffs, names, where=args.coeffs, clip=args.clip)
     aligned = export_track(args.out, coeffs, names, args.fmt, rig=rig, fps=args.fps, audio=args.audio)
+    aligned = dataclasses.replace(aligned, clipped=clipped)
     for note in aligned.notes():
         print(note, file=sys.stderr)
     print(f"wrote {args.out} ({args.fmt}, {len(aligned.coeffs)} frames at {args.fps:g} fps, {len(aligned.names)} shapes)")

@@ -1,35 +1,209 @@
 """What the export formats share besides column alignment (private): reading a JSON
-file as a :class:`~blendvoca.errors.DataError` when it does not parse, and importing
-a format's optional dependency with an install hint."""
+file and checking the shape of its values as :class:`~blendvoca.errors.DataError`\\ s
+that name the file, turning a third-party parser's failures into one, and importing a
+format's optional dependency with an install hint."""
 
 from __future__ import annotations
 
+import contextlib
 import importlib
 import json
+import math
 import os
+from collections.abc import Iterator
 from pathlib import Path
 from types import ModuleType
 
-from blendvoca.errors import DataError, UserError
+import numpy as np
+
+from blendvoca.errors import BlendVOCAError, DataError, UserError
 
 
-def read_json(path) -> dict:
-    """The JSON document of ``path`` (str or os.PathLike).
+def read_json(path) -> object:
+    """The JSON document of ``path`` (str or os.PathLike), whatever its top-level type.
 
     Raises
     ------
     DataError
-        The file is not UTF-8 JSON (naming the file, line and column).
+        The file is not UTF-8 JSON (naming the file, line and column), holds an integer
+        longer than Python's digit limit, or nests deeper than Python can parse.
     """
     path = Path(os.fspath(path))
-    with open(path, encoding="utf-8") as f:
-        try:
-            return json.load(f)
-        except json.JSONDecodeError as error:
-            raise DataError(f"{path}: not a JSON file (line {error.lineno}, column {error.colno}: "
-                            f"{error.msg})") from None
-        except UnicodeDecodeError as error:
-            raise DataError(f"{path}: not a UTF-8 text file ({error.reason} at byte {error.start})") from None
+    with open(path, "rb") as f:
+        data = f.read()
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as error:
+        raise DataError(f"{path}: not a UTF-8 text file ({error.reason} at byte {error.start})") from None
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError as error:
+        raise DataError(f"{path}: not a JSON file (line {error.lineno}, column {error.colno}: "
+                        f"{error.msg})") from None
+    except ValueError as error:
+        # json raises a plain ValueError for an integer past sys.get_int_max_str_digits()
+        raise DataError(f"{path}: not a usable JSON file ({error})") from None
+    except RecursionError:
+        raise DataError(f"{path}: not a usable JSON file (nested too deeply to parse)") from None
+
+
+def read_json_object(path, what: str) -> dict:
+    """The JSON object (a dict) of ``path``; ``what`` names the format for the error.
+
+    Raises
+    ------
+    DataError
+        As :func:`read_json`, or the document is not an object.
+    """
+    doc = read_json(path)
+    if not isinstance(doc, dict):
+        raise DataError(f"{path}: not {what}: the document is {_kind(doc)}, expected an object")
+    return doc
+
+
+def _kind(value) -> str:
+    """``value``'s JSON type in words, for an error message."""
+    if value is None:
+        return "null"
+    if isinstance(value, bool):
+        return "a boolean"
+    if isinstance(value, (int, float)):
+        return "a number"
+    if isinstance(value, str):
+        return "a string"
+    if isinstance(value, list):
+        return "a list"
+    return "an object" if isinstance(value, dict) else type(value).__name__
+
+
+def _finite(value) -> float | None:
+    """``value`` as a finite float, or None when it is not a finite JSON number."""
+    # bool is an int in Python, but a JSON boolean is no number
+    if not isinstance(value, (int, float)) or isinstance(value, bool):
+        return None
+    try:
+        number = float(value)
+    except OverflowError:  # an integer beyond float's range
+        return None
+    return number if math.isfinite(number) else None
+
+
+def positive_number(doc: dict, key: str, path) -> float:
+    """``doc[key]`` as a finite positive float (a frame rate).
+
+    Raises
+    ------
+    DataError
+        Naming the file and the key: not a number, not finite or not positive.
+    """
+    value = doc[key]
+    number = _finite(value)
+    if number is None or number <= 0:
+        shown = _kind(value) if isinstance(value, (list, dict)) else repr(value)
+        raise DataError(f"{path}: {key!r} is {_short(shown)}, expected a finite positive number")
+    return number
+
+
+def count(doc: dict, key: str, path) -> int:
+    """``doc[key]`` as a non-negative int (``3`` and ``3.0`` both count).
+
+    Raises
+    ------
+    DataError
+        Naming the file and the key: not a whole non-negative number.
+    """
+    value = doc[key]
+    if isinstance(value, float) and value.is_integer():
+        value = int(value)
+    if not isinstance(value, int) or isinstance(value, bool) or value < 0:
+        shown = _kind(value) if isinstance(value, (list, dict)) else repr(value)
+        raise DataError(f"{path}: {key!r} is {_short(shown)}, expected a whole number >= 0")
+    return value
+
+
+def string_list(doc: dict, key: str, path) -> tuple[str, ...]:
+    """``doc[key]`` as a tuple of str.
+
+    Raises
+    ------
+    DataError
+        Naming the file, the key and the first entry that is not a string.
+    """
+    value = doc[key]
+    if not isinstance(value, list):
+        raise DataError(f"{path}: {key!r} is {_kind(value)}, expected a list of names")
+    for index, item in enumerate(value):
+        if not isinstance(item, str):
+            raise DataError(f"{path}: {key!r} entry {index} is {_kind(item)}, expected a name (a string)")
+    return tuple(value)
+
+
+def weight_matrix(doc: dict, key: str, names: tuple[str, ...], path) -> np.ndarray:
+    """``doc[key]``, one list of ``len(names)`` finite numbers per frame, as ``(T, K)`` float64.
+
+    Raises
+    ------
+    DataError
+        Naming the file, the key, and the first frame (and column) that is not a list of
+        the right length or not a finite number.
+    """
+    rows = doc[key]
+    if not isinstance(rows, list):
+        raise DataError(f"{path}: {key!r} is {_kind(rows)}, expected one list of weights per frame")
+    out = np.empty((len(rows), len(names)), dtype=np.float64)
+    for t, row in enumerate(rows):
+        if not isinstance(row, list):
+            raise DataError(f"{path}: {key!r} frame {t} is {_kind(row)}, expected a list of {len(names)} weights")
+        if len(row) != len(names):
+            raise DataError(f"{path}: frame {t} has {len(row)} weights, expected {len(names)} (one per name)")
+        for k, value in enumerate(row):
+            number = _finite(value)
+            if number is None:
+                shown = _kind(value) if isinstance(value, (list, dict)) else repr(value)
+                raise DataError(f"{path}: frame {t}, {names[k]!r}: weight {_short(shown)} is not a finite number")
+            out[t, k] = number
+    return out
+
+
+@contextlib.contextmanager
+def foreign_parser(path, what: str) -> Iterator[None]:
+    """Turn what a third-party parser raises on a damaged file into a :class:`DataError`.
+
+    The project's own errors pass through, and so does an ``OSError`` that carries an
+    OS condition (a permission, a missing file: the command-line layer reports those
+    against the path); ``MemoryError`` is not the file's fault and passes too.
+    """
+    try:
+        yield
+    except (BlendVOCAError, MemoryError):
+        raise
+    except OSError as error:
+        if error.errno is not None:
+            raise
+        raise DataError(f"{path}: not a readable {what} ({_brief(error)})") from error
+    except Exception as error:  # noqa: BLE001 - parsers of binary formats raise many types on junk
+        raise DataError(f"{path}: not a readable {what} ({_brief(error)})") from error
+
+
+def _short(text: str, limit: int = 80) -> str:
+    """``text`` cut to ``limit`` characters (a value from a file may be a 4000-digit number)."""
+    return text if len(text) <= limit else text[:limit] + "..."
+
+
+def _brief(error: BaseException) -> str:
+    """The error's type and the first line of its message, cut to a readable length."""
+    try:
+        lines = str(error).strip().splitlines()
+    except Exception:  # noqa: BLE001 - pxr's errors fail str() on a message that is not UTF-8
+        lines = []
+    text = lines[0].strip() if lines else ""
+    if text.startswith("Error in '") and " : " in text:
+        # pxr's "Error in '<C++ function>' at line N in file <header> : <message>"
+        text = text.split(" : ", 1)[1].strip("'")
+    kind = type(error).__name__
+    if type(error).__module__ not in ("builtins", "__main__"):
+        kind = f"{type(error).__module__}.{kind}"  # struct.error says more than "error"
+    return f"{kind}: {_short(text, 200)}" if text else kind
 
 
 def optional_module(module: str, package: str, what: str) -> ModuleType:

@@ -13,9 +13,8 @@ from collections.abc import Sequence
 import numpy as np
 
 from blendvoca.errors import DataError
-from blendvoca.export._support import read_json
+from blendvoca.export._support import count, positive_number, read_json_object, string_list, weight_matrix
 from blendvoca.export.align import AlignedTrack, align_track
-from blendvoca.export.arkit_json import _weights
 from blendvoca.io.atomic import atomic_write
 from blendvoca.names import ARKIT_FACE_ORDER
 
@@ -43,13 +42,24 @@ def write_a2f_json(path, coeffs, names: Sequence[str], fps: float = 60.0, track_
 
 
 def read_a2f_json(path) -> tuple[np.ndarray, tuple[str, ...], float]:
-    """``(coeffs (T, numPoses), facsNames, exportFps)`` of an A2F blendshape JSON."""
-    doc = read_json(path)
+    """``(coeffs (T, numPoses), facsNames, exportFps)`` of an A2F blendshape JSON.
+
+    Raises
+    ------
+    DataError
+        Naming the file and what is wrong: not a JSON object, a missing key, a value of
+        the wrong type, counts that disagree with the names and frames, or the frame
+        whose vector has the wrong length or a value that is not a finite number.
+    """
+    doc = read_json_object(path, "an Audio2Face blendshape JSON")
     for key in ("exportFps", "numPoses", "numFrames", "facsNames", "weightMat"):
         if key not in doc:
             raise DataError(f"{path}: not an Audio2Face blendshape JSON: missing key {key!r}")
-    names = tuple(doc["facsNames"])
-    if int(doc["numPoses"]) != len(names) or int(doc["numFrames"]) != len(doc["weightMat"]):
-        raise DataError(f"{path}: numPoses/numFrames ({doc['numPoses']}, {doc['numFrames']}) disagree with "
-                         f"facsNames/weightMat ({len(names)}, {len(doc['weightMat'])})")
-    return _weights(doc["weightMat"], names, path), names, float(doc["exportFps"])
+    names = string_list(doc, "facsNames", path)
+    fps = positive_number(doc, "exportFps", path)
+    poses, frames = count(doc, "numPoses", path), count(doc, "numFrames", path)
+    weights = weight_matrix(doc, "weightMat", names, path)
+    if poses != len(names) or frames != len(weights):
+        raise DataError(f"{path}: numPoses/numFrames ({poses}, {frames}) disagree with "
+                        f"facsNames/weightMat ({len(names)}, {len(weights)})")
+    return weights, names, fps

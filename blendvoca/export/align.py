@@ -22,12 +22,14 @@ class AlignedTrack:
     names : tuple of K str, the target's shape names
     missing : tuple of str, target shapes the track lacks (their column is 0)
     dropped : tuple of str, track columns the target has no shape for
+    clipped : int, values of the track that were outside [0, 1] and clipped into it
     """
 
     coeffs: np.ndarray
     names: tuple[str, ...]
     missing: tuple[str, ...]
     dropped: tuple[str, ...]
+    clipped: int = 0
 
     def notes(self) -> list[str]:
         """Human-readable notes on missing and dropped shapes (empty when none)."""
@@ -38,6 +40,8 @@ class AlignedTrack:
         if self.dropped:
             out.append(f"note: the target has no shape for {len(self.dropped)} track columns; they are left out: "
                        + ", ".join(self.dropped))
+        if self.clipped:
+            out.append(f"note: {self.clipped} value(s) outside [0, 1] were clipped into it")
         return out
 
 
@@ -67,6 +71,42 @@ def check_track(coeffs, names: Sequence[str], *, where: str) -> tuple[np.ndarray
         t, k = np.argwhere(~np.isfinite(coeffs))[0]
         raise UserError(f"{where}: NaN/inf at frame {t}, column {names[k]!r}")
     return coeffs, canonical
+
+
+def unit_range_track(coeffs, names: Sequence[str], *, where: str, clip: bool = False) -> tuple[np.ndarray, int]:
+    """The track with its weights in [0, 1], the range every blendshape format means.
+
+    Parameters
+    ----------
+    coeffs : (T, K) array_like, finite (:func:`check_track`)
+    names : K names, the columns of ``coeffs``
+    where : str
+        What the track is, for the message.
+    clip : bool
+        Clip values outside [0, 1] instead of refusing them.
+
+    Returns
+    -------
+    coeffs : (T, K) float64 ndarray
+    clipped : int
+        How many values were moved into [0, 1] (0 unless ``clip``).
+
+    Raises
+    ------
+    UserError
+        A value outside [0, 1] and ``clip`` is False: naming how many, the first
+        frame and column and its value.
+    """
+    coeffs = np.asarray(coeffs, dtype=np.float64)
+    outside = (coeffs < 0.0) | (coeffs > 1.0)
+    if not outside.any():
+        return coeffs, 0
+    if clip:
+        return np.clip(coeffs, 0.0, 1.0), int(outside.sum())
+    t, k = (int(i) for i in np.argwhere(outside)[0])
+    raise UserError(f"{where}: {int(outside.sum())} value(s) outside [0, 1] (min {coeffs.min():.6g}, max "
+                    f"{coeffs.max():.6g}), first at frame {t}, column {names[k]!r}: {coeffs[t, k]:.6g}; blendshape "
+                    f"weights are in [0, 1]: pass --clip (clip=True) to clip them")
 
 
 def align_track(coeffs, names: Sequence[str], target: Sequence[str], *, where: str = "track") -> AlignedTrack:

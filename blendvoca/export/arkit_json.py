@@ -13,7 +13,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from blendvoca.errors import DataError
-from blendvoca.export._support import read_json
+from blendvoca.export._support import positive_number, read_json_object, string_list, weight_matrix
 from blendvoca.export.align import AlignedTrack, align_track
 from blendvoca.io.atomic import atomic_write
 from blendvoca.names import ARKIT_FACE_ORDER
@@ -49,19 +49,14 @@ def read_arkit_json(path) -> tuple[np.ndarray, tuple[str, ...], float]:
 
     Raises
     ------
-    ValueError
-        Naming the file and the missing key or the frame whose vector has the wrong length.
+    DataError
+        Naming the file and what is wrong: not a JSON object, a missing key, a frame rate
+        that is not a positive number, names that are not strings, or the frame whose
+        vector has the wrong length or a value that is not a finite number.
     """
-    doc = read_json(path)
+    doc = read_json_object(path, "an ARKit blendshape JSON")
     for key in ("frameRate", "blendShapeNames", "weights"):
         if key not in doc:
             raise DataError(f"{path}: not an ARKit blendshape JSON: missing key {key!r}")
-    names = tuple(doc["blendShapeNames"])
-    return _weights(doc["weights"], names, path), names, float(doc["frameRate"])
-
-
-def _weights(rows, names, path) -> np.ndarray:
-    for t, row in enumerate(rows):
-        if len(row) != len(names):
-            raise DataError(f"{path}: frame {t} has {len(row)} weights, expected {len(names)} (one per name)")
-    return np.asarray(rows, dtype=np.float64).reshape(len(rows), len(names))
+    names = string_list(doc, "blendShapeNames", path)
+    return weight_matrix(doc, "weights", names, path), names, positive_number(doc, "frameRate", path)

@@ -9,6 +9,7 @@ morph target (POSITION offsets) per blendshape named in ``mesh.extras.targetName
 from __future__ import annotations
 
 import os
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -16,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from blendvoca.errors import DataError
-from blendvoca.export._support import optional_module
+from blendvoca.export._support import foreign_parser, optional_module
 from blendvoca.export.align import AlignedTrack, align_track
 from blendvoca.io.atomic import atomic_write
 
@@ -106,36 +107,91 @@ def write_glb(path, rig, coeffs, names: Sequence[str], fps: float = 60.0) -> Ali
 
 def read_glb(path) -> GlbContents:
     """Read back the mesh, morph targets and weights animation of a GLB written here
-    (or any GLB whose first mesh has morph targets and whose first animation drives them)."""
+    (or any GLB whose first mesh has morph targets and whose first animation drives them).
+
+    Raises
+    ------
+    DataError
+        Naming the file and what is wrong: not a GLB pygltflib can parse, no mesh or
+        animation, an accessor that points outside the file's buffer or has a type this
+        reader does not know, or keys and weights whose counts disagree.
+    """
     g = optional_module("pygltflib", "pygltflib", "the glb format")
 
-    gltf = g.GLTF2().load_binary(os.fspath(path))
-    blob = gltf.binary_blob()
+    # pygltflib parses the container and the JSON chunk into objects whose fields hold
+    # whatever the file held (a string where a count belongs, a list where an object
+    # belongs); it and the lookups below raise many types on a damaged file, all of
+    # which mean "not a readable GLB"
+    with foreign_parser(path, "GLB file"):
+        with warnings.catch_warnings():
+            # on a damaged file pygltflib warns (an unknown version or chunk type) and asks
+            # the user to report it upstream; the error below says what is wrong instead
+            warnings.simplefilter("ignore")
+            gltf = g.GLTF2().load_binary(os.fspath(path))
+        if gltf is None:
+            raise DataError(f"{path}: not a GLB file (no glTF binary header)")
+        return _glb_contents(gltf, gltf.binary_blob() or b"", path)
+
+
+def _glb_contents(gltf, blob: bytes, path) -> GlbContents:
+    """The contents of a parsed GLB (:func:`read_glb`)."""
     if not gltf.meshes or not gltf.meshes[0].primitives:
         raise DataError(f"{path}: the GLB has no mesh")
 
-    def read(index: int) -> np.ndarray:
+    def read(index, what: str) -> np.ndarray:
+        if not isinstance(index, int) or not 0 <= index < len(gltf.accessors or []):
+            raise DataError(f"{path}: the {what} names accessor {index!r}, which the GLB lacks")
         accessor = gltf.accessors[index]
+        if not isinstance(accessor.bufferView, int) or not 0 <= accessor.bufferView < len(gltf.bufferViews or []):
+            raise DataError(f"{path}: the {what} accessor names buffer view {accessor.bufferView!r}, "
+                            f"which the GLB lacks")
         view = gltf.bufferViews[accessor.bufferView]
-        width = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4}[accessor.type]
-        dtype = {_FLOAT: "<f4", _UINT32: "<u4", 5123: "<u2", 5121: "u1"}[accessor.componentType]
+        width = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4}.get(accessor.type)
+        dtype = {_FLOAT: "<f4", _UINT32: "<u4", 5123: "<u2", 5121: "u1"}.get(accessor.componentType)
+        if width is None or dtype is None:
+            raise DataError(f"{path}: the {what} accessor has type {accessor.type!r} / component type "
+                            f"{accessor.componentType!r}, which this reader does not know")
         start = (view.byteOffset or 0) + (accessor.byteOffset or 0)
+        size = accessor.count * width * np.dtype(dtype).itemsize if isinstance(accessor.count, int) else -1
+        if size < 0 or start < 0 or start + size > len(blob):
+            raise DataError(f"{path}: the {what} accessor ({accessor.count!r} x {accessor.type}) lies outside "
+                            f"the GLB's {len(blob)}-byte buffer")
         array = np.frombuffer(blob, dtype=dtype, count=accessor.count * width, offset=start)
         return array.reshape(accessor.count, width) if width > 1 else array
 
     mesh = gltf.meshes[0]
     primitive = mesh.primitives[0]
-    neutral = read(primitive.attributes.POSITION).astype(np.float64)
-    faces = read(primitive.indices).astype(np.int64).reshape(-1, 3)
+    neutral = read(primitive.attributes.POSITION, "POSITION").astype(np.float64)
+    if neutral.ndim != 2 or neutral.shape[1] != 3:
+        raise DataError(f"{path}: the POSITION accessor is not VEC3")
+    faces = read(primitive.indices, "indices").astype(np.int64)
+    if faces.size % 3:
+        raise DataError(f"{path}: {faces.size} triangle indices, not a multiple of 3")
+    faces = faces.reshape(-1, 3)
     targets = primitive.targets or []
-    deltas = np.stack([read(t["POSITION"]) for t in targets]).astype(np.float64) if targets else np.zeros((0, *neutral.shape))
-    names = tuple((mesh.extras or {}).get("targetNames", [f"target{k}" for k in range(len(targets))]))
-    if not gltf.animations:
+    deltas = [read(t["POSITION"], f"morph target {k}").astype(np.float64) for k, t in enumerate(targets)]
+    if any(d.shape != neutral.shape for d in deltas):
+        raise DataError(f"{path}: a morph target's offsets do not match the {len(neutral)} vertices")
+    deltas = np.stack(deltas) if deltas else np.zeros((0, *neutral.shape))
+    names = (mesh.extras or {}).get("targetNames", [f"target{k}" for k in range(len(targets))])
+    if (not isinstance(names, list) or len(names) != len(targets)
+            or not all(isinstance(n, str) for n in names)):
+        raise DataError(f"{path}: extras.targetNames is not a list of {len(targets)} names (one per morph target)")
+    if not gltf.animations or not gltf.animations[0].channels:
         raise DataError(f"{path}: the GLB has no animation")
-    sampler = gltf.animations[0].samplers[gltf.animations[0].channels[0].sampler]
-    times = read(sampler.input).astype(np.float64)
-    weights = read(sampler.output).astype(np.float64).reshape(len(times), len(targets))
-    return GlbContents(neutral, faces, deltas, names, times, weights)
+    animation = gltf.animations[0]
+    index = animation.channels[0].sampler
+    if not isinstance(index, int) or not 0 <= index < len(animation.samplers or []):
+        raise DataError(f"{path}: the animation's channel names sampler {index!r}, which it lacks")
+    sampler = animation.samplers[index]
+    times = read(sampler.input, "animation input").astype(np.float64).reshape(-1)
+    if not np.all(np.isfinite(times)) or np.any(np.diff(times) <= 0):
+        raise DataError(f"{path}: the animation's key times are not finite and increasing")
+    weights = read(sampler.output, "animation output").astype(np.float64).reshape(-1)
+    if weights.size != len(times) * len(targets):
+        raise DataError(f"{path}: {weights.size} animation weights for {len(times)} keys x {len(targets)} targets")
+    weights = weights.reshape(len(times), len(targets))
+    return GlbContents(neutral, faces, deltas, tuple(names), times, weights)
 
 
 def validate_glb(path, validator: str | Path | None = None) -> dict:

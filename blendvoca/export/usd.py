@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from blendvoca.errors import DataError, UserError
-from blendvoca.export._support import optional_module
+from blendvoca.export._support import foreign_parser, optional_module
 from blendvoca.export.align import AlignedTrack, align_track
 from blendvoca.io.atomic import permissions_for
 
@@ -126,8 +126,26 @@ def write_usd(path, rig, coeffs, names: Sequence[str], fps: float = 60.0, audio=
 
 
 def read_usd(path) -> UsdContents:
-    """Read back the first UsdSkel-bound mesh with blend shapes and its SkelAnimation."""
+    """Read back the first UsdSkel-bound mesh with blend shapes and its SkelAnimation.
+
+    Raises
+    ------
+    DataError
+        Naming the file and what is wrong: a file pxr cannot open as a stage, no mesh
+        with blend shapes, or a skeleton, animation or shape the mesh names that the
+        stage lacks or that disagrees with it.
+    """
     optional_module("pxr", "usd-core", "reading the usd format")
+
+    # pxr raises its own Tf.ErrorException on a file that does not parse, and the
+    # lookups below raise IndexError, ValueError, TypeError on a stage that is not laid
+    # out as expected; all of them mean "not a readable UsdSkel track"
+    with foreign_parser(path, "USD stage"):
+        return _usd_contents(path)
+
+
+def _usd_contents(path) -> UsdContents:
+    """The contents of the stage at ``path`` (:func:`read_usd`)."""
     from pxr import Usd, UsdMedia, UsdSkel
 
     stage = Usd.Stage.Open(os.fspath(path))
@@ -145,6 +163,10 @@ def read_usd(path) -> UsdContents:
     faces = np.asarray(mesh.GetFaceVertexIndicesAttr().Get(), dtype=np.int64).reshape(-1, 3)
     shape_names = tuple(binding.GetBlendShapesAttr().Get())
     targets = binding.GetBlendShapeTargetsRel().GetTargets()
+    if len(targets) != len(shape_names):
+        raise DataError(f"{path}: {len(shape_names)} blend shape names but {len(targets)} blend shape targets")
+    if not binding.GetSkeletonRel().GetTargets():
+        raise DataError(f"{path}: the mesh with blend shapes is bound to no skeleton")
     deltas = np.stack([np.asarray(UsdSkel.BlendShape(stage.GetPrimAtPath(t)).GetOffsetsAttr().Get(), dtype=np.float64)
                        for t in targets])
     skeleton = UsdSkel.Skeleton(stage.GetPrimAtPath(binding.GetSkeletonRel().GetTargets()[0]))
@@ -155,6 +177,8 @@ def read_usd(path) -> UsdContents:
     weights = np.stack([np.asarray(attr.Get(Usd.TimeCode(c)), dtype=np.float64) for c in codes])
     order = [anim_names.index(n) for n in shape_names]
     fps = stage.GetTimeCodesPerSecond()
+    if not np.isfinite(fps) or fps <= 0:
+        raise DataError(f"{path}: timeCodesPerSecond is {fps}, expected a positive frame rate")
     audio = next((str(UsdMedia.SpatialAudio(p).GetFilePathAttr().Get().path) for p in stage.Traverse()
                   if p.IsA(UsdMedia.SpatialAudio)), None)
     return UsdContents(neutral, faces, deltas, shape_names, np.asarray(codes, dtype=np.float64) / fps,

@@ -226,13 +226,19 @@ def read_splits(root) -> dict:
     Raises
     ------
     DataError
-        Not readable JSON, or not an object.
+        Not readable JSON, or not an object of split name -> list of subject names.
     """
     path = splits_path(root)
     try:
-        splits = json.loads(path.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as error:
-        raise DataError(f"{path}: not readable JSON ({error}); expected an object of split -> subjects") from None
+        splits = json.loads(path.read_bytes().decode("utf-8"))
+    # ValueError: bad JSON, not UTF-8, or an integer of more digits than Python converts;
+    # RecursionError: nesting too deep for json.
+    except (ValueError, RecursionError) as error:
+        raise DataError(f"{path}: not readable JSON ({type(error).__name__}: {error}); "
+                        "expected an object of split -> subjects") from None
     if not isinstance(splits, dict):
-        raise DataError(f"{path}: expected an object of split -> subjects")
+        raise DataError(f"{path}: expected an object of split -> subjects, got {type(splits).__name__}")
+    for name, subjects in splits.items():
+        if not isinstance(subjects, list) or not all(isinstance(s, str) for s in subjects):
+            raise DataError(f"{path}: split {name!r} is not a list of subject names: {subjects!r:.80}")
     return splits

@@ -86,7 +86,7 @@ def read_manifest(root) -> dict:
                             f"(a build that was interrupted or failed to write leaves none). {_how_to_make(root)}")
     try:
         data = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError) as error:
+    except (OSError, ValueError, RecursionError) as error:  # RecursionError: nesting too deep for json
         raise ManifestError(f"{path}: not readable JSON ({error}). {_how_to_make(root)}") from None
     if not isinstance(data, dict):
         raise ManifestError(f"{path}: expected an object with \"files\": {{path: sha256}}, as blendvoca.build "
@@ -135,7 +135,10 @@ def manifest_hash(root) -> str:
     path = manifest_path(root)
     digest = hashlib.sha256()
     if path.exists():
-        manifest = json.loads(path.read_text())
+        try:
+            manifest = json.loads(path.read_bytes().decode("utf-8"))
+        except (ValueError, RecursionError):  # not JSON (UnicodeDecodeError is a ValueError): hashed whole below
+            manifest = None
         if isinstance(manifest, dict) and isinstance(manifest.get("files"), dict):
             for name, sha in sorted(manifest["files"].items()):
                 if not is_report_file(name):
@@ -151,12 +154,13 @@ def manifest_hash(root) -> str:
 
 def recorded_vocaset(root) -> str | None:
     """The VOCASET folder a build recorded (``inputs.vocaset.path``), or None (no manifest,
-    an unreadable one, or a hand-made folder's)."""
+    an unreadable one, one that records no path as a string, or a hand-made folder's)."""
     try:
         inputs = read_manifest(root).get("inputs", {})
-        return inputs.get("vocaset", {}).get("path") or None
+        path = inputs.get("vocaset", {}).get("path")
     except (ManifestError, AttributeError):
         return None
+    return path if isinstance(path, str) and path else None
 
 
 def written_by_build(root) -> bool:

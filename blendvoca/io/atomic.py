@@ -1,12 +1,34 @@
-"""Atomic file writes: a reader never sees a half-written output."""
+"""Atomic file writes: a reader never sees a half-written output.
+
+The temporary beside the target is named ``.blendvoca-<pid>-<name>.<random>.tmp``
+(:func:`temporary_prefix`): the prefix marks it as written by BlendVOCA and the pid
+says which process wrote it, so a clean-up after a killed write
+(:func:`blendvoca.builder.outdir.remove_stale_temporaries`) removes only files
+whose names it made, and only those of processes that are no longer running.
+"""
 
 from __future__ import annotations
 
 import contextlib
 import os
+import re
 import stat
 import tempfile
 from pathlib import Path
+
+#: Every temporary written here: ``.blendvoca-<pid>-<target name>.<random>.tmp``.
+TEMPORARY = re.compile(r"^\.blendvoca-(?P<pid>[0-9]+)-(?P<target>.+)\.[^.]+\.tmp$")
+
+
+def temporary_prefix(name: str, pid: int | None = None) -> str:
+    """The prefix of the temporaries written for target ``name`` by process ``pid`` (default: this one)."""
+    return f".blendvoca-{os.getpid() if pid is None else int(pid)}-{name}."
+
+
+def temporary_owner(name: str) -> int | None:
+    """The pid of the process that made temporary ``name``, or None when the name is not one of ours."""
+    match = TEMPORARY.match(name)
+    return int(match["pid"]) if match else None
 
 
 @contextlib.contextmanager
@@ -20,7 +42,7 @@ def atomic_write(path, mode: str = "wb", **kwargs):
     path = Path(path)
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=temporary_prefix(path.name), suffix=".tmp")
     except OSError as error:
         raise _naming(error, path) from None
     try:

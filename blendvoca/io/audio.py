@@ -65,8 +65,19 @@ def read_wav(path) -> tuple[np.ndarray, int]:
 
 
 def load_audio(path, rate: int = SAMPLE_RATE) -> np.ndarray:
-    """Any WAV file as mono float32 at ``rate`` Hz (16 kHz by default), ``(N,)``."""
+    """Any WAV file as mono float32 at ``rate`` Hz (16 kHz by default), ``(N,)``.
+
+    Raises
+    ------
+    FileNotFoundError
+        No such file.
+    AudioFormatError
+        A file that does not decode, or holds no samples (naming the file): speech
+        is what every caller needs, and an empty array would fail far from here.
+    """
     samples, native = read_wav(path)
+    if samples.shape[0] == 0:
+        raise AudioFormatError(f"{path}: the audio holds no samples (a zero-length recording); expected speech")
     return resample_audio(to_mono(samples), native, rate)
 
 

@@ -65,15 +65,8 @@ def read_coeffs_csv(path, names: Sequence[str] | None = None, *,
     path = Path(os.fspath(path))
     if not path.is_file():
         raise FileNotFoundError(f"coefficient file not found: {path}")
-    with open(path, newline="", encoding="utf-8-sig") as f:
-        try:
-            lines = f.read().splitlines()
-        except UnicodeDecodeError as error:
-            raise DataError(f"{path}: not a UTF-8 text CSV ({error.reason} at byte {error.start})") from None
-    try:
-        header = [h.strip() for h in next(csv.reader(lines[:1]))]
-    except StopIteration:
-        raise DataError(f"{path}: empty file; expected a header row of blendshape names") from None
+    lines = _text_lines(path)
+    header = _header(lines, path)
     body = [line for line in lines[1:] if line]
     mapped = [_column_name(h) for h in header]
     kept = [m for m in mapped if m is not None]
@@ -126,10 +119,38 @@ def _parsed_columns(body: list[str], num_fields: int, columns: list[int]) -> np.
         return None
 
 
-def missing_columns(path, names: Sequence[str]) -> tuple[str, ...]:
-    """Which of ``names`` (ARKit names, any case) a coefficient CSV's header lacks."""
+def _text_lines(path: Path) -> list[str]:
+    """The lines of a UTF-8 text file (a BOM dropped), or a DataError naming the file."""
     with open(path, newline="", encoding="utf-8-sig") as f:
-        header = next(csv.reader(f), [])
+        try:
+            return f.read().splitlines()
+        except UnicodeDecodeError as error:
+            raise DataError(f"{path}: not a UTF-8 text CSV ({error.reason} at byte {error.start})") from None
+
+
+def _header(lines: list[str], path: Path) -> list[str]:
+    """The header cells (stripped) of a CSV's ``lines``, or a DataError for an empty file."""
+    try:
+        return [h.strip() for h in next(csv.reader(lines[:1]))]
+    except StopIteration:
+        raise DataError(f"{path}: empty file; expected a header row of blendshape names") from None
+
+
+def missing_columns(path, names: Sequence[str]) -> tuple[str, ...]:
+    """Which of ``names`` (ARKit names, any case) a coefficient CSV's header lacks.
+
+    Raises
+    ------
+    DataError
+        The file is not UTF-8 text (naming the file); an empty file lacks every name.
+    """
+    path = Path(os.fspath(path))
+    with open(path, newline="", encoding="utf-8-sig") as f:
+        try:
+            first = f.readline()
+        except UnicodeDecodeError as error:
+            raise DataError(f"{path}: not a UTF-8 text CSV ({error.reason} at byte {error.start})") from None
+    header = next(csv.reader([first.rstrip("\r\n")]), []) if first else []
     have = {_column_name(h.strip()) for h in header}
     return tuple(n for n in names if (arkit_name(n) or n) not in have)
 

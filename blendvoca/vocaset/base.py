@@ -17,9 +17,72 @@ from blendvoca.vocaset.checks import first_bad_frame
 from blendvoca.vocaset.errors import Problem, VocasetError
 from blendvoca.vocaset.splits import FPS, NUM_VERTICES, corpus_splits
 
-__all__ = ["SIDECAR", "VocasetCorpus"]
+__all__ = ["SIDECAR", "VocasetCorpus", "read_sidecar"]
 
 SIDECAR = "synthetic.json"
+
+
+def read_sidecar(path) -> dict:
+    """The synthetic-corpus sidecar at ``path``: a JSON object whose ``splits``, if present, are lists of names.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The ``synthetic.json`` file.
+
+    Returns
+    -------
+    dict
+        The parsed document.
+
+    Raises
+    ------
+    DataError
+        The file is not UTF-8 JSON (numbers beyond Python's digit limit and nesting
+        beyond its recursion limit included), is not an object, or its ``splits`` is
+        not ``{split name: [speaker name, ...]}``; the message names the file.
+    """
+    path = Path(os.fspath(path))
+    try:
+        document = json.loads(path.read_text(encoding="utf-8"))
+    except (json.JSONDecodeError, UnicodeDecodeError) as error:
+        raise DataError(f"{path}: not a readable synthetic-corpus sidecar ({error})") from None
+    except ValueError:  # the one other ValueError of json: an integer beyond Python's digit limit
+        raise DataError(f"{path}: not a readable synthetic-corpus sidecar (a number with more digits than "
+                        "Python reads)") from None
+    except RecursionError:
+        raise DataError(f"{path}: not a readable synthetic-corpus sidecar (nested too deeply)") from None
+    if not isinstance(document, dict):
+        raise DataError(f"{path}: the synthetic-corpus sidecar is {_json_kind(document)}, "
+                        "expected a JSON object (seed, splits, ...)")
+    splits = document.get("splits")
+    if "splits" in document:
+        if not isinstance(splits, dict):
+            raise DataError(f"{path}: 'splits' is {_json_kind(splits)}, expected an object "
+                            '{"train": [speaker, ...], "val": [...], "test": [...]}')
+        for name, speakers in splits.items():
+            if not isinstance(speakers, list) or not all(isinstance(s, str) for s in speakers):
+                raise DataError(f"{path}: split {name!r} is {_describe(speakers)}, expected a list of speaker names")
+    return document
+
+
+def _json_kind(value) -> str:
+    """What a parsed JSON value is, in the words of JSON: ``a number``, ``an object``, ``null``..."""
+    if value is None:
+        return "null"
+    if isinstance(value, bool):
+        return "a boolean"
+    if isinstance(value, (int, float)):
+        return "a number"
+    return {str: "a string", list: "a list", dict: "an object"}.get(type(value), type(value).__name__)
+
+
+def _describe(value) -> str:
+    """A split's value for a message: ``a number``, ``a list holding a number``..."""
+    if isinstance(value, list):
+        odd = next((v for v in value if not isinstance(v, str)), None)
+        return f"a list holding {_json_kind(odd)}"
+    return _json_kind(value)
 
 
 class VocasetCorpus:
@@ -41,10 +104,7 @@ class VocasetCorpus:
         self._sidecar = None
         sidecar = self.root / SIDECAR
         if sidecar.is_file():
-            try:
-                self._sidecar = json.loads(sidecar.read_text(encoding="utf-8"))
-            except (json.JSONDecodeError, UnicodeDecodeError) as error:
-                raise DataError(f"{sidecar}: not a readable synthetic-corpus sidecar ({error})") from None
+            self._sidecar = read_sidecar(sidecar)
 
     # -- problems ----------------------------------------------------------
     def _record(self, problem: Problem) -> Problem:
@@ -107,7 +167,14 @@ class VocasetCorpus:
     def splits(self) -> dict[str, list[str]]:
         """``{"train", "val", "test"}`` speaker lists: the synthetic sidecar's, else VOCASET's 8/2/2."""
         if self._sidecar is not None and "splits" in self._sidecar:
-            return {k: list(v) for k, v in self._sidecar["splits"].items()}
+            # read_sidecar checked the shape: {split name: [speaker, ...]}
+            splits = {k: list(v) for k, v in self._sidecar["splits"].items()}
+            absent = sorted({s for names in splits.values() for s in names} - set(self.subjects))
+            if absent:
+                # a split naming a speaker the corpus lacks would be written into the dataset's splits.json
+                raise DataError(f"{self.root / SIDECAR}: the splits name speaker(s) {absent} that the corpus does "
+                                f"not have (it has {self.subjects}); restore them or regenerate the corpus")
+            return splits
         return corpus_splits(self.subjects)
 
     @property

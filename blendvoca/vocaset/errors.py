@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import re
 from dataclasses import dataclass
 
@@ -20,7 +21,8 @@ PROBLEM_KINDS = (
 )
 
 
-@dataclass(frozen=True, order=True)
+@functools.total_ordering
+@dataclass(frozen=True)
 class Problem:
     """One bad item of a corpus.
 
@@ -43,6 +45,17 @@ class Problem:
     frame: int | None
     kind: str
     message: str
+
+    def _order(self) -> tuple:
+        # sentence and frame may be None (a subject-level or whole-item problem): those sort first,
+        # instead of comparing None with a str or an int
+        return (self.subject, self.sentence is not None, self.sentence or "",
+                self.frame is not None, self.frame or 0, self.kind, self.message)
+
+    def __lt__(self, other):
+        if not isinstance(other, Problem):
+            return NotImplemented
+        return self._order() < other._order()
 
     def __str__(self) -> str:
         where = self.subject

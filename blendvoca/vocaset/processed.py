@@ -14,11 +14,22 @@ arrays and scalars): a pickle naming any other class or function is refused
 with :class:`UnsafePickleError` instead of running its code. Integer sentence keys (some re-exports use them) are read
 as ``sentenceNN``. A truncated ``data_verts.npy`` is mapped as far as it goes:
 frames beyond the end are reported, the others still read.
+
+What would fail every sentence alike (``data_verts.npy`` whose header does not
+parse, of another dtype than plain numbers, or not ``(N, V, 3)`` / ``(N, 3V)``; a
+pickle that is not a dict of subject -> dict) is a :class:`~blendvoca.errors.DataError`
+at open time naming the file. What affects one item (an index entry naming a row
+the file does not declare, a template or audio entry that is not numbers) is a
+``VocasetError`` of that item, and the rest reads. Only the header of
+``data_verts.npy`` and the index are checked at open time: the frames themselves
+are read when asked for.
 """
 
 from __future__ import annotations
 
+import math
 import pickle
+import tokenize
 from pathlib import Path
 
 import numpy as np
@@ -56,17 +67,33 @@ def open_rows(path) -> tuple[np.ndarray, int]:
             read_header = (np.lib.format.read_array_header_1_0 if version == (1, 0)
                            else np.lib.format.read_array_header_2_0)
             shape, fortran, dtype = read_header(f)
-        except ValueError as error:  # numpy's own message for a bad magic string or header
-            raise DataError(f"{path}: not a readable .npy file ({error})") from None
+        # ValueError: numpy's own message for a bad magic string or header; the header is a Python
+        # literal that numpy tokenizes and parses, so a cut or garbled one raises the tokenizer's
+        # and parser's errors too (TokenError, SyntaxError, RecursionError, MemoryError)
+        except (ValueError, SyntaxError, tokenize.TokenError, RecursionError, MemoryError) as error:
+            raise DataError(f"{path}: not a readable .npy file ({type(error).__name__}: {error})") from None
         offset = f.tell()
+    if dtype.hasobject or dtype.kind not in "fiu":
+        # an object array holds pointers (mapping its bytes would dereference whatever the file says)
+        # and a pickle; only plain numbers are read
+        raise DataError(f"{path}: holds an array of dtype {dtype} (e.g. one saved from Python objects); expected "
+                        "plain floating-point vertices (N, V, 3), float32 as VOCASET ships them")
     if fortran:
         raise DataError(f"{path}: Fortran-ordered arrays are not supported; expected C order (N, V, 3)")
+    if len(shape) == 0:
+        raise DataError(f"{path}: holds a single number (shape ()); expected vertices (N, V, 3)")
+    if min(shape) < 0:
+        raise DataError(f"{path}: the header declares shape {shape}, with a negative dimension")
     row_shape = tuple(shape[1:])
-    row_bytes = int(np.prod(row_shape, dtype=np.int64)) * dtype.itemsize
+    # Python integers: a hostile header's dimensions must not overflow int64 into a small size
+    row_bytes = math.prod(row_shape) * dtype.itemsize
     available = min(shape[0], (path.stat().st_size - offset) // max(row_bytes, 1))
-    if available == 0:
-        return np.zeros((0, *row_shape), dtype=dtype), shape[0]
-    rows = np.memmap(path, dtype=dtype, mode="r", offset=offset, shape=(available, *row_shape))
+    try:
+        if available == 0 or row_bytes == 0:  # nothing to map (np.memmap refuses an empty mapping)
+            return np.zeros((0, *row_shape), dtype=dtype), shape[0]
+        rows = np.memmap(path, dtype=dtype, mode="r", offset=offset, shape=(available, *row_shape))
+    except (ValueError, OverflowError) as error:  # a row larger than numpy can address
+        raise DataError(f"{path}: the header declares shape {shape}, which numpy cannot map ({error})") from None
     return rows, shape[0]
 
 
@@ -141,8 +168,63 @@ def _check_nested(mapping, path: Path) -> None:
         if not isinstance(value, dict):
             raise UnsafePickleError(f"{path}: entry of {subject!r} is a {type(value).__name__}, expected a dict "
                                     "of sentence -> ...")
+        seen = {}
         for key in value:
-            check_safe_name(sentence_name(key), "sentence", path)
+            name = check_safe_name(sentence_name(key), "sentence", path)
+            if name in seen:
+                # 7, "7" and "sentence07" are one sentence: two of them would read it twice, from either entry
+                raise DataError(f"{path}: keys {seen[name]!r} and {key!r} of {subject!r} both name {name}")
+            seen[name] = key
+
+
+def _index_rows(frames: dict, declared: int):
+    """One sentence's index entry as ``(frame numbers, rows, problem)``.
+
+    ``frames`` is ``{frame key (int): row of data_verts.npy (int)}`` and ``declared``
+    the rows that file's header declares. ``numbers`` and ``rows`` are ``(T,) int64``
+    in frame order; ``problem`` is None, or ``(position, message)`` for a key that is
+    negative or too large to number a frame, or a row outside the file.
+    """
+    keys = sorted(frames)
+    try:
+        numbers = np.array(keys, dtype=np.int64)
+        rows = np.array([frames[k] for k in keys], dtype=np.int64)
+    except OverflowError:  # beyond int64: beyond any file; found one by one (the rare path)
+        numbers = rows = None
+    # 2 ** 62 keeps the differences of frame keys within int64
+    if numbers is None or numbers[0] < 0 or numbers[-1] >= 2 ** 62:
+        for at, key in enumerate(keys):
+            if not 0 <= key < 2 ** 62:
+                return None, None, (at, f"frame key {key} is outside 0 to {2 ** 62 - 1}")
+    outside = np.flatnonzero((rows < 0) | (rows >= declared)) if rows is not None else None
+    if outside is None or len(outside):
+        at = int(outside[0]) if outside is not None else next(
+            i for i, key in enumerate(keys) if not 0 <= frames[key] < declared)
+        return None, None, (at, f"frame {keys[at]} is row {frames[keys[at]]} of data_verts.npy, "
+                                f"which has {declared} rows")
+    return numbers, rows, None
+
+
+def _all_ints(frames: dict) -> bool:
+    """Whether every key and value of ``frames`` is an integer (by their few distinct types: fast)."""
+    types = set(map(type, frames)) | set(map(type, frames.values()))
+    return all(issubclass(t, (int, np.integer)) and not issubclass(t, bool) for t in types)
+
+
+def _is_int(value) -> bool:
+    """An integer of the pickle (Python or numpy; not a bool)."""
+    return isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.bool_))
+
+
+def _entry_kind(value) -> str:
+    """A pickled value's type for a message: ``a str 'x'``, ``a float``, ``an ndarray of shape (3,)``."""
+    if isinstance(value, np.ndarray):
+        return f"an ndarray of shape {value.shape}"
+    if isinstance(value, (str, bytes)):
+        return f"a {type(value).__name__} {value[:20]!r}"
+    if isinstance(value, (int, float, np.number)):
+        return f"a {type(value).__name__} {value!r}"
+    return f"a {type(value).__name__}"
 
 
 class ProcessedVocaset(VocasetCorpus):
@@ -159,6 +241,10 @@ class ProcessedVocaset(VocasetCorpus):
         self._rows, self._declared = open_rows(verts_path)
         if self._rows.ndim == 2 and self._rows.shape[1] == 3 * self.num_vertices:
             self._rows = self._rows.reshape(len(self._rows), self.num_vertices, 3)
+        if self._rows.shape[1:] != (self.num_vertices, 3):
+            # one array holds every frame: a wrong row shape would fail every sentence alike
+            raise DataError(f"{verts_path}: holds an array of shape {(self._declared, *self._rows.shape[1:])}; "
+                            f"expected vertices (N, {self.num_vertices}, 3) or (N, {3 * self.num_vertices})")
         index = _load_pickle(self.root / "subj_seq_to_idx.pkl")
         _check_nested(index, self.root / "subj_seq_to_idx.pkl")
         raw_audio = _load_pickle(self.root / "raw_audio_fixed.pkl")
@@ -168,6 +254,8 @@ class ProcessedVocaset(VocasetCorpus):
         for subject in self._templates:
             check_safe_name(subject, "subject", self.root / "templates.pkl")
         self._index: dict[tuple[str, str], np.ndarray] = {}
+        #: Sentences whose index names rows that data_verts.npy does not declare: ``frames`` raises these.
+        self._bad_rows: dict[tuple[str, str], Problem] = {}
         self._sentences: dict[str, list[str]] = {}
         subjects = sorted(set(index) | set(self._audio) | set(self._templates))
         self._subjects = subjects
@@ -175,21 +263,27 @@ class ProcessedVocaset(VocasetCorpus):
             names = []
             for key, frames in sorted((index.get(subject) or {}).items(), key=lambda kv: sentence_name(kv[0])):
                 sentence = sentence_name(key)
-                if not frames:
+                if isinstance(frames, dict) and not frames:
                     continue
-                if not isinstance(frames, dict) or not all(
-                        isinstance(k, (int, np.integer)) and isinstance(v, (int, np.integer)) for k, v in frames.items()):
+                if not isinstance(frames, dict) or not _all_ints(frames):
                     self._record(Problem(subject, sentence, None, "unreadable",
                                          "subj_seq_to_idx.pkl: expected {frame (int): row of data_verts (int)}, got "
-                                         f"{type(frames).__name__}"))
+                                         f"{_entry_kind(frames)}"))
                     continue
-                numbers = np.array(sorted(frames), dtype=np.int64)
-                self._index[subject, sentence] = np.array([frames[n] for n in numbers], dtype=np.int64)
+                numbers, rows, why = _index_rows(frames, self._declared)
                 names.append(sentence)
-                gaps = frame_gaps(numbers)
+                if why is not None:
+                    at, message = why
+                    self._bad_rows[subject, sentence] = self._record(Problem(
+                        subject, sentence, at, "unreadable", f"subj_seq_to_idx.pkl: {message}"))
+                    self._index[subject, sentence] = np.zeros(0, dtype=np.int64)  # frame_rows raises the problem
+                    continue
+                self._index[subject, sentence] = rows
+                gaps = frame_gaps(numbers, limit=5)
                 if gaps or numbers[0] != 0:
+                    missing = gaps or list(range(min(int(numbers[0]), 5)))
                     self._record(Problem(subject, sentence, int(gaps[0]) if gaps else 0, "missing_frame",
-                                         f"subj_seq_to_idx.pkl: frame keys {(gaps or list(range(numbers[0])))[:5]} missing"))
+                                         f"subj_seq_to_idx.pkl: frame keys {missing} missing"))
             self._sentences[subject] = names
             if subject not in self._templates:
                 self._record(Problem(subject, None, None, "missing_template", "templates.pkl has no entry"))
@@ -206,6 +300,8 @@ class ProcessedVocaset(VocasetCorpus):
         if self._declared > len(self._rows):
             # Name the affected sentences now: this is found without reading any frame.
             for (subject, sentence), rows in self._index.items():
+                if (subject, sentence) in self._bad_rows:
+                    continue
                 beyond = np.flatnonzero(rows >= len(self._rows))
                 if len(beyond):
                     self._record(Problem(subject, sentence, int(beyond[0]), "truncated",
@@ -226,6 +322,8 @@ class ProcessedVocaset(VocasetCorpus):
         self._check_subject(subject)
         if (subject, sentence) not in self._index:
             self._fail("missing_sentence", subject, sentence, "subj_seq_to_idx.pkl has no frames")
+        if (subject, sentence) in self._bad_rows:
+            raise VocasetError(self._bad_rows[subject, sentence])
         return self._index[subject, sentence]
 
     def num_frames(self, subject: str, sentence: str) -> int:
@@ -236,7 +334,15 @@ class ProcessedVocaset(VocasetCorpus):
         self._check_subject(subject)
         if subject not in self._templates:
             self._fail("missing_template", subject, None, "templates.pkl has no entry")
-        V = np.asarray(self._templates[subject], dtype=np.float64)
+        try:
+            V = np.asarray(self._templates[subject])
+        except ValueError as error:  # a ragged nest of lists
+            self._fail("unreadable", subject, None, f"templates.pkl: not an array of vertices ({error})")
+        if V.dtype.kind not in "fiu":
+            self._fail("unreadable", subject, None,
+                       f"templates.pkl: the entry is {_entry_kind(self._templates[subject])} (dtype {V.dtype}), "
+                       f"expected ({self.num_vertices}, 3) vertex coordinates")
+        V = V.astype(np.float64)
         if V.shape != (self.num_vertices, 3):
             self._fail("vertex_count", subject, None, f"templates.pkl: shape {V.shape}, expected ({self.num_vertices}, 3)")
         if not np.isfinite(V).all():
@@ -259,8 +365,6 @@ class ProcessedVocaset(VocasetCorpus):
         for p in self.problems:
             if (p.subject, p.sentence) == (subject, sentence) and p.kind in ("missing_frame", "truncated"):
                 raise VocasetError(p)
-        if rows.min() < 0:
-            self._fail("unreadable", subject, sentence, f"subj_seq_to_idx.pkl: negative row {rows.min()}")
         frames = np.asarray(self._rows[rows], dtype=dtype)
         return self._check_frames(subject, sentence, frames, "data_verts.npy")
 
@@ -271,9 +375,13 @@ class ProcessedVocaset(VocasetCorpus):
         if entry is None:
             self._fail("missing_audio", subject, sentence, "raw_audio_fixed.pkl has no entry")
         try:
-            samples, rate = np.asarray(entry["audio"]), int(entry["sample_rate"])
-        except (KeyError, TypeError) as error:
+            samples, rate = np.asarray(entry["audio"]), entry["sample_rate"]
+        except (KeyError, TypeError, IndexError, ValueError) as error:  # not a dict; lacks a key; ragged samples
             self._fail("unreadable", subject, sentence, f"raw_audio_fixed.pkl: entry lacks 'audio'/'sample_rate' ({error})")
+        if not (_is_int(rate) or (isinstance(rate, (float, np.floating)) and np.isfinite(rate) and rate == int(rate))):
+            self._fail("unreadable", subject, sentence,
+                       f"raw_audio_fixed.pkl: sample_rate is {_entry_kind(rate)}, expected a whole number of Hz")
+        rate = int(rate)
         if not (np.issubdtype(samples.dtype, np.integer) or np.issubdtype(samples.dtype, np.floating)) \
                 or samples.ndim not in (1, 2) or rate <= 0:
             self._fail("unreadable", subject, sentence, f"raw_audio_fixed.pkl: expected (N,) or (N, C) numeric samples "

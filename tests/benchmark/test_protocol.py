@@ -31,7 +31,8 @@ from tests.methods.fakes import fake_evaluate, speech_dataset
 
 @pytest.mark.parametrize("field, value, flag", [("samples", 0, "--samples"), ("samples", True, "--samples"),
                                                 ("sentence_batch", 1.5, "--sentence-batch"),
-                                                ("generate_time_limit", 0, "--generate-time-limit")])
+                                                ("generate_time_limit", -1, "--generate-time-limit"),
+                                                ("generate_time_limit", float("nan"), "--generate-time-limit")])
 def test_a_run_spec_is_checked_when_made(field, value, flag):
     with pytest.raises(UsageError, match=flag):
         RunSpec("mean", **{field: value})

@@ -281,3 +281,43 @@ def test_side_by_side_from_a_stored_run(tmp_path, fake_dataset_dir, capsys):
     assert err.startswith("error: ") and "sentence02-0.csv" in err
     assert main(["--run", str(run), "--subject", "FakeB", "--out", str(out)]) == 2
     assert "--run needs --subject and --sentence" in capsys.readouterr().err
+
+
+def _one_error_line(capsys, *fragments):
+    err = capsys.readouterr().err
+    lines = [line for line in err.splitlines() if line.strip() and not line.startswith("note: ")]
+    assert len(lines) == 1 and lines[0].startswith("error: ") and "Traceback" not in err, err
+    assert all(f in lines[0] for f in fragments), lines[0]
+    return lines[0]
+
+
+def test_an_unsupported_out_suffix_is_refused_before_rendering(fake_dataset_dir, tmp_path, capsys):
+    from benchmark.render.__main__ import main
+
+    track = fake_dataset_dir / "blendshape_coeffs" / "FakeC" / "sentence01.csv"
+    for out in ("x.txt", "video"):
+        assert main(["--coeffs", str(track), "--rig", str(fake_dataset_dir / "rigs" / "FakeC.npz"),
+                     "--out", str(tmp_path / out), "--size", "32", "--backend", "software"]) == 2
+        _one_error_line(capsys, f"--out {tmp_path / out}", "unsupported file type", "supported: .mp4")
+        assert not (tmp_path / out).exists()
+
+
+def test_nan_coefficients_are_named_as_nan_with_their_frame_and_column(fake_dataset_dir, tmp_path, capsys):
+    from benchmark.render.__main__ import main
+    from blendvoca.io.coeffs import read_coeffs_csv, write_coeffs_csv
+
+    coeffs, names = read_coeffs_csv(fake_dataset_dir / "blendshape_coeffs" / "FakeC" / "sentence01.csv")
+    track = tmp_path / "nan.csv"
+    write_coeffs_csv(track, coeffs[:10], names)
+    lines = track.read_text().splitlines()
+    column = lines[0].split(",").index("jawOpen")
+    for i in range(4, len(lines)):  # frames 3.. (line 1 is the header): what a diverged model writes
+        row = lines[i].split(",")
+        row[column] = "nan"
+        lines[i] = ",".join(row)
+    track.write_text("\n".join(lines) + "\n")
+    assert main(["--coeffs", str(track), "--rig", str(fake_dataset_dir / "rigs" / "FakeC.npz"),
+                 "--out", str(tmp_path / "x.mp4"), "--size", "32", "--backend", "software"]) == 2
+    line = _one_error_line(capsys, str(track), "NaN", "frame 3", "'jawOpen'")
+    assert "show no face" not in line
+    assert not (tmp_path / "x.mp4").exists()

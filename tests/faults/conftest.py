@@ -54,6 +54,15 @@ def tree(root) -> dict:
     return {p.relative_to(root).as_posix(): p.read_bytes() for p in sorted(root.rglob("*")) if p.is_file()}
 
 
+def outputs(root) -> dict:
+    """``{relpath: bytes}`` of a build's files that two builds of the same inputs share byte for byte:
+    all but the stage records (``.buildstate/``) and the stage timings (volatile by design)."""
+    from blendvoca.builder.report import TIMINGS
+
+    return {rel: data for rel, data in tree(root).items()
+            if not rel.startswith(".buildstate/") and rel != TIMINGS}
+
+
 def build_cli(capsys, *args) -> tuple[int, str]:
     """Run ``python -m blendvoca.build ARGS --quiet`` in-process; return (exit code, stderr)."""
     from blendvoca.builder.__main__ import main

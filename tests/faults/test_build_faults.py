@@ -125,11 +125,15 @@ def test_a_rebuild_leaves_other_files_alone_and_does_not_list_them(copies):
     (out / "notes.txt").write_text("mine")
     (out / "report" / ".draft.tmp").write_text("mine too")  # looks like a temporary, but not of a build output
     (out / ".blendshape_coeffs.x.tmp").write_text("and this")
-    (out / "audio" / ".sentence01.wav.abc.tmp").write_text("a killed write of ours")
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True,
+                          check=True).stdout.strip()
+    killed = out / "audio" / f".blendvoca-{dead}-sentence01.wav.abc12345.tmp"
+    killed.write_text("a killed write of ours")
     summary = build_dataset(out, corpus, workers=1, progress=False, delta=0.2)
     assert summary.ok
     assert (out / "notes.txt").read_text() == "mine" and (out / ".blendshape_coeffs.x.tmp").exists()
-    assert not (out / "audio" / ".sentence01.wav.abc.tmp").exists()  # inside its own output folder: removed
+    assert (out / "report" / ".draft.tmp").read_text() == "mine too"
+    assert not killed.exists()  # named by the build, inside its own output folder, its process gone: removed
     listed = set(_manifest(out)["files"])
     assert "notes.txt" not in listed and not any(".tmp" in rel for rel in listed)
     assert all(not rel.startswith(".buildstate") for rel in listed)

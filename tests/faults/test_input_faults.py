@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 import pickle
 import shutil
@@ -10,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from blendvoca.errors import DataError
 from blendvoca.vocaset import UnsafeNameError, open_vocaset
 from blendvoca.vocaset.processed import UnsafePickleError, load_data_pickle
 from tests.faults.conftest import assert_one_error_line, build_cli
@@ -222,3 +224,81 @@ def test_a_malformed_frame_index_fails_only_its_sentence(tmp_path, small_process
     assert summary.built == {"speakers": 0, "sentences": 0}
     assert [(f["subject"], f["sentence"], f["stage"]) for f in summary.failures] == [(subject, "sentence02", "input")]
     assert "expected {frame (int)" in summary.failures[0]["reason"]
+
+
+# ----------------------------------------------------------------------------- arrays read as numbers only
+
+
+def test_an_object_array_data_verts_is_refused_before_it_is_mapped(tmp_path, small_processed, capsys):
+    root = _processed_copy(tmp_path, small_processed)
+    verts = np.load(root / "data_verts.npy")
+    objects = np.empty(verts.shape[:1], dtype=object)
+    objects[:] = list(verts)  # one (5023, 3) array per row: what np.save writes as a pickle behind an 'O' header
+    np.save(root / "data_verts.npy", objects, allow_pickle=True)
+    with pytest.raises(DataError, match="data_verts.npy.*dtype object"):
+        open_vocaset(root)
+    code, err = build_cli(capsys, "--vocaset", root, "--out", tmp_path / "out", "--workers", 2)
+    assert code == 2
+    assert_one_error_line(err, str(root / "data_verts.npy"), "dtype object")
+    assert not (tmp_path / "out").exists()
+
+
+# ----------------------------------------------------------------------------- plausibility
+
+
+def test_a_template_in_millimetres_fails_its_speaker_naming_the_scale(tmp_path, small_corpus, capsys):
+    from blendvoca.io.mesh import read_mesh, write_mesh
+
+    corpus = tmp_path / "S"
+    shutil.copytree(small_corpus, corpus)
+    template = corpus / "templates" / "Synth_000_TA.ply"
+    vertices, faces = read_mesh(template)
+    write_mesh(template, vertices * 1000.0, faces)
+    out = tmp_path / "out"
+    code, err = build_cli(capsys, "--vocaset", corpus, "--out", out, "--workers", 1, "--no-report")
+    assert code == 5
+    failed = [line for line in err.splitlines() if line.startswith("FAILED Synth_000_TA  (rig)")]
+    assert len(failed) == 1 and "RMS radius" in failed[0] and "(millimetres?)" in failed[0], err
+    assert "x FLAME's" in failed[0]
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert {f["subject"] for f in manifest["failures"]} == {"Synth_000_TA"}
+    assert not (out / "rigs" / "Synth_000_TA.npz").exists() and (out / "rigs" / "Synth_001_TA.npz").is_file()
+
+
+@pytest.mark.parametrize("factor, shown", [(0.5, "-50.0 %"), (1.37, "+37.0 %")])
+def test_audio_and_motion_of_different_lengths_are_a_warning_naming_both(tmp_path, small_corpus, capsys,
+                                                                          factor, shown):
+    from blendvoca.io.audio import write_wav
+
+    corpus = tmp_path / "S"
+    shutil.copytree(small_corpus, corpus)
+    opened = open_vocaset(corpus)
+    samples, rate = opened.audio("Synth_001_TA", "sentence01")
+    frames = opened.frames("Synth_001_TA", "sentence01").shape[0]
+    n = int(round(len(samples) * factor))
+    write_wav(corpus / "audio" / "Synth_001_TA" / "sentence01.wav", np.resize(samples, n), rate)
+    out = tmp_path / "out"
+    code, err = build_cli(capsys, "--vocaset", corpus, "--out", out, "--workers", 1)
+    assert code == 0, err
+    warnings = [line for line in err.splitlines() if line.startswith("warning:")]
+    motion = f"motion {frames / 60:.3f} s"
+    assert len(warnings) == 1 and "Synth_001_TA sentence01" in warnings[0], err
+    assert f"audio lasts {n / rate:.3f} s" in warnings[0] and motion in warnings[0] and shown in warnings[0]
+    report = (out / "report" / "README.md").read_text()
+    assert "## Warnings" in report and motion in report and shown in report
+    # the other sentences (durations within 5 %) raise nothing; a rerun repeats the warning
+    code, err = build_cli(capsys, "--vocaset", corpus, "--out", out, "--workers", 1)
+    assert code == 0 and len([line for line in err.splitlines() if line.startswith("warning:")]) == 1
+
+
+def test_a_split_naming_a_speaker_the_corpus_lacks_is_refused(tmp_path, small_corpus, capsys):
+    corpus = tmp_path / "S"
+    shutil.copytree(small_corpus, corpus)
+    sidecar = json.loads((corpus / "synthetic.json").read_text())
+    sidecar["splits"]["test"].append("Synth_009_TA")
+    (corpus / "synthetic.json").write_text(json.dumps(sidecar))
+    out = tmp_path / "out"
+    code, err = build_cli(capsys, "--vocaset", corpus, "--out", out, "--workers", 1)
+    assert code == 2
+    assert_one_error_line(err, "synthetic.json", "Synth_009_TA")
+    assert not (out / "splits.json").exists()

@@ -119,3 +119,46 @@ def test_committed_tables_match_committed_results(tmp_path):
         committed = Path(DEFAULT_OUT_DIR) / path.name
         assert committed.is_file(), f"{committed} is not committed; run python -m leaderboard.build"
         assert path.read_text() == committed.read_text(), f"{committed} is stale; run python -m leaderboard.build"
+
+
+def _cli_error(capsys, results, tmp_path):
+    code = main(["--results", str(results), "--out", str(tmp_path / "tables")])
+    err = capsys.readouterr().err
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error: ") and "Traceback" not in err, err
+    assert not (tmp_path / "tables").exists()  # nothing written on a refused input
+    return code, lines[0]
+
+
+def _results_with(tmp_path, edit):
+    """A results folder with one valid result, then changed by ``edit(result_dict) -> text``."""
+    import json
+
+    folder = tmp_path / "results"
+    path = write_result(_three()[0], folder)
+    path.write_text(edit(json.loads(path.read_text())))
+    return folder, path
+
+
+@pytest.mark.parametrize("edit, fragment", [
+    (lambda r: "{\"schema_version\": 1, ", "not valid JSON"),
+    (lambda r: "", "not valid JSON"),
+    (lambda r: __import__("json").dumps({**r, "metrics": {"fd": {"higher_is_better": False, "std": 0.1}}}),
+     "metric 'fd': missing field(s) ['mean']"),
+    (lambda r: __import__("json").dumps({k: v for k, v in r.items() if k != "protocol"}), "['protocol']"),
+    (lambda r: __import__("json").dumps({**r, "dataset": {**r["dataset"], "manifest_hash": ["h1"]}}),
+     "dataset.manifest_hash: expected a string"),
+    (lambda r: __import__("json").dumps({**r, "protocol": {**r["protocol"], "samples": "ten"}}),
+     "protocol.samples: expected an integer"),
+    (lambda r: __import__("json").dumps({**r, "method": {**r["method"], "label": 7}}),
+     "method.label: expected a string"),
+])
+def test_a_bad_result_file_is_one_error_line_naming_it(edit, fragment, tmp_path, capsys):
+    folder, path = _results_with(tmp_path, edit)
+    code, line = _cli_error(capsys, folder, tmp_path)
+    assert code == 2 and str(path) in line and fragment in line, line
+
+
+def test_a_missing_results_folder_is_one_error_line(tmp_path, capsys):
+    code, line = _cli_error(capsys, tmp_path / "no-such-results", tmp_path)
+    assert code == 2 and str(tmp_path / "no-such-results") in line

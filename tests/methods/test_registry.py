@@ -117,3 +117,17 @@ def test_base_save_load_round_trip(tmp_path):
     assert again.config() == m.config()
     with pytest.raises(FileNotFoundError, match="written by save"):
         _Tiny.load(tmp_path / "nothing")
+
+
+def test_a_module_class_string_is_a_method_without_registering_it():
+    # the string form the README lists: imported on lookup, not added to the registry
+    assert get_method("tests.methods.test_registry:_Tiny") is _Tiny
+    assert "tests.methods.test_registry:_Tiny" not in available_methods()
+    with pytest.raises(UnknownMethodError, match="cannot import module 'no_such_pkg.mod'"):
+        get_method("no_such_pkg.mod:Thing")
+    with pytest.raises(UnknownMethodError, match="has no attribute 'Nope'"):
+        get_method("tests.methods.test_registry:Nope")
+    with pytest.raises(UnknownMethodError, match="must be a class"):
+        get_method("tests.methods.test_registry:pytest")
+    with pytest.raises(UnknownMethodError, match="unknown method"):
+        get_method("not a: target")

@@ -40,3 +40,35 @@ def test_rescoring_a_stored_run_with_an_expert_equals_scoring_with_it(built_data
 def test_rescore_needs_a_model(tmp_path, capsys):
     assert rescore_main([str(tmp_path / "x.json")]) == 2
     assert capsys.readouterr().err.startswith("error: ")
+
+
+def test_rescoring_a_build_edited_since_is_refused_unless_no_verify(built_dataset, tmp_path, capsys):
+    """The rescored speakers' files are checked against the build's manifest, as benchmark.run checks them."""
+    import shutil
+
+    from blendvoca import format as fmt
+    from tests.faults.conftest import assert_one_error_line
+
+    build = tmp_path / "B"
+    shutil.copytree(built_dataset, build)
+    expert_path = tmp_path / "expert.pt"
+    save_expert(build_expert({}, np.zeros(32), np.ones(32), BLENDVOCA_NAMES, {"data": "test"}), expert_path)
+    run = run_method("random", build, samples=1, results_dir=tmp_path / "r", progress=False)
+    assert json.loads(run.read_text())["protocol"]["verified"] is True
+    # a speaker the run did not score is not read, so not checked
+    other = fmt.read_splits(build)["val"][0]
+    fmt.audio_path(build, other, "sentence01").write_bytes(b"edited")
+    assert rescore_main([str(run), "--sync-expert", str(expert_path), "--quiet"]) == 0, capsys.readouterr().err
+    capsys.readouterr()
+    before = run.read_bytes()
+    subject, sentence = next((row["subject"], row["sentence"]) for row in json.loads(before)["per_sentence"])
+    audio = fmt.audio_path(build, subject, sentence)
+    data = bytearray(audio.read_bytes())
+    data[-1] ^= 1
+    audio.write_bytes(bytes(data))
+    assert rescore_main([str(run), "--sync-expert", str(expert_path), "--quiet"]) == 4
+    assert_one_error_line(capsys.readouterr().err, str(audio), "manifest.json", "--no-verify")
+    assert run.read_bytes() == before  # nothing rewritten
+    assert rescore_main([str(run), "--sync-expert", str(expert_path), "--quiet", "--no-verify"]) == 0
+    rescored = json.loads(run.read_text())
+    assert rescored["protocol"]["verified"] is False and "av_confidence_expert" in rescored["metrics"]

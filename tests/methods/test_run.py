@@ -131,7 +131,8 @@ def test_result_file_contents(dataset, tmp_path):
     assert r["dataset"]["num_sentences"] == 4 and r["dataset"]["num_subjects"] == 2
     assert r["protocol"] == {"samples": 4, "seed": 3, "budget": {"max_steps": 5, "max_seconds": None},
                              "clip": False, "n_clipped": 0, "checkpoint": None, "deterministic": True,
-                             "generate_time_limit": None}
+                             "generate_time_limit": {"base_s": 120.0, "per_audio_second_s": 60.0},
+                             "verified": False}
     assert set(r["metrics"]) == {"coeff_mse", "sync"}
     assert r["metrics"]["coeff_mse"]["higher_is_better"] is False
     assert {"train_s", "generate_s", "evaluate_s", "total_s"} <= set(r["timings"])
@@ -295,6 +296,76 @@ def test_runner_enforces_generate_time_limit_and_training_budget(dataset, tmp_pa
         assert json.loads(path.read_text())["protocol"]["deterministic"] is False
     finally:
         unregister("test-slow")
+
+
+class _Stuck(Method):
+    """A plug-in whose ``generate`` never returns (``sleep`` seconds, if given, then answers)."""
+
+    def __init__(self, sleep=None):
+        super().__init__(sleep=sleep)
+
+    def train(self, dataset, *, seed, budget):
+        pass
+
+    def generate(self, utterance, *, samples=1, seed=0):
+        import time
+
+        if self._config["sleep"] is not None:
+            time.sleep(self._config["sleep"])
+        else:
+            while True:
+                time.sleep(0.05)
+        return np.full((samples, utterance.num_frames, 32), 0.5)
+
+
+@pytest.fixture()
+def stuck_method():
+    register("test-stuck")(_Stuck)
+    yield
+    unregister("test-stuck")
+
+
+def test_a_generate_that_never_returns_is_stopped_by_the_default_limit(dataset, tmp_path, monkeypatch, capsys,
+                                                                        stuck_method):
+    from benchmark.protocol import GenerateLimit, limits
+
+    _cli_on(dataset, monkeypatch)
+    # the default's shape (fixed part + part per second of audio), made small so that the test is fast
+    monkeypatch.setattr(limits, "DEFAULT_GENERATE_LIMIT", GenerateLimit(base_s=0.1, per_audio_second_s=0.1))
+    assert _cli(tmp_path, "--method", "test-stuck") == 3
+    _one_error_line(capsys, "the method misbehaved", "method 'test-stuck'", "subject 'D'", "sentence 'sentence01'",
+                    "0.1 s + 0.1 s per second of audio")
+    assert not (tmp_path / "r").exists() or not any((tmp_path / "r").iterdir())
+    # 0: no limit, for a method that takes longer than the default allows
+    assert _cli(tmp_path, "--method", "test-stuck", "--config", "sleep=0.35", "--generate-time-limit", "0") == 0
+    (path,) = (tmp_path / "r").glob("test-stuck*.json")
+    assert json.loads(path.read_text())["protocol"]["generate_time_limit"] is None
+    capsys.readouterr()
+    # a limit given in seconds is per call, whatever the audio's length
+    assert _cli(tmp_path, "--method", "test-stuck", "--generate-time-limit", "0.2") == 3
+    _one_error_line(capsys, "exceeded the limit of 0.2 s")
+
+
+def test_cli_runs_a_method_named_as_module_and_class(dataset, tmp_path, monkeypatch, capsys):
+    _cli_on(dataset, monkeypatch)
+    target = f"{_Stuck.__module__}:_Stuck"  # a plug-in nobody registered
+    assert _cli(tmp_path, "--method", target, "--config", "sleep=0") == 0, capsys.readouterr().err
+    (path,) = (tmp_path / "r").glob("*.json")
+    assert json.loads(path.read_text())["method"]["name"] == target
+    capsys.readouterr()
+    assert _cli(tmp_path, "--method", "no_such_pkg.mod:Thing") == 2
+    _one_error_line(capsys, "cannot import module 'no_such_pkg.mod'")
+
+
+def test_the_default_generate_limit_is_generous_and_in_the_help(capsys):
+    from benchmark.protocol import DEFAULT_GENERATE_LIMIT, generate_limit
+
+    assert generate_limit(None) == DEFAULT_GENERATE_LIMIT and generate_limit(0) is None
+    assert DEFAULT_GENERATE_LIMIT.seconds(4.0) == 120 + 60 * 4.0
+    with pytest.raises(SystemExit):
+        main(["--help"])
+    help_text = " ".join(capsys.readouterr().out.split())
+    assert "120 s + 60 s per second of audio" in help_text and "0: no limit" in help_text
 
 
 @pytest.mark.parametrize("argv, message", [
