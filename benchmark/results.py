@@ -33,6 +33,7 @@ import subprocess
 from pathlib import Path
 
 from blendvoca.errors import DataError
+from blendvoca.io.json_file import read_json
 from blendvoca.format import blas_kernels
 from blendvoca.io.atomic import atomic_write
 
@@ -291,11 +292,7 @@ def read_result(path) -> dict:
         It cannot be read.
     """
     path = Path(os.fspath(path))
-    try:
-        result = json.loads(path.read_text(encoding="utf-8"))
-    # ValueError: also an integer of more digits than Python converts; RecursionError: nesting too deep.
-    except (ValueError, RecursionError) as exc:
-        raise DataError(f"{path}: not valid JSON ({type(exc).__name__}: {exc})") from None
+    result = read_json(path, what="valid JSON")
     try:
         return check_result(result, where=str(path))
     # check_result's word on a file's content; OverflowError: an integer too large for a float.

@@ -7,44 +7,14 @@ from __future__ import annotations
 
 import contextlib
 import importlib
-import json
 import math
-import os
 from collections.abc import Iterator
-from pathlib import Path
 from types import ModuleType
 
 import numpy as np
 
 from blendvoca.errors import BlendVOCAError, DataError, UserError
-
-
-def read_json(path) -> object:
-    """The JSON document of ``path`` (str or os.PathLike), whatever its top-level type.
-
-    Raises
-    ------
-    DataError
-        The file is not UTF-8 JSON (naming the file, line and column), holds an integer
-        longer than Python's digit limit, or nests deeper than Python can parse.
-    """
-    path = Path(os.fspath(path))
-    with open(path, "rb") as f:
-        data = f.read()
-    try:
-        text = data.decode("utf-8")
-    except UnicodeDecodeError as error:
-        raise DataError(f"{path}: not a UTF-8 text file ({error.reason} at byte {error.start})") from None
-    try:
-        return json.loads(text)
-    except json.JSONDecodeError as error:
-        raise DataError(f"{path}: not a JSON file (line {error.lineno}, column {error.colno}: "
-                        f"{error.msg})") from None
-    except ValueError as error:
-        # json raises a plain ValueError for an integer past sys.get_int_max_str_digits()
-        raise DataError(f"{path}: not a usable JSON file ({error})") from None
-    except RecursionError:
-        raise DataError(f"{path}: not a usable JSON file (nested too deeply to parse)") from None
+from blendvoca.io.json_file import json_kind, read_json
 
 
 def read_json_object(path, what: str) -> dict:
@@ -53,27 +23,12 @@ def read_json_object(path, what: str) -> dict:
     Raises
     ------
     DataError
-        As :func:`read_json`, or the document is not an object.
+        As :func:`blendvoca.io.json_file.read_json`, or the document is not an object.
     """
     doc = read_json(path)
     if not isinstance(doc, dict):
-        raise DataError(f"{path}: not {what}: the document is {_kind(doc)}, expected an object")
+        raise DataError(f"{path}: not {what}: the document is {json_kind(doc)}, expected an object")
     return doc
-
-
-def _kind(value) -> str:
-    """``value``'s JSON type in words, for an error message."""
-    if value is None:
-        return "null"
-    if isinstance(value, bool):
-        return "a boolean"
-    if isinstance(value, (int, float)):
-        return "a number"
-    if isinstance(value, str):
-        return "a string"
-    if isinstance(value, list):
-        return "a list"
-    return "an object" if isinstance(value, dict) else type(value).__name__
 
 
 def _finite(value) -> float | None:
@@ -99,7 +54,7 @@ def positive_number(doc: dict, key: str, path) -> float:
     value = doc[key]
     number = _finite(value)
     if number is None or number <= 0:
-        shown = _kind(value) if isinstance(value, (list, dict)) else repr(value)
+        shown = json_kind(value) if isinstance(value, (list, dict)) else repr(value)
         raise DataError(f"{path}: {key!r} is {_short(shown)}, expected a finite positive number")
     return number
 
@@ -116,7 +71,7 @@ def count(doc: dict, key: str, path) -> int:
     if isinstance(value, float) and value.is_integer():
         value = int(value)
     if not isinstance(value, int) or isinstance(value, bool) or value < 0:
-        shown = _kind(value) if isinstance(value, (list, dict)) else repr(value)
+        shown = json_kind(value) if isinstance(value, (list, dict)) else repr(value)
         raise DataError(f"{path}: {key!r} is {_short(shown)}, expected a whole number >= 0")
     return value
 
@@ -131,10 +86,10 @@ def string_list(doc: dict, key: str, path) -> tuple[str, ...]:
     """
     value = doc[key]
     if not isinstance(value, list):
-        raise DataError(f"{path}: {key!r} is {_kind(value)}, expected a list of names")
+        raise DataError(f"{path}: {key!r} is {json_kind(value)}, expected a list of names")
     for index, item in enumerate(value):
         if not isinstance(item, str):
-            raise DataError(f"{path}: {key!r} entry {index} is {_kind(item)}, expected a name (a string)")
+            raise DataError(f"{path}: {key!r} entry {index} is {json_kind(item)}, expected a name (a string)")
     return tuple(value)
 
 
@@ -149,17 +104,17 @@ def weight_matrix(doc: dict, key: str, names: tuple[str, ...], path) -> np.ndarr
     """
     rows = doc[key]
     if not isinstance(rows, list):
-        raise DataError(f"{path}: {key!r} is {_kind(rows)}, expected one list of weights per frame")
+        raise DataError(f"{path}: {key!r} is {json_kind(rows)}, expected one list of weights per frame")
     out = np.empty((len(rows), len(names)), dtype=np.float64)
     for t, row in enumerate(rows):
         if not isinstance(row, list):
-            raise DataError(f"{path}: {key!r} frame {t} is {_kind(row)}, expected a list of {len(names)} weights")
+            raise DataError(f"{path}: {key!r} frame {t} is {json_kind(row)}, expected a list of {len(names)} weights")
         if len(row) != len(names):
             raise DataError(f"{path}: frame {t} has {len(row)} weights, expected {len(names)} (one per name)")
         for k, value in enumerate(row):
             number = _finite(value)
             if number is None:
-                shown = _kind(value) if isinstance(value, (list, dict)) else repr(value)
+                shown = json_kind(value) if isinstance(value, (list, dict)) else repr(value)
                 raise DataError(f"{path}: frame {t}, {names[k]!r}: weight {_short(shown)} is not a finite number")
             out[t, k] = number
     return out

@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from blendvoca.errors import DataError
+from blendvoca.io.json_file import read_json
 
 from .layout import (
     AUDIO_RATE,
@@ -229,13 +230,7 @@ def read_splits(root) -> dict:
         Not readable JSON, or not an object of split name -> list of subject names.
     """
     path = splits_path(root)
-    try:
-        splits = json.loads(path.read_bytes().decode("utf-8"))
-    # ValueError: bad JSON, not UTF-8, or an integer of more digits than Python converts;
-    # RecursionError: nesting too deep for json.
-    except (ValueError, RecursionError) as error:
-        raise DataError(f"{path}: not readable JSON ({type(error).__name__}: {error}); "
-                        "expected an object of split -> subjects") from None
+    splits = read_json(path, what="readable JSON (an object of split -> subjects)")
     if not isinstance(splits, dict):
         raise DataError(f"{path}: expected an object of split -> subjects, got {type(splits).__name__}")
     for name, subjects in splits.items():

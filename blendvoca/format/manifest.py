@@ -24,6 +24,7 @@ from pathlib import Path
 
 from blendvoca import cli
 from blendvoca.errors import DataError
+from blendvoca.io.json_file import read_json
 from blendvoca.io.atomic import atomic_write
 
 from .hashing import file_digest
@@ -85,9 +86,11 @@ def read_manifest(root) -> dict:
         raise ManifestError(f"{root} has no {MANIFEST_NAME}, so which of its files are current is unknown "
                             f"(a build that was interrupted or failed to write leaves none). {_how_to_make(root)}")
     try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError, RecursionError) as error:  # RecursionError: nesting too deep for json
-        raise ManifestError(f"{path}: not readable JSON ({error}). {_how_to_make(root)}") from None
+        data = read_json(path, what="readable JSON")
+    except OSError as error:
+        raise ManifestError(f"{path}: not readable ({error.strerror or error}). {_how_to_make(root)}") from None
+    except DataError as error:
+        raise ManifestError(f"{error}. {_how_to_make(root)}") from None
     if not isinstance(data, dict):
         raise ManifestError(f"{path}: expected an object with \"files\": {{path: sha256}}, as blendvoca.build "
                             f"writes. {_how_to_make(root)}")

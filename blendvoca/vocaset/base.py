@@ -6,13 +6,13 @@ subclass :class:`VocasetCorpus`; :func:`blendvoca.vocaset.corpus.open_vocaset` p
 
 from __future__ import annotations
 
-import json
 import os
 from pathlib import Path
 
 import numpy as np
 
 from blendvoca.errors import DataError
+from blendvoca.io.json_file import json_kind, read_json
 from blendvoca.vocaset.checks import first_bad_frame
 from blendvoca.vocaset.errors import Problem, VocasetError
 from blendvoca.vocaset.splits import FPS, NUM_VERTICES, corpus_splits
@@ -43,22 +43,14 @@ def read_sidecar(path) -> dict:
         not ``{split name: [speaker name, ...]}``; the message names the file.
     """
     path = Path(os.fspath(path))
-    try:
-        document = json.loads(path.read_text(encoding="utf-8"))
-    except (json.JSONDecodeError, UnicodeDecodeError) as error:
-        raise DataError(f"{path}: not a readable synthetic-corpus sidecar ({error})") from None
-    except ValueError:  # the one other ValueError of json: an integer beyond Python's digit limit
-        raise DataError(f"{path}: not a readable synthetic-corpus sidecar (a number with more digits than "
-                        "Python reads)") from None
-    except RecursionError:
-        raise DataError(f"{path}: not a readable synthetic-corpus sidecar (nested too deeply)") from None
+    document = read_json(path, what="a readable synthetic-corpus sidecar")
     if not isinstance(document, dict):
-        raise DataError(f"{path}: the synthetic-corpus sidecar is {_json_kind(document)}, "
+        raise DataError(f"{path}: the synthetic-corpus sidecar is {json_kind(document)}, "
                         "expected a JSON object (seed, splits, ...)")
     splits = document.get("splits")
     if "splits" in document:
         if not isinstance(splits, dict):
-            raise DataError(f"{path}: 'splits' is {_json_kind(splits)}, expected an object "
+            raise DataError(f"{path}: 'splits' is {json_kind(splits)}, expected an object "
                             '{"train": [speaker, ...], "val": [...], "test": [...]}')
         for name, speakers in splits.items():
             if not isinstance(speakers, list) or not all(isinstance(s, str) for s in speakers):
@@ -66,23 +58,12 @@ def read_sidecar(path) -> dict:
     return document
 
 
-def _json_kind(value) -> str:
-    """What a parsed JSON value is, in the words of JSON: ``a number``, ``an object``, ``null``..."""
-    if value is None:
-        return "null"
-    if isinstance(value, bool):
-        return "a boolean"
-    if isinstance(value, (int, float)):
-        return "a number"
-    return {str: "a string", list: "a list", dict: "an object"}.get(type(value), type(value).__name__)
-
-
 def _describe(value) -> str:
     """A split's value for a message: ``a number``, ``a list holding a number``..."""
     if isinstance(value, list):
         odd = next((v for v in value if not isinstance(v, str)), None)
-        return f"a list holding {_json_kind(odd)}"
-    return _json_kind(value)
+        return f"a list holding {json_kind(odd)}"
+    return json_kind(value)
 
 
 class VocasetCorpus:

@@ -16,6 +16,7 @@ from blendvoca.builder.__main__ import main
 from blendvoca.builder.report import TIMINGS
 from blendvoca.cli import EXIT_PARTIAL
 from blendvoca.format.hashing import file_digest
+from blendvoca.format.layout import STATE_DIR
 from blendvoca.format.manifest import blas_kernels
 from blendvoca.io.coeffs import read_coeffs_csv
 from blendvoca.names import BLENDVOCA_NAMES
@@ -178,10 +179,11 @@ def test_killed_build_resumes_to_identical_outputs(built_dataset, synthetic_corp
                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:
         deadline = time.time() + 600
-        # Kill (SIGKILL, no clean-up) once the first sentences are written.
+        # Kill (SIGKILL, no clean-up) once the first sentences are recorded as done (their
+        # stage records are written after their files, so a written CSV alone is not enough).
         while time.time() < deadline and process.poll() is None:
-            written = list((out / "blendshape_coeffs").rglob("*.csv")) if out.exists() else []
-            if len(written) >= 2:
+            done = list((out / STATE_DIR / "sentences").rglob("*.json")) if out.exists() else []
+            if len(done) >= 2:
                 break
             time.sleep(0.05)
         assert process.poll() is None, "the build finished before it could be killed"
