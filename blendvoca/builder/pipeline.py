@@ -335,12 +335,7 @@ def _speaker_task(subject):
         return {"subject": subject, "status": "built", "key": key,
                 "seconds": {"compute": compute_s, "io": read_s + time.perf_counter() - clock}}
     except Exception as error:  # recorded, the build carries on
-        if is_fatal_write_error(error):
-            raise unwritable(error, out) from None
-        _invalidate_manifest(out)
-        reason = _reason(error) + _retire(out, read_record(path))
-        write_record(path, {"status": "failed", "subject": subject, "reason": reason})
-        return {"subject": subject, "status": "failed", "reason": reason}
+        return _recorded_failure(out, path, error, {"subject": subject})
 
 
 def _check_template_scale(subject, template):
@@ -401,12 +396,7 @@ def _sentence_task(item):
         return {**base, "status": "built", "warnings": warnings,
                 "seconds": {"compute": compute_s, "io": read_s + time.perf_counter() - clock}}
     except Exception as error:  # recorded, the build carries on
-        if is_fatal_write_error(error):
-            raise unwritable(error, out) from None
-        _invalidate_manifest(out)
-        reason = _reason(error) + _retire(out, read_record(path))
-        write_record(path, {**base, "status": "failed", "reason": reason})
-        return {**base, "status": "failed", "reason": reason}
+        return _recorded_failure(out, path, error, base)
 
 
 def _sentence_warnings(corpus, frames, samples, rate) -> list[str]:
@@ -415,6 +405,18 @@ def _sentence_warnings(corpus, frames, samples, rate) -> list[str]:
 
     mismatch = duration_mismatch(len(frames), corpus.fps, len(samples), rate)
     return [mismatch] if mismatch else []
+
+
+def _recorded_failure(out: Path, path: Path, error: BaseException, base: dict) -> dict:
+    """Record a failed item (speaker or sentence, named by ``base``) and return its summary
+    entry; its previous outputs are removed. A write that cannot succeed anywhere (disk
+    full, read-only folder) is not an item's failure: it ends the build."""
+    if is_fatal_write_error(error):
+        raise unwritable(error, out) from None
+    _invalidate_manifest(out)
+    reason = _reason(error) + _retire(out, read_record(path))
+    write_record(path, {**base, "status": "failed", "reason": reason})
+    return {**base, "status": "failed", "reason": reason}
 
 
 def _reason(error: BaseException) -> str:
