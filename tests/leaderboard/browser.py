@@ -1,8 +1,8 @@
-"""Headless Chromium for the results-browser tests (Debian chromium + chromium-driver, selenium).
+"""What the results-browser tests need outside Python: headless Chromium (Debian chromium +
+chromium-driver, selenium) and the site's pinned three.js (``npm ci``).
 
-Locally the browser tests are skipped when Chromium, ChromeDriver or selenium is
-missing; in CI (``CI`` set) a missing browser is a failure, since ``.ci/run``
-installs them.
+Locally a test that needs a missing one is skipped with the command that installs it;
+in CI (``CI`` set) a missing one is a failure, since ``.ci/run`` installs them.
 """
 
 from __future__ import annotations
@@ -26,6 +26,21 @@ CHROMIUM_FLAGS = (
 )
 
 
+def unavailable(message: str):
+    """Skip the test for a missing outside tool (fail in CI, which installs every one)."""
+    if os.environ.get("CI"):
+        pytest.fail(message)
+    pytest.skip(message)
+
+
+def require_three_js() -> None:
+    """Skip (fail in CI) unless the site's three.js is installed, which building a site needs."""
+    from leaderboard.site.vendor import VENDOR_FILES, WEB_DIR
+
+    if not all((WEB_DIR / "node_modules" / rel).is_file() for rel in VENDOR_FILES):
+        unavailable(f"three.js for the results site is not installed; run `npm ci --prefix {WEB_DIR}` once")
+
+
 def chromium_driver():
     """A selenium Chrome driver on headless Chromium, or skip (fail in CI) if unavailable."""
     missing = [p for p in (CHROMIUM, CHROMEDRIVER) if not os.path.exists(p)]
@@ -35,10 +50,7 @@ def chromium_driver():
     except ImportError:
         missing.append("selenium")
     if missing:
-        message = f"headless Chromium unavailable ({', '.join(missing)}); apt-get install chromium chromium-driver"
-        if os.environ.get("CI"):
-            pytest.fail(message)
-        pytest.skip(message)
+        unavailable(f"headless Chromium unavailable ({', '.join(missing)}); apt-get install chromium chromium-driver")
     options = webdriver.ChromeOptions()
     options.binary_location = CHROMIUM
     for flag in CHROMIUM_FLAGS:

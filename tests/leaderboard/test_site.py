@@ -13,7 +13,7 @@ import pytest
 from leaderboard.site import SITE_MARKER, build_site
 from leaderboard.site.serve import serve_site
 
-from .browser import chromium_driver, open_page
+from .browser import chromium_driver, open_page, require_three_js
 
 COMMITTED_RESULTS = Path(__file__).resolve().parents[2] / "leaderboard" / "results"
 
@@ -65,7 +65,13 @@ def results_dir(tmp_path_factory, built_dataset):
 
 
 @pytest.fixture(scope="module")
-def site(tmp_path_factory, results_dir):
+def three_js():
+    """Building a site copies the pinned three.js, which `npm ci` installs."""
+    require_three_js()
+
+
+@pytest.fixture(scope="module")
+def site(tmp_path_factory, results_dir, three_js):
     return build_site(results_dir, tmp_path_factory.mktemp("site") / "site", max_samples=2, progress=False)
 
 
@@ -102,7 +108,7 @@ def test_site_data_files(site, results_dir):
         assert mode & wanted == wanted, f"{path}: {oct(mode)}"
 
 
-def test_out_folder_is_never_a_users(tmp_path, results_dir):
+def test_out_folder_is_never_a_users(tmp_path, results_dir, three_js):
     mine = tmp_path / "mine"
     mine.mkdir()
     (mine / "notes.txt").write_text("keep me")
@@ -207,7 +213,7 @@ def test_playback_moves_the_mouth_in_sync_with_the_audio(browser, served, site):
     assert [e for e in browser.get_log("browser") if e["level"] == "SEVERE"] == []
 
 
-def test_site_from_the_committed_results_loads(browser, tmp_path):
+def test_site_from_the_committed_results_loads(three_js, browser, tmp_path):
     site = build_site(COMMITTED_RESULTS, tmp_path / "site", progress=False)
     server, url = serve_site(site, port=0, background=True)
     try:
