@@ -22,6 +22,7 @@ from .normal_equations import NormalEquations, normal_equations
 from .pose import HeadPose, flame_stable_vertices, least_moving_vertices, remove_head_pose
 from .resample import resample_sequence
 from .sparse_qp import solve_published_qp, solve_sparse_qp
+from .streaming import StreamingSolver, StreamingSolverConfig
 
 __all__ = [
     "FitResult",
@@ -29,6 +30,8 @@ __all__ = [
     "METHODS",
     "NormalEquations",
     "QPSolution",
+    "StreamingSolver",
+    "StreamingSolverConfig",
     "constraint_activity",
     "flame_stable_vertices",
     "least_moving_vertices",
