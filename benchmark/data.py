@@ -4,6 +4,7 @@ Layout (:mod:`blendvoca.format`, which this module reads it through)::
 
     blendshape_coeffs/<subject>/sentenceNN.csv       ground truth, 60 fps
     blendshape_coeffs/<subject>/sentenceNN-<k>.csv   optional extra samples
+    oracle_coeffs/<subject>/sentenceNN-<k>.csv       synthetic corpora: fitted oracle samples (optional)
     audio/<subject>/sentenceNN.wav
     rigs/<subject>.npz                               blendvoca.rig.Rig (optional)
     blendshapes_head/<subject>/<name>.obj            SAiD layout rig (fallback)
@@ -131,6 +132,59 @@ class BlendVOCADataset:
                   for rel in found]
         t = min(len(x) for x in tracks)
         return np.stack([x[:t] for x in tracks])
+
+    def oracle_count(self, subject: str, sentence: str) -> int:
+        """K, the fitted oracle samples of a sentence the build lists (0: none)."""
+        from blendvoca.format.layout import listed_oracle_samples
+
+        self._check_subject(subject)
+        return len(listed_oracle_samples(self._listed, subject, sentence))
+
+    def has_oracle(self, subject: str | None = None, sentence: str | None = None) -> bool:
+        """Whether the build has fitted oracle samples (of a sentence, of a subject, or at all).
+
+        Oracle samples are conditional draws of a synthetic sentence's motion given its
+        audio and speaker (``python -m blendvoca.synthetic --oracle-samples K``), fitted
+        by the build like the ground truth: ``oracle_coeffs/<subject>/<sentence>-<k>.csv``.
+        """
+        from blendvoca.format.layout import ORACLE_COEFFS_DIR
+
+        if subject is None:
+            return any(rel.startswith(f"{ORACLE_COEFFS_DIR}/") for rel in self._listed)
+        if sentence is None:
+            self._check_subject(subject)
+            return any(rel.startswith(f"{ORACLE_COEFFS_DIR}/{subject}/") for rel in self._listed)
+        return self.oracle_count(subject, sentence) > 0
+
+    def oracle_coeffs(self, subject: str, sentence: str) -> np.ndarray:
+        """The fitted oracle samples of a sentence, ``(K, T, 32)`` float64 in ``names`` order, 60 fps.
+
+        Raises
+        ------
+        UserError
+            The build lists none for the sentence (a corpus generated without
+            ``--oracle-samples``, or real data).
+        DataError
+            A listed file is missing or unreadable, or the samples differ in length.
+        """
+        from blendvoca.format.layout import ORACLE_COEFFS_DIR, listed_oracle_samples
+
+        self._check_subject(subject)
+        found = listed_oracle_samples(self._listed, subject, sentence)
+        if not found:
+            raise UserError(f"BlendVOCADataset.oracle_coeffs: {fmt.manifest_path(self.root)} lists no oracle "
+                            f"samples {ORACLE_COEFFS_DIR}/{subject}/{sentence}-<k>.csv; generate the corpus with "
+                            "`python -m blendvoca.synthetic --oracle-samples K` and build it")
+        tracks = []
+        for rel in found:
+            if self._listed_path(rel) is None:
+                raise DataError(f"{self.root / rel}: listed in {fmt.manifest_path(self.root)} but missing; "
+                                "rebuild the dataset")
+            tracks.append(np.asarray(fmt.read_coeffs_file(self.root, rel, names=self.names)[0], dtype=np.float64))
+        if len({len(t) for t in tracks}) != 1:
+            raise DataError(f"{self.root / ORACLE_COEFFS_DIR / subject}: the oracle samples of {sentence} differ in "
+                            f"length ({sorted({len(t) for t in tracks})} frames)")
+        return np.stack(tracks)
 
     def audio(self, subject: str, sentence: str) -> tuple[np.ndarray, int]:
         """Speech of a sentence: ((N,) float32 mono at 16 kHz, 16000)."""

@@ -46,7 +46,9 @@ def main(argv: list[str] | None = None) -> int:
     elapsed = time.perf_counter() - start
     print(f"{summary.out}: speakers built {summary.built['speakers']}, up to date {summary.skipped['speakers']}; "
           f"sentences built {summary.built['sentences']}, up to date {summary.skipped['sentences']}; "
-          f"{len(summary.failures)} failed; {elapsed:.1f} s")
+          + (f"oracle samples of {summary.built['oracle']} sentences built, up to date "
+             f"{summary.skipped['oracle']}; " if "oracle" in summary.built else "")
+          + f"{len(summary.failures)} failed; {elapsed:.1f} s")
     for warning in summary.warnings:
         print(f"warning: {warning['subject']} {warning['sentence'] or ''}: {warning['message']}", file=sys.stderr)
     for failure in summary.failures:

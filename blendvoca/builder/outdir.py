@@ -30,14 +30,14 @@ from pathlib import Path
 
 from blendvoca.errors import OutputDirError
 from blendvoca.format.hashing import file_digest
-from blendvoca.format.layout import DATA_DIRS, DATA_FILES, MANIFEST_FILE, REPORT_DIR, STATE_DIR
+from blendvoca.format.layout import DATA_DIRS, DATA_FILES, MANIFEST_FILE, ORACLE_COEFFS_DIR, REPORT_DIR, STATE_DIR
 from blendvoca.format.manifest import BUILD_TOOL, written_by_build
 from blendvoca.io.atomic import atomic_write, temporary_owner
 
 MARKER = "build.json"
 LOCK = "lock"
 #: Folders and top-level files a build writes (everything else in ``--out`` is left alone).
-OUTPUT_DIRS = (*DATA_DIRS, REPORT_DIR, STATE_DIR)
+OUTPUT_DIRS = (*DATA_DIRS, ORACLE_COEFFS_DIR, REPORT_DIR, STATE_DIR)
 OUTPUT_FILES = (*DATA_FILES, MANIFEST_FILE)
 #: errno values that mean "the output cannot be written" (fatal for the build, never a per-item failure).
 FATAL_ERRNOS = {errno.ENOSPC, errno.EROFS, errno.EACCES, errno.EPERM, getattr(errno, "EDQUOT", errno.ENOSPC)}

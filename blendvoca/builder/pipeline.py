@@ -7,6 +7,10 @@ Stages (each a pure function; this module only reads and writes files):
    ``blendshapes_head/<subject>/<name>.obj``;
 2. sentences (parallel): :func:`blendvoca.builder.sentence.sentence_fit` ->
    ``blendshape_coeffs/<subject>/<sentence>.csv``, ``audio/<subject>/<sentence>.wav``;
+2b. oracle samples (synthetic corpora generated with ``--oracle-samples K`` only;
+   parallel): each of a sentence's K conditional samples rendered
+   (:class:`blendvoca.synthetic.oracle.OracleSamples`) and fitted like the ground
+   truth -> ``oracle_coeffs/<subject>/<sentence>-<k>.csv``;
 3. summary: ``coeffs_std.csv``, ``splits.json``, ``report/``, ``manifest.json``.
 
 Every stage has a record in ``.buildstate/`` keyed by a digest of its inputs
@@ -47,6 +51,7 @@ from .state import STATE_DIR, is_up_to_date, read_record, record_path, write_rec
 #: Bumped when a stage's algorithm changes its outputs (invalidates records).
 RIG_STAGE_VERSION = "2"  # 2: one triangle correspondence per build, on the reference speaker
 FIT_STAGE_VERSION = "1"
+ORACLE_STAGE_VERSION = "1"
 AUDIO_RATE = fmt.AUDIO_RATE
 #: Inner-lip landmarks (0-based) of the 68-point scheme: upper and lower lip middle.
 LIP_LANDMARKS = (62, 66)
@@ -64,7 +69,8 @@ class BuildSummary:
     ----------
     out : Path
     built, skipped : dict
-        ``{"speakers": n, "sentences": n}`` redone / already up to date.
+        ``{"speakers": n, "sentences": n}`` redone / already up to date (and
+        ``"oracle": n`` sentences' oracle samples, for a corpus that has them).
     failures : list of dict
         ``{"subject", "sentence", "stage", "reason"}`` per failed item; ``stage`` is
         ``"rig"``, ``"fit"`` or ``"input"`` (a sentence the corpus lacks, or one
@@ -399,6 +405,57 @@ def _sentence_task(item):
         return _recorded_failure(out, path, error, base)
 
 
+def _oracle_inputs(corpus, subject: str, sentence: str) -> dict:
+    """What an oracle sample's meshes are made from: its stored draws, the seed and the speaker's style."""
+    from blendvoca.synthetic.oracle import OracleSamples
+
+    meta = corpus.synthetic or {}
+    oracle = _WORKER.get("oracle")
+    if oracle is None:
+        oracle = _WORKER["oracle"] = OracleSamples(corpus.root, meta)
+    path = oracle.path(subject, sentence)
+    if not path.is_file():
+        raise DataError(f"{path}: missing; the corpus declares {oracle.count} oracle samples per sentence")
+    return {"samples": file_digest(path), "count": oracle.count, "seed": meta.get("seed"),
+            "generator": meta.get("version"), "style": (meta.get("subjects", {}).get(subject) or {}).get("style")}
+
+
+def _oracle_task(item):
+    """Render and fit (or confirm) the oracle samples of one sentence; returns a status dict."""
+    from blendvoca.format.items import write_oracle_coeffs
+
+    from .sentence import sentence_fit
+
+    subject, sentence, rig_key = item
+    corpus, out, params, static = (_WORKER[k] for k in ("corpus", "out", "params", "static"))
+    path = record_path(out, "oracle", subject, sentence)
+    base = {"subject": subject, "sentence": sentence}
+    clock = time.perf_counter()
+    try:
+        inputs = _oracle_inputs(corpus, subject, sentence)
+        key = stage_key({"stage": "oracle", "version": ORACLE_STAGE_VERSION, "rig": rig_key,
+                         "inputs": inputs, "delta": params["delta"]})
+        record = read_record(path)
+        if is_up_to_date(out, record, key):
+            return {**base, "status": "skipped", "key": key}
+        _invalidate_manifest(out)
+        rig = _load_rig(subject)
+        oracle = _WORKER["oracle"]
+        read_s, clock = time.perf_counter() - clock, time.perf_counter()
+        files, rmse = [], []
+        for k, frames in enumerate(oracle.frames(subject, sentence, template=corpus.template(subject))):
+            coeffs, stats = sentence_fit(rig, frames, static["head_index"], delta=params["delta"])
+            files.append(write_oracle_coeffs(out, subject, sentence, k, coeffs, rig.names))
+            rmse.append(stats["rmse_mm"])
+        compute_s, clock = time.perf_counter() - clock, time.perf_counter()
+        write_record(path, {**base, "key": key, "status": "ok", "inputs": inputs, "stats": {"rmse_mm": rmse},
+                            "files": {rel: file_digest(out / rel) for rel in files}})
+        return {**base, "status": "built", "key": key,
+                "seconds": {"compute": compute_s, "io": read_s + time.perf_counter() - clock}}
+    except Exception as error:  # recorded, the build carries on
+        return _recorded_failure(out, path, error, base)
+
+
 def _sentence_warnings(corpus, frames, samples, rate) -> list[str]:
     """What is implausible about a sentence that is built all the same (audio and motion durations)."""
     from blendvoca.vocaset.checks import duration_mismatch
@@ -641,6 +698,19 @@ def _build(out, vocaset, corpus, params, *, workers, report, progress):
         _OPENED.clear()
 
 
+def _declared_share(corpus) -> dict | None:
+    """The synthetic corpus's declared audio-determined share and oracle sample count, when it
+    declares either (None for VOCASET and for corpora made before they existed)."""
+    meta = corpus.synthetic
+    if not isinstance(meta, dict) or not ("audio_determined" in meta or "oracle_samples" in meta):
+        return None
+    from blendvoca.synthetic.oracle import oracle_count
+
+    declared = meta.get("audio_determined")
+    return {"declared": declared.get("declared") if isinstance(declared, dict) else 1.0,
+            "oracle_samples": oracle_count(meta)}
+
+
 def _build_stages(out, vocaset, corpus, params, *, workers, report, progress):
     remove_stale_temporaries(out)
     summary = BuildSummary(out)
@@ -701,8 +771,11 @@ def _build_stages(out, vocaset, corpus, params, *, workers, report, progress):
     summary.seconds["sentences"] = time.perf_counter() - clock
     stages["fits"] = {**_task_seconds(sentence_results), "wall": summary.seconds["sentences"],
                       "built": summary.built["sentences"]}
+    oracle_items = _oracle_stage(out, corpus, subjects, sentence_results, rig_keys, summary, stages,
+                                 workers=workers, initargs=initargs, progress=progress)
     clock = time.perf_counter()
-    report_s = _write_summary_files(out, corpus, vocaset, subjects, params, summary, report=report)
+    report_s = _write_summary_files(out, corpus, vocaset, subjects, params, summary, report=report,
+                                    oracle_items=oracle_items)
     summary.seconds["summary"] = time.perf_counter() - clock
     if report_s is not None or summary.built["speakers"] or summary.built["sentences"]:
         # Something was done: the timings of this build (a no-op rerun leaves them as they are).
@@ -716,12 +789,49 @@ def _build_stages(out, vocaset, corpus, params, *, workers, report, progress):
     return summary
 
 
+def _oracle_stage(out, corpus, subjects, sentence_results, rig_keys, summary, stages, *, workers, initargs,
+                  progress) -> list[tuple[str, str]]:
+    """Fit the oracle samples of every fitted sentence of a corpus that has them; return those sentences.
+
+    A corpus without oracle samples runs nothing here (and a build of one is what it was
+    before oracle samples existed); the oracle outputs of a previous build of a corpus
+    that no longer has them (or of sentences it no longer has) are removed.
+    """
+    from blendvoca.synthetic.oracle import oracle_count
+
+    count = oracle_count(corpus.synthetic)
+    fitted = {(r["subject"], r["sentence"]) for r in sentence_results if r["status"] != "failed"}
+    items = [(s, q) for s in subjects for q in corpus.sentences(s) if (s, q) in fitted] if count else []
+    for item, path in _stale_records(out, "oracle", set(items)):
+        _invalidate_manifest(out)
+        _retire(out, read_record(path))
+        path.unlink()
+    if not items:
+        return []
+    clock = time.perf_counter()
+    results = _run([(s, q, rig_keys[s]) for s, q in items], _oracle_task, workers=workers, initargs=initargs,
+                   desc="oracle samples", progress=progress)
+    done = []
+    summary.built["oracle"] = summary.skipped["oracle"] = 0
+    for result in results:
+        if result["status"] == "failed":
+            summary.failures.append({"subject": result["subject"], "sentence": result["sentence"],
+                                     "stage": "oracle", "reason": result["reason"]})
+        else:
+            done.append((result["subject"], result["sentence"]))
+            (summary.built if result["status"] == "built" else summary.skipped)["oracle"] += 1
+    summary.seconds["oracle"] = time.perf_counter() - clock
+    stages["oracle"] = {**_task_seconds(results), "wall": summary.seconds["oracle"],
+                        "built": sum(r["status"] == "built" for r in results)}
+    return done
+
+
 #: What the summary stage writes (besides the manifest), relative to ``out``.
 SUMMARY_OUTPUTS = (fmt.COEFFS_STD_FILE, fmt.RESIDUALS_FILE, fmt.SPLITS_FILE,
                    *(f"{fmt.REPORT_DIR}/{name}" for name in REPORT_FILES))
 
 
-def _write_summary_files(out, corpus, vocaset, subjects, params, summary, *, report):
+def _write_summary_files(out, corpus, vocaset, subjects, params, summary, *, report, oracle_items=()):
     """Write the summary outputs unless up to date; return the seconds spent on the report (None: up to date)."""
     from blendvoca.format.manifest import write_manifest
 
@@ -733,9 +843,18 @@ def _write_summary_files(out, corpus, vocaset, subjects, params, summary, *, rep
     keys = {f"{s}/{q}": (read_record(record_path(out, "sentences", s, q)) or {}).get("key")
             for s in subjects for q in corpus.sentences(s)}
     keys.update({s: (read_record(record_path(out, "rigs", s)) or {}).get("key") for s in subjects})
+    oracle_records = {(s, q): read_record(record_path(out, "oracle", s, q)) or {} for s, q in oracle_items}
+    extra = {}
+    if summary.warnings:
+        extra["warnings"] = summary.warnings
+    if oracle_records:  # only then: the summary of a build without oracle samples is keyed as before
+        extra["oracle"] = {f"{s}/{q}": rec.get("key") for (s, q), rec in sorted(oracle_records.items())}
+    share = _declared_share(corpus)
+    if share is not None:
+        extra["share"] = share
     summary_key = stage_key({"stage": "summary", "keys": keys, "failures": summary.failures, "params": params,
                              "report": report, "version": blendvoca.__version__, "splits": corpus.splits,
-                             **({"warnings": summary.warnings} if summary.warnings else {})})
+                             **extra})
     previous = read_record(summary_path)
     if is_up_to_date(out, previous, summary_key):
         return None
@@ -759,6 +878,8 @@ def _write_summary_files(out, corpus, vocaset, subjects, params, summary, *, rep
                 files += list(rec.get("files", {}))
                 coeffs, names = fmt.read_coeffs(out, subject, sentence)
                 tracks.append(coeffs)
+    for rec in oracle_records.values():
+        files += list(rec.get("files", {}))
     if tracks:
         fmt.write_coeffs_std(out, coeffs_std(tracks), names)
     from .said_residuals import write_blendshape_residuals
@@ -767,7 +888,14 @@ def _write_summary_files(out, corpus, vocaset, subjects, params, summary, *, rep
     report_s = 0.0
     if report:
         clock = time.perf_counter()
-        write_report(out, records, names or (), summary.failures, params, warnings=summary.warnings)
+        measured = None
+        if share is not None:
+            from .report import measured_share
+
+            measured = measured_share(out, corpus.splits, sorted(oracle_records), names or (),
+                                      count=share["oracle_samples"], declared=share)
+        write_report(out, records, names or (), summary.failures, params, warnings=summary.warnings,
+                     share=measured)
         report_s = time.perf_counter() - clock
     files += [rel for rel in SUMMARY_OUTPUTS if (out / rel).is_file()]
     manifest = write_manifest(out, files=files, vocaset=vocaset, corpus=corpus, params=params, records=records,

@@ -87,7 +87,102 @@ def _tracks_figure(path, out, items, names):
     plt.close(fig)
 
 
-def report_markdown(records: dict, names, failures, params, *, figures=(), warnings=()) -> str:
+def measured_share(out, splits: dict, items, names, *, count: int, declared: dict) -> dict:
+    """The audio-determined share measured on the fitted tracks of a synthetic corpus.
+
+    With the ground truth and the K fitted oracle samples of every sentence (K + 1
+    draws of the motion given the audio and the speaker), the share of a speaker's
+    speech-shape coefficient variance that the inputs determine is
+    ``1 - E[Var(coeffs | audio, speaker)] / E[Var(coeffs | speaker)]``: the pooled
+    within-sentence variance (``ddof=1`` over the draws, summed over the
+    coefficients) over the pooled variance of each speaker's ground-truth frames
+    about that speaker's mean (so the figure does not grow with the number of
+    speakers pooled; the differences between speakers are the speaker id's and
+    determined anyway). Also the share of the test split's variance (about its
+    mean) that ``oracle-mean`` (the mean of the K samples) explains,
+    ``1 - SS(truth - mean) / SS(truth - its mean)``, which is lower by about
+    ``(1 - share) / K`` (the Monte-Carlo mean's own variance) and higher by the
+    test speakers' differences.
+
+    Parameters
+    ----------
+    out : path
+        The build.
+    splits : dict
+        Split name -> subjects.
+    items : sequence of (subject, sentence)
+        Sentences with their oracle tracks fitted.
+    names : sequence of str
+    count : int
+        K.
+    declared : dict
+        ``{"declared": F, "oracle_samples": K}`` from the corpus.
+
+    Returns
+    -------
+    dict
+        ``declared``, ``oracle_samples``, ``measured`` / ``measured_test`` / ``oracle_mean_test``
+        (None without oracle tracks), ``sentences``.
+    """
+    from blendvoca.format.items import read_oracle_coeffs
+
+    result = {"declared": declared.get("declared"), "oracle_samples": declared.get("oracle_samples"),
+              "measured": None, "measured_test": None, "oracle_mean_test": None, "sentences": len(items)}
+    if not items or not count or not names:
+        return result
+    test = set(splits.get("test", ()))
+    within = {"all": 0.0, "test": 0.0}
+    truths = {"all": {}, "test": {}}
+    means = []
+    for subject, sentence in items:
+        truth, _ = read_coeffs(out, subject, sentence, names=names)
+        draws = [truth] + [read_oracle_coeffs(out, subject, sentence, k, names=names)[0] for k in range(count)]
+        t = min(len(d) for d in draws)
+        stack = np.stack([np.asarray(d[:t], dtype=np.float64) for d in draws])
+        groups = ("all", "test") if subject in test else ("all",)
+        for g in groups:
+            within[g] += float(stack.var(axis=0, ddof=1).sum())
+            truths[g].setdefault(subject, []).append(stack[0])
+        if subject in test:
+            means.append((stack[0], stack[1:].mean(axis=0)))
+
+    def share(g):
+        if not truths[g] or count < 1:
+            return None
+        per_speaker = [np.concatenate(tracks) for tracks in truths[g].values()]
+        total = sum(float(((y - y.mean(axis=0)) ** 2).sum()) for y in per_speaker)
+        return None if total <= 0 else 1.0 - within[g] / total
+
+    result["measured"], result["measured_test"] = share("all"), share("test")
+    if means:
+        y = np.concatenate([a for a, _ in means])
+        m = np.concatenate([b for _, b in means])
+        total = float(((y - y.mean(axis=0)) ** 2).sum())
+        result["oracle_mean_test"] = None if total <= 0 else 1.0 - float(((y - m) ** 2).sum()) / total
+    return result
+
+
+def _share_lines(share: dict) -> list[str]:
+    lines = ["## Audio-determined share", "",
+             f"The synthetic corpus declares F = {share['declared']:g} (`--audio-determined`): the share of the "
+             "speech shapes' coefficient variance that the inputs (audio, speaker id) determine."]
+    if share.get("measured") is None:
+        lines += ["Not measured: the corpus has no oracle samples (generate it with `--oracle-samples K`).", ""]
+        return lines
+
+    def fmt(v):
+        return "-" if v is None else f"{v:.3f}"
+
+    lines += [f"Measured on the fitted tracks, from the ground truth and {share['oracle_samples']} oracle samples "
+              f"of each of {share['sentences']} sentences (1 - pooled within-sentence variance / pooled "
+              "within-speaker variance): "
+              f"**{fmt(share['measured'])}** (test split: {fmt(share['measured_test'])}); share of the test "
+              f"split's variance that oracle-mean explains: {fmt(share['oracle_mean_test'])} (lower by about "
+              "(1 - F) / K: the mean of K samples keeps 1/K of their variance).", ""]
+    return lines
+
+
+def report_markdown(records: dict, names, failures, params, *, figures=(), warnings=(), share=None) -> str:
     """Return the report text.
 
     Parameters
@@ -101,6 +196,9 @@ def report_markdown(records: dict, names, failures, params, *, figures=(), warni
     figures : sequence of (title, relative path)
     warnings : sequence of dict
         ``{"subject", "sentence", "message"}`` of implausible inputs built all the same.
+    share : dict, optional
+        A synthetic corpus's audio-determined share (:func:`measured_share`); None
+        (VOCASET, older synthetic corpora): no such section.
     """
     lines = ["# BlendVOCA build report", ""]
     lines.append(f"Parameters: shapes = {params.get('shapes')}, delta = {params.get('delta')}. "
@@ -125,6 +223,8 @@ def report_markdown(records: dict, names, failures, params, *, figures=(), warni
             message = str(w["message"]).replace("|", "\\|").replace("\n", " ")
             lines.append(f"| {w['subject']} | {w['sentence'] or '-'} | {message} |")
         lines.append("")
+    if share is not None:
+        lines += _share_lines(share)
     lines += ["## Per speaker", "", "| speaker | sentences | frames | RMSE mm (mean) | max error mm |",
               "|---|---:|---:|---:|---:|"]
     for subject in subjects:
@@ -189,14 +289,15 @@ def timings_markdown(stages: dict, *, workers: int) -> str:
              "transfer, plus the correspondence shared by all speakers computed once in the main process; "
              "fits: the constrained fit; I/O: reading and hashing the inputs, writing the outputs and records).",
              "", "| stage | items built | wall s | compute s | I/O s |", "|---|---|---|---|---|"]
-    for stage in ("rigs", "fits"):
+    fitted = ("rigs", "fits", "oracle") if "oracle" in stages else ("rigs", "fits")
+    for stage in fitted:
         st = stages[stage]
         lines.append(f"| {stage} | {st['built']} | {st['wall']:.2f} | {st['compute']:.2f} | {st['io']:.2f} |")
     st = stages["summary"]
     lines.append(f"| report | - | {st['report']:.2f} | {st['report']:.2f} | - |")
     lines.append(f"| summary I/O (coeffs_std, residuals, splits, manifest) | - | {st['wall'] - st['report']:.2f} "
                  f"| - | {st['wall'] - st['report']:.2f} |")
-    total = sum(stages[k]["wall"] for k in ("rigs", "fits", "summary"))
+    total = sum(stages[k]["wall"] for k in (*fitted, "summary"))
     lines += [f"| total | - | {total:.2f} | - | - |", ""]
     return "\n".join(lines)
 
@@ -210,7 +311,8 @@ def write_timings(out, stages: dict, *, workers: int) -> Path:
     return path
 
 
-def write_report(out, records: dict, names, failures, params, *, num_tracks: int = 3, warnings=()) -> Path:
+def write_report(out, records: dict, names, failures, params, *, num_tracks: int = 3, warnings=(),
+                 share=None) -> Path:
     """Write ``<out>/report/README.md`` with ``usage.png`` and ``tracks.png``; return its path."""
     readme, usage_png, tracks_png = REPORT_FILES
     folder = report_dir(out)
@@ -223,7 +325,7 @@ def write_report(out, records: dict, names, failures, params, *, num_tracks: int
         chosen = sorted(records.items())[:: max(1, len(records) // num_tracks)][:num_tracks]
         _tracks_figure(folder / tracks_png, out, chosen, list(names))
         figures.append(("Coefficient tracks against the lip aperture of the input meshes", tracks_png))
-    text = report_markdown(records, names, failures, params, figures=figures, warnings=warnings)
+    text = report_markdown(records, names, failures, params, figures=figures, warnings=warnings, share=share)
     path = folder / readme
     with atomic_write(path, "w", encoding="utf-8") as f:
         f.write(text)

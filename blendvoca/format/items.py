@@ -29,6 +29,7 @@ from .layout import (
     blendshapes_dir,
     blendshapes_relpath,
     coeffs_relpath,
+    oracle_coeffs_relpath,
     rig_path,
     rig_relpath,
     splits_path,
@@ -40,12 +41,14 @@ __all__ = [
     "read_audio",
     "read_coeffs",
     "read_coeffs_file",
+    "read_oracle_coeffs",
     "read_rig",
     "read_said_rig",
     "read_splits",
     "write_audio",
     "write_coeffs",
     "write_coeffs_std",
+    "write_oracle_coeffs",
     "write_rig",
     "write_said_rig",
     "write_splits",
@@ -95,6 +98,21 @@ def read_coeffs(root, subject: str, sentence: str, *, names: Sequence[str] | Non
                 sample: int | None = None) -> tuple[np.ndarray, tuple]:
     """A sentence's track (or its extra sample ``sample``); see :func:`read_coeffs_file`."""
     return read_coeffs_file(root, coeffs_relpath(subject, sentence, sample), names=names)
+
+
+def write_oracle_coeffs(root, subject: str, sentence: str, sample: int, coeffs, names: Sequence[str]) -> str:
+    """Write a sentence's fitted oracle sample ``sample`` (0-based) as SAiD's CSV; return its relative path."""
+    from blendvoca.io import coeffs as coeffs_io
+
+    rel = oracle_coeffs_relpath(subject, sentence, sample)
+    coeffs_io.write_coeffs_csv(_root(root) / rel, coeffs, names)
+    return rel
+
+
+def read_oracle_coeffs(root, subject: str, sentence: str, sample: int, *,
+                       names: Sequence[str] | None = None) -> tuple[np.ndarray, tuple]:
+    """A sentence's fitted oracle sample ``sample``; see :func:`read_coeffs_file`."""
+    return read_coeffs_file(root, oracle_coeffs_relpath(subject, sentence, sample), names=names)
 
 
 def write_coeffs_std(root, std, names: Sequence[str]) -> str:

@@ -4,6 +4,7 @@ A BlendVOCA folder is SAiD's layout plus BlendVOCA's additions::
 
     blendshape_coeffs/<subject>/<sentence>.csv       ground truth, 60 fps, one column per blendshape
     blendshape_coeffs/<subject>/<sentence>-<k>.csv   optional extra samples k = 0, 1, ...
+    oracle_coeffs/<subject>/<sentence>-<k>.csv       synthetic corpora: fitted oracle sample k = 0, 1, ...
     audio/<subject>/<sentence>.wav                   mono speech at 16 kHz
     rigs/<subject>.npz                               the speaker's full-topology rig (blendvoca.rig.Rig)
     templates_head/<subject>.obj                     the neutral head (SAiD's layout)
@@ -38,6 +39,7 @@ __all__ = [
     "DATA_FILES",
     "FPS",
     "MANIFEST_FILE",
+    "ORACLE_COEFFS_DIR",
     "REPORT_DIR",
     "RESIDUALS_FILE",
     "RIGS_DIR",
@@ -57,8 +59,11 @@ __all__ = [
     "is_report_file",
     "listed_samples",
     "listed_sentences",
+    "listed_oracle_samples",
     "listed_subjects",
     "manifest_path",
+    "oracle_coeffs_path",
+    "oracle_coeffs_relpath",
     "report_dir",
     "residuals_path",
     "rig_path",
@@ -70,6 +75,9 @@ __all__ = [
 
 #: Coefficient tracks, ``<subject>/<sentence>.csv`` (SAiD's name).
 COEFFS_DIR = "blendshape_coeffs"
+#: Fitted oracle samples of a synthetic corpus, ``<subject>/<sentence>-<k>.csv``: conditional
+#: draws of the motion given the audio and the speaker (``--oracle-samples``), not ground truth.
+ORACLE_COEFFS_DIR = "oracle_coeffs"
 #: Speech, ``<subject>/<sentence>.wav``.
 AUDIO_DIR = "audio"
 #: Full-topology speaker rigs, ``<subject>.npz``.
@@ -118,6 +126,11 @@ def coeffs_relpath(subject: str, sentence: str, sample: int | None = None) -> st
     return f"{COEFFS_DIR}/{subject}/{name}.csv"
 
 
+def oracle_coeffs_relpath(subject: str, sentence: str, sample: int) -> str:
+    """``oracle_coeffs/<subject>/<sentence>-<sample>.csv``: a fitted oracle sample (0-based)."""
+    return f"{ORACLE_COEFFS_DIR}/{subject}/{sentence}-{int(sample)}.csv"
+
+
 def audio_relpath(subject: str, sentence: str) -> str:
     """``audio/<subject>/<sentence>.wav``."""
     return f"{AUDIO_DIR}/{subject}/{sentence}.wav"
@@ -159,6 +172,11 @@ def coeffs_dir(root, subject: str) -> Path:
 def coeffs_path(root, subject: str, sentence: str, sample: int | None = None) -> Path:
     """``<root>/blendshape_coeffs/<subject>/<sentence>.csv`` (or ``<sentence>-<sample>.csv``)."""
     return _root(root) / coeffs_relpath(subject, sentence, sample)
+
+
+def oracle_coeffs_path(root, subject: str, sentence: str, sample: int) -> Path:
+    """``<root>/oracle_coeffs/<subject>/<sentence>-<sample>.csv``."""
+    return _root(root) / oracle_coeffs_relpath(subject, sentence, sample)
 
 
 def audio_path(root, subject: str, sentence: str) -> Path:
@@ -242,6 +260,15 @@ def listed_samples(listed, subject: str, sentence: str) -> list[str]:
     """Relative paths of the listed extra samples ``<sentence>-<k>.csv`` of a sentence, in ``k`` order
     (empty when the sentence has only its ground truth)."""
     folder = f"{COEFFS_DIR}/{subject}"
+    found = sorted((int(m.group(2)), name) for name in _names_in(listed, folder)
+                   if (m := _SAMPLE_NAME.match(name)) and m.group(1) == sentence)
+    return [f"{folder}/{name}" for _, name in found]
+
+
+def listed_oracle_samples(listed, subject: str, sentence: str) -> list[str]:
+    """Relative paths of the listed oracle samples ``oracle_coeffs/<subject>/<sentence>-<k>.csv``
+    of a sentence, in ``k`` order (empty when the build has none)."""
+    folder = f"{ORACLE_COEFFS_DIR}/{subject}"
     found = sorted((int(m.group(2)), name) for name in _names_in(listed, folder)
                    if (m := _SAMPLE_NAME.match(name)) and m.group(1) == sentence)
     return [f"{folder}/{name}" for _, name in found]

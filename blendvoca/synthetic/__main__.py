@@ -1,6 +1,7 @@
 """Generate a synthetic VOCASET corpus with ground truth.
 
-``python -m blendvoca.synthetic --out DIR --speakers N --sentences M --seed S``.
+``python -m blendvoca.synthetic --out DIR --speakers N --sentences M --seed S
+[--audio-determined F] [--oracle-samples K] [--head-motion DEG] [--layout processed|official]``.
 """
 
 from __future__ import annotations
@@ -12,7 +13,7 @@ from pathlib import Path
 
 from blendvoca import cli
 from blendvoca.errors import UserError
-from blendvoca.synthetic.corpus import DEFAULT_CORPUS, generate_corpus
+from blendvoca.synthetic.corpus import DEFAULT_AUDIO_DETERMINED, DEFAULT_CORPUS, generate_corpus
 
 
 def check_arguments(args) -> None:
@@ -30,6 +31,12 @@ def check_arguments(args) -> None:
     head_motion = getattr(args, "head_motion", 0.0)
     if not (math.isfinite(head_motion) and 0 <= head_motion <= 45):
         problems.append(f"--head-motion: expected 0 to 45 degrees, got {head_motion}")
+    f = getattr(args, "audio_determined", 1.0)
+    if not (math.isfinite(f) and 0 < f <= 1):
+        problems.append(f"--audio-determined: expected 0 < F <= 1, got {f}")
+    k = getattr(args, "oracle_samples", 0)
+    if not 0 <= k <= 1000:
+        problems.append(f"--oracle-samples: expected 0 to 1000, got {k}")
     out = Path(args.out).expanduser()
     if out.exists() and not out.is_dir():
         problems.append(f"--out {out} is a file; expected a new or empty folder")
@@ -54,6 +61,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--head-motion", nargs="?", type=float, const=3.0, default=0.0, metavar="DEG",
                         help="also write posed frames (registereddata/) with a smooth head motion of up to DEG "
                              "degrees per axis (default 3), recorded in the ground truth")
+    parser.add_argument("--audio-determined", type=float, default=DEFAULT_AUDIO_DETERMINED, metavar="F",
+                        help="share of the speech shapes' motion variance that the audio and the speaker id "
+                             f"determine, 0 < F <= 1 (default {DEFAULT_AUDIO_DETERMINED}; 1: no undetermined "
+                             "components, generator version 1's corpus)")
+    parser.add_argument("--oracle-samples", type=int, default=0, metavar="K",
+                        help="also write K conditional samples of every sentence's motion (oracle/), which the "
+                             "build fits for the oracle-sample and oracle-mean reference rows (default 0)")
     parser.add_argument("--overwrite", action="store_true", help="replace an existing synthetic corpus in --out")
     cli.add_quiet_option(parser)
     args = parser.parse_args(argv)
@@ -63,9 +77,27 @@ def main(argv: list[str] | None = None) -> int:
     out = generate_corpus(args.out, speakers=args.speakers, sentences=args.sentences, seed=args.seed,
                           layout=args.layout, duration=(args.min_duration, args.max_duration),
                           frame_faces=args.frame_faces, head_motion=args.head_motion or False,
-                          overwrite=args.overwrite, progress=not args.quiet)
+                          overwrite=args.overwrite, progress=not args.quiet,
+                          audio_determined=args.audio_determined, oracle_samples=args.oracle_samples)
     print(f"wrote {out} ({args.layout} layout, {args.speakers} x {args.sentences}) in {time.perf_counter() - start:.1f} s")
+    print(share_summary(out))
     return cli.EXIT_OK
+
+
+def share_summary(out) -> str:
+    """One line on the corpus's audio-determined share: declared, and measured when it has oracle samples."""
+    from blendvoca.io.json_file import read_json
+
+    meta = read_json(Path(out) / "synthetic.json", what="the synthetic-corpus sidecar")
+    declared = meta.get("audio_determined", {}).get("declared", 1.0)
+    oracle = meta.get("oracle_samples") or {}
+    measured = oracle.get("measured_signal_share")
+    if measured is None:
+        return (f"audio-determined share: declared F = {declared:g} (measured on the fitted coefficients by the "
+                "build of a corpus generated with --oracle-samples K)")
+    return (f"audio-determined share: declared F = {declared:g}; measured on the speech driving signals over the "
+            f"ground truth and {oracle['count']} oracle samples: {measured:.3f} (the build reports it on the "
+            "fitted coefficients)")
 
 
 if __name__ == "__main__":

@@ -6,10 +6,18 @@ the BlendVOCA build and the benchmark run on it exactly as on VOCASET. Every
 item is drawn from its own random stream (``default_rng([seed, kind, speaker,
 sentence])``), so the corpus is deterministic for a seed and a bigger corpus
 contains the smaller ones as a prefix.
+
+With ``audio_determined < 1`` the motion gains components that the audio and
+the speaker id do not determine (:mod:`blendvoca.synthetic.variation`, each on
+its own stream); with ``oracle_samples K`` the corpus also holds K conditional
+samples of every sentence's motion (``oracle/<subject>/<sentence>.npz``: fresh
+draws of everything the inputs do not fix, same plan and audio), as driving
+signals that :mod:`blendvoca.synthetic.oracle` turns into meshes.
 """
 
 from __future__ import annotations
 
+import functools
 import json
 import os
 import shutil
@@ -27,15 +35,32 @@ from blendvoca.synthetic.identity import speaker_neutral, speaker_profile
 from blendvoca.synthetic.motion import animate_face
 from blendvoca.synthetic.plan import sentence_plan
 from blendvoca.synthetic.regions import face_regions
-from blendvoca.synthetic.signals import FPS, SIGNAL_NAMES, motion_signals
+from blendvoca.synthetic.signals import FPS, SIGNAL_NAMES, VARIED_SIGNAL_NAMES, motion_signals
+from blendvoca.synthetic import variation as var
 from blendvoca.vocaset.splits import proportional_split
 from blendvoca.vocaset.write import OfficialWriter, ProcessedWriter, quantize_pcm16
 
-GENERATOR_VERSION = "1"
-DEFAULT_CORPUS = dict(speakers=6, sentences=4, seed=0, duration=(3.0, 5.0))
+#: The generator's version, written to ``synthetic.json``. A corpus made with
+#: ``audio_determined=1`` and no oracle samples is version 1's corpus bit for bit
+#: and says ``"1"``.
+GENERATOR_VERSION = "2"
+#: ``--audio-determined`` default: the share of lip-motion variance that speech
+#: acoustics predict in published audio-visual recordings (docs/synthetic.md).
+DEFAULT_AUDIO_DETERMINED = 0.7
+#: The bundled default corpus (``default_corpus``). It keeps ``audio_determined=1`` (version
+#: 1's corpus bit for bit) so that its build keeps the dataset hash the committed
+#: leaderboard's bundled-default section was scored on; it moves to the default share
+#: together with the board's regeneration.
+DEFAULT_CORPUS = dict(speakers=6, sentences=4, seed=0, duration=(3.0, 5.0), audio_determined=1.0)
 
-# Stream ids of the per-item random generators.
+# Stream ids of the per-item random generators (4 is blendvoca.synthetic.variation's).
 _SPEAKER, _SENTENCE, _LENGTH, _HEAD = 0, 1, 2, 3
+#: The oracle samples of a sentence, relative to the corpus root (``<subject>/<sentence>.npz``).
+ORACLE_DIR = "oracle"
+#: Posed frames of the processed layout (``--head-motion``): rows as ``data_verts.npy``'s.
+POSED_VERTS = "data_verts_posed.npy"
+#: The driving signals of the speech shapes (what the measured share is taken over).
+SPEECH_SIGNALS = ("jaw", "round", "closure", "labiodental", "smile", "corner_left", "corner_right", "press")
 
 #: Where the head turns, relative to the jaw hinge (metres): the top of the neck.
 _NECK_FROM_HINGE = np.array([0.0, -0.05, -0.02])
@@ -64,7 +89,7 @@ def sentence_lengths(speakers: int, sentences: int, seed: int, duration: tuple[f
 
 
 def synthesize_sentence(neutral, regions, profile, num_frames: int, rng: np.random.Generator, *,
-                        rate: int = 22000, max_lag_frames: int = 2) -> dict:
+                        rate: int = 22000, max_lag_frames: int = 2, variation=None, asymmetry: float = 0.0) -> dict:
     """One sentence of one speaker: audio, motion and the driving signals.
 
     Parameters
@@ -80,25 +105,58 @@ def synthesize_sentence(neutral, regions, profile, num_frames: int, rng: np.rand
         Audio sample rate.
     max_lag_frames : int
         The true lag is uniform in ``[-max_lag_frames, max_lag_frames]`` frames.
+    variation : callable, optional
+        ``variation(plan) -> SentenceVariation``: the undetermined components of
+        this draw (:mod:`blendvoca.synthetic.variation`). None: the old model.
+    asymmetry : float
+        The speaker's lip asymmetry (``animate_face``).
 
     Returns
     -------
     dict
         ``frames (T, V, 3)``, ``audio (N,) float32`` (exactly representable as
-        16-bit PCM), ``lag_frames``, ``plan``, ``signals`` (dict of (T,) arrays).
+        16-bit PCM), ``lag_frames``, ``plan``, ``signals`` (dict of (T,) arrays),
+        ``variation`` (None without one).
     """
     plan = sentence_plan(rng, num_frames / FPS, speaking_rate=profile["speaking_rate"])
     lag = int(rng.integers(-max_lag_frames, max_lag_frames + 1))
-    signals = motion_signals(plan, num_frames, rng, lag_frames=lag, profile=profile)
-    frames = animate_face(neutral, regions, signals)
+    drawn = None if variation is None else variation(plan)
+    signals = motion_signals(plan, num_frames, rng, lag_frames=lag, profile=profile, variation=drawn)
+    frames = animate_face(neutral, regions, signals) if drawn is None else \
+        animate_face(neutral, regions, signals, asymmetry=asymmetry)
     audio = speech_audio(plan, rng, rate=rate, f0=profile["f0"], formant_scale=profile["formant_scale"])
     audio = quantize_pcm16(audio).astype(np.float32) / np.float32(32768.0)
-    return {"frames": frames, "audio": audio, "lag_frames": lag, "plan": plan, "signals": signals}
+    return {"frames": frames, "audio": audio, "lag_frames": lag, "plan": plan, "signals": signals,
+            "variation": drawn}
+
+
+def oracle_draw(plan, num_frames: int, profile: dict, *, seed: int, speaker: int, sentence: int, sample: int,
+                style: dict | None, scale: float, max_lag_frames: int = 2) -> dict:
+    """One conditional sample of a sentence's motion signals: same plan (and audio), fresh draws of
+    everything the inputs do not fix, each from its component's stream (``sample`` >= 1).
+
+    Returns
+    -------
+    dict
+        ``lag_frames``, ``signals`` (dict of (T,) arrays), ``variation`` (None when ``style`` is None).
+    """
+    rng = var.component_rng(seed, "resample", speaker, sentence, sample)
+    lag = int(rng.integers(-max_lag_frames, max_lag_frames + 1))
+    drawn = None if style is None else var.sentence_variation(seed, speaker, sentence, sample, plan, num_frames,
+                                                               style, scale)
+    signals = motion_signals(plan, num_frames, rng, lag_frames=lag, profile=profile, variation=drawn)
+    return {"lag_frames": lag, "signals": signals, "variation": drawn}
+
+
+def _signal_names(item: dict) -> tuple[str, ...]:
+    return SIGNAL_NAMES if item["variation"] is None else VARIED_SIGNAL_NAMES
 
 
 def _groundtruth_arrays(item: dict) -> dict[str, np.ndarray]:
     plan = item["plan"]
-    arrays = {k: np.asarray(item["signals"][k], dtype=np.float64) for k in (*SIGNAL_NAMES, "envelope")}
+    arrays = {k: np.asarray(item["signals"][k], dtype=np.float64) for k in (*_signal_names(item), "envelope")}
+    if item["variation"] is not None:
+        arrays.update(item["variation"].arrays)
     arrays.update(
         lag_frames=np.int64(item["lag_frames"]),
         fps=np.int64(FPS),
@@ -111,9 +169,70 @@ def _groundtruth_arrays(item: dict) -> dict[str, np.ndarray]:
     return arrays
 
 
+def _truth_variation(seed, speaker, sentence, plan, *, num_frames, style, scale):
+    return var.sentence_variation(seed, speaker, sentence, var.TRUTH, plan, num_frames, style, scale)
+
+
+class _PosedRows:
+    """``data_verts_posed.npy``: the processed layout's posed frames, in ``data_verts.npy``'s row order."""
+
+    def __init__(self, root: Path, total_frames: int, num_vertices: int):
+        self._verts = np.lib.format.open_memmap(root / POSED_VERTS, mode="w+", dtype=np.float32,
+                                                shape=(int(total_frames), num_vertices, 3))
+        self._cursor = 0
+
+    def add(self, frames: np.ndarray) -> None:
+        self._verts[self._cursor:self._cursor + len(frames)] = frames
+        self._cursor += len(frames)
+
+    def finish(self) -> None:
+        self._verts.flush()
+        del self._verts
+
+
+def _stack_draws(draws: list[dict], names: tuple[str, ...], head: list | None) -> dict[str, np.ndarray]:
+    """The oracle samples of one sentence as arrays with a leading sample axis (gestures: a sample column)."""
+    arrays = {k: np.stack([np.asarray(d["signals"][k], dtype=np.float64) for d in draws]) for k in names}
+    arrays["lag_frames"] = np.array([d["lag_frames"] for d in draws], dtype=np.int64)
+    if draws and draws[0]["variation"] is not None:
+        for key in draws[0]["variation"].arrays:
+            if key == "pause_gestures":
+                rows = [np.column_stack([np.full(len(d["variation"].gestures), k, dtype=np.float64),
+                                         d["variation"].gestures]) for k, d in enumerate(draws)]
+                arrays[key] = np.concatenate(rows).reshape(-1, 5)
+            else:
+                arrays[key] = np.stack([np.asarray(d["variation"].arrays[key], dtype=np.float64) for d in draws])
+    if head:
+        arrays["head_rotations"] = np.stack([r for r, _ in head])
+        arrays["head_translations"] = np.stack([t for _, t in head])
+    return arrays
+
+
+class _ShareMeter:
+    """The share of a speaker's speech-signal variance that the conditional mean explains, from the
+    ground truth and the oracle samples of every sentence: 1 - pooled within-sentence variance /
+    pooled within-speaker variance (as the build measures it on the fitted coefficients)."""
+
+    def __init__(self):
+        self.within, self.truth = 0.0, {}
+
+    def add(self, speaker: int, truth: dict, draws: list[dict]) -> None:
+        names = [k for k in SPEECH_SIGNALS if k in truth]
+        stack = np.stack([np.stack([truth[k] for k in names], axis=1)]
+                         + [np.stack([d["signals"][k] for k in names], axis=1) for d in draws])
+        self.within += float(stack.var(axis=0, ddof=1).sum())
+        self.truth.setdefault(speaker, []).append(stack[0])
+
+    def share(self) -> float | None:
+        per_speaker = [np.concatenate(tracks) for tracks in self.truth.values()]
+        total = sum(float(((y - y.mean(axis=0)) ** 2).sum()) for y in per_speaker)
+        return 1.0 - self.within / total if total > 0 else None
+
+
 def _write_corpus(out: Path, *, speakers: int, sentences: int, seed: int, layout: str,
                   duration: tuple[float, float], rate: int, max_lag_frames: int, frame_faces: bool,
-                  head_motion: float, progress: bool) -> None:
+                  head_motion: float, progress: bool, audio_determined: float = 1.0,
+                  oracle_samples: int = 0, scale: float | None = None) -> dict:
     from tqdm.auto import tqdm
 
     from blendvoca.assets import load_index_list, resolve
@@ -122,19 +241,22 @@ def _write_corpus(out: Path, *, speakers: int, sentences: int, seed: int, layout
     template, faces = read_ply(resolve("flame-sample"))
     landmarks = load_index_list("flame-landmarks")
     lengths = sentence_lengths(speakers, sentences, seed, duration)
+    varied = audio_determined < 1.0 or scale is not None
+    if scale is None:
+        scale = var.undetermined_scale(audio_determined) if varied else 0.0
+    posed = None
     if layout == "official":
         writer = OfficialWriter(out, frame_faces=frame_faces, num_vertices=len(template))
     elif layout == "processed":
         writer = ProcessedWriter(out, int(lengths.sum()), num_vertices=len(template))
+        if head_motion:
+            posed = _PosedRows(out, int(lengths.sum()), len(template))
     else:
         raise UserError(f"generate_corpus: layout must be 'official' or 'processed', got {layout!r}")
-    if head_motion and layout != "official":
-        raise UserError("generate_corpus: head motion is written as VOCASET's posed data (registereddata/), "
-                         f"which only the official layout has; got layout {layout!r}")
     names = [speaker_name(i) for i in range(speakers)]
     meta = {
         "generator": "blendvoca.synthetic",
-        "version": GENERATOR_VERSION,
+        "version": GENERATOR_VERSION if varied or oracle_samples else "1",
         "seed": seed,
         "layout": layout,
         "fps": FPS,
@@ -146,45 +268,89 @@ def _write_corpus(out: Path, *, speakers: int, sentences: int, seed: int, layout
         "splits": proportional_split(names),
         "subjects": {},
     }
+    if varied:
+        meta["audio_determined"] = var.settings(audio_determined, scale)
+    if oracle_samples:
+        meta["oracle_samples"] = {
+            "count": oracle_samples,
+            "files": f"{ORACLE_DIR}/<subject>/<sentence>.npz",
+            "what": "conditional samples of the motion given the audio and the speaker: the same plan and audio, "
+                    "fresh draws of the lag, the articulatory jitter, blinks, brows and every undetermined "
+                    "component (sample k uses spawn key sample = k + 1); arrays with a leading sample axis "
+                    "(pause_gestures: a leading sample column); meshes: blendvoca.synthetic.oracle",
+        }
     if head_motion:
+        where = ("registereddata/<subject>/<sentence>/<sentence>.NNNNNN.ply" if layout == "official" else
+                 f"{POSED_VERTS} (rows as data_verts.npy, indexed by subj_seq_to_idx.pkl)")
         meta["head_motion"] = {"max_angle_deg": head_motion, "max_translation_m": 0.003,
-                               "posed_frames": "registereddata/<subject>/<sentence>/<sentence>.NNNNNN.ply",
+                               "posed_frames": where,
                                "convention": "posed = unposed @ head_rotations[t].T + head_translations[t] "
                                              "(groundtruth npz, metres)"}
+    meter = _ShareMeter() if oracle_samples else None
     bar = tqdm(total=speakers * sentences, desc="synthetic VOCASET", unit="sentence", disable=not progress)
     for i, subject in enumerate(names):
         rng = np.random.default_rng([seed, _SPEAKER, i])
         neutral = speaker_neutral(template, rng)
         profile = speaker_profile(rng)
         regions = face_regions(neutral, faces, landmarks)
+        style = var.speaker_style(seed, i) if varied else None
         writer.add_template(subject, neutral, faces)
         items = {}
         for j in range(sentences):
             sentence = sentence_name(j)
-            item = synthesize_sentence(neutral, regions, profile, int(lengths[i, j]),
+            num_frames = int(lengths[i, j])
+            # the ground truth's undetermined components: a function of the plan drawn inside
+            drawn = functools.partial(_truth_variation, seed, i, j, num_frames=num_frames, style=style,
+                                      scale=scale) if varied else None
+            item = synthesize_sentence(neutral, regions, profile, num_frames,
                                        np.random.default_rng([seed, _SENTENCE, i, j]),
-                                       rate=rate, max_lag_frames=max_lag_frames)
+                                       rate=rate, max_lag_frames=max_lag_frames, variation=drawn,
+                                       asymmetry=style["asymmetry"] if varied else 0.0)
             writer.add_sentence(subject, sentence, item["frames"], item["audio"], rate)
             arrays = _groundtruth_arrays(item)
+            pivot = regions.hinge + _NECK_FROM_HINGE
             if head_motion:
                 rotations, translations = draw_head_motion(
-                    int(lengths[i, j]), regions.hinge + _NECK_FROM_HINGE,
-                    np.random.default_rng([seed, _HEAD, i, j]), max_angle_deg=head_motion)
-                writer.add_posed_sentence(subject, sentence, apply_pose(item["frames"], rotations, translations))
+                    num_frames, pivot, np.random.default_rng([seed, _HEAD, i, j]), max_angle_deg=head_motion)
+                posed_frames = apply_pose(item["frames"], rotations, translations)
+                if posed is None:
+                    writer.add_posed_sentence(subject, sentence, posed_frames)
+                else:
+                    posed.add(posed_frames)
                 arrays.update(head_rotations=rotations, head_translations=translations)
             write_npz(out / "groundtruth" / subject / f"{sentence}.npz", arrays)
+            if oracle_samples:
+                draws = [oracle_draw(item["plan"], num_frames, profile, seed=seed, speaker=i, sentence=j,
+                                     sample=k + 1, style=style, scale=scale, max_lag_frames=max_lag_frames)
+                         for k in range(oracle_samples)]
+                head = [draw_head_motion(num_frames, pivot, var.component_rng(seed, "head", i, j, k + 1),
+                                         max_angle_deg=head_motion) for k in range(oracle_samples)] \
+                    if head_motion else None
+                write_npz(out / ORACLE_DIR / subject / f"{sentence}.npz",
+                          _stack_draws(draws, _signal_names(item), head))
+                meter.add(i, item["signals"], draws)
             items[sentence] = {
-                "num_frames": int(lengths[i, j]),
-                "duration": int(lengths[i, j]) / FPS,
+                "num_frames": num_frames,
+                "duration": num_frames / FPS,
                 "lag_frames": item["lag_frames"],
                 "lag_seconds": item["lag_frames"] / FPS,
                 "num_syllables": item["plan"].num_syllables,
             }
             bar.update()
         meta["subjects"][subject] = {"profile": profile, "sentences": items}
+        if varied:
+            meta["subjects"][subject]["style"] = style
     bar.close()
     writer.finish()
+    if posed is not None:
+        posed.finish()
+    summary = {"audio_determined": audio_determined, "scale": scale, "measured_signal_share": None}
+    if meter is not None:
+        summary["measured_signal_share"] = meter.share()
+        meta["oracle_samples"]["measured_signal_share"] = summary["measured_signal_share"]
+        meta["oracle_samples"]["measured_over"] = list(SPEECH_SIGNALS)
     (out / "synthetic.json").write_text(json.dumps(meta, indent=1, sort_keys=True) + "\n", encoding="utf-8")
+    return summary
 
 
 def generate_corpus(
@@ -201,6 +367,9 @@ def generate_corpus(
     head_motion: bool | float = False,
     overwrite: bool = False,
     progress: bool = True,
+    audio_determined: float = DEFAULT_AUDIO_DETERMINED,
+    oracle_samples: int = 0,
+    _scale: float | None = None,
 ) -> Path:
     """Generate a synthetic VOCASET corpus in ``out``.
 
@@ -228,15 +397,29 @@ def generate_corpus(
     frame_faces : bool
         Official layout: store triangles in every frame PLY (3x the size).
     head_motion : bool or float
-        Also write the frames with a smooth rigid head motion under
-        ``registereddata/`` (VOCASET's posed data; official layout only), the
-        pose in the ground truth (``head_rotations (T, 3, 3)``,
+        Also write the frames with a smooth rigid head motion: under
+        ``registereddata/`` (VOCASET's posed data) in the official layout, in
+        ``data_verts_posed.npy`` (rows as ``data_verts.npy``'s) in the processed
+        one; the pose in the ground truth (``head_rotations (T, 3, 3)``,
         ``head_translations (T, 3)``). True: peaks up to 3 degrees and 3 mm per
         axis; a number: that many degrees. The unposed frames are unchanged.
     overwrite : bool
         Replace an existing ``out``.
     progress : bool
         Show a tqdm progress bar.
+    audio_determined : float
+        F in (0, 1]: the share of the speech shapes' coefficient variance that
+        the audio and the speaker id determine (default 0.7, docs/synthetic.md).
+        Below 1 the motion gets speaker styles, intensity drift, gesture onset
+        jitter and pause gestures (:mod:`blendvoca.synthetic.variation`); 1 is
+        the corpus without them (generator version 1's, bit for bit).
+    oracle_samples : int
+        K >= 0 conditional samples of every sentence's motion, written as
+        driving signals to ``oracle/<subject>/<sentence>.npz``
+        (:mod:`blendvoca.synthetic.oracle` renders them; the build fits them).
+    _scale : float, optional
+        Calibration only (:mod:`blendvoca.synthetic.calibrate`): the components'
+        scale itself instead of the one ``audio_determined`` maps to.
 
     Returns
     -------
@@ -249,6 +432,15 @@ def generate_corpus(
         raise UserError(f"generate_corpus: speakers must be an integer >= 3 (train/val/test), got {speakers!r}")
     if not isinstance(sentences, (int, np.integer)) or not 1 <= sentences <= 99:
         raise UserError(f"generate_corpus: sentences must be an integer in [1, 99], got {sentences!r}")
+    if isinstance(oracle_samples, bool) or not isinstance(oracle_samples, (int, np.integer)) \
+            or not 0 <= oracle_samples <= 1000:
+        raise UserError(f"generate_corpus: oracle_samples must be an integer in [0, 1000], got {oracle_samples!r}")
+    if isinstance(audio_determined, bool) or not isinstance(audio_determined, (int, float, np.integer, np.floating)):
+        raise UserError(f"generate_corpus: audio_determined must be a number in (0, 1], got {audio_determined!r}")
+    if float(audio_determined) < 1.0:
+        var.undetermined_scale(audio_determined)  # refuses an F it cannot make, before anything is written
+    elif float(audio_determined) != 1.0:
+        raise UserError(f"audio_determined: expected 0 < F <= 1, got {audio_determined!r}")
     if out.exists() and any(out.iterdir()) and not overwrite:
         raise FileExistsError(f"generate_corpus: {out} exists and is not empty; pass overwrite=True (--overwrite)")
     out.parent.mkdir(parents=True, exist_ok=True)
@@ -257,7 +449,9 @@ def generate_corpus(
         _write_corpus(tmp, speakers=int(speakers), sentences=int(sentences), seed=int(seed), layout=layout,
                       duration=(float(duration[0]), float(duration[1])), rate=int(rate),
                       max_lag_frames=int(max_lag_frames), frame_faces=frame_faces,
-                      head_motion=_head_motion_degrees(head_motion), progress=progress)
+                      head_motion=_head_motion_degrees(head_motion), progress=progress,
+                      audio_determined=float(audio_determined), oracle_samples=int(oracle_samples),
+                      scale=None if _scale is None else float(_scale))
         os.chmod(tmp, permissions_for(out, directory=True))
         if out.exists():
             shutil.rmtree(out)
@@ -291,13 +485,15 @@ def default_corpus(cache_dir=None, *, progress: bool = True) -> Path:
     Returns
     -------
     Path
-        ``<cache>/synthetic-default-v<GENERATOR_VERSION>``; reused when present.
+        ``<cache>/synthetic-default-v<version>`` (``v1`` while the default keeps
+        ``audio_determined=1``); reused when present.
     """
     if cache_dir is None:
         from blendvoca.assets import cache_dir as user_cache
 
         cache_dir = user_cache()
-    root = Path(cache_dir).expanduser() / f"synthetic-default-v{GENERATOR_VERSION}"
+    version = GENERATOR_VERSION if DEFAULT_CORPUS.get("audio_determined", 1.0) < 1.0 else "1"
+    root = Path(cache_dir).expanduser() / f"synthetic-default-v{version}"
     if (root / "synthetic.json").is_file():
         return root
     try:

@@ -12,7 +12,11 @@ synthetic motion leaves a realistic, non-zero residual:
   lower lip to the upper teeth;
 - rounding protrudes and narrows the lips, spreading widens them (two
   different fields for the two signs of one signal);
-- blinks lower the upper eyelids by the measured lid gap, brows rise.
+- blinks lower the upper eyelids by the measured lid gap, brows rise;
+- (corpora with undetermined components) a smile widens the mouth and lifts
+  and pulls back its corners, a corner pull does it on one side, a lip press
+  squeezes the closed lips, and a speaker's asymmetry makes one side of the
+  lips move more than the other.
 """
 
 from __future__ import annotations
@@ -53,6 +57,10 @@ def animate_face(
     press: float = 0.0012,
     labiodental_lift: float = 0.003,
     brow_lift: float = 0.004,
+    asymmetry: float = 0.0,
+    smile_width: float = 0.12,
+    corner_lift: float = 0.003,
+    corner_pull: float = 0.004,
 ) -> np.ndarray:
     """Vertex animation ``(T, V, 3) float64`` of one sentence.
 
@@ -72,6 +80,14 @@ def animate_face(
         Displacements in metres at full signal.
     narrowing, spreading : float
         Relative change of the mouth width at full rounding / spreading.
+    asymmetry : float
+        A speaker's left/right asymmetry: the lip fields are scaled by
+        ``1 + asymmetry * side`` (side -1 .. 1 across the mouth).
+    smile_width, corner_lift, corner_pull : float
+        A full smile widens the mouth by ``smile_width`` (relative) and lifts the
+        corners by ``corner_lift`` (m); a full corner pull moves one corner
+        ``corner_pull`` outwards (m). Only used with the optional signals
+        ``smile``, ``corner_left`` (+x side), ``corner_right`` and ``press``.
     """
     V = np.asarray(neutral, dtype=np.float64)
     missing = [k for k in ("jaw", "round", "closure", "labiodental", "blink", "brow") if k not in signals]
@@ -110,7 +126,12 @@ def animate_face(
     fields[5, :, 2] = 0.1 * brow_lift * regions.brows
     drive = np.stack([r_plus, r_minus, closure, labio, np.asarray(signals["blink"], dtype=np.float64),
                       np.asarray(signals["brow"], dtype=np.float64)], axis=1)
-    out = (drive @ fields.reshape(6, -1)).reshape(T, n, 3)
+    extra = [k for k in ("smile", "corner_left", "corner_right", "press") if k in signals]
+    if extra or asymmetry:
+        fields, drive = _gesture_fields(fields, drive, signals, extra, regions, rel, upper, lower, T,
+                                        asymmetry=asymmetry, press=press, smile_width=smile_width,
+                                        corner_lift=corner_lift, corner_pull=corner_pull)
+    out = (drive @ fields.reshape(len(fields), -1)).reshape(T, n, 3)
     out += V[None]
 
     # Jaw (non-linear): only the vertices it reaches. The lips resist the opening
@@ -120,3 +141,35 @@ def animate_face(
     weight = wj[None, idx] * (1.0 - hold)
     out[:, idx] += weight[:, :, None] * jaw_rotation_offsets(V[idx], regions.hinge, jaw * max_jaw_angle)
     return out
+
+
+def _gesture_fields(fields, drive, signals, extra, regions, rel, upper, lower, T, *, asymmetry, press,
+                    smile_width, corner_lift, corner_pull):
+    """The fields and drive of `animate_face` with a speaker's asymmetry and the gesture signals added."""
+    lips = regions.lips
+    side = np.clip(rel[:, 0] / (0.5 * regions.mouth_width), -1.0, 1.0)
+    if asymmetry:
+        fields = fields.copy()
+        fields[:2] *= (1.0 + asymmetry * side)[None, :, None]
+    corner = np.abs(side) ** 2 * lips
+    added, columns = [], []
+    for name in extra:
+        field = np.zeros((len(rel), 3))
+        if name == "smile":
+            field[:, 0] = smile_width * rel[:, 0] * lips * (1.0 + asymmetry * side)
+            field[:, 1] = corner_lift * corner * (1.0 + asymmetry * side)
+            field[:, 2] = -0.6 * corner_lift * corner
+        elif name in ("corner_left", "corner_right"):
+            one_side = np.clip(side if name == "corner_left" else -side, 0.0, 1.0) ** 2 * lips
+            field[:, 0] = np.sign(side) * corner_pull * one_side
+            field[:, 1] = 0.4 * corner_pull * one_side
+            field[:, 2] = -0.5 * corner_pull * one_side
+        else:  # press: the closed lips squeezed together and rolled in, the chin boss raised
+            field[:, 1] = 1.5 * press * (lower - upper) + 0.6 * press * lower
+            field[:, 2] = -0.8 * press * lips
+        added.append(field)
+        columns.append(np.asarray(signals[name], dtype=np.float64).reshape(T))
+    if added:
+        fields = np.concatenate([fields, np.stack(added)])
+        drive = np.concatenate([drive, np.stack(columns, axis=1)], axis=1)
+    return fields, drive

@@ -18,6 +18,8 @@ from blendvoca.synthetic.tracks import articulation_tracks
 FPS = 60
 
 SIGNAL_NAMES = ("jaw", "round", "closure", "labiodental", "blink", "brow")
+#: The signals of a corpus with undetermined components (``--audio-determined F < 1``).
+VARIED_SIGNAL_NAMES = (*SIGNAL_NAMES, "smile", "corner_left", "corner_right", "press")
 
 
 def blink_signal(num_frames: int, rng: np.random.Generator, *, rate: float = 0.3, fps: int = FPS) -> np.ndarray:
@@ -43,6 +45,7 @@ def motion_signals(
     profile: dict | None = None,
     fps: int = FPS,
     jitter: float = 0.03,
+    variation=None,
 ) -> dict[str, np.ndarray]:
     """Per-frame driving signals of one sentence.
 
@@ -60,6 +63,12 @@ def motion_signals(
     fps : int
     jitter : float
         Standard deviation of the smooth articulatory noise, relative.
+    variation : blendvoca.synthetic.variation.SentenceVariation, optional
+        The undetermined components of this draw: the articulation follows its
+        onset-jittered plan with the speaker's viseme offsets, scaled by its
+        intensity, from the speaker's rest posture, and its pause gestures are
+        added as signals. ``rng`` is drawn from exactly as without it (the
+        audio drawn after the signals is the same). None: the old model.
 
     Returns
     -------
@@ -67,7 +76,8 @@ def motion_signals(
         ``jaw`` [0, 1.3], ``round`` [-1, 1], ``closure`` [0, 1],
         ``labiodental`` [0, 1], ``blink`` [0, 1], ``brow`` [0, 1] on the motion
         timeline, and ``envelope`` (the syllable envelope on the *audio*
-        timeline, for lag measurements).
+        timeline, for lag measurements); with ``variation`` also ``smile``,
+        ``corner_left``, ``corner_right`` and ``press`` in [0, 1].
     """
     if num_frames < 1:
         raise ValueError(f"motion_signals: num_frames must be >= 1, got {num_frames}")
@@ -75,18 +85,28 @@ def motion_signals(
     p.update(profile or {})
     frame_times = np.arange(num_frames, dtype=np.float64) / fps
     audio_timeline = articulation_tracks(plan, frame_times)
-    motion = articulation_tracks(plan, frame_times - lag_frames / fps)
+    if variation is None:
+        motion = articulation_tracks(plan, frame_times - lag_frames / fps)
+    else:
+        motion = articulation_tracks(variation.motion_plan, frame_times - lag_frames / fps,
+                                     offsets=variation.offsets)
 
     def smooth_noise(sigma_frames: float) -> np.ndarray:
         n = gaussian_filter1d(rng.standard_normal(num_frames + 40), sigma_frames, mode="wrap")[20:-20]
         return n / (n.std() + 1e-12)
 
-    jaw = motion["jaw"] * p["jaw_gain"] * (1.0 + jitter * smooth_noise(6.0))
-    rnd = np.clip(motion["round"] * p["round_gain"] + jitter * smooth_noise(8.0), -1.0, 1.0)
+    if variation is None:
+        jaw = motion["jaw"] * p["jaw_gain"] * (1.0 + jitter * smooth_noise(6.0))
+        rnd = np.clip(motion["round"] * p["round_gain"] + jitter * smooth_noise(8.0), -1.0, 1.0)
+    else:  # same draws, in the same order
+        rest = variation.rest
+        jaw = rest["jaw"] + motion["jaw"] * variation.gain * p["jaw_gain"] * (1.0 + jitter * smooth_noise(6.0))
+        rnd = np.clip(rest["round"] + motion["round"] * variation.gain * p["round_gain"]
+                      + jitter * smooth_noise(8.0), -1.0, 1.0)
     # Brows rise with loud (stressed) stretches of speech, slowly, plus a drift.
     brow = gaussian_filter1d(motion["envelope"], 0.25 * fps, mode="nearest")
     brow = np.clip(p["brow_gain"] * (brow / (brow.max() + 1e-12)) * 0.6 + 0.15 * smooth_noise(30.0), 0.0, 1.0)
-    return {
+    out = {
         "jaw": np.clip(jaw, 0.0, 1.3),
         "round": rnd,
         "closure": np.clip(motion["closure"], 0.0, 1.0),
@@ -95,3 +115,10 @@ def motion_signals(
         "brow": brow,
         "envelope": audio_timeline["envelope"],
     }
+    if variation is not None:
+        from blendvoca.synthetic.variation import gesture_signals
+
+        gestures = gesture_signals(variation.gestures, num_frames, lag_frames, fps=fps)
+        gestures["smile"] = np.clip(gestures["smile"] + variation.rest["smile"], 0.0, 1.0)
+        out.update(gestures)
+    return out

@@ -138,8 +138,22 @@ def formant_track(plan: SentencePlan, times: np.ndarray, *, scale: float = 1.0, 
 
 
 def articulation_tracks(plan: SentencePlan, times: np.ndarray, *, smoothing: float = 0.030,
-                        control_rate: int = CONTROL_RATE) -> dict[str, np.ndarray]:
+                        control_rate: int = CONTROL_RATE, offsets: dict | None = None) -> dict[str, np.ndarray]:
     """Articulatory targets of the plan, each ``(N,) float64``, on the audio timeline.
+
+    Parameters
+    ----------
+    plan : SentencePlan
+    times : (N,) ndarray
+        Seconds.
+    smoothing : float
+        Gaussian smoothing of the targets (seconds).
+    control_rate : int
+    offsets : dict, optional
+        A speaker's own viseme targets (``blendvoca.synthetic.variation``): phone
+        class -> ``(jaw, round)`` added to the inventory's targets; classes are the
+        vowels (``"a"``, ``"e"``, ...) and the consonants' places
+        (``"bilabial"``, ...). None: the inventory's targets exactly.
 
     Returns
     -------
@@ -162,13 +176,22 @@ def articulation_tracks(plan: SentencePlan, times: np.ndarray, *, smoothing: flo
         mask = seg == i
         if p in VOWELS:
             _, _, _, openness, rounding, _ = VOWELS[p]
+            if offsets is not None:
+                openness, rounding = openness + offsets[p][0], rounding + offsets[p][1]
             jaw[mask] = openness * min(plan.stress[i], 1.3) * (0.7 + 0.3 * np.sin(np.pi * tau[mask]))
             rnd[mask] = rounding
         elif p in CONSONANTS:
             c = CONSONANTS[p]
-            jaw[mask] = c["jaw"]
-            # Lips anticipate the syllable's vowel unless the consonant sets them itself.
-            rnd[mask] = c["round"] if c["round"] != 0.0 else 0.6 * VOWELS[nearest_vowel[i]][4]
+            if offsets is None:
+                jaw[mask] = c["jaw"]
+                # Lips anticipate the syllable's vowel unless the consonant sets them itself.
+                rnd[mask] = c["round"] if c["round"] != 0.0 else 0.6 * VOWELS[nearest_vowel[i]][4]
+            else:
+                d_jaw, d_round = offsets[c["place"]]
+                vowel = nearest_vowel[i]
+                jaw[mask] = max(c["jaw"] + d_jaw, 0.0)
+                rnd[mask] = d_round + (c["round"] if c["round"] != 0.0
+                                       else 0.6 * (VOWELS[vowel][4] + offsets[vowel][1]))
             if c["place"] == "bilabial":
                 closure[mask] = 1.0
             elif c["place"] == "labiodental":

@@ -140,7 +140,13 @@ def test_fit_on_posed_frames_matches_fit_on_unposed(posed_corpus, built_dataset)
     assert poses[0].summary() == fitted.pose.summary()
 
 
-def test_head_motion_needs_the_official_layout(tmp_path, assets_dir):
-    with pytest.raises(ValueError, match="registereddata"):
-        generate_corpus(tmp_path / "p", speakers=3, sentences=1, layout="processed", head_motion=True,
-                        progress=False)
+def test_head_motion_in_the_processed_layout_goes_beside_data_verts(tmp_path, assets_dir):
+    root = generate_corpus(tmp_path / "p", speakers=3, sentences=1, layout="processed", head_motion=True,
+                           duration=(1.0, 1.0), progress=False)
+    posed = np.load(root / "data_verts_posed.npy", mmap_mode="r")
+    assert posed.shape == np.load(root / "data_verts.npy", mmap_mode="r").shape
+    corpus = open_vocaset(root)
+    truth = read_npz(root / "groundtruth" / "Synth_001_TA" / "sentence01.npz")
+    rows = corpus.frame_rows("Synth_001_TA", "sentence01")
+    np.testing.assert_allclose(posed[rows], apply_pose(corpus.frames("Synth_001_TA", "sentence01"),
+                                                       truth["head_rotations"], truth["head_translations"]), atol=2e-7)
