@@ -2,6 +2,7 @@
 truth next to the method's track, to MP4 with the audio and a waveform strip.
 
 ``python -m benchmark.render (--coeffs CSV --rig RIG | --meshes SEQ | --run JSON ...) --out MP4``.
+Frames are streamed to the encoder as they are drawn: memory does not grow with the clip.
 """
 
 from __future__ import annotations
@@ -28,8 +29,11 @@ def _load_rig(path):
     return Rig.load(path) if path.suffix == ".npz" else Rig.load_said_folder(path)
 
 
-def _track_vertices(csv_path, rig, where: str):
-    """Vertices of a coefficient CSV through ``rig``; rig shapes the CSV lacks are 0 (noted)."""
+def _track_source(csv_path, rig, where: str):
+    """A frame source of a coefficient CSV through ``rig`` (evaluated a window of frames at a
+    time); rig shapes the CSV lacks are 0 (noted)."""
+    from benchmark.render.sources import RigSource
+
     from blendvoca.io.coeffs import missing_columns, read_coeffs_csv
 
     coeffs, _ = read_coeffs_csv(csv_path, names=rig.names, missing="zero")
@@ -42,7 +46,7 @@ def _track_vertices(csv_path, rig, where: str):
     if absent:
         print(f"note: {where}: the rig has {len(rig.names)} shapes, the track lacks {len(absent)}; "
               f"they are 0: {', '.join(absent)}", file=sys.stderr)
-    return rig.evaluate(coeffs)
+    return RigSource(coeffs, rig)
 
 
 def _mesh_faces(faces, num_vertices: int, faces_path, where: str):
@@ -76,7 +80,10 @@ def _mesh_faces(faces, num_vertices: int, faces_path, where: str):
 
 
 def _mesh_sequence(path, faces_path):
-    from blendvoca.io.mesh import read_mesh, read_ply_sequence
+    """A frame source of a mesh sequence (a folder read a window of files at a time, a .npy
+    memory-mapped) and the faces to draw it with."""
+    from benchmark.render.sources import ArraySource, FileSource, check_finite_chunks
+    from blendvoca.io.mesh import read_mesh
 
     path = Path(path)
     if path.is_dir():
@@ -84,32 +91,24 @@ def _mesh_sequence(path, faces_path):
         if not files:
             raise UserError(f"{path} holds no .ply/.obj frames")
         first_v, first_f = read_mesh(files[0])
-        if all(p.suffix.lower() == ".ply" for p in files):
-            vertices = read_ply_sequence(files, num_vertices=len(first_v))
-        else:
-            frames = [read_mesh(p)[0] for p in files]
-            for p, v in zip(files, frames):
-                if v.shape != first_v.shape:
-                    raise DataError(f"{p}: {len(v)} vertices, the first frame {files[0].name} has {len(first_v)}; "
-                                    "the frames of a sequence share one topology")
-            vertices = np.stack(frames)
-        return vertices, _mesh_faces(first_f, vertices.shape[1], faces_path, str(path))
+        source = FileSource(files, len(first_v))
+        return source, _mesh_faces(first_f, len(first_v), faces_path, str(path))
     if not path.is_file():
         raise UserError(f"mesh sequence not found: {path}")
     if path.suffix != ".npy":
         raise UserError(f"{path}: expected a .npy (T, V, 3) array or a folder of .ply/.obj frames")
     try:
-        vertices = np.load(path, allow_pickle=False)
-    except (ValueError, EOFError) as error:  # not a .npy file, truncated, pickled objects
+        vertices = np.load(path, allow_pickle=False, mmap_mode="r")
+    except (ValueError, EOFError, OSError) as error:  # not a .npy file, truncated, pickled objects
         raise DataError(f"{path}: not a readable .npy array ({error})") from None
     if vertices.ndim != 3 or vertices.shape[2] != 3 or not np.issubdtype(vertices.dtype, np.number):
         raise DataError(f"{path}: expected a numeric array (T, V, 3), got {vertices.dtype} of shape {vertices.shape}")
-    if not np.all(np.isfinite(vertices)):
-        raise DataError(f"{path}: NaN or infinite coordinates (first in frame "
-                        f"{int(np.argwhere(~np.isfinite(vertices))[0][0])})")
+    if len(vertices) == 0:
+        raise DataError(f"{path}: the sequence has no frames")
+    check_finite_chunks(vertices, str(path))
     if not faces_path:
         raise UserError("a .npy sequence needs --faces MESH")
-    return vertices, _mesh_faces(None, vertices.shape[1], faces_path, str(path))
+    return ArraySource(vertices, path), _mesh_faces(None, vertices.shape[1], faces_path, str(path))
 
 
 @cli.command
@@ -134,7 +133,11 @@ def main(argv: Sequence[str] | None = None) -> int:
                         help="face: brows to chin (default); head: the whole mesh")
     parser.add_argument("--side", action="store_true", help="add a profile view next to the front view")
     parser.add_argument("--no-waveform", action="store_true", help="no waveform strip under the views")
-    parser.add_argument("--backend", default="auto", choices=("auto", "pyrender", "software"))
+    parser.add_argument("--backend", default="auto", choices=("auto", "pyrender", "software"),
+                        help="auto: pyrender on a GPU's EGL, else the numpy rasteriser (default)")
+    parser.add_argument("--jobs", type=int, default=None,
+                        help="processes drawing frames with the numpy rasteriser (default: the CPUs but one, at "
+                             "most 8, for a render of more than a few frames; 1 draws in this process)")
     args = parser.parse_args(argv)
     return _render(args)
 
@@ -144,15 +147,17 @@ VIDEO_SUFFIXES = (".mp4",)
 
 
 def _render(args) -> int:
-    from benchmark.render import check_visible, face_camera, front_camera, render_sequence, resample_frames, write_video
-    from benchmark.render.compose import label, side_by_side, waveform_strip
-    from benchmark.render.video import match_audio_length
+    from benchmark.render import face_camera, front_camera
+    from benchmark.render.sources import resampled
+    from benchmark.render.stream import Panel, render_video
 
     if Path(args.out).suffix.lower() not in VIDEO_SUFFIXES:
         raise UserError(f"--out {args.out}: unsupported file type {Path(args.out).suffix or '(none)'!r}; "
                         f"supported: {', '.join(VIDEO_SUFFIXES)} (H.264 video with AAC audio)")
     if args.size < 16:
         raise UserError(f"--size must be at least 16 pixels, got {args.size}")
+    if args.jobs is not None and args.jobs < 1:
+        raise UserError(f"--jobs must be at least 1, got {args.jobs}")
     for flag, rate in (("--fps", args.fps), ("--out-fps", args.out_fps)):
         if rate is not None and not (np.isfinite(rate) and rate > 0):
             raise UserError(f"{flag} must be a positive number of frames per second, got {rate}")
@@ -165,52 +170,39 @@ def _render(args) -> int:
         files = locate_sentence(args.run, args.subject, args.sentence, args.sample)
         rig = _load_rig(files.rig)
         where = f"{args.subject}/{args.sentence}"
-        panels = [("ground truth", _track_vertices(files.ground_truth, rig, f"{where} ground truth")),
-                  (f"{files.method} (sample {args.sample})", _track_vertices(files.generated, rig, f"{where} {files.method}"))]
+        method = f"{files.method} (sample {args.sample})"
+        panels = [Panel("ground truth", _track_source(files.ground_truth, rig, f"{where} ground truth"), "ground truth"),
+                  Panel(method, _track_source(files.generated, rig, f"{where} {files.method}"), method)]
         faces = rig.faces
         audio_path = audio_path or files.audio
     elif args.coeffs:
         if not args.rig:
             raise UserError("--coeffs needs --rig")
         rig = _load_rig(args.rig)
-        panels = [("", _track_vertices(args.coeffs, rig, args.coeffs))]
+        panels = [Panel("", _track_source(args.coeffs, rig, args.coeffs), args.coeffs)]
         faces = rig.faces
     else:
-        vertices, faces = _mesh_sequence(args.meshes, args.faces)
-        panels = [("", vertices)]
+        source, faces = _mesh_sequence(args.meshes, args.faces)
+        panels = [Panel("", source, args.meshes)]
     out_fps = args.out_fps or args.fps
-    if out_fps != args.fps:
-        panels = [(name, resample_frames(v, args.fps, out_fps)) for name, v in panels]
-    reference = panels[0][1][0]
+    for panel in panels:
+        panel.source = resampled(panel.source, args.fps, out_fps)
+    reference = panels[0].source.frame(0)
     yfov = np.pi / 8
     views = [face_camera(reference, yfov) if args.framing == "face" else front_camera(reference, yfov)]
     if args.side:
         views.append(face_camera(reference, yfov, side=True))
-    rendered = []
-    for name, vertices in panels:
-        images = []
-        for pose in views:
-            frames = render_sequence(vertices, faces, size=args.size, backend=args.backend, yfov=yfov, pose=pose,
-                                     progress=True)
-            check_visible(frames, where=f"render of {name or args.coeffs or args.meshes}")
-            images.append(frames)
-        joined = np.concatenate(images, axis=2)
-        rendered.append(label(joined, name, scale=max(1, args.size // 256)) if name else joined)
     audio = None
-    strip = None
     if audio_path:
         from blendvoca.io.audio import load_audio
 
         if not Path(audio_path).is_file():
             raise UserError(f"audio file not found: {audio_path}")
         audio = load_audio(audio_path, rate=16000)
-        rendered = [match_audio_length(r, out_fps, len(audio), 16000) for r in rendered]
-        if not args.no_waveform:
-            strip = waveform_strip(audio, 16000, len(rendered[0]), out_fps, sum(r.shape[2] for r in rendered),
-                                   max(args.size // 5, 16))
-    video = side_by_side(rendered, strip)
-    write_video(args.out, video, out_fps, audio=audio, rate=16000)
-    print(f"wrote {args.out} ({len(video)} frames at {out_fps:g} fps, {video.shape[2]}x{video.shape[1]} px)")
+    count, width, height = render_video(args.out, panels, faces, views, fps=out_fps, size=args.size,
+                                        backend=args.backend, yfov=yfov, audio=audio, rate=16000,
+                                        waveform=not args.no_waveform, progress=True, jobs=args.jobs)
+    print(f"wrote {args.out} ({count} frames at {out_fps:g} fps, {width}x{height} px)")
     return cli.EXIT_OK
 
 

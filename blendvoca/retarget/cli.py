@@ -8,7 +8,10 @@ from __future__ import annotations
 
 import json
 import os
+import sys
 from pathlib import Path
+
+import numpy as np
 
 from blendvoca import cli
 from blendvoca.assets import load_index_list
@@ -19,7 +22,7 @@ from blendvoca.rig import Rig, load_arkit_reference, shape_names
 from .contact_sheet import contact_sheet
 from .crop import default_crop
 from .pipeline import plan_retarget, retargeted_deltas
-from .report import report_markdown, retarget_report
+from .report import CROP_DEPTH, face_axes, report_markdown, retarget_report, suggested_crop
 
 
 def retarget_files(
@@ -39,6 +42,12 @@ def retarget_files(
     Writes ``Neutral.obj`` and ``<name>.obj`` per shape (full target topology and
     vertex order), ``rig.npz``, ``contact_sheet.png`` and ``report.json`` /
     ``report.md``. The source defaults to the ARKit reference rig and its landmarks.
+
+    The report's warnings (`retarget_warnings`: a dragged neck, triangles that flip,
+    left and right shapes that are not mirror images) are printed as ``warning:`` lines
+    on stderr; when the neck is dragged, ``suggested_crop.txt`` (the vertices above a
+    plane across the neck, `suggested_crop`) is written too and a ``note:`` says how to
+    use it.
 
     Returns
     -------
@@ -62,7 +71,24 @@ def retarget_files(
     rig.save_said_folder(out)
     rig.save(out / "rig.npz")
     seam = plan.crop.vertex_index[plan.crop.seam]
-    report = retarget_report(rig, lm_t, source=source, coverage=plan.correspondence.coverage(), seam=seam)
+    pairs = plan.correspondence.pairs
+    face_pairs = np.stack([pairs[:, 0], plan.crop.face_index[pairs[:, 1]]], axis=1)
+    report = retarget_report(rig, lm_t, source=source, coverage=plan.correspondence.coverage(), seam=seam,
+                             face_pairs=face_pairs)
+    for warning in report["warnings"]:
+        print(f"warning: {warning['message']}", file=sys.stderr)
+    if any(w["kind"] == "neck" for w in report["warnings"]):
+        suggestion = suggested_crop(V, lm_t)
+        if len(suggestion) < len(V):
+            path = out / "suggested_crop.txt"
+            with atomic_write(path, "w") as f:
+                f.write("".join(f"{int(i)}\n" for i in suggestion))
+            below = CROP_DEPTH * face_axes(V, lm_t)[2] * 1000
+            report["suggested_crop"] = {"path": str(path), "vertices": len(suggestion), "of": len(V),
+                                        "below_chin_mm": below}
+            print(f"note: {path} keeps the {len(suggestion)} of {len(V)} vertices above a plane {below:.0f} mm below the "
+                  f"chin; retarget with --crop {path} (or a list of the face, scalp and ears of your own)",
+                  file=sys.stderr)
     report["alignment"] = {
         "scale": plan.similarity.scale,
         "rotation": plan.similarity.rotation.tolist(),
@@ -104,7 +130,23 @@ def main(argv=None) -> int:
         source_landmarks=args.source_landmarks, crop=args.crop, shapes=args.shapes,
         falloff=args.falloff, sheet=not args.no_sheet,
     )
-    s = report["summary"]
-    print(f"{s['shapes']} shapes written to {args.out}; largest displacement {s['largest_displacement_mm']:.1f} mm; "
-          f"landmark RMS {report['alignment']['landmark_rms_mm']:.2f} mm")
+    print(summary_line(report, args.out))
     return cli.EXIT_OK
+
+
+def summary_line(report: dict, out) -> str:
+    """The command's last line: what was written and the quality figures, warnings counted."""
+    s = report["summary"]
+    parts = [f"{s['shapes']} shapes written to {out}", f"largest displacement {s['largest_displacement_mm']:.1f} mm",
+             f"landmark RMS {report['alignment']['landmark_rms_mm']:.2f} mm"]
+    flips = f"flipped faces {s['flipped_faces_total']}"
+    if s.get("flipped_faces_new_total", s["flipped_faces_total"]) != s["flipped_faces_total"]:
+        flips += f" ({s['flipped_faces_new_total']} not folded in the source)"
+    parts.append(flips)
+    if "worst_mirror_rms_relative" in s:
+        parts.append(f"worst mirror-pair error {100 * s['worst_mirror_rms_relative']:.0f} % ({s['worst_mirror_pair']})")
+    if "worst_neck_mm" in s:
+        parts.append(f"neck moved by at most {s['worst_neck_mm']:.1f} mm ({s['worst_neck_mm_shape']})")
+    count = len(report.get("warnings", []))
+    parts.append(f"{count} warning{'s' if count != 1 else ''}" + (" (see report.md)" if count else ""))
+    return "; ".join(parts)

@@ -244,3 +244,20 @@ def test_flame_mirror_pairs_are_mirror_equivariant(flame, source):
         rms = np.sqrt(np.mean(err**2) / np.mean(np.sum(expected**2, axis=1)))
         assert rms < 0.12, (left, rms)
         assert err.max() < 0.003, (left, err.max())
+
+
+def test_flame_with_its_head_crop_raises_no_warning(flame, source):
+    """The warnings' limits sit above what the FLAME template with its crop reaches (the
+    rig the build makes): no dragged neck, folds and mirror error within bounds."""
+    from blendvoca.retarget import crop_mesh
+    from blendvoca.retarget.report import FLIP_SHAPE_LIMIT, FLIP_TOTAL_LIMIT, MIRROR_LIMIT
+
+    rig, V, F, lm, crop, corr = flame
+    pairs = np.stack([corr.pairs[:, 0], crop_mesh(F, len(V), crop).face_index[corr.pairs[:, 1]]], axis=1)
+    report = retarget_report(rig, lm, source=source, coverage=corr.coverage(), face_pairs=pairs)
+    assert report["warnings"] == [], [w["message"] for w in report["warnings"]]
+    s = report["summary"]
+    assert report["neck"]["vertices"] > 50 and s["worst_neck_mm"] < 0.1
+    assert s["worst_flipped_fraction"] < FLIP_SHAPE_LIMIT / 1.4
+    assert s["flipped_faces_new_total"] / len(F) < FLIP_TOTAL_LIMIT / 1.4
+    assert s["worst_mirror_rms_relative"] < MIRROR_LIMIT / 1.4
