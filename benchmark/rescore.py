@@ -69,6 +69,11 @@ def rescored_result(json_path, *, syncnet=None, sync_expert=None, data=None, pro
     json_path = Path(json_path)
     stored = read_run(json_path)
     result = stored.result
+    if result.get("seeds") or result["protocol"].get("seeds"):
+        # each seed's tracks and intervals would have to be rescored and recombined
+        raise UserError(f"benchmark.rescore: {json_path} combines runs over the training seeds "
+                        f"{result.get('seeds') or result['protocol'].get('seeds')}; rescoring such a result is not "
+                        "supported: rerun it with benchmark.run --seeds and the lip-sync models")
     dataset = open_data(data if data is not None else stored.dataset_root)
     if str(dataset.manifest_hash) != result["dataset"]["manifest_hash"]:
         raise UserError(f"benchmark.rescore: {json_path} was scored on manifest "

@@ -1,15 +1,16 @@
 """Result files: one JSON per benchmark run, with its provenance.
 
-Schema (``schema_version`` 1)::
+Schema (``schema_version`` 2)::
 
     {
-      "schema_version": 1,
+      "schema_version": 2,
       "method":   {"name", "label", "class", "stochastic", "reference", "config"},
       "dataset":  {"manifest_hash", "path", "split", "num_sentences", "num_subjects"},
       "protocol": {"samples", "seed", "budget", "clip", "n_clipped", "deterministic",
                    "generate_time_limit", "checkpoint", "checkpoint_sha256"?,
                    "sentence_batch"?, "lipsync_models"?: {model: {"path", "sha256", ...}}},
-      "metrics":  {metric: {"mean", "std", "ci95", "n", "higher_is_better", "unit", "label", "group"}},
+      "metrics":  {metric: {"mean", "std", "ci95", "n", "higher_is_better", "unit", "label", "group",
+                            "replicates"? (set-level metrics), "seed_range"? (several seeds)}},
       "per_sentence": [{"subject", "sentence", metric: value, ...}],
       "tracks":   "<run>"   (stored tracks folder, relative to the JSON; benchmark.runs)
       "provenance": {"date", "git_revision", "git_dirty", "python", "platform",
@@ -18,6 +19,14 @@ Schema (``schema_version`` 1)::
     }
 
 Tables are only ever rendered from these files (``python -m leaderboard.build``).
+
+Schema 1 (protocol v2) named the vertex metrics without their reference space:
+vertex rows were scored against the source meshes, coefficient rows against the rig
+reconstruction of the ground truth. :func:`read_result` reads such files with those
+names mapped (``lve`` -> ``lve_mesh`` for ``method.output == "vertices"``, ``lve_rig``
+otherwise; :data:`benchmark.metrics.registry.LEGACY_NAMES`) and ``schema_version``
+left at 1: it says under which protocol the numbers were made, and the leaderboard
+does not mix the two in one table.
 """
 
 from __future__ import annotations
@@ -39,6 +48,7 @@ from blendvoca.io.atomic import atomic_write
 
 __all__ = [
     "METRIC_FIELDS",
+    "READABLE_SCHEMAS",
     "SCHEMA_VERSION",
     "build_result",
     "check_result",
@@ -51,7 +61,9 @@ __all__ = [
     "write_result",
 ]
 
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
+#: Versions :func:`read_result` and :func:`check_result` accept (1: read with its names mapped).
+READABLE_SCHEMAS = (1, 2)
 METRIC_FIELDS = ("mean", "std", "higher_is_better", "unit")
 _SECTIONS = ("method", "dataset", "protocol", "metrics", "provenance", "timings")
 
@@ -230,8 +242,10 @@ def check_result(result, where: str = "result") -> dict:
     """Raise ValueError (TypeError for non-objects) unless ``result`` follows the schema; returns it unchanged."""
     if not isinstance(result, dict):
         raise TypeError(f"{where}: expected a JSON object, got {type(result).__name__}")
-    if result.get("schema_version") != SCHEMA_VERSION:
-        raise ValueError(f"{where}: expected schema_version {SCHEMA_VERSION}, got {result.get('schema_version')!r}")
+    version = result.get("schema_version")
+    if isinstance(version, bool) or version not in READABLE_SCHEMAS:
+        raise ValueError(f"{where}: expected schema_version {SCHEMA_VERSION} (or {READABLE_SCHEMAS[0]}), got "
+                         f"{version!r}")
     missing = [s for s in _SECTIONS if not isinstance(result.get(s), dict)]
     if missing:
         raise ValueError(f"{where}: missing or non-object section(s) {missing}")
@@ -257,11 +271,31 @@ def _slug(text: str) -> str:
 
 
 def result_filename(result: dict) -> str:
-    """``<label>__<manifest hash[:12]>__s<samples>__seed<seed>.json`` (one file per run setting)."""
+    """``<label>__<manifest hash[:12]>__s<samples>__seed<seed>.json`` (one file per run setting);
+    a run over several training seeds (``protocol.seeds``) ends ``__seeds0-1-2.json``."""
     label = _slug(result["method"].get("label") or result["method"]["name"])
     manifest = _slug(result["dataset"]["manifest_hash"])[:12]
     protocol = result["protocol"]
-    return f"{label}__{manifest}__s{protocol.get('samples')}__seed{protocol.get('seed')}.json"
+    seeds = protocol.get("seeds")
+    seed = f"seeds{'-'.join(str(int(s)) for s in seeds)}" if seeds else f"seed{protocol.get('seed')}"
+    return f"{label}__{manifest}__s{protocol.get('samples')}__{seed}.json"
+
+
+def _with_current_names(result: dict) -> dict:
+    """A schema-1 result with its metric names (in ``metrics`` and the per-sentence rows)
+    mapped to the reference space its row was scored in; other results unchanged."""
+    if result.get("schema_version") != 1:
+        return result
+    from benchmark.metrics.registry import current_name
+
+    output = result["method"].get("output") or "coefficients"
+    metrics = {current_name(name, output): fields for name, fields in result["metrics"].items()}
+    out = {**result, "metrics": metrics}
+    rows = result.get("per_sentence")
+    if isinstance(rows, list):
+        out["per_sentence"] = [{current_name(k, output): v for k, v in row.items()} if isinstance(row, dict) else row
+                               for row in rows]
+    return out
 
 
 def write_result(result: dict, results_dir, filename: str | None = None) -> Path:
@@ -282,7 +316,8 @@ def write_result(result: dict, results_dir, filename: str | None = None) -> Path
 
 
 def read_result(path) -> dict:
-    """Load and check one result file.
+    """Load and check one result file (a schema-1 file with its metric names mapped, see
+    the module docstring).
 
     Raises
     ------
@@ -294,7 +329,7 @@ def read_result(path) -> dict:
     path = Path(os.fspath(path))
     result = read_json(path, what="valid JSON")
     try:
-        return check_result(result, where=str(path))
+        return _with_current_names(check_result(result, where=str(path)))
     # check_result's word on a file's content; OverflowError: an integer too large for a float.
     except (TypeError, ValueError, OverflowError) as exc:
         message = str(exc)

@@ -5,6 +5,12 @@ Before anything runs, the files of the scored split (coefficient tracks, audio,
 rigs) are checked against the digests of the build's ``manifest.json``: a build
 modified since it was made is refused (exit status 4) unless ``--no-verify``.
 
+``--seeds 0,1,2`` (instead of ``--seed``) trains, generates and scores one run per
+training seed and stores them as one result, whose intervals cover the seeds as well
+as the sentences (:mod:`benchmark.protocol.seeds`). A method that trains in steps is
+also scored at half its step budget on ``lve_rig`` and ``fd`` (settled or not:
+:mod:`benchmark.protocol.convergence`).
+
 The command line over :mod:`benchmark.protocol` (which holds the steps and
 :func:`run_method`), on the project's CLI layer :mod:`blendvoca.cli`: a mistake in
 what was asked or a build file that is missing is exit status 2, a method that
@@ -29,6 +35,7 @@ from benchmark.protocol import (
     generated_tracks,
     lipsync_models_provenance,
     make_method,
+    parse_seeds,
     prepared_method,
     run_method,
     sentence_seed,
@@ -91,7 +98,11 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--vocaset", default=None, metavar="DIR",
                    help="source VOCASET corpus for dataset.vertices (default: the one the build recorded)")
     p.add_argument("--samples", type=int, default=10, help="samples per sentence for stochastic methods")
-    p.add_argument("--seed", type=int, default=0)
+    seeds = p.add_mutually_exclusive_group()
+    seeds.add_argument("--seed", type=int, default=None, help="training and sampling seed (default 0)")
+    seeds.add_argument("--seeds", default=None, metavar="S1,S2,...",
+                       help="train, generate and score once per training seed (distinct integers >= 0, e.g. 0,1,2) "
+                            "and store one result over them (methods that train only)")
     p.add_argument("--split", default="test")
     p.add_argument("--checkpoint", default=None, help="load the trained method from here, or train and save here; "
                         "a file: the authors' released weights (faceformer, codetalker, said)")
@@ -125,7 +136,15 @@ def _print_summary(path) -> None:
         arrow = {True: "↑", False: "↓"}.get(fields["higher_is_better"], " ")
         ci = fields.get("ci95")
         ci = "" if not ci else f" [{ci[0]:.4g}, {ci[1]:.4g}]"
-        print(f"  {metric:<28} {arrow} {fields['mean']:.4g}{ci} {fields['unit']}".rstrip(), file=sys.stderr)
+        seeds = fields.get("seed_range")
+        seeds = "" if not seeds else f" seeds {seeds[0]:.4g}..{seeds[1]:.4g}"
+        print(f"  {metric:<28} {arrow} {fields['mean']:.4g}{ci}{seeds} {fields['unit']}".rstrip(), file=sys.stderr)
+    convergence = result.get("convergence")
+    if convergence:
+        moved = ", ".join(f"{name} {m['half_budget']:.4g} -> {m['full_budget']:.4g}"
+                          for name, m in convergence["metrics"].items())
+        state = "settled" if convergence["settled"] else "NOT settled"
+        print(f"  half budget (step {convergence['checked_at_step']}): {moved}: {state}", file=sys.stderr)
 
 
 @cli.command
@@ -144,7 +163,8 @@ def main(argv=None) -> int:
             parser.error(f"{flag} {value}: no such folder")
     max_steps, max_seconds = cli.budget_limits(args)
     config = cli.parse_config(args.config, preset=args.preset)
-    path = run_method(args.method, args.data, samples=args.samples, seed=args.seed,
+    seeds = None if args.seeds is None else parse_seeds(args.seeds)
+    path = run_method(args.method, args.data, samples=args.samples, seed=args.seed, seeds=seeds,
                       budget=Budget(max_steps=max_steps, max_seconds=max_seconds), results_dir=args.results,
                       config=config, split=args.split, checkpoint=args.checkpoint, clip=args.clip,
                       progress=not args.quiet, generate_time_limit=args.generate_time_limit, vocaset=args.vocaset,

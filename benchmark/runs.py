@@ -10,6 +10,11 @@ the folder its key ``tracks`` names (relative to the JSON's folder, ``<run>``)::
                                                     metres from the speaker's template
     R/<run>/<subject>/template.npy                  vertex methods: the template (V, 3) float64
 
+A run over several training seeds (``benchmark.run --seeds 0,1,2``) keeps each seed's
+tracks in a subfolder of the same layout, ``R/<run>/seed<k>/`` (:func:`seed_folder_name`);
+its JSON's ``tracks`` names the first seed's (``<run>/seed0``), so every reader of
+a run folder reads that seed, and ``per_seed[i].tracks`` names each seed's.
+
 The CSVs are the coefficient tracks that were scored (for vertex methods, the
 tracks fitted with the speaker's rig). The vertex files store the method's own
 vertices compactly; float16 offsets keep 2^-11 relative precision (about 0.01 mm
@@ -39,6 +44,7 @@ __all__ = [
     "StoredVertices",
     "TrackWriter",
     "read_run",
+    "seed_folder_name",
     "template_path",
     "track_path",
     "tracks_folder_name",
@@ -63,6 +69,11 @@ def tracks_folder_name(json_name: str) -> str:
     """Tracks folder of a result file name: ``<run>.json`` -> ``<run>``."""
     name = Path(json_name).name
     return name[:-5] if name.endswith(".json") else name
+
+
+def seed_folder_name(seed: int) -> str:
+    """The subfolder of a run over several training seeds that holds seed ``seed``'s tracks: ``seed<k>``."""
+    return f"seed{int(seed)}"
 
 
 def track_path(folder, subject: str, sentence: str, sample: int) -> Path:
@@ -213,6 +224,12 @@ class TrackWriter:
         """The vertices written so far (read from the staging folder)."""
         return StoredVertices(self.staging)
 
+    def for_seed(self, seed: int) -> TrackWriter:
+        """A writer of training seed ``seed``'s tracks into the subfolder
+        :func:`seed_folder_name` of this run's folder, staged with it: :meth:`commit` (or
+        :meth:`discard`) this writer, not the seed's."""
+        return _SeedWriter(self, seed_folder_name(seed))
+
     def commit(self) -> Path:
         """Move the staged folder to its final name (replacing that run's previous tracks)."""
         if self.folder.exists():
@@ -228,6 +245,26 @@ class TrackWriter:
 
     def discard(self) -> None:
         """Remove the staged files (the run failed)."""
+        shutil.rmtree(self.staging, ignore_errors=True)
+
+
+class _SeedWriter(TrackWriter):
+    """One seed's part of a :class:`TrackWriter` (see :meth:`TrackWriter.for_seed`)."""
+
+    def __init__(self, run: TrackWriter, name: str):
+        self.folder = run.folder / name
+        self.staging = run.staging / name
+        self.names = run.names
+        self._templates = set()
+        self.staging.mkdir(parents=True, exist_ok=True)
+
+    def for_seed(self, seed: int) -> TrackWriter:
+        raise RuntimeError("TrackWriter.for_seed: a seed's writer has no seeds of its own")
+
+    def commit(self) -> Path:
+        raise RuntimeError("TrackWriter.for_seed: commit the run's writer, which moves every seed's tracks")
+
+    def discard(self) -> None:
         shutil.rmtree(self.staging, ignore_errors=True)
 
 

@@ -54,12 +54,13 @@ def stage_times(generated, dataset, extractor, sync_expert, workers: int, cache)
     out = {}
     start = time.perf_counter()
     latent_metrics(truth, generated, extractor, wind_workers=workers, wind_cache=cache)
-    out["latent (FD, WInD, multimodality)"] = time.perf_counter() - start
+    out["latent (FD, WInD, multimodality, energy)"] = time.perf_counter() - start
     start = time.perf_counter()
-    _vertex_values(truth, generated, rigs, dataset.names, workers=workers)
-    out["vertex (LVE, MVE, FDD)"] = time.perf_counter() - start
+    _vertex_values(truth, generated, rigs, dataset.names, workers=workers, mesh_vertices=dataset.vertices)
+    out["vertex (LVE, MVE, FDD, energy; mesh and rig)"] = time.perf_counter() - start
     start = time.perf_counter()
-    _lipsync_values(generated, rigs, audio, dataset.names, sync_expert=sync_expert, workers=workers)
+    _lipsync_values(generated, rigs, audio, dataset.names, sync_expert=sync_expert, workers=workers,
+                    ground_truth=truth)
     out["lip sync (geometric + expert)"] = time.perf_counter() - start
     return out
 

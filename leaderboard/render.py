@@ -1,25 +1,43 @@
 """Markdown and LaTeX renderings of :class:`leaderboard.collect.Table` objects.
 
 Columns are grouped (one table per metric group, in the paper's Table 1 order),
-cells are ``mean [95 % interval]``, arrows give each metric's direction, reference
-rows sit under the methods and are never ranked, and a method is in bold only where
-its interval does not overlap the runner-up's (:func:`leaderboard.collect.best_rows`).
+cells are ``mean [95 % interval]`` (and ``seeds [lowest, highest]`` of the per-seed
+means for rows trained with several seeds), arrows give each metric's direction,
+reference rows sit under the methods and are never ranked, and a method is in bold
+only where it beats the runner-up in at least 95 % of the paired resamples
+(:func:`leaderboard.collect.best_mark`). Under each table: the columns whose bold
+mark fell back to the older interval rule, the rows that are not settled (†), and,
+under the lip-sync table, how to read the AV offset against the ground truth.
 """
 
 from __future__ import annotations
 
 import re
 
-from .collect import Column, Row, Table, best_rows, column_decimals
+from benchmark.metrics.registry import METRICS
 
-__all__ = ["latex_tables", "markdown_tables"]
+from .collect import MIN_PAIRED_SENTENCES, Column, Row, Table, best_mark, column_decimals
+
+__all__ = ["AV_OFFSET_NOTE", "NOT_SETTLED_MARK", "group_notes", "latex_tables", "markdown_tables", "not_settled_text"]
+
+#: Mark after the label of a row whose training had not settled (``convergence.settled`` false).
+NOT_SETTLED_MARK = "†"
+#: What the tables say beside the AV offset columns.
+AV_OFFSET_NOTE = ("AV offset: on the synthetic corpus the ground truth carries a random per-sentence lag "
+                  "(uniform over -2..2 frames), so methods can beat it on `av_offset_*` (mean |offset|, sync "
+                  "quality); `av_lag_bias_*` is the row's systematic lead (-) or lag (+) against the data "
+                  "(its mean signed offset minus the ground truth's on the same sentences; 0 for the ground truth).")
 
 _ARROWS = {True: ("↑", r"$\uparrow$"), False: ("↓", r"$\downarrow$"), None: ("", "")}
 _LATEX_SPECIAL = {"\\": r"\textbackslash{}", "&": r"\&", "%": r"\%", "$": r"\$", "#": r"\#", "_": r"\_",
                   "{": r"\{", "}": r"\}", "~": r"\textasciitilde{}", "^": r"\textasciicircum{}"}
-_RULE = ("Best method in **bold** only where its 95 % interval does not overlap the runner-up's; "
-         "reference rows are shown apart and never ranked; ↑ higher is better, ↓ lower is better; "
-         "cells are mean [95 % bootstrap interval over sentences].")
+_RULE = ("Best method in **bold** only where it beats the runner-up in at least 95 % of the paired bootstrap "
+         "resamples (the same resampled sentences for both rows; training seeds resampled too for rows trained "
+         "with several); reference rows are shown apart and never ranked; ↑ higher is better, ↓ lower is "
+         "better; cells are mean [95 % bootstrap interval over sentences, and seeds where there are several] "
+         "and, for rows trained with several seeds, seeds [lowest, highest] of the per-seed means; "
+         f"{NOT_SETTLED_MARK}: not settled (the row's value moved by more than its interval's half-width "
+         "between half and full training budget).")
 
 
 def _latex_escape(text: str) -> str:
@@ -39,7 +57,8 @@ def _number(value: float, decimals: int) -> str:
 
 
 def _cell_texts(rows: list, column: Column, decimals: int):
-    """Per row: (mean text, interval text or None) or None when the row lacks the metric."""
+    """Per row: (mean text, interval text or None, seed range text or None) or None when
+    the row lacks the metric."""
     out = []
     for row in rows:
         value = row.metrics.get(column.name)
@@ -48,20 +67,67 @@ def _cell_texts(rows: list, column: Column, decimals: int):
             continue
         mean, _std, ci = value
         interval = None if ci is None else f"[{_number(ci[0], decimals)}, {_number(ci[1], decimals)}]"
-        out.append((_number(mean, decimals), interval))
+        seed_range = row.seed_ranges.get(column.name)
+        seeds = (None if seed_range is None
+                 else f"[{_number(seed_range[0], decimals)}, {_number(seed_range[1], decimals)}]")
+        out.append((_number(mean, decimals), interval, seeds))
     return out
 
 
 def _group_cells(table: Table, columns: list):
-    """(method cells, reference cells, bold sets) of a group of columns."""
-    method_cells, reference_cells, bold = [], [], []
+    """(method cells, reference cells, bold sets, best marks) of a group of columns."""
+    method_cells, reference_cells, bold, marks = [], [], [], []
     for column in columns:
         values = [r.metrics[column.name][0] for r in table.rows + table.references if column.name in r.metrics]
         decimals = column_decimals(values)
         method_cells.append(_cell_texts(table.rows, column, decimals))
         reference_cells.append(_cell_texts(table.references, column, decimals))
-        bold.append(best_rows(table.rows, column))
-    return method_cells, reference_cells, bold
+        mark = best_mark(table.rows, column)
+        marks.append(mark)
+        bold.append(set(mark.rows))
+    return method_cells, reference_cells, bold, marks
+
+
+def _label(row: Row, text: str, mark: str) -> str:
+    return f"{text} {mark}" if row.settled is False else text
+
+
+def _metric_label(name: str) -> str:
+    return METRICS[name].label if name in METRICS else name
+
+
+def not_settled_text(row: Row) -> str:
+    """``"<label>: <metric> <at half> → <at full> (half-width <w>) between steps <B/2> and <B>"``
+    for a row whose ``convergence.settled`` is false."""
+    conv = row.convergence or {}
+    half, full = conv.get("checked_at_step"), conv.get("total_steps")
+    steps = f"steps {half} and {full}" if half is not None and full is not None else "half and full budget"
+    moved = []
+    for name, at_half, at_full, half_width in row.unsettled_metrics():
+        if at_half is not None and at_full is not None:
+            text = f"{_metric_label(name)} {at_half:.3g} → {at_full:.3g}"
+            moved.append(text + (f" (half-width {half_width:.3g})" if half_width is not None else ""))
+        else:
+            moved.append(_metric_label(name))
+    return f"{row.label}: " + (", ".join(moved) + f" between {steps}" if moved else f"moved between {steps}")
+
+
+def group_notes(table: Table, columns: list, marks: list) -> list:
+    """Plain-text lines under a group's table: the AV offset reading (lip-sync columns), the
+    rows not settled, and the columns whose best mark used the older interval rule."""
+    notes = []
+    if any(c.name.startswith(("av_offset_", "av_lag_bias_")) for c in columns):
+        notes.append(AV_OFFSET_NOTE)
+    unsettled = [row for row in table.rows + table.references if row.settled is False]
+    if unsettled:
+        notes.append(f"{NOT_SETTLED_MARK} Not settled (moved by more than the interval's half-width between half and "
+                     "full training budget): " + "; ".join(not_settled_text(row) for row in unsettled) + ".")
+    fallback = [c.label for c, mark in zip(columns, marks) if mark.rule == "intervals"]
+    if fallback:
+        notes.append(f"Best in {', '.join(fallback)} by the older rule (95 % interval disjoint from the runner-up's): "
+                     "nothing to resample in these result files (neither per-sentence values nor bootstrap "
+                     f"replicates, or fewer than {MIN_PAIRED_SENTENCES} sentences).")
+    return notes
 
 
 def _title(group: str) -> str:
@@ -74,14 +140,15 @@ def _caption(table: Table) -> str:
 
 
 def _md_row(label: str, row: Row, cells, bold_flags) -> str:
-    out = [label]
+    out = [_label(row, label, NOT_SETTLED_MARK)]
     for cell, is_bold in zip(cells, bold_flags):
         if cell is None:
             out.append("–")
             continue
-        mean, interval = cell
+        mean, interval, seeds = cell
         mean = f"**{mean}**" if is_bold else mean
-        out.append(mean if interval is None else f"{mean} {interval}")
+        text = mean if interval is None else f"{mean} {interval}"
+        out.append(text if seeds is None else f"{text} seeds {seeds}")
     out.append(str(row.samples))
     return "| " + " | ".join(out) + " |"
 
@@ -96,7 +163,7 @@ def markdown_tables(tables: list[Table]) -> str:
         lines += [f"## Dataset `{table.manifest_hash[:12]}`", "", f"Full manifest hash `{table.manifest_hash}`, "
                   f"{table.split} split" + (f", {table.num_sentences} sentences." if table.num_sentences else "."), ""]
         for group, columns in table.groups:
-            method_cells, reference_cells, bold = _group_cells(table, columns)
+            method_cells, reference_cells, bold, marks = _group_cells(table, columns)
             header = ["Method"] + [f"{c.label}{f' ({c.unit})' if c.unit else ''} {_ARROWS[c.higher_is_better][0]}"
                                    .rstrip() for c in columns] + ["S"]
             lines += [f"### {_title(group)}", "", "| " + " | ".join(header) + " |",
@@ -109,20 +176,36 @@ def markdown_tables(tables: list[Table]) -> str:
                     lines.append(_md_row(f"*{row.label}*", row, [col[i] for col in reference_cells],
                                          [False] * len(columns)))
             lines.append("")
+            for note in group_notes(table, columns, marks):
+                lines += [note, ""]
     return "\n".join(lines)
 
 
 def _tex_row(label: str, row: Row, cells, bold_flags) -> str:
-    out = [label]
+    out = [_label(row, label, r"$^\dagger$")]
     for cell, is_bold in zip(cells, bold_flags):
         if cell is None:
             out.append("--")
             continue
-        mean, interval = cell
+        mean, interval, seeds = cell
         mean = f"$\\mathbf{{{mean}}}$" if is_bold else f"${mean}$"
-        out.append(mean if interval is None else f"{mean} {{\\scriptsize ${interval}$}}")
+        small = " ".join(part for part in ([f"${interval}$"] if interval else []) + (
+            [f"seeds ${seeds}$"] if seeds else []))
+        out.append(f"{mean} {{\\scriptsize {small}}}" if small else mean)
     out.append(str(row.samples))
     return " & ".join(out) + r" \\"
+
+
+def _tex_notes(notes: list) -> list:
+    """Notes under a LaTeX table, small, one paragraph each."""
+    out = []
+    for note in notes:
+        parts = note.split("`")  # `code` -> \texttt{code}
+        text = "".join(_latex_escape(part) if i % 2 == 0 else f"\\texttt{{{_latex_escape(part)}}}"
+                       for i, part in enumerate(parts))
+        text = text.replace(NOT_SETTLED_MARK, r"$^\dagger$").replace("→", r"$\to$").replace("|", r"$|$")
+        out.append(f"\\par\\smallskip{{\\footnotesize {text}}}")
+    return out
 
 
 def latex_tables(tables: list[Table]) -> str:
@@ -132,7 +215,7 @@ def latex_tables(tables: list[Table]) -> str:
              "% Requires \\usepackage{booktabs} and \\usepackage{graphicx}.", ""]
     for table in tables:
         for group, columns in table.groups:
-            method_cells, reference_cells, bold = _group_cells(table, columns)
+            method_cells, reference_cells, bold, marks = _group_cells(table, columns)
             header = ["Method"] + [
                 f"{_latex_escape(c.label)}{' (' + _latex_unit(c.unit) + ')' if c.unit else ''} "
                 f"{_ARROWS[c.higher_is_better][1]}".rstrip() for c in columns] + ["$S$"]
@@ -146,11 +229,13 @@ def latex_tables(tables: list[Table]) -> str:
             parts += [
                 r"\begin{table}[t]", r"\centering",
                 f"\\caption{{BlendVOCA benchmark, {_latex_escape(group)} metrics, {_latex_escape(_caption(table))}. "
-                "Mean [95\\,\\% bootstrap interval]; bold: best, interval disjoint from the runner-up's.}",
+                "Mean [95\\,\\% bootstrap interval]; seeds [lowest, highest per-seed mean] for rows trained with "
+                "several seeds; bold: best, beats the runner-up in at least 95\\,\\% of the paired resamples.}",
                 f"\\label{{tab:blendvoca-{table.manifest_hash[:12]}-{slug}}}",
                 r"\resizebox{\linewidth}{!}{%",
                 f"\\begin{{tabular}}{{l{'r' * len(columns)}r}}", r"\toprule",
-                " & ".join(header) + r" \\", r"\midrule", *body, r"\bottomrule", r"\end{tabular}}", r"\end{table}", "",
+                " & ".join(header) + r" \\", r"\midrule", *body, r"\bottomrule", r"\end{tabular}}",
+                *_tex_notes(group_notes(table, columns, marks)), r"\end{table}", "",
             ]
     if not tables:
         parts.append("% No results yet.")

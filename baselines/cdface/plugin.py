@@ -82,8 +82,10 @@ class CDFaceMethod(Method):
         """Constructor arguments plus the resolved nested config."""
         return {**super().config(), "resolved": self.resolved}
 
-    def train(self, dataset, *, seed: int, budget: Budget) -> None:
-        """Train the two part priors and the querying model on the train split within ``budget``."""
+    def train(self, dataset, *, seed: int, budget: Budget, on_checkpoint=None) -> None:
+        """Train the two part priors and the querying model on the train split within ``budget``;
+        ``on_checkpoint``: the runner's half-budget call, made at half of the querying stage
+        (the last one) when it has a step limit (:func:`baselines.cdface.train.train_cdface`)."""
         from baselines.cdface.closure import lip_pair_for
         from baselines.cdface.pipeline import CDFace
         from baselines.cdface.train import load_sentences, moving_vertices, prepare_sentences, train_cdface
@@ -103,7 +105,7 @@ class CDFaceMethod(Method):
                                       lip_pair=lip_pair_for(dataset.template(train[0]), dataset_lips(dataset, train)))
         del loaded
         train_cdface(self.cdface, sentences, seed=seed, max_steps=budget.max_steps, max_seconds=budget.max_seconds,
-                     progress=show_progress())
+                     progress=show_progress(), on_checkpoint=on_checkpoint)
 
     def generate(self, utterance, *, samples=1, seed=0):
         """``(S, T, 5023, 3)`` vertices in metres on the speaker's template."""

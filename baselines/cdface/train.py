@@ -22,6 +22,8 @@ from baselines.cdface.losses import lip_losses, upper_face_losses
 from baselines.cdface.vqvae import vq_loss
 from baselines.common.dataset import sentence_audio
 from baselines.common.threads import torch_threads
+from baselines.common.training import call_checkpoint
+from benchmark.methods.base import checkpoint_step
 from blendvoca.errors import UserError
 
 __all__ = ["LR_SCHEDULES", "SentenceData", "WindowSampler", "cosine_lr", "load_sentences", "moving_vertices", "prepare_sentences", "stage_limits",
@@ -139,7 +141,10 @@ def cosine_lr(lr: float, step: int, steps=None, elapsed: float = 0.0, seconds=No
     return float(lr) * 0.5 * (1.0 + math.cos(math.pi * f))
 
 
-def _run_stage(name, params, loss_fn, sampler, steps, seconds, training, progress) -> list:
+def _run_stage(name, params, loss_fn, sampler, steps, seconds, training, progress, at_half=None) -> list:
+    """Optimise ``params`` on ``loss_fn`` of ``sampler``'s batches for ``steps`` steps and/or
+    ``seconds``; ``at_half(step)`` is called once after half the steps (a stage with a
+    step limit)."""
     from tqdm import tqdm
 
     params = [p for p in params if p.requires_grad]
@@ -150,6 +155,7 @@ def _run_stage(name, params, loss_fn, sampler, steps, seconds, training, progres
     history = []
     started = time.perf_counter()
     bar = tqdm(total=steps, desc=f"CDFace: {name}", unit="step", disable=not progress)
+    half = checkpoint_step(steps) if at_half is not None else None
     step = 0
     try:
         while (steps is None or step < steps) and (seconds is None or time.perf_counter() - started < seconds):
@@ -167,6 +173,8 @@ def _run_stage(name, params, loss_fn, sampler, steps, seconds, training, progres
             bar.update(1)
             if step % 50 == 0:
                 bar.set_postfix(loss=f"{history[-1]['total']:.4g}")
+            if step == half:
+                at_half(step)
     finally:
         bar.close()
     return history
@@ -214,8 +222,16 @@ def prepare_sentences(cdface, sentences, *, epsilon: float, lip_pair) -> list:
     return out
 
 
-def train_cdface(cdface, sentences, *, seed: int = 0, max_steps=None, max_seconds=None, progress: bool = True) -> dict:
+def train_cdface(cdface, sentences, *, seed: int = 0, max_steps=None, max_seconds=None, progress: bool = True,
+                 on_checkpoint=None) -> dict:
     """Train ``cdface`` in place on ``sentences`` (list of :class:`SentenceData`).
+
+    ``on_checkpoint``: the runner's half-budget call (``Method.train``), made once after
+    half the steps of the last stage (the querying model; it has no validation, so the
+    weights are the current ones) when that stage has a step limit, as
+    ``on_checkpoint(step, total_steps=...)`` with the steps of the two VQ stages counted
+    in; ``cdface`` generates during the call (eval mode, no gradients) and training then
+    goes on exactly as without it.
 
     Returns
     -------
@@ -256,7 +272,15 @@ def train_cdface(cdface, sentences, *, seed: int = 0, max_steps=None, max_second
                     **{f"upper_{k}": v for k, v in up.items() if k != "total"}}
 
         sampler = WindowSampler(sentences, training["window"], training["batch_size"], rng)
-        history["query"] = _run_stage("query", model.query_parameters(), query_loss, sampler, *limits[2], training, progress)
+        done = len(history["lip_vq"]) + len(history["upper_vq"])
+        query_steps = limits[2][0]
+
+        def at_half(step):
+            call_checkpoint(on_checkpoint, done + step, model, total_steps=done + int(query_steps))
+
+        checked = on_checkpoint is not None and query_steps is not None
+        history["query"] = _run_stage("query", model.query_parameters(), query_loss, sampler, *limits[2], training,
+                                      progress, at_half=at_half if checked else None)
         model.eval()
         model.requires_grad_(False)  # trained: inference only, as after CDFace.load
     return history

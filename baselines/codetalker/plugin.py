@@ -63,6 +63,7 @@ class CodeTalkerMethod(StyleVertexMethod):
             self.network = load_official(official, official_stage1, wav2vec2_config=official_wav2vec2)
             self.subjects = official_style_names(self.network.config["num_subjects"])
             self.motion_scale = 1.0
+            self.learns = False  # the authors' weights: train reads the templates only (no --seeds)
 
     def config(self) -> dict:
         return {**super().config(), "resolved": self.settings}
@@ -93,7 +94,7 @@ class CodeTalkerMethod(StyleVertexMethod):
         if self.settings["model"]["audio"]["kind"] == "wav2vec2" and self.settings.get("wav2vec2_path"):
             load_pretrained_wav2vec2(self.network.audio_encoder, self.settings["wav2vec2_path"])
 
-    def fit(self, train, val, *, seed, budget):
+    def fit(self, train, val, *, seed, budget, on_checkpoint=None):
         t = self.settings["training"]
         steps, seconds = training_limits(budget, t["max_steps"], t["max_seconds"])
         (s1, t1), (s2, t2) = split_budget(steps, seconds, t["stage1_fraction"])
@@ -104,8 +105,10 @@ class CodeTalkerMethod(StyleVertexMethod):
                           progress=show_progress())
         for p in vq.parameters():
             p.requires_grad_(False)
+        # the half-budget call (``on_checkpoint``) comes in stage 2, the stage that makes the animation
         h2 = train_stage2(self.network, train, val, self.subjects, training=t, seed=seed + 1, max_steps=s2,
-                          max_seconds=t2, progress=show_progress())
+                          max_seconds=t2, progress=show_progress(), on_checkpoint=on_checkpoint,
+                          step_offset=int(h1["steps"]))
         return {"stage1": h1, "stage2": h2, "steps": h1["steps"] + h2["steps"], "seconds": h1["seconds"] + h2["seconds"]}
 
     def network_state(self) -> dict:

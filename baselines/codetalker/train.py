@@ -67,8 +67,12 @@ def train_stage1(vq, train, val, *, training: dict, seed: int, max_steps: float,
 
 
 def train_stage2(model, train, val, subjects, *, training: dict, seed: int, max_steps: float, max_seconds: float,
-                 progress=True) -> dict:
-    """Train the stage-2 parts of ``model`` (a :class:`~baselines.codetalker.model.CodeTalker`) in place."""
+                 progress=True, on_checkpoint=None, step_offset: int = 0) -> dict:
+    """Train the stage-2 parts of ``model`` (a :class:`~baselines.codetalker.model.CodeTalker`) in place.
+
+    ``on_checkpoint``: the runner's half-budget call, made at half of this (the last)
+    stage, the stage-1 steps ``step_offset`` counted in (:func:`~baselines.common.training.fit_sequences`).
+    """
     scale = float(training["motion_scale"])
     w2v = model.config["audio"]["kind"] == "wav2vec2"
     n = len(subjects)
@@ -106,4 +110,4 @@ def train_stage2(model, train, val, subjects, *, training: dict, seed: int, max_
                          max_steps=steps,
                          max_seconds=max_seconds, num_threads=training.get("num_threads"),
                          grad_clip=training.get("grad_clip"), desc="CodeTalker stage 2", progress=progress,
-                         loss_scale=scale**2)
+                         loss_scale=scale**2, on_checkpoint=on_checkpoint, step_offset=step_offset)

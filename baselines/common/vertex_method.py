@@ -26,7 +26,7 @@ from baselines.common.sequences import (
     to_benchmark_rate,
 )
 from baselines.common.threads import torch_threads
-from benchmark.methods.base import Budget, Method
+from benchmark.methods.base import Budget, Method, takes_checkpoint_hook
 from blendvoca.errors import DataError
 
 __all__ = ["VOCASET_TRAIN_SUBJECTS", "StyleVertexMethod", "official_style_names", "style_indices", "training_limits"]
@@ -89,8 +89,11 @@ class StyleVertexMethod(Method):
         """Create ``self.network`` (untrained)."""
         raise NotImplementedError
 
-    def fit(self, train, val, *, seed: int, budget: Budget) -> dict:
-        """Train ``self.network`` on :class:`~baselines.common.sequences.MotionSequence` lists; return a history."""
+    def fit(self, train, val, *, seed: int, budget: Budget, on_checkpoint=None) -> dict:
+        """Train ``self.network`` on :class:`~baselines.common.sequences.MotionSequence` lists; return a history.
+
+        ``on_checkpoint``: the runner's half-budget call (``Method.train``); the network is
+        ``self.network`` from the start, so :meth:`generate` works during the call."""
         raise NotImplementedError
 
     def predict_motion(self, audio: np.ndarray, template: np.ndarray, style, num_frames: int) -> np.ndarray:
@@ -125,8 +128,10 @@ class StyleVertexMethod(Method):
         self.network.load_state_dict(payload["state_dict"])
 
     # -- the contract -------------------------------------------------------------------
-    def train(self, dataset, *, seed: int, budget: Budget) -> None:
-        """Train on the train split's vertex sequences (styles = its speakers)."""
+    def train(self, dataset, *, seed: int, budget: Budget, on_checkpoint=None) -> None:
+        """Train on the train split's vertex sequences (styles = its speakers); the
+        authors' weights (given to the constructor) train nothing and make no
+        ``on_checkpoint`` call."""
         self.templates = speaker_templates(dataset)
         if self.network is not None and self.subjects:
             return  # weights given (e.g. the authors' checkpoint): nothing to train
@@ -137,7 +142,8 @@ class StyleVertexMethod(Method):
         val = motion_sequences(dataset, "val") if dataset.split("val") else []
         torch.manual_seed(int(seed))  # the initial weights too: a step budget then trains the same network in every process
         self.build_network(len(self.subjects), int(train[0].template.size))
-        self.history = self.fit(train, val, seed=int(seed), budget=budget)
+        hook = {"on_checkpoint": on_checkpoint} if on_checkpoint is not None and takes_checkpoint_hook(self.fit) else {}
+        self.history = self.fit(train, val, seed=int(seed), budget=budget, **hook)
 
     def style_index(self, subject: str) -> int:
         """One-hot index of a training speaker."""

@@ -50,6 +50,7 @@ class FaceFormerMethod(StyleVertexMethod):
             self.network = load_official(official, wav2vec2_config=official_wav2vec2)
             self.subjects = official_style_names(self.network.config["num_subjects"])
             self.motion_scale = 1.0
+            self.learns = False  # the authors' weights: train reads the templates only (no --seeds)
 
     def config(self) -> dict:
         return {**super().config(), "resolved": self.settings}
@@ -65,11 +66,12 @@ class FaceFormerMethod(StyleVertexMethod):
         if self.settings["model"]["audio"]["kind"] == "wav2vec2" and self.settings.get("wav2vec2_path"):
             load_pretrained_wav2vec2(self.network.audio_encoder, self.settings["wav2vec2_path"])
 
-    def fit(self, train, val, *, seed, budget):
+    def fit(self, train, val, *, seed, budget, on_checkpoint=None):
         t = self.settings["training"]
         steps, seconds = training_limits(budget, t["max_steps"], t["max_seconds"])
         return train_faceformer(self.network, train, val, self.subjects, training=t, seed=seed,
-                                max_steps=steps, max_seconds=seconds, progress=show_progress())
+                                max_steps=steps, max_seconds=seconds, progress=show_progress(),
+                                on_checkpoint=on_checkpoint)
 
     def network_state(self) -> dict:
         return {"state_dict": self.network.state_dict(), "model_config": self.network.config,

@@ -11,12 +11,13 @@ __all__ = ["train_faceformer"]
 
 
 def train_faceformer(model, train, val, subjects, *, training: dict, seed: int, max_steps: float, max_seconds: float,
-                     progress: bool = True) -> dict:
+                     progress: bool = True, on_checkpoint=None) -> dict:
     """Train ``model`` (a :class:`~baselines.faceformer.model.Faceformer`) in place.
 
     One sentence per step (batch 1, as the authors), teacher-forced MSE on the
     vertices, Adam; keeps the weights with the lowest validation MSE (teacher-forced,
     averaged over two styles since validation speakers are unseen) when ``val`` is given.
+    ``on_checkpoint``: the runner's half-budget call (:func:`~baselines.common.training.fit_sequences`).
     """
     scale = float(training["motion_scale"])
     w2v = model.config["audio"]["kind"] == "wav2vec2"
@@ -37,4 +38,4 @@ def train_faceformer(model, train, val, subjects, *, training: dict, seed: int, 
                          max_steps=epochs_to_steps(training, len(items), max_steps, max_seconds),
                          max_seconds=max_seconds, num_threads=training.get("num_threads"),
                          grad_clip=training.get("grad_clip"), desc="FaceFormer training", progress=progress,
-                         loss_scale=scale**2)
+                         loss_scale=scale**2, on_checkpoint=on_checkpoint)

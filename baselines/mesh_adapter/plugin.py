@@ -38,6 +38,8 @@ class MeshAdapterMethod(TrackLookupMethod):
 
     name = "mesh-adapter"
     stochastic = False
+    #: train fits stored outputs, whatever the seed: ``benchmark.run --seeds`` is refused
+    learns = False
 
     def __init__(self, config: str | os.PathLike | None = None, split: str = "test", adapter: dict | None = None,
                  **settings):
@@ -63,10 +65,11 @@ class MeshAdapterMethod(TrackLookupMethod):
     def config(self) -> dict:
         return {**super().config(), "adapter": self.adapter.to_dict()}
 
-    def train(self, dataset, *, seed, budget):
+    def train(self, dataset, *, seed, budget, on_checkpoint=None):
         """Fit every stored output of a dataset subject with that speaker's rig.
 
-        Nothing is learned and no ground truth is read: the outputs in the adapter's
+        Nothing is learned (no steps, so no ``on_checkpoint`` call: the run is not
+        checked for convergence) and no ground truth is read: the outputs in the adapter's
         ``vertices`` folder are turned into coefficient tracks once, keyed by
         (subject, sentence). ``split`` names the split whose sentences must all have
         an output (checked here, so a missing file fails before scoring starts).

@@ -1,2 +1,3 @@
-"""Reference rows of the leaderboard: ground truth (upper) and mean / static /
-random (lower). Registered as ``ground-truth``, ``mean``, ``static``, ``random``."""
+"""Reference rows of the leaderboard: ground truth and the corpus meshes (the floors
+of the rig and mesh reference spaces) and mean / static / random (lower). Registered as
+``ground-truth``, ``corpus-meshes``, ``mean``, ``static``, ``random``."""

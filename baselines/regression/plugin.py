@@ -61,7 +61,10 @@ class RegressionMethod(Method):
                 targets.append(coeffs)
         return feats, targets
 
-    def train(self, dataset, *, seed: int, budget: Budget) -> None:
+    def train(self, dataset, *, seed: int, budget: Budget, on_checkpoint=None) -> None:
+        """Train on the train split (the val split picks the kept weights); ``on_checkpoint``:
+        the runner's half-budget call, made when a run without a time limit has done half
+        its steps, the network then being the one training would keep at that point."""
         from baselines.common.threads import torch_threads
 
         from .training import feature_statistics, trained_regressor
@@ -78,10 +81,19 @@ class RegressionMethod(Method):
             self.stats = (mean, std)
             norm = lambda fs: [((f - mean) / std).astype(np.float32) for f in fs]
             cfg = self._config
+
+            def at_half(step, *, model, total_steps):
+                self.model = model  # generate() uses the network as it is at this step
+                try:
+                    on_checkpoint(step, total_steps=total_steps)
+                finally:
+                    self.model = None
+
             self.model, self.history = trained_regressor(
                 norm(feats), targets, val_features=norm(val_feats), val_targets=val_targets, seed=seed,
                 budget=budget, default_steps=cfg["steps"], batch=cfg["batch"], window=cfg["window"], lr=cfg["lr"],
                 model_kwargs={"channels": cfg["channels"], "hidden": cfg["hidden"]}, progress=show_progress(),
+                on_checkpoint=None if on_checkpoint is None else at_half,
             )
 
     def generate(self, utterance, *, samples=1, seed=0):

@@ -9,7 +9,8 @@ import time
 import numpy as np
 import torch
 
-from benchmark.methods.base import Budget
+from baselines.common.training import kept_state, paused_training
+from benchmark.methods.base import Budget, checkpoint_step
 
 from .model import AudioToCoefficients
 
@@ -74,7 +75,8 @@ def _mse(model, features, targets) -> float:
 
 def trained_regressor(features, targets, *, val_features=(), val_targets=(), seed: int = 0,
                       budget: Budget | None = None, default_steps: int = 1500, batch: int = 16, window: int = 120,
-                      lr: float = 2e-3, eval_every: int = 250, model_kwargs=None, progress: bool = True):
+                      lr: float = 2e-3, eval_every: int = 250, model_kwargs=None, progress: bool = True,
+                      on_checkpoint=None):
     """Train an :class:`AudioToCoefficients` with MSE on random windows.
 
     Parameters
@@ -90,6 +92,12 @@ def trained_regressor(features, targets, *, val_features=(), val_targets=(), see
         Seeds torch and the window sampler: same seed, same weights.
     budget : Budget
         ``max_steps`` replaces ``default_steps``; ``max_seconds`` stops early.
+    on_checkpoint : callable, optional
+        Called once, in a run without ``max_seconds``, after half the steps, as
+        ``on_checkpoint(step, model=model, total_steps=steps)``, ``model`` holding the
+        weights this function would return if it stopped there (the best on validation,
+        a validation at that step included, not recorded), in eval mode without
+        gradients; afterwards training goes on exactly as without the call.
 
     Returns
     -------
@@ -126,6 +134,7 @@ def trained_regressor(features, targets, *, val_features=(), val_targets=(), see
         bar = tqdm(total=steps, desc="regression: train", unit="step", disable=not progress, file=sys.stderr)
     except ImportError:
         bar = None
+    half = checkpoint_step(steps) if on_checkpoint is not None and budget.max_seconds is None else None
     step = 0
     while not budget.exhausted(step, started) and step < steps:
         x, y = window_batch(rng, features, targets, batch=batch, window=window)
@@ -144,6 +153,16 @@ def trained_regressor(features, targets, *, val_features=(), val_targets=(), see
             val_history.append([step, mse])
             if mse < best[0]:
                 best = (mse, copy.deepcopy(model.state_dict()), step)
+        if step == half:
+            if val_history and val_history[-1][0] == step:
+                state = best[1]
+            elif len(val_features):
+                with paused_training(model):
+                    state = kept_state(best[0], best[1], _mse(model, val_features, val_targets))
+            else:
+                state = None
+            with paused_training(model, state):
+                on_checkpoint(step, model=model, total_steps=steps)
     if bar is not None:
         bar.close()
     if len(val_features) and (not val_history or val_history[-1][0] != step):

@@ -52,8 +52,11 @@ class SAiDMethod(Method):
         """Constructor arguments plus the resolved nested config."""
         return {**super().config(), "resolved": self.said.config}
 
-    def train(self, dataset, *, seed: int, budget: Budget) -> None:
-        """Train on the dataset's train split, select on its val split, within ``budget``."""
+    def train(self, dataset, *, seed: int, budget: Budget, on_checkpoint=None) -> None:
+        """Train on the dataset's train split, select on its val split, within ``budget``;
+        ``on_checkpoint``: the runner's half-budget call, made when a run without a time
+        limit has done half its steps (:func:`baselines.said.train.train_said`); the
+        authors' weights train nothing and make no call."""
         if isinstance(self.said, OfficialSAiD):
             return  # the authors' published weights: nothing to train
         names = tuple(dataset.names)
@@ -73,6 +76,7 @@ class SAiDMethod(Method):
             max_seconds=budget.max_seconds,
             mirror=mirror_for(names),
             progress=show_progress(),
+            on_checkpoint=on_checkpoint,
         )
 
     def generate(self, utterance, *, samples=1, seed=0):

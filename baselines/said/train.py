@@ -22,6 +22,7 @@ from tqdm.auto import tqdm
 
 from baselines.common.device import torch_device
 from baselines.common.threads import torch_threads
+from baselines.common.training import call_checkpoint, kept_state
 from baselines.said.augment import training_batch, validation_windows
 from baselines.said.dataset import dataset_pairs, mirror_for
 from baselines.said.ema import EMA
@@ -30,6 +31,7 @@ from baselines.said.normalization import coefficient_normalization
 from baselines.said.parametrization import noise_from_output
 from baselines.said.pipeline import SAiD
 from baselines.said.schedule import add_noise, alphas_of
+from benchmark.methods.base import checkpoint_step
 from blendvoca import cli
 from blendvoca.errors import DataError, UserError
 
@@ -123,6 +125,7 @@ def train_said(
     max_seconds: float | None = None,
     mirror: np.ndarray | None = None,
     progress: bool = True,
+    on_checkpoint=None,
 ) -> dict:
     """Train ``said`` in place; at the end it holds the EMA weights with the best validation loss.
 
@@ -141,6 +144,13 @@ def train_said(
     mirror : (K,) int ndarray, optional
         Mirror permutation of the columns for the swap augmentation; None disables it.
     progress : bool, default True
+    on_checkpoint : callable, optional
+        The runner's half-budget call (``Method.train``): in a run without a time limit,
+        called once after ``max_steps // 2`` steps as ``on_checkpoint(step,
+        total_steps=max_steps)`` with ``said`` holding the weights this function would
+        leave if it stopped there (the EMA weights best on validation, a validation at
+        that step included but not recorded; the EMA weights without validation), in
+        eval mode without gradients; afterwards training goes on exactly as without it.
 
     Returns
     -------
@@ -208,6 +218,19 @@ def train_said(
         return min(1.0, (step + 1) / warmup) * budget_decay(decay, done)
 
     sched = torch.optim.lr_scheduler.LambdaLR(opt, lr_factor)
+    half = checkpoint_step(max_steps) if on_checkpoint is not None and math.isinf(max_seconds) else None
+
+    def at_half(step: int) -> None:
+        if val_batches and history["val"] and history["val"][-1][0] == step:
+            state = best_state  # validated at this very step
+        elif val_batches:
+            state = kept_state(history["best_val_loss"], best_state, val_loss())
+        else:
+            state = None
+        if state is None:  # the EMA weights as they are now
+            state = {k: v.detach().clone() for k, v in ema.model.state_dict().items()}
+        call_checkpoint(on_checkpoint, step, model, total_steps=max_steps, state=state)
+
     step = 0
     bar = tqdm(total=None if math.isinf(max_steps) else max_steps, desc="SAiD training", disable=not progress)
     with torch_threads(cfg.get("num_threads")):
@@ -239,6 +262,8 @@ def train_said(
                 if history["best_val_loss"] is None or v < history["best_val_loss"]:
                     history["best_val_loss"], history["best_step"] = v, step
                     best_state = copy.deepcopy(ema.model.state_dict())
+            if step == half:
+                at_half(step)
         if val_batches and (not history["val"] or history["val"][-1][0] != step) and step > 0:
             v = val_loss()
             history["val"].append([step, v])

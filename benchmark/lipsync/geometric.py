@@ -5,7 +5,9 @@ speaker's rig) is correlated with the speech energy envelope at lags
 ``-max_lag..max_lag`` frames. The offset is the lag of the highest Pearson
 correlation; positive means the motion comes *after* the audio. The confidence,
 like SyncNet's ``median - min`` distance, is the best correlation minus the
-median correlation over all lags.
+median correlation over all lags, discounted by how visible the motion is
+(:func:`visibility_weight`): a correlation does not change when the mouth moves
+five times less, SyncNet's and the learned expert's confidences do.
 """
 
 from __future__ import annotations
@@ -16,6 +18,11 @@ import numpy as np
 
 from benchmark.lipsync.envelope import speech_envelope
 from blendvoca.errors import UserError
+
+#: Mouth-activity standard deviation at which the confidence is discounted by
+#: 1/sqrt(2) (:func:`visibility_weight`): 1 mm, in metres as the evaluation passes the
+#: activity, about one pixel of the 224 px face view that SyncNet is given.
+VISIBILITY = 1e-3
 
 
 def mouth_activity(vertices, neutral, lip_idx) -> np.ndarray:
@@ -90,7 +97,28 @@ def offset_from_scores(scores, max_lag: int, higher_is_better: bool = True) -> S
     return SyncEstimate(offset=int(best) - max_lag, confidence=float(conf), scores=scores)
 
 
-def geometric_sync(activity, samples, rate: int = 16000, fps: float = 60.0, max_lag: int = 15) -> SyncEstimate:
+def visibility_weight(activity, visibility: float = VISIBILITY) -> float:
+    """``s / sqrt(s**2 + visibility**2)`` with ``s`` the standard deviation of ``activity``.
+
+    Near 1 for motion well above ``visibility`` (same units as ``activity``), ``s /
+    visibility`` for motion well below it, 0 for a still mouth. It rises with the
+    amount of motion and is the factor by which :func:`geometric_sync` discounts a
+    correlation: up to the per-lag window statistics, its confidence is then the
+    best-minus-median of ``cov(activity, envelope) / (std(envelope) sqrt(var(activity)
+    + visibility**2))``, a correlation whose motion variance is floored at
+    ``visibility**2`` (motion far below it cannot look synchronised).
+    """
+    activity = np.asarray(activity, dtype=np.float64)
+    if visibility < 0:
+        raise UserError(f"visibility_weight: visibility must be >= 0, got {visibility}")
+    if activity.size == 0 or np.ptp(activity) == 0:
+        return 0.0  # a still mouth (std would be round-off, not motion)
+    s = float(activity.std())
+    return s / float(np.hypot(s, visibility))
+
+
+def geometric_sync(activity, samples, rate: int = 16000, fps: float = 60.0, max_lag: int = 15,
+                   visibility: float = VISIBILITY) -> SyncEstimate:
     """Audio-motion offset and confidence from mouth activity and speech.
 
     Parameters
@@ -104,11 +132,17 @@ def geometric_sync(activity, samples, rate: int = 16000, fps: float = 60.0, max_
         Frame rate of ``activity``.
     max_lag : int
         Lags searched, in frames at ``fps``.
+    visibility : float
+        Motion scale of :func:`visibility_weight`, in the units of ``activity``
+        (default 1 mm for activity in metres, as the evaluation gives it).
 
     Returns
     -------
     SyncEstimate
-        ``offset`` in frames at ``fps`` (positive: motion after audio).
+        ``offset`` in frames at ``fps`` (positive: motion after audio), the lag of
+        the highest Pearson correlation; ``confidence`` = (best - median correlation)
+        x ``visibility_weight(activity, visibility)``; ``scores`` the per-lag
+        Pearson correlations.
     """
     activity = np.asarray(activity, dtype=np.float64)
     if activity.ndim != 1:
@@ -120,4 +154,6 @@ def geometric_sync(activity, samples, rate: int = 16000, fps: float = 60.0, max_
         # confidence, and the offset is the worst one searched, so a method that
         # does not move is never rewarded with a small mean offset.
         return SyncEstimate(offset=max_lag, confidence=0.0, scores=np.zeros_like(scores))
-    return offset_from_scores(scores, max_lag)
+    est = offset_from_scores(scores, max_lag)
+    return SyncEstimate(offset=est.offset, confidence=est.confidence * visibility_weight(activity, visibility),
+                        scores=est.scores)

@@ -12,6 +12,7 @@ from __future__ import annotations
 import abc
 import contextlib
 import contextvars
+import inspect
 import json
 import math
 import time
@@ -22,7 +23,8 @@ import numpy as np
 
 from .contract import OUTPUT_COEFFICIENTS, OUTPUT_KINDS
 
-__all__ = ["CONFIG_FILE", "Budget", "Method", "progress_bars", "show_progress"]
+__all__ = ["CONFIG_FILE", "Budget", "Method", "checkpoint_step", "progress_bars", "show_progress",
+           "takes_checkpoint_hook"]
 
 #: File in which :meth:`Method.save` stores the constructor config.
 CONFIG_FILE = "method_config.json"
@@ -104,6 +106,40 @@ class Budget:
         return asdict(self)
 
 
+def checkpoint_step(total_steps) -> int | None:
+    """The step after which a method that trains ``total_steps`` steps calls
+    ``on_checkpoint``: half of them (rounded down), or None when there is no half
+    (fewer than 2 steps, or no step count: a time-limited run).
+
+    Parameters
+    ----------
+    total_steps : int, float or None
+        The steps the run will take (``math.inf`` or None: not known in advance).
+    """
+    if total_steps is None or isinstance(total_steps, bool):
+        return None
+    try:
+        total = float(total_steps)
+    except (TypeError, ValueError):
+        return None
+    if not math.isfinite(total) or total < 2:
+        return None
+    return int(total) // 2
+
+
+def takes_checkpoint_hook(train) -> bool:
+    """Whether the bound or unbound ``train`` accepts ``on_checkpoint=`` (a keyword of
+    that name, or ``**kwargs``). Plug-ins written before the hook existed do not: the
+    runner then calls ``train(dataset, seed=..., budget=...)`` and records the run as
+    not checked for convergence."""
+    try:
+        parameters = inspect.signature(train).parameters.values()
+    except (TypeError, ValueError):
+        return False
+    return any(p.name == "on_checkpoint" and p.kind in (p.KEYWORD_ONLY, p.POSITIONAL_OR_KEYWORD)
+               or p.kind == p.VAR_KEYWORD for p in parameters)
+
+
 class Method(abc.ABC):
     """Base class of a speech-to-face method plug-in.
 
@@ -136,6 +172,11 @@ class Method(abc.ABC):
     reference: bool = False
     #: Leaderboard row name; None means the registry name.
     label: str | None = None
+    #: False for a method whose ``train`` learns nothing that depends on the seed (it
+    #: reads stored outputs or the build, as ``mesh-adapter`` does): ``benchmark.run
+    #: --seeds`` refuses it, as it refuses reference methods and methods that do not
+    #: override :meth:`train`.
+    learns: bool = True
     #: Config keys that change only how a trained method samples (e.g. CDFace's
     #: ``control``): ``benchmark.run --checkpoint DIR --config KEY=VALUE`` may set them
     #: on a loaded method through :meth:`with_sampling_options`; any other key must
@@ -159,7 +200,7 @@ class Method(abc.ABC):
         ``type(self)(**self.config())`` rebuilds the method."""
         return dict(self._config)
 
-    def train(self, dataset, *, seed: int, budget: Budget) -> None:
+    def train(self, dataset, *, seed: int, budget: Budget, on_checkpoint=None) -> None:
         """Train on ``dataset.split("train")`` / ``("val")``; default: nothing to train.
 
         Parameters
@@ -171,6 +212,26 @@ class Method(abc.ABC):
             Seed for every random choice made while training.
         budget : Budget
             Step and/or time limit.
+        on_checkpoint : callable, optional
+            The runner's half-budget check (docs/methods.md, "Settled or not"). A method
+            that trains a known number of steps ``N`` (a step budget, or its own
+            default step count, and no time limit) calls ``on_checkpoint(step)`` once,
+            right after step ``checkpoint_step(N)`` (``N // 2``); it may add
+            ``total_steps=N`` (the runner otherwise takes ``budget.max_steps``). A
+            method trained in stages calls it in its last stage, with the steps of
+            every stage counted (``step`` = earlier stages + half the last one).
+
+            During the call the method must be able to :meth:`generate` as it would be
+            had its training stopped at that step: the weights it would keep then
+            (e.g. the best on validation so far, or its EMA weights), in eval mode and
+            without gradients; afterwards it restores its training state (weights,
+            train mode) and goes on as if nothing had happened. The runner keeps the
+            global random states (Python, numpy, torch) unchanged around the call, so
+            a run with the check trains the same model as one without.
+
+            A time-limited run (its half is not known in advance) and a method that
+            does not train in steps do not call it; plug-ins whose ``train`` does not
+            take ``on_checkpoint`` still work (the run is recorded as not checked).
         """
         return
 

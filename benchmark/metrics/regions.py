@@ -20,6 +20,10 @@ from collections.abc import Sequence
 
 import numpy as np
 
+#: Name prefixes of the shapes that move the mouth and jaw (ARKit's jaw, mouth and tongue
+#: groups): what speech drives.
+MOUTH_PREFIXES = ("jaw", "mouth", "tongue")
+
 LIP_SHAPES = (
     "mouthFunnel", "mouthPucker", "mouthRollLower", "mouthRollUpper", "mouthPressLeft",
     "mouthPressRight", "mouthClose", "mouthShrugLower", "mouthShrugUpper",
@@ -66,6 +70,11 @@ def lip_vertices(deltas, names: Sequence[str], shapes: Sequence[str] = LIP_SHAPE
     if top <= 0:
         raise ValueError("lip_vertices: the lip shapes move no vertex")
     return np.flatnonzero(score >= fraction * top).astype(np.int64)
+
+
+def mouth_shape_indices(names: Sequence[str], prefixes: Sequence[str] = MOUTH_PREFIXES) -> np.ndarray:
+    """Indices of the jaw, mouth and tongue shapes among ``names`` ((M,) int64, sorted)."""
+    return np.array([i for i, n in enumerate(names) if str(n).startswith(tuple(prefixes))], dtype=np.int64)
 
 
 def nose_tip_index(neutral) -> int:

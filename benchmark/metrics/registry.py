@@ -5,7 +5,10 @@ which direction is better, which group it belongs to and what its spread means.
 ``label`` and ``group``, the leaderboard orders and groups its columns by it, and
 docs/metrics.md's table is checked against it. Groups and their order follow the
 SAiD paper's Table 1: lip sync (AV offset, AV confidence), then the distribution
-metrics (multimodality, FD, WInD), then the vertex errors and the diversity measures.
+metrics (multimodality, FD, WInD), then the vertex errors, the energy score and the
+diversity measures. Every vertex metric comes in two reference spaces (:data:`SPACES`:
+``lve_mesh`` against the source meshes, ``lve_rig`` against the rig reconstruction of the
+ground-truth coefficients), so coefficient and vertex rows are read on one scale.
 """
 
 from __future__ import annotations
@@ -13,9 +16,13 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 __all__ = [
+    "ESTIMATORS",
     "GROUPS",
+    "LEGACY_NAMES",
     "METRICS",
+    "SPACES",
     "MetricInfo",
+    "current_name",
     "markdown_table",
     "metric_info",
     "ordered_metrics",
@@ -23,7 +30,7 @@ __all__ = [
 ]
 
 #: Groups in table order.
-GROUPS = ("lip sync", "distribution", "vertex", "diversity")
+GROUPS = ("lip sync", "distribution", "vertex", "energy", "diversity")
 
 
 @dataclass(frozen=True)
@@ -37,7 +44,9 @@ class MetricInfo:
     label : str
         Column header (``LVE``).
     unit : str
-    higher_is_better : bool
+    higher_is_better : bool or None
+        None: neither direction is better (a signed offset; closer to 0 is better for
+        a lag bias): no best mark.
     group : str
         One of :data:`GROUPS`.
     spread : str
@@ -53,7 +62,7 @@ class MetricInfo:
     name: str
     label: str
     unit: str
-    higher_is_better: bool
+    higher_is_better: bool | None
     group: str
     spread: str
     min_samples: int = 1
@@ -95,35 +104,75 @@ def ordered_metrics(names) -> list[str]:
 
 
 _SENT = "std over sentences"
+_FIRST = "std over sentences (first sample)"
+
+#: The two reference spaces of every vertex metric (suffix -> what it is compared with).
+SPACES = {
+    "mesh": "the source meshes (coefficient rows through each speaker's rig)",
+    "rig": "the rig reconstruction of the ground-truth coefficients (vertex rows through their coefficient fit)",
+}
+#: Lip-sync estimators, in table order: the paper's SyncNet on renders, a learned
+#: coefficient-space expert, and the weight-free geometric estimate.
+ESTIMATORS = {"syncnet": ("SyncNet", "frames@25fps", _FIRST), "expert": ("expert", "frames@60fps", _SENT),
+              "geometric": ("geom.", "frames@60fps", _SENT)}
+_CONFIDENCE = {"syncnet": "distance", "expert": "distance", "geometric": "correlation"}
+
+
+def _lipsync_metrics():
+    for est, (short, unit, spread) in ESTIMATORS.items():
+        yield MetricInfo(f"av_offset_{est}", f"AV offset ({short})", unit, False, "lip sync",
+                         spread + "; mean of the absolute offsets")
+        yield MetricInfo(f"av_confidence_{est}", f"AV conf. ({short})", _CONFIDENCE[est], True, "lip sync", spread)
+        yield MetricInfo(f"av_offset_signed_{est}", f"AV offset signed ({short})", unit, None, "lip sync",
+                         spread + "; + = motion after audio")
+        yield MetricInfo(f"av_lag_bias_{est}", f"AV lag bias ({short})", unit, None, "lip sync",
+                         spread + "; signed offset minus the ground truth's")
+
+
+def _vertex_metrics():
+    for space in SPACES:
+        yield MetricInfo(f"lve_{space}", f"LVE {space}", "mm", False, "vertex", _SENT)
+        yield MetricInfo(f"lve_squared_{space}", f"LVE (sq.) {space}", "mm^2", False, "vertex", _SENT)
+        yield MetricInfo(f"mve_{space}", f"MVE {space}", "mm", False, "vertex", _SENT)
+        yield MetricInfo(f"fdd_{space}", f"FDD (abs.) {space}", "mm^2", False, "vertex", _SENT)
+    for space in SPACES:
+        yield MetricInfo(f"energy_{space}", f"Energy {space}", "mm", False, "energy", _SENT)
+    yield MetricInfo("energy_latent", "Energy latent", "latent", False, "energy", _SENT + " (mean over windows)")
+    for space in SPACES:
+        for name in ("apd", "upd", "lpd", "mpd"):
+            yield MetricInfo(f"{name}_{space}", f"{name.upper()} {space}", "mm", True, "diversity", _SENT,
+                             min_samples=2)
+
+
 for _info in (
-    # lip sync: the paper's AV offset / confidence (SyncNet on renders), a learned
-    # coefficient-space expert, and the weight-free geometric estimate
-    MetricInfo("av_offset_syncnet", "AV offset (SyncNet)", "frames@25fps", False, "lip sync",
-               "std over sentences (first sample)"),
-    MetricInfo("av_confidence_syncnet", "AV conf. (SyncNet)", "distance", True, "lip sync",
-               "std over sentences (first sample)"),
-    MetricInfo("av_offset_expert", "AV offset (expert)", "frames@60fps", False, "lip sync", _SENT),
-    MetricInfo("av_confidence_expert", "AV conf. (expert)", "distance", True, "lip sync", _SENT),
-    MetricInfo("av_offset_geometric", "AV offset (geom.)", "frames@60fps", False, "lip sync", _SENT),
-    MetricInfo("av_confidence_geometric", "AV conf. (geom.)", "correlation", True, "lip sync", _SENT),
+    *_lipsync_metrics(),
     # distribution, on VAE features of 120-frame windows
     MetricInfo("multimodality", "Multimodality", "latent", True, "distribution",
                "std of the pair distances", min_samples=2, level="set"),
     MetricInfo("fd", "FD", "latent^2", False, "distribution", "none (one value for the set)", level="set"),
     MetricInfo("wind", "WInD", "latent^2", False, "distribution", "std over GMM refits", level="set"),
-    # vertex errors against the ground-truth meshes
-    MetricInfo("lve", "LVE", "mm", False, "vertex", _SENT),
-    MetricInfo("lve_squared", "LVE (sq.)", "mm^2", False, "vertex", _SENT),
-    MetricInfo("mve", "MVE", "mm", False, "vertex", _SENT),
-    MetricInfo("fdd", "FDD (abs.)", "mm^2", False, "vertex", _SENT),
-    # diversity between samples of the same audio
-    MetricInfo("apd", "APD", "mm", True, "diversity", _SENT, min_samples=2),
-    MetricInfo("upd", "UPD", "mm", True, "diversity", _SENT, min_samples=2),
-    MetricInfo("lpd", "LPD", "mm", True, "diversity", _SENT, min_samples=2),
-    MetricInfo("mpd", "MPD", "mm", True, "diversity", _SENT, min_samples=2),
+    *_vertex_metrics(),
 ):
     register_metric(_info)
 del _info
+
+#: Names of result files before the two reference spaces (schema 1) -> their name now,
+#: by the kind of row: vertex rows were scored against the source meshes, coefficient
+#: rows against the rig reconstruction of the ground truth.
+LEGACY_NAMES = {old: {"vertices": f"{old}_mesh", "coefficients": f"{old}_rig"}
+                for old in ("lve", "lve_squared", "mve", "fdd", "apd", "upd", "lpd", "mpd")}
+
+
+def current_name(name: str, output: str) -> str:
+    """The name a schema-1 metric ``name`` of a row with ``output`` (``"coefficients"`` or
+    ``"vertices"``) has now (:data:`LEGACY_NAMES`; other names are unchanged)."""
+    mapped = LEGACY_NAMES.get(name)
+    if mapped is None:
+        return name
+    return mapped["vertices" if output == "vertices" else "coefficients"]
+
+
+_BETTER = {True: "higher", False: "lower", None: "closer to 0"}
 
 
 def markdown_table() -> str:
@@ -132,6 +181,6 @@ def markdown_table() -> str:
              "|---|---|---|---|---|---|---|"]
     for name in ordered_metrics(list(METRICS)):
         m = METRICS[name]
-        lines.append(f"| `{m.name}` | {m.label} | {m.group} | {'higher' if m.higher_is_better else 'lower'} | "
+        lines.append(f"| `{m.name}` | {m.label} | {m.group} | {_BETTER[m.higher_is_better]} | "
                      f"{m.unit} | {m.spread} | {'yes' if m.min_samples >= 2 else 'no'} |")
     return "\n".join(lines) + "\n"

@@ -6,15 +6,20 @@ inspect any of them::
 
     spec = RunSpec("regression", budget=Budget(max_steps=50))
     inputs = check_inputs(spec)                  # the build, results folder, split ... (UsageError)
-    trained = train(spec, inputs.dataset)        # Trained: built and trained, or loaded
+    check, why_not = half_budget_check(spec, inputs)                  # settled or not (convergence)
+    trained = train(spec, inputs.dataset, check=check)                # Trained: built and trained, or loaded
     writer = track_writer(spec, inputs, trained)
     generated = generate(spec, inputs.dataset, trained, store=writer)   # Generated
     scored = score(spec, inputs.dataset, generated)                      # Scored
-    path = store(spec, inputs, trained, generated, scored, writer=writer, timings=..., provenance=...)
+    convergence = convergence_record(check.result, scored.metrics)
+    path = store(spec, inputs, trained, generated, scored, writer=writer, timings=..., provenance=...,
+                 convergence=convergence, convergence_check="checked")
 
 :func:`run` composes them (nothing is written when a step fails) and
 :func:`run_method` is the same with keyword arguments; ``python -m benchmark.run``
-is the command line over it. Which error a step raises says whose fault it is
+is the command line over it. A run over several training seeds (``RunSpec.seeds``)
+repeats train, generate and score per seed and stores one result
+(:mod:`benchmark.protocol.seeds`). Which error a step raises says whose fault it is
 (:mod:`blendvoca.errors`): :class:`UsageError` / ``UserError`` for what was asked,
 ``DataError`` for a build file, ``MethodError`` for the method.
 """
@@ -25,6 +30,14 @@ import time
 from pathlib import Path
 
 from benchmark.methods import Budget
+from benchmark.protocol.convergence import (
+    CHECK_METRICS,
+    CHECKED,
+    NOT_CHECKED,
+    HalfBudgetCheck,
+    convergence_record,
+    half_budget_check,
+)
 from benchmark.protocol.generation import Generated, generate, generated_tracks, sentence_seed
 from benchmark.protocol.limits import DEFAULT_GENERATE_LIMIT, GenerateLimit, TimeLimit, generate_limit
 from benchmark.protocol.scoring import MODEL_LIPSYNC_METRICS, Scored, loaded_lipsync_models, score, score_lipsync_models
@@ -34,45 +47,67 @@ from benchmark.protocol.spec import (
     UsageError,
     check_inputs,
     check_results_dir,
+    checked_seeds,
     default_data_root,
     default_results_dir,
     open_data,
 )
-from benchmark.protocol.storing import lipsync_models_provenance, result_name, store, track_writer, write_run
+from benchmark.protocol.seeds import CombinedScores, SeedRun, combined_seed_scores, parse_seeds, run_seeds
+from benchmark.protocol.storing import (
+    lipsync_models_provenance,
+    result_name,
+    store,
+    store_seeds,
+    track_writer,
+    write_run,
+)
 from benchmark.protocol.training import TRAIN_GRACE_S, Trained, make_method, prepared_method, train
 from benchmark.results import current_provenance
 
 __all__ = [
+    "CHECKED",
+    "CHECK_METRICS",
     "DEFAULT_GENERATE_LIMIT",
     "GenerateLimit",
     "MODEL_LIPSYNC_METRICS",
+    "NOT_CHECKED",
     "TRAIN_GRACE_S",
+    "CombinedScores",
     "Generated",
+    "HalfBudgetCheck",
     "Inputs",
     "RunSpec",
     "Scored",
+    "SeedRun",
     "TimeLimit",
     "Trained",
     "UsageError",
     "check_inputs",
     "check_results_dir",
+    "checked_seeds",
+    "combined_seed_scores",
+    "convergence_record",
     "default_data_root",
     "default_results_dir",
     "generate",
     "generate_limit",
     "generated_tracks",
+    "half_budget_check",
     "lipsync_models_provenance",
     "loaded_lipsync_models",
     "make_method",
     "open_data",
+    "parse_seeds",
     "prepared_method",
     "result_name",
     "run",
     "run_method",
+    "run_seeds",
     "score",
     "score_lipsync_models",
     "sentence_seed",
     "store",
+    "store_seeds",
     "track_writer",
     "train",
     "write_run",
@@ -99,14 +134,24 @@ def run(spec: RunSpec, *, evaluate=None, open_dataset=None) -> Path:
     started = time.perf_counter()
     provenance = current_provenance()  # the code as it is when the run starts
     inputs = check_inputs(spec, open_dataset=open_dataset, evaluation_assets=evaluate is None)
-    trained = train(spec, inputs.dataset)
+    if spec.seeds is not None:
+        return run_seeds(spec, inputs, evaluate=evaluate, provenance=provenance, started=started)
+    check, reason = half_budget_check(spec, inputs, evaluate=evaluate)
+    trained = train(spec, inputs.dataset, check=check)
     writer = track_writer(spec, inputs, trained)
     try:
         generated = generate(spec, inputs.dataset, trained, store=writer)
         scored = score(spec, inputs.dataset, generated, evaluate=evaluate)
-        timings = {**trained.timings, "generate_s": generated.seconds, "evaluate_s": scored.seconds,
+        convergence = None
+        if check is not None:
+            convergence = convergence_record(check.result, scored.metrics)
+            reason = NOT_CHECKED["no_call"] if not check.called else (
+                NOT_CHECKED["no_metrics"] if convergence is None else CHECKED)
+        timings = {"train_s": trained.train_s, "load_s": trained.load_s, "generate_s": generated.seconds,
+                   "evaluate_s": scored.seconds, "convergence_s": trained.convergence_s,
                    "total_s": time.perf_counter() - started}
-        return store(spec, inputs, trained, generated, scored, writer=writer, timings=timings, provenance=provenance)
+        return store(spec, inputs, trained, generated, scored, writer=writer, timings=timings, provenance=provenance,
+                     convergence=convergence, convergence_check=reason)
     except BaseException:
         writer.discard()
         raise
@@ -117,7 +162,8 @@ def run_method(
     data_root=None,
     *,
     samples: int = 10,
-    seed: int = 0,
+    seed: int | None = None,
+    seeds=None,
     budget: Budget | None = None,
     results_dir=None,
     config: dict | None = None,
@@ -144,8 +190,11 @@ def run_method(
         BlendVOCA build; None uses :func:`default_data_root`.
     samples : int
         Samples per sentence for stochastic methods (deterministic ones give one).
-    seed : int
-        Training and sampling seed.
+    seed : int, optional
+        Training and sampling seed (default 0).
+    seeds : sequence of int, optional
+        Training seeds (exclusive with ``seed``): one run per seed, stored as one
+        result (:mod:`benchmark.protocol.seeds`); the method must train.
     budget : Budget, optional
         Training limits (default: none, the method's own defaults).
     results_dir : path-like, optional
@@ -185,15 +234,25 @@ def run_method(
     -----
     Step budgets make runs deterministic: the same seed gives the same metric
     values. A time budget depends on the machine; the result records
-    ``protocol.deterministic = false`` for it.
+    ``protocol.deterministic = false`` for it. A trained method that calls
+    ``on_checkpoint`` at half its steps is checked for convergence
+    (:mod:`benchmark.protocol.convergence`; the result's ``convergence``).
+
+    Raises
+    ------
+    UsageError
+        Among others: ``seed`` and ``seeds`` both given, a repeated or non-integer
+        seed, ``seeds`` for a method that does not train (all before anything trains).
 
     Returns
     -------
     Path
         The result file. Nothing is written when any step fails.
     """
-    spec = RunSpec(method=method_name, config=config, data_root=data_root, split=split, samples=samples, seed=seed,
-                   budget=budget, checkpoint=checkpoint, clip=clip, generate_time_limit=generate_time_limit,
-                   sentence_batch=sentence_batch, vocaset=vocaset, syncnet=syncnet, sync_expert=sync_expert,
-                   results_dir=results_dir, verify=verify, progress=progress)
+    if seed is not None and seeds is not None:
+        raise UsageError("--seeds: not allowed with --seed (the seeds are the training seeds of the run)")
+    spec = RunSpec(method=method_name, config=config, data_root=data_root, split=split, samples=samples,
+                   seed=0 if seed is None else seed, seeds=seeds, budget=budget, checkpoint=checkpoint, clip=clip,
+                   generate_time_limit=generate_time_limit, sentence_batch=sentence_batch, vocaset=vocaset,
+                   syncnet=syncnet, sync_expert=sync_expert, results_dir=results_dir, verify=verify, progress=progress)
     return run(spec, evaluate=evaluate, open_dataset=open_dataset)

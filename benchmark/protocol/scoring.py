@@ -14,7 +14,8 @@ from blendvoca.errors import BlendVOCAError, UserError
 __all__ = ["MODEL_LIPSYNC_METRICS", "Scored", "loaded_lipsync_models", "score", "score_lipsync_models"]
 
 #: The lip-sync metrics that need a model file: SyncNet weights or a learned sync expert.
-MODEL_LIPSYNC_METRICS = ("av_offset_expert", "av_confidence_expert", "av_offset_syncnet", "av_confidence_syncnet")
+MODEL_LIPSYNC_METRICS = tuple(f"av_{kind}_{model}" for model in ("expert", "syncnet")
+                              for kind in ("offset", "confidence", "offset_signed", "lag_bias"))
 
 #: What loading a file that holds no such model raises (torch's readers included; a
 #: state_dict of other shapes is torch's RuntimeError).
@@ -144,11 +145,12 @@ def score_lipsync_models(tracks, dataset, *, syncnet=None, sync_expert=None, pro
     start = time.perf_counter()
     rigs = {s: dataset.rig(s) for s in {k[0] for k in keys}}
     audio = {k: dataset.audio(*k) for k in keys}
+    ground_truth = {k: dataset.coeffs(*k) for k in keys}
     syncnet_model, expert_model = loaded_lipsync_models(syncnet, sync_expert)
     values = _lipsync_values(tracks, rigs, audio, dataset.names, syncnet=syncnet_model, sync_expert=expert_model,
-                             progress=progress)
+                             progress=progress, ground_truth=ground_truth)
     values = {name: v for name, v in values.items() if name in MODEL_LIPSYNC_METRICS}
     # evaluate_split's own bootstrap seed (0), as a run scores: same tracks, same intervals
-    metrics, rows = _sentence_entries(values, seed=0, resamples=BOOTSTRAP_RESAMPLES)
+    metrics, rows, _replicates = _sentence_entries(values, seed=0, resamples=BOOTSTRAP_RESAMPLES)
     per_sentence = [{"subject": k[0], "sentence": k[1], **rows.get(k, {})} for k in keys]
     return Scored(metrics=metrics, per_sentence=per_sentence, seconds=time.perf_counter() - start)

@@ -9,7 +9,7 @@ import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from benchmark.methods import OUTPUT_COEFFICIENTS, OUTPUT_VERTICES, Budget, MethodError, get_method
+from benchmark.methods import OUTPUT_COEFFICIENTS, OUTPUT_VERTICES, Budget, Method, MethodError, get_method
 from benchmark.protocol.limits import GenerateLimit
 from benchmark.protocol.training import make_method
 from blendvoca.errors import DataError, UserError
@@ -21,9 +21,11 @@ __all__ = [
     "UsageError",
     "check_inputs",
     "check_results_dir",
+    "checked_seeds",
     "default_data_root",
     "default_results_dir",
     "open_data",
+    "trains_nothing",
 ]
 
 
@@ -48,6 +50,32 @@ def _is_count(value) -> bool:
         return False
 
 
+def checked_seeds(seeds) -> tuple:
+    """``seeds`` as a tuple of distinct integers >= 0 (the training seeds of a run).
+
+    Raises
+    ------
+    UsageError
+        Not a non-empty sequence of such integers, or a seed given twice (naming ``--seeds``).
+    """
+    if isinstance(seeds, (str, bytes)) or not hasattr(seeds, "__iter__"):
+        raise UsageError(f"--seeds: expected a list of integers such as 0,1,2, got {seeds!r}")
+    out = []
+    for value in seeds:
+        try:
+            ok = not isinstance(value, bool) and int(value) == value and int(value) >= 0
+        except (TypeError, ValueError, OverflowError):
+            ok = False
+        if not ok:
+            raise UsageError(f"--seeds: expected integers >= 0, got {value!r}")
+        if int(value) in out:
+            raise UsageError(f"--seeds: seed {int(value)} is given twice; expected distinct seeds")
+        out.append(int(value))
+    if not out:
+        raise UsageError("--seeds: expected at least one seed, got none")
+    return tuple(out)
+
+
 @dataclass(frozen=True)
 class RunSpec:
     """What a run is asked to do; checked when made (:class:`UsageError` otherwise).
@@ -65,7 +93,11 @@ class RunSpec:
     samples : int, default 10
         Samples per sentence for stochastic methods (deterministic ones give one).
     seed : int, default 0
-        Training and sampling seed.
+        Training and sampling seed (with ``seeds``: the first of them).
+    seeds : sequence of int, optional
+        Training seeds (``--seeds 0,1,2``): one run per seed (each trained, generated
+        and scored with that seed) stored as one result; distinct integers >= 0.
+        None: the single run of ``seed``.
     budget : Budget, optional
         Training limits (default: none, the method's own defaults).
     checkpoint : path-like, optional
@@ -99,6 +131,7 @@ class RunSpec:
     split: str = "test"
     samples: int = 10
     seed: int = 0
+    seeds: tuple | None = None
     budget: Budget = field(default_factory=Budget)
     checkpoint: object = None
     clip: bool = False
@@ -124,6 +157,10 @@ class RunSpec:
         object.__setattr__(self, "budget", self.budget or Budget())
         object.__setattr__(self, "samples", int(self.samples))
         object.__setattr__(self, "sentence_batch", int(self.sentence_batch))
+        if self.seeds is not None:
+            seeds = checked_seeds(self.seeds)
+            object.__setattr__(self, "seeds", seeds)
+            object.__setattr__(self, "seed", seeds[0])
 
     @property
     def evaluates_lipsync_models(self) -> bool:
@@ -236,6 +273,37 @@ def _check_evaluation_assets(syncnet, sync_expert) -> None:
             raise UsageError(f"{flag} {value}: no such file")
 
 
+def trains_nothing(method) -> str | None:
+    """Why ``method`` (a class or an instance) learns nothing from a training seed, or
+    None when it does: a reference method, one whose class does not override
+    ``Method.train``, or one that says so (``learns = False``: it fits stored outputs,
+    or holds the authors' weights)."""
+    cls = method if isinstance(method, type) else type(method)
+    if getattr(method, "reference", False):
+        return "it is a reference method"
+    if getattr(cls, "train", Method.train) is Method.train:
+        return "it has no train step"
+    if not getattr(method, "learns", True):
+        return "its train step learns nothing from the seed"
+    return None
+
+
+def _check_seeded_training(spec: RunSpec, method) -> None:
+    """UsageError unless every seed of ``spec.seeds`` trains ``method`` anew."""
+    why = trains_nothing(method)
+    if why is not None:
+        raise UsageError(f"--seeds: method {spec.method!r} does not train ({why}); a run over training seeds needs "
+                         "a method that trains (use --seed)")
+    if spec.checkpoint is not None:
+        path = Path(os.fspath(spec.checkpoint)).expanduser()
+        if path.is_file():
+            raise UsageError(f"--seeds: --checkpoint {path} is a weights file, which trains nothing; a run over "
+                             "training seeds trains every seed (give an empty folder to save each seed's method)")
+        if path.is_dir() and any(path.iterdir()):
+            raise UsageError(f"--seeds: --checkpoint {path} is not empty; a run over training seeds trains every "
+                             "seed and saves each into <checkpoint>/seed<k> of an empty or new folder")
+
+
 def check_inputs(spec: RunSpec, *, open_dataset=None, evaluation_assets: bool = True) -> Inputs:
     """Open the build and check everything a run can check before training: the results
     folder, the split, a vertex method's source meshes, the evaluation's assets and the
@@ -278,9 +346,11 @@ def check_inputs(spec: RunSpec, *, open_dataset=None, evaluation_assets: bool = 
     if evaluation_assets:
         _check_evaluation_assets(spec.syncnet, spec.sync_expert)
     try:
-        make_method(spec.method, spec.config)
+        method = make_method(spec.method, spec.config)
     except MethodError as exc:
         raise UsageError(f"--config: {exc}") from None
+    if spec.seeds is not None:
+        _check_seeded_training(spec, method)
     # last: the cheap checks above answer a mistyped flag before the files are read
     verify = getattr(dataset, "verify", None) if spec.verify else None
     verified = None if verify is None else int(verify(subjects))

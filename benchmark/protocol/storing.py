@@ -10,19 +10,21 @@ from pathlib import Path
 from benchmark.methods.contract import COEFFICIENT_NAMES
 from benchmark.protocol.limits import generate_limit
 from benchmark.results import build_result, result_filename, write_result
-from benchmark.runs import TrackWriter, tracks_folder_name
+from benchmark.runs import TrackWriter, seed_folder_name, tracks_folder_name
 from blendvoca.errors import MethodError
 from blendvoca.format import content_digest
 
-__all__ = ["lipsync_models_provenance", "result_name", "store", "track_writer", "write_run"]
+__all__ = ["lipsync_models_provenance", "result_name", "store", "store_seeds", "track_writer", "write_run"]
 
 
 def result_name(spec, dataset, trained) -> str:
-    """The result file's name: one per method label, build, samples and seed
-    (:func:`benchmark.results.result_filename`)."""
+    """The result file's name: one per method label, build, samples and seed, or seeds
+    (:func:`benchmark.results.result_filename`: ``__seed0``, ``__seeds0-1-2``)."""
+    protocol = {"samples": spec.samples if trained.stochastic else 1, "seed": int(spec.seed)}
+    if spec.seeds is not None:
+        protocol["seeds"] = [int(s) for s in spec.seeds]
     return result_filename({"method": {"name": spec.method, "label": trained.label},
-                            "dataset": {"manifest_hash": str(dataset.manifest_hash)},
-                            "protocol": {"samples": spec.samples if trained.stochastic else 1, "seed": int(spec.seed)}})
+                            "dataset": {"manifest_hash": str(dataset.manifest_hash)}, "protocol": protocol})
 
 
 def track_writer(spec, inputs, trained) -> TrackWriter:
@@ -71,8 +73,59 @@ def _method_config(trained) -> dict:
     return config
 
 
+def _method_section(spec, trained, method_config: dict) -> dict:
+    cls = type(trained.method)
+    return {
+        "name": spec.method,
+        "label": trained.label,
+        "class": f"{cls.__module__}:{cls.__qualname__}",
+        "stochastic": trained.stochastic,
+        "reference": bool(getattr(trained.method, "reference", False)),
+        "output": trained.output,
+        "config": method_config,
+    }
+
+
+def _dataset_section(spec, inputs, *, num_subjects: int, num_sentences: int) -> dict:
+    data_root = inputs.data_root
+    return {
+        "manifest_hash": str(inputs.dataset.manifest_hash),
+        "path": str(Path(data_root).resolve()) if isinstance(data_root, (str, os.PathLike)) else str(data_root),
+        "split": spec.split,
+        "num_subjects": int(num_subjects),
+        "num_sentences": int(num_sentences),
+    }
+
+
+def _protocol_section(spec, inputs, trained, *, n_clipped: int, evaluation: dict | None = None,
+                      convergence_check: str | None = None) -> dict:
+    """The ``protocol`` section; ``evaluation``: what the evaluation attached
+    (``Scores.protocol``, e.g. ``fd_floor_probe``), merged in."""
+    checkpoint = spec.checkpoint
+    protocol = {
+        "samples": spec.samples if trained.stochastic else 1,
+        "seed": int(spec.seed),
+        **({"seeds": [int(s) for s in spec.seeds]} if spec.seeds is not None else {}),
+        "budget": spec.budget.to_dict(),
+        "clip": bool(spec.clip),
+        "n_clipped": int(n_clipped),
+        "checkpoint": None if checkpoint is None else str(checkpoint),
+        **({"checkpoint_sha256": content_digest(checkpoint)}
+           if checkpoint is not None and Path(checkpoint).exists() else {}),
+        "deterministic": spec.budget.max_seconds is None,
+        "generate_time_limit": _limit_record(spec.generate_time_limit),
+        "verified": inputs.verified is not None,
+        **({"sentence_batch": spec.sentence_batch} if spec.sentence_batch > 1 else {}),
+        **({"lipsync_models": lipsync_models_provenance(spec.syncnet, spec.sync_expert)}
+           if spec.evaluates_lipsync_models else {}),
+        **({"convergence_check": convergence_check} if convergence_check is not None else {}),
+    }
+    protocol.update(dict(evaluation or {}))
+    return protocol
+
+
 def store(spec, inputs, trained, generated, scored, *, writer: TrackWriter, timings: dict,
-          provenance: dict) -> Path:
+          provenance: dict, convergence: dict | None = None, convergence_check: str | None = None) -> Path:
     """Write the run: its tracks folder (``writer`` committed) and its result JSON.
 
     Parameters
@@ -82,12 +135,19 @@ def store(spec, inputs, trained, generated, scored, *, writer: TrackWriter, timi
     trained : Trained
     generated : Generated
     scored : Scored
+        Its ``metrics.protocol`` (a dict the evaluation attaches, e.g.
+        ``{"fd_floor_probe": ...}``) is merged into the result's ``protocol``.
     writer : benchmark.runs.TrackWriter
         From :func:`track_writer`, holding the generated tracks.
     timings : dict
-        Seconds per step: ``train_s``, ``load_s``, ``generate_s``, ``evaluate_s``, ``total_s``.
+        Seconds per step: ``train_s``, ``load_s``, ``generate_s``, ``evaluate_s``,
+        ``convergence_s``, ``total_s``.
     provenance : dict
         ``benchmark.results.current_provenance()`` taken when the run started.
+    convergence : dict, optional
+        The half-budget check (:func:`benchmark.protocol.convergence.convergence_record`).
+    convergence_check : str, optional
+        ``protocol.convergence_check``: ``"checked"`` or why not.
 
     Returns
     -------
@@ -100,49 +160,79 @@ def store(spec, inputs, trained, generated, scored, *, writer: TrackWriter, timi
         The method's ``config()`` is not a JSON-serialisable dict (nothing written).
     """
     method_config = _method_config(trained)
-    cls = type(trained.method)
-    checkpoint = spec.checkpoint
     filename = result_name(spec, inputs.dataset, trained)
-    data_root = inputs.data_root
     result = build_result(
-        method={
-            "name": spec.method,
-            "label": trained.label,
-            "class": f"{cls.__module__}:{cls.__qualname__}",
-            "stochastic": trained.stochastic,
-            "reference": bool(getattr(trained.method, "reference", False)),
-            "output": trained.output,
-            "config": method_config,
-        },
-        dataset={
-            "manifest_hash": str(inputs.dataset.manifest_hash),
-            "path": str(Path(data_root).resolve()) if isinstance(data_root, (str, os.PathLike)) else str(data_root),
-            "split": spec.split,
-            "num_subjects": len({s for s, _ in generated.tracks}),
-            "num_sentences": len(generated.tracks),
-        },
-        protocol={
-            "samples": spec.samples if trained.stochastic else 1,
-            "seed": int(spec.seed),
-            "budget": spec.budget.to_dict(),
-            "clip": bool(spec.clip),
-            "n_clipped": int(generated.n_clipped),
-            "checkpoint": None if checkpoint is None else str(checkpoint),
-            **({"checkpoint_sha256": content_digest(checkpoint)}
-               if checkpoint is not None and Path(checkpoint).exists() else {}),
-            "deterministic": spec.budget.max_seconds is None,
-            "generate_time_limit": _limit_record(spec.generate_time_limit),
-            "verified": inputs.verified is not None,
-            **({"sentence_batch": spec.sentence_batch} if spec.sentence_batch > 1 else {}),
-            **({"lipsync_models": lipsync_models_provenance(spec.syncnet, spec.sync_expert)}
-               if spec.evaluates_lipsync_models else {}),
-        },
+        method=_method_section(spec, trained, method_config),
+        dataset=_dataset_section(spec, inputs, num_subjects=len({s for s, _ in generated.tracks}),
+                                 num_sentences=len(generated.tracks)),
+        protocol=_protocol_section(spec, inputs, trained, n_clipped=generated.n_clipped,
+                                   evaluation=getattr(scored.metrics, "protocol", {}),
+                                   convergence_check=convergence_check),
         metrics=dict(scored.metrics),
         timings=timings,
         tracks=tracks_folder_name(filename),
         per_sentence=scored.per_sentence,
         provenance=provenance,
     )
+    if convergence is not None:
+        result["convergence"] = convergence
+    return write_run(result, inputs.results_dir, filename, writer=writer)
+
+
+def store_seeds(spec, inputs, trained, runs, combined, *, writer: TrackWriter, timings: dict, provenance: dict,
+                convergence_check: str | None = None) -> Path:
+    """Write a run over several training seeds as one result (``spec.seeds``).
+
+    Parameters
+    ----------
+    spec : RunSpec
+        With ``seeds``.
+    inputs : Inputs
+    trained : Trained
+        The first seed's method (its name, label, class and config stand for all).
+    runs : list of benchmark.protocol.seeds.SeedRun
+        One per seed, in ``spec.seeds`` order.
+    combined : benchmark.protocol.seeds.CombinedScores
+        From :func:`benchmark.protocol.seeds.combined_seed_scores`.
+    writer : benchmark.runs.TrackWriter
+        The run's writer (each seed's tracks in its ``for_seed`` subfolder).
+    timings : dict
+        Seconds per step, summed over the seeds, and ``total_s``.
+    provenance : dict
+    convergence_check : str, optional
+
+    Returns
+    -------
+    Path
+        The result file: ``seeds``, ``per_seed`` and the combined ``metrics``,
+        ``per_sentence`` and ``convergence`` (docs/methods.md, "Training seeds").
+    """
+    method_config = _method_config(trained)
+    filename = result_name(spec, inputs.dataset, trained)
+    first = runs[0]
+    folder = tracks_folder_name(filename)
+    per_seed = []
+    for record, run in zip(combined.per_seed, runs):
+        per_seed.append({**record, "tracks": f"{folder}/{seed_folder_name(run.seed)}",
+                         "n_clipped": int(run.n_clipped),
+                         "timings": {k: (None if v is None else round(float(v), 3)) for k, v in run.timings.items()}})
+    protocol = _protocol_section(spec, inputs, trained, n_clipped=sum(int(r.n_clipped) for r in runs),
+                                 evaluation=first.evaluation, convergence_check=convergence_check)
+    protocol["seed_bootstrap"] = dict(combined.bootstrap)
+    result = build_result(
+        method=_method_section(spec, trained, method_config),
+        dataset=_dataset_section(spec, inputs, num_subjects=first.num_subjects, num_sentences=first.num_sentences),
+        protocol=protocol,
+        metrics=combined.metrics,
+        timings=timings,
+        tracks=f"{folder}/{seed_folder_name(first.seed)}",
+        per_sentence=combined.per_sentence,
+        provenance=provenance,
+    )
+    result["seeds"] = [int(s) for s in spec.seeds]
+    result["per_seed"] = per_seed
+    if combined.convergence is not None:
+        result["convergence"] = combined.convergence
     return write_run(result, inputs.results_dir, filename, writer=writer)
 
 

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from benchmark.methods import OUTPUT_COEFFICIENTS, Budget, get_method
-from benchmark.methods.base import CONFIG_FILE, progress_bars
+from benchmark.methods.base import CONFIG_FILE, progress_bars, takes_checkpoint_hook
 from benchmark.protocol.limits import TimeLimit
 from blendvoca.errors import DataError, MethodError, MethodTimeout, UserError
 
@@ -35,18 +35,22 @@ class Trained:
     name : str
         The name the run asked for (registered or installed).
     train_s, load_s : float or None
-        Seconds spent training, or loading a checkpoint (the other one is None).
+        Seconds spent training (without the half-budget check's), or loading a
+        checkpoint (the other one is None).
+    convergence_s : float or None
+        Seconds spent in the half-budget check (generating and scoring), None without one.
     """
 
     method: object
     name: str
     train_s: float | None = None
     load_s: float | None = None
+    convergence_s: float | None = None
 
     @property
     def timings(self) -> dict:
-        """``{"train_s": ..., "load_s": ...}`` as a result file records them."""
-        return {"train_s": self.train_s, "load_s": self.load_s}
+        """``{"train_s": ..., "load_s": ..., "convergence_s": ...}`` as a result file records them."""
+        return {"train_s": self.train_s, "load_s": self.load_s, "convergence_s": self.convergence_s}
 
     @property
     def stochastic(self) -> bool:
@@ -63,7 +67,7 @@ class Trained:
         return getattr(self.method, "label", None) or self.name
 
 
-def train(spec, dataset) -> Trained:
+def train(spec, dataset, *, check=None) -> Trained:
     """The method of ``spec`` ready to generate (:func:`prepared_method`), with the
     progress bars ``spec.progress`` asks for around training.
 
@@ -71,6 +75,9 @@ def train(spec, dataset) -> Trained:
     ----------
     spec : RunSpec
     dataset : benchmark.data dataset
+    check : benchmark.protocol.convergence.HalfBudgetCheck, optional
+        The half-budget check, handed to the method's ``train`` as ``on_checkpoint``;
+        its seconds are counted in ``convergence_s``, not ``train_s``.
 
     Returns
     -------
@@ -78,8 +85,13 @@ def train(spec, dataset) -> Trained:
     """
     with progress_bars(spec.progress):
         method, timings = prepared_method(spec.method, spec.config, dataset, seed=spec.seed, budget=spec.budget,
-                                          checkpoint=spec.checkpoint)
-    return Trained(method=method, name=spec.method, train_s=timings["train_s"], load_s=timings["load_s"])
+                                          checkpoint=spec.checkpoint, checkpoint_hook=check)
+    train_s, convergence_s = timings["train_s"], None
+    if check is not None and check.called:
+        convergence_s = check.seconds
+        train_s = None if train_s is None else max(0.0, train_s - check.seconds)
+    return Trained(method=method, name=spec.method, train_s=train_s, load_s=timings["load_s"],
+                   convergence_s=convergence_s)
 
 
 def make_method(name: str, config: dict | None = None):
@@ -98,7 +110,8 @@ def make_method(name: str, config: dict | None = None):
                           f"{type(exc).__name__}: {exc}") from exc
 
 
-def prepared_method(name: str, config: dict, dataset, *, seed: int, budget: Budget, checkpoint=None):
+def prepared_method(name: str, config: dict, dataset, *, seed: int, budget: Budget, checkpoint=None,
+                    checkpoint_hook=None):
     """The method ready to generate: loaded from ``checkpoint`` when it holds one,
     otherwise built and trained (and saved to ``checkpoint`` when given).
 
@@ -114,6 +127,11 @@ def prepared_method(name: str, config: dict, dataset, *, seed: int, budget: Budg
         A folder written by the method's ``save`` (loaded), an empty or missing folder
         (trained and saved there), or a file: the method's released weights
         (``from_official_checkpoint``).
+    checkpoint_hook : callable, optional
+        ``checkpoint_hook(method, step, total_steps)``, handed to a method that is
+        trained (not loaded) and whose ``train`` takes ``on_checkpoint`` as
+        ``on_checkpoint(step, total_steps=None)`` (``Method.train``). What the hook
+        raises leaves ``train`` unchanged (not wrapped as the method's failure).
 
     Returns
     -------
@@ -154,14 +172,27 @@ def prepared_method(name: str, config: dict, dataset, *, seed: int, budget: Budg
     method = make_method(name, config)
     start = time.perf_counter()
     limit = None if budget.max_seconds is None else budget.max_seconds * 1.1 + TRAIN_GRACE_S
+    hook, raised = {}, []
+    if checkpoint_hook is not None and takes_checkpoint_hook(method.train):
+        def on_checkpoint(step, total_steps=None):
+            try:
+                checkpoint_hook(method, step, total_steps)
+            except BaseException as exc:
+                raised.append(exc)
+                raise
+
+        hook = {"on_checkpoint": on_checkpoint}
     try:
         with TimeLimit(limit, f"method {name!r}: train (budget {budget.max_seconds:g} s + grace)"
                        if limit else ""):
-            method.train(dataset, seed=seed, budget=budget)
+            method.train(dataset, seed=seed, budget=budget, **hook)
     except (MethodTimeout, UserError, DataError, OSError):
         # a build file that is missing or wrong is the data's fault, not the method's
         raise
     except Exception as exc:
+        for error in raised:  # the check's own failure (e.g. the half-trained method's output), unwrapped
+            if _caused_by(exc, error):
+                raise error from None
         raise MethodError(f"method {name!r}: train failed: {type(exc).__name__}: {exc}") from exc
     timings["train_s"] = time.perf_counter() - start
     if path is not None:
@@ -173,6 +204,17 @@ def prepared_method(name: str, config: dict, dataset, *, seed: int, budget: Budg
         except Exception as exc:
             raise MethodError(f"method {name!r}: save to {path} failed: {type(exc).__name__}: {exc}") from exc
     return method, timings
+
+
+def _caused_by(exc: BaseException, cause: BaseException) -> bool:
+    """Whether ``cause`` is ``exc`` or in its chain of causes and contexts."""
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        if exc is cause:
+            return True
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return False
 
 
 def _from_released_file(cls, name: str, config: dict, dataset, *, seed: int, budget: Budget, path: Path):

@@ -3,7 +3,8 @@
 Everything the pages show is written here as JSON next to copies of the audio and
 one GLB rig per speaker, so the pages only fetch and draw:
 
-    data/leaderboard.json                         tables (one per dataset), rows, intervals
+    data/leaderboard.json                         tables (one per dataset), rows, intervals, seed ranges,
+                                                  best marks and their rule, probabilities of improvement
     data/runs/<run>.json                          one run: provenance, per-sentence scores
     data/sentences/<subject>/<sentence>.json      ground truth: coefficients, lip motion, envelope (dB, scaled to [0, 1])
     data/tracks/<run>/<subject>/<sentence>-<k>.json   one generated sample: coefficients, lip motion
@@ -67,15 +68,28 @@ class SiteRun:
 
 
 def load_site_runs(results_dir) -> list[SiteRun]:
-    """Every result JSON in ``results_dir`` (schema-checked), sorted by file name."""
+    """Every result JSON in ``results_dir`` (schema-checked, with the fields the tables read
+    type-checked), sorted by file name.
+
+    Raises
+    ------
+    UserError
+        No such folder, or no result in it.
+    DataError
+        A file that is not a result, or results of different schema versions on one
+        dataset (``leaderboard.collect.check_schema_versions``).
+    """
     from benchmark.results import read_result
+    from leaderboard.collect import check_schema_versions, tabulable
 
     results_dir = Path(results_dir)
     if not results_dir.is_dir():
         raise UserError(f"leaderboard.site: results folder {results_dir} does not exist")
-    runs = [SiteRun(path, read_result(path)) for path in sorted(results_dir.glob("*.json"))]
+    paths = sorted(results_dir.glob("*.json"))
+    runs = [SiteRun(path, tabulable(read_result(path), path)) for path in paths]
     if not runs:
         raise UserError(f"leaderboard.site: {results_dir} holds no result *.json files")
+    check_schema_versions([run.result for run in runs], paths)
     return runs
 
 
@@ -105,36 +119,61 @@ def _column_spec(column) -> dict:
 
 
 def _row_data(row, run: SiteRun) -> dict:
+    from leaderboard.render import not_settled_text
+
     return {
         "run": run.id,
         "label": row.label,
         "reference": row.reference,
         "output": row.output,
         "samples": row.samples,
+        "seeds": list(row.seeds),
+        "settled": row.settled,
+        "not_settled": not_settled_text(row) if row.settled is False else None,
         "has_tracks": bool(run.tracks()) and run.dataset_root is not None,
         "metrics": {
             name: {"mean": _number(mean), "std": _number(std),
                    "ci95": [_number(v) for v in ci95] if ci95 else None,
+                   "seed_range": ([_number(v) for v in row.seed_ranges[name]] if name in row.seed_ranges else None),
                    "n": run.result["metrics"][name].get("n")}
             for name, (mean, std, ci95) in row.metrics.items()
         },
     }
 
 
+def _probability(p):
+    return None if p is None else round(float(p), _DECIMALS)
+
+
 def leaderboard_data(runs) -> dict:
     """The leaderboard page's tables, as ``leaderboard.collect`` arranges them: one per
     dataset manifest, columns grouped in the registry's order, methods and reference
-    rows apart, best marks by ``leaderboard.collect.best_rows``."""
-    from leaderboard.collect import best_rows, tables_by_manifest
+    rows apart, best marks by ``leaderboard.collect.best_mark`` (with the rule that
+    made each and its probability), and the probability of improvement between any two
+    rows per metric (``leaderboard.collect.pairwise_probabilities``; rows in the order
+    of ``improvement.runs``: the methods, then the reference rows)."""
+    from leaderboard.collect import MIN_PAIRED_SENTENCES, best_mark, pairwise_probabilities, tables_by_manifest
+    from leaderboard.render import AV_OFFSET_NOTE
 
     tables = []
     for table in tables_by_manifest([run.result for run in runs]):
         methods = [_row_data(row, runs[row.source]) for row in table.rows]
+        references = [_row_data(row, runs[row.source]) for row in table.references]
         for row in methods:
             row["best"] = []
+        best_rule, best_probability = {}, {}
         for column in table.columns:
-            for index in best_rows(table.rows, column):
+            mark = best_mark(table.rows, column)
+            for index in mark.rows:
                 methods[index]["best"].append(column.name)
+            best_rule[column.name] = mark.rule
+            best_probability[column.name] = _probability(mark.probability)
+        every = table.rows + table.references
+        improvement = {}
+        for column in table.columns:
+            matrix = pairwise_probabilities(every, column)
+            if any(p is not None for line in matrix for p in line):
+                improvement[column.name] = [[_probability(p) for p in line] for line in matrix]
         tables.append({
             "manifest_hash": table.manifest_hash,
             "split": table.split,
@@ -142,7 +181,16 @@ def leaderboard_data(runs) -> dict:
             "metrics": {column.name: _column_spec(column) for column in table.columns},
             "groups": [{"name": group, "metrics": [c.name for c in columns]} for group, columns in table.groups],
             "methods": methods,
-            "references": [_row_data(row, runs[row.source]) for row in table.references],
+            "references": references,
+            "best_rule": best_rule,
+            "best_probability": best_probability,
+            "improvement": {"runs": [r["run"] for r in methods + references], "metrics": improvement},
+            "notes": {
+                "av_offset": (AV_OFFSET_NOTE if any(c.name.startswith(("av_offset_", "av_lag_bias_"))
+                                                    for c in table.columns) else None),
+                "fallback": [name for name, rule in best_rule.items() if rule == "intervals"],
+                "min_sentences": MIN_PAIRED_SENTENCES,
+            },
         })
     return {"tables": tables}
 
@@ -161,6 +209,8 @@ def _per_sentence(result) -> list[dict]:
 
 def run_page_data(run: SiteRun) -> dict:
     """The method page's data for one run (tracks only when its dataset is here)."""
+    from leaderboard.collect import result_seeds
+
     result = run.result
     tracks = run.tracks() if run.dataset_root is not None else {}
     specs = _run_metric_specs(run)
@@ -171,6 +221,10 @@ def run_page_data(run: SiteRun) -> dict:
         "dataset": result["dataset"],
         "protocol": result.get("protocol", {}),
         "provenance": {k: result.get(k) for k in ("versions", "git", "hardware", "date", "timings") if k in result},
+        "seeds": result_seeds(result),
+        "per_seed": [{"seed": entry.get("seed"), "metrics": entry.get("metrics") or {}}
+                     for entry in result.get("per_seed") or []],
+        "convergence": result.get("convergence"),
         "metrics": specs,
         "metric_order": list(specs),  # the JSON object's keys are written sorted
         "per_sentence": _per_sentence(result),

@@ -82,3 +82,49 @@ def test_motionless_mouth_has_zero_confidence_and_the_worst_offset():
     samples = np.random.default_rng(0).normal(size=16000).astype(np.float32)
     estimate = geometric_sync(np.zeros(60), samples, max_lag=15)
     assert estimate.confidence == 0.0 and estimate.offset == 15
+
+
+def test_visibility_weight_closed_form():
+    from benchmark.lipsync.geometric import VISIBILITY, visibility_weight
+
+    x = np.sin(np.linspace(0, 20, 400))
+    s = x.std()
+    for scale in (1e-4, 1e-3, 3e-3, 1.0):
+        assert visibility_weight(scale * x) == pytest.approx(scale * s / np.hypot(scale * s, VISIBILITY))
+    assert visibility_weight(np.full(50, 0.3)) == 0.0
+    assert visibility_weight(x, visibility=0.0) == 1.0
+    weights = [visibility_weight(a * 1e-3 * x) for a in (0.2, 0.4, 0.6, 0.8, 1.0, 2.0)]
+    assert np.all(np.diff(weights) > 0) and weights[-1] < 1
+
+
+def _rig_scale_case(seed=7):
+    """Mouth activity in metres (about 1.5 mm std, like a BlendVOCA rig's lips) and speech that follows it."""
+    rng = np.random.default_rng(seed)
+    opening = smooth_track(400, rng, channels=1, width=3.0)[:, 0]
+    audio = speech_for(opening, rng)
+    activity = 1.5e-3 * opening / opening.std()
+    return activity, audio, rng
+
+
+def test_confidence_falls_with_damping_and_the_offset_does_not_move():
+    """Damping the mouth toward the neutral scales the activity: the Pearson scores do
+    not change (the offset stays), the discounted confidence falls monotonically."""
+    activity, audio, _ = _rig_scale_case()
+    est = [geometric_sync(a * activity, audio, RATE, FPS) for a in (1.0, 0.8, 0.6, 0.4, 0.2)]
+    assert len({e.offset for e in est}) == 1
+    for e in est[1:]:
+        np.testing.assert_allclose(e.scores, est[0].scores, atol=1e-12)
+    conf = [e.confidence for e in est]
+    assert np.all(np.diff(conf) < 0)
+    assert conf[-1] < 0.5 * conf[0]  # factor 0.2: about -60 % (the learned expert: -55 %)
+    # without the discount the confidence is blind to the scale (the behaviour before the fix)
+    plain = [geometric_sync(a * activity, audio, RATE, FPS, visibility=0.0).confidence for a in (1.0, 0.2)]
+    assert plain[0] == pytest.approx(plain[1])
+
+
+def test_confidence_falls_with_noise():
+    activity, audio, rng = _rig_scale_case(8)
+    z = rng.standard_normal(len(activity))
+    conf = [geometric_sync(np.abs(activity + std * z), audio, RATE, FPS).confidence
+            for std in (0.0, 2e-4, 5e-4, 1e-3, 2e-3)]
+    assert np.all(np.diff(conf) < 0)

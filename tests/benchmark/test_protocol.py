@@ -11,6 +11,7 @@ import pytest
 
 from benchmark.methods import Budget
 from benchmark.protocol import (
+    NOT_CHECKED,
     Generated,
     RunSpec,
     Scored,
@@ -18,6 +19,7 @@ from benchmark.protocol import (
     UsageError,
     check_inputs,
     generate,
+    half_budget_check,
     run,
     run_method,
     score,
@@ -53,7 +55,9 @@ def test_the_steps_by_hand_give_what_run_method_gives(tmp_path):
                    results_dir=tmp_path / "steps", progress=False)
     inputs = check_inputs(spec, open_dataset=lambda root: dataset, evaluation_assets=False)
     assert inputs.subjects == ("D", "E") and inputs.results_dir.is_dir()
-    trained = train(spec, inputs.dataset)
+    check, reason = half_budget_check(spec, inputs, evaluate=fake_evaluate)
+    assert check is None and reason == NOT_CHECKED["untrained"]  # a reference method: nothing to check
+    trained = train(spec, inputs.dataset, check=check)
     assert isinstance(trained, Trained) and trained.stochastic and trained.load_s is None
     assert trained.train_s is not None and trained.label == "random"
     writer = track_writer(spec, inputs, trained)
@@ -65,7 +69,8 @@ def test_the_steps_by_hand_give_what_run_method_gives(tmp_path):
     assert isinstance(scored, Scored) and set(scored.metrics) == {"coeff_mse", "sync"}
     assert [(r["subject"], r["sentence"]) for r in scored.per_sentence] == list(generated.tracks)
     timings = {**trained.timings, "generate_s": generated.seconds, "evaluate_s": scored.seconds, "total_s": 1.0}
-    by_hand = store(spec, inputs, trained, generated, scored, writer=writer, timings=timings, provenance={})
+    by_hand = store(spec, inputs, trained, generated, scored, writer=writer, timings=timings, provenance={},
+                    convergence_check=reason)
     composed = run_method("random", "unused", samples=2, seed=3, budget=Budget(max_steps=2),
                           results_dir=tmp_path / "run", evaluate=fake_evaluate, open_dataset=lambda root: dataset,
                           progress=False)
@@ -122,9 +127,9 @@ def test_same_seed_and_steps_give_identical_metrics(fake_dataset_dir, assets_dir
         assert lo <= entry["mean"] <= hi, name
         assert entry["n"] == len(sentences) and entry["label"] and entry["group"], name
     assert [(r["subject"], r["sentence"]) for r in first["per_sentence"]] == sentences
-    assert all("lve" in row for row in first["per_sentence"])
+    assert all("lve_rig" in row for row in first["per_sentence"])
     if samples > 1:
-        assert "sample_std" in first["metrics"]["lve"] and "multimodality" in first["metrics"]
+        assert "sample_std" in first["metrics"]["lve_rig"] and "multimodality" in first["metrics"]
     run = read_run(next((tmp_path / "a").glob("*.json")))
     assert run.keys == sentences and run.dataset_root == fake_dataset_dir.resolve()
     for key in sentences:

@@ -40,3 +40,14 @@ def test_regions_on_a_built_rig_agree_with_flame_landmarks(built_dataset, assets
     assert np.isin(landmarks[48:68], lips).all()
     assert len(lips) < 0.15 * rig.num_vertices
     assert set(lips) <= set(lower_face_vertices(rig.neutral))
+
+
+def test_mouth_shape_indices():
+    from benchmark.metrics.regions import mouth_shape_indices
+    from blendvoca.names import BLENDVOCA_NAMES
+
+    idx = mouth_shape_indices(BLENDVOCA_NAMES)
+    assert [BLENDVOCA_NAMES[i] for i in idx] == [n for n in BLENDVOCA_NAMES if n.startswith(("jaw", "mouth"))]
+    assert len(idx) == 27 and idx.dtype == np.int64
+    assert list(mouth_shape_indices(["browInnerUp", "tongueOut", "eyeBlinkLeft", "jawOpen"])) == [1, 3]
+    assert mouth_shape_indices(["cheekPuff"]).size == 0

@@ -18,10 +18,10 @@ def test_docs_table_is_the_registry():
 
 
 def test_order_follows_the_papers_table_1():
-    order = ordered_metrics(["wind", "lve", "fd", "multimodality", "av_confidence_syncnet", "av_offset_syncnet",
-                             "apd", "custom"])
-    assert order == ["av_offset_syncnet", "av_confidence_syncnet", "multimodality", "fd", "wind", "lve", "apd",
-                     "custom"]
+    order = ordered_metrics(["wind", "lve_rig", "fd", "multimodality", "av_confidence_syncnet", "av_offset_syncnet",
+                             "apd_mesh", "energy_rig", "lve_mesh", "custom"])
+    assert order == ["av_offset_syncnet", "av_confidence_syncnet", "multimodality", "fd", "wind", "lve_mesh",
+                     "lve_rig", "energy_rig", "apd_mesh", "custom"]
     assert [METRICS[n].group for n in ordered_metrics(list(METRICS))] == sorted(
         (METRICS[n].group for n in METRICS), key=GROUPS.index)
     with pytest.raises(KeyError, match="registered"):
@@ -29,9 +29,22 @@ def test_order_follows_the_papers_table_1():
 
 
 def test_entries_carry_registry_metadata():
-    entry = metric_entry("lve", 1.5, 0.2, ci95=[1.2, 1.8], n=40)
+    entry = metric_entry("lve_rig", 1.5, 0.2, ci95=[1.2, 1.8], n=40)
     assert entry == {"mean": 1.5, "std": 0.2, "ci95": [1.2, 1.8], "n": 40, "higher_is_better": False, "unit": "mm",
-                     "label": "LVE", "group": "vertex"}
+                     "label": "LVE rig", "group": "vertex"}
+    # a signed offset and a lag bias have no better direction
+    assert metric_entry("av_lag_bias_geometric", 0.5)["higher_is_better"] is None
+
+
+def test_every_vertex_metric_has_both_spaces_and_old_names_map_by_row_kind():
+    from benchmark.metrics.registry import LEGACY_NAMES, current_name
+
+    for old in LEGACY_NAMES:
+        assert old not in METRICS and f"{old}_mesh" in METRICS and f"{old}_rig" in METRICS
+        assert current_name(old, "vertices") == f"{old}_mesh" and current_name(old, "coefficients") == f"{old}_rig"
+    assert current_name("fd", "vertices") == "fd"
+    for est in ("geometric", "expert", "syncnet"):
+        assert {f"av_offset_signed_{est}", f"av_lag_bias_{est}"} <= set(METRICS)
 
 
 def test_bootstrap_is_seeded_brackets_the_mean_and_covers_at_the_nominal_rate():

@@ -21,5 +21,11 @@ def test_brief_training_run_is_scored_as_a_vertex_method(built_dataset, tmp_path
     assert result["protocol"]["samples"] == 2
     metrics = result["metrics"]
     # the tiny build's sentences are shorter than the VAE window, so FD/WInD are left out here
-    for key in ("lve", "mve", "fdd", "apd") + tuple(k for k in ("fd", "wind") if k in metrics):
+    for key in ("lve_mesh", "lve_rig", "mve_mesh", "fdd_mesh", "apd_mesh") + tuple(k for k in ("fd", "wind")
+                                                                             if k in metrics):
         assert metrics[key]["mean"] is not None and metrics[key]["mean"] == metrics[key]["mean"], key
+    # the half-budget check ran on the method's own vertices (staged, then removed)
+    convergence = result["convergence"]
+    assert convergence["total_steps"] == 4 and "lve_rig" in convergence["metrics"]
+    assert result["protocol"]["convergence_check"] == "checked" and result["timings"]["convergence_s"] > 0
+    assert not list((tmp_path / "results").glob(".half-budget*"))

@@ -31,16 +31,16 @@ def _write_run(results, name, dataset, *, reference, samples, transform, lve):
             (tracks / subject).mkdir(parents=True, exist_ok=True)
             for k in range(samples):
                 write_coeffs_csv(tracks / subject / f"{sentence}-{k}.csv", transform(gt, k), dataset.names)
-            per_sentence.append({"subject": subject, "sentence": sentence, "lve": lve + 0.1 * len(per_sentence)})
+            per_sentence.append({"subject": subject, "sentence": sentence, "lve_rig": lve + 0.1 * len(per_sentence)})
     metric = {"mean": lve, "std": 0.1, "ci95": [lve - 0.1, lve + 0.1], "n": len(per_sentence),
-              "higher_is_better": False, "unit": "mm", "label": "LVE", "group": "vertex"}
+              "higher_is_better": False, "unit": "mm", "label": "LVE rig", "group": "vertex"}
     result = build_result(
         method={"name": name, "label": name, "class": "tests:Fake", "stochastic": samples > 1,
                 "reference": reference, "config": {}, "output": "coefficients"},
         dataset={"manifest_hash": dataset.manifest_hash, "path": str(dataset.root), "split": "test",
                  "num_subjects": len(dataset.split("test")), "num_sentences": len(per_sentence)},
         protocol={"samples": samples, "seed": 0, "budget": {}, "clip": False, "n_clipped": 0, "checkpoint": None},
-        metrics={"lve": metric}, timings={})
+        metrics={"lve_rig": metric}, timings={})
     result["per_sentence"] = per_sentence
     result["tracks"] = tracks.name
     (results / f"{name}.json").write_text(json.dumps(result, indent=1))
@@ -83,7 +83,14 @@ def test_site_data_files(site, results_dir):
     assert sorted(references) == ["ground-truth", "random"]
     assert references["random"]["samples"] == 3 and references["ground-truth"]["has_tracks"]
     assert all(m["ci95"] is not None for m in references["random"]["metrics"].values())
-    assert table["methods"][0]["best"] == ["lve"]  # intervals [1.4, 1.6] and [2.9, 3.1] do not overlap
+    # the bundled default's 4 test sentences are too few to resample (a sign test could not reject):
+    # the older rule, intervals [1.4, 1.6] and [2.9, 3.1] do not overlap; no probabilities
+    assert table["num_sentences"] < 5
+    assert table["methods"][0]["best"] == ["lve_rig"] and table["best_rule"]["lve_rig"] == "intervals"
+    assert table["notes"]["fallback"] == [n for n, rule in table["best_rule"].items() if rule == "intervals"]
+    runs = table["improvement"]["runs"]
+    assert runs[:2] == ["late", "still"] and sorted(runs[2:]) == sorted(references[k]["run"] for k in references)
+    assert "lve_rig" not in table["improvement"]["metrics"]
     run = json.loads((site / "data" / "runs" / "late.json").read_text())
     assert len(run["per_sentence"]) == len(run["sentences"]) > 0
     first = run["sentences"][0]
@@ -165,14 +172,15 @@ def test_leaderboard_page_rows_and_sorting(browser, served, results_dir):
                                   ".map(r => r.dataset.run)")
     assert runs == ["late", "still"] and len(refs) == 2
     assert sorted(runs + refs) == sorted(p.stem for p in results_dir.glob("*.json"))  # one row per stored run
-    header = browser.find_element("css selector", "th[data-metric='lve']")
+    header = browser.find_element("css selector", "th[data-metric='lve_rig']")
     header.click()  # descending first
     assert browser.execute_script("return [...document.querySelectorAll('tbody.methods tr')]"
                                   ".map(r => r.dataset.run)") == ["still", "late"]
     header.click()
     assert browser.execute_script("return [...document.querySelectorAll('tbody.methods tr')]"
                                   ".map(r => r.dataset.run)") == ["late", "still"]
-    assert browser.find_elements("css selector", ".chart[data-metric='lve'] circle")
+    assert browser.find_elements("css selector", ".chart[data-metric='lve_rig'] circle")
+    assert browser.find_elements("css selector", "p.fallback-note")
 
 
 def test_method_page_scores_and_plots(browser, served):
@@ -224,3 +232,99 @@ def test_site_from_the_committed_results_loads(three_js, browser, tmp_path):
     finally:
         server.shutdown()
         shutil.rmtree(site)
+
+
+def _v3_runs(tmp_path):
+    """Two methods (one trained with two seeds, not settled) and a reference row, as SiteRuns."""
+    from benchmark.results import build_result
+    from leaderboard.site.data import SiteRun
+
+    sentences = [("S1", f"sentence{i:02d}") for i in range(30)]
+    base = np.linspace(1.0, 3.0, len(sentences))
+
+    def rows(values):
+        return [{"subject": s, "sentence": q, "lve_rig": float(v), "av_offset_geometric": 0.0}
+                for (s, q), v in zip(sentences, values)]
+
+    def result(label, values, reference=False, **extra):
+        mean = float(np.mean(values))
+        metrics = {"lve_rig": {"mean": mean, "std": 0.1, "ci95": [mean - 0.2, mean + 0.2], "higher_is_better": False,
+                               "unit": "mm"},
+                   "av_offset_geometric": {"mean": 0.0, "std": 0.0, "ci95": [0.0, 0.0], "higher_is_better": False,
+                                           "unit": "frames@60fps"}}
+        out = build_result(method={"name": label, "label": label, "reference": reference, "config": {}},
+                           dataset={"manifest_hash": "h", "split": "test", "num_sentences": len(sentences)},
+                           protocol={"samples": 1, "seed": 0}, metrics=metrics, timings={},
+                           provenance={"date": "2026-01-01"}, per_sentence=rows(values))
+        out.update(extra)
+        return out
+
+    seeds = [base, base + 0.02]
+    two = result("two-seeds", np.mean(seeds, axis=0), seeds=[0, 1], per_seed=[
+        {"seed": k, "metrics": {"lve_rig": float(v.mean())}, "per_sentence": rows(v)} for k, v in enumerate(seeds)],
+        convergence={"checked_at_step": 50, "total_steps": 100, "settled": False,
+                     "metrics": {"lve_rig": {"half_budget": 2.5, "full_budget": 2.0, "half_width": 0.1,
+                                             "settled": False}}})
+    two["metrics"]["lve_rig"]["seed_range"] = [float(seeds[0].mean()), float(seeds[1].mean())]
+    results = [two, result("one-seed", base + 0.5), result("ground-truth", base - 1.0, reference=True)]
+    return [SiteRun(tmp_path / f"{r['method']['name']}.json", r) for r in results]
+
+
+def test_site_data_shows_seeds_settling_best_rules_and_improvement(tmp_path):
+    from leaderboard.site.data import leaderboard_data, run_page_data
+
+    runs = _v3_runs(tmp_path)
+    (table,) = leaderboard_data(runs)["tables"]
+    methods = {r["label"]: r for r in table["methods"]}
+    two = methods["two-seeds"]
+    assert two["seeds"] == [0, 1] and two["settled"] is False and "LVE rig 2.5 → 2" in two["not_settled"]
+    assert two["metrics"]["lve_rig"]["seed_range"] == pytest.approx([2.0, 2.02])
+    assert methods["one-seed"]["settled"] is None and methods["one-seed"]["metrics"]["lve_rig"]["seed_range"] is None
+    assert two["best"] == ["lve_rig"] and table["best_rule"]["lve_rig"] == "resampling"
+    assert table["best_rule"]["av_offset_geometric"] == "resampling" and "av_offset_geometric" not in two["best"]
+    assert "random per-sentence lag" in table["notes"]["av_offset"] and table["notes"]["fallback"] == []
+    runs_order = table["improvement"]["runs"]
+    assert runs_order == ["one-seed", "two-seeds", "ground-truth"]  # methods by label, then the reference rows
+    matrix = table["improvement"]["metrics"]["lve_rig"]
+    i, j, k = (runs_order.index(r.id) for r in runs)
+    assert matrix[i][j] == 1.0 and matrix[k][i] == 1.0  # the ground truth beats everything (shown, never marked)
+    assert matrix[i][j] == table["best_probability"]["lve_rig"]
+    page = run_page_data(runs[0])
+    assert page["seeds"] == [0, 1] and page["convergence"]["settled"] is False and len(page["per_seed"]) == 2
+
+
+def test_leaderboard_page_shows_seed_ranges_settling_and_the_av_note(three_js, browser, tmp_path):
+    from benchmark.results import write_result
+
+    results = tmp_path / "results"
+    for run in _v3_runs(tmp_path):
+        write_result(run.result, results, f"{run.id}.json")
+    site = build_site(results, tmp_path / "site", progress=False)
+    server, url = serve_site(site, port=0, background=True)
+    try:
+        assert open_page(browser, url + "index.html") == []
+        shown = browser.execute_script(
+            "const row = document.querySelector('tbody.methods tr[data-run=\"two-seeds\"]');"
+            "return [row.querySelector('.not-settled').textContent, row.querySelector('.not-settled').title,"
+            " [...row.querySelectorAll('.seeds')].map(s => s.textContent),"
+            " document.querySelector('tbody.methods tr[data-run=\"one-seed\"] .not-settled') === null];")
+        assert shown[0] == "\u2020" and "LVE rig 2.5 → 2" in shown[1] and shown[3]
+        assert shown[2] == ["seeds [2.00, 2.02]"]
+        notes = browser.execute_script("return [...document.querySelectorAll('p.note')].map(p => p.className + ': ' "
+                                       "+ p.textContent)")
+        assert any(n.startswith("note av-note") and "random per-sentence lag" in n for n in notes)
+        assert any(n.startswith("note not-settled-note") and "two-seeds" in n for n in notes)
+        assert browser.execute_script("return document.querySelector(\"th[data-metric='av_offset_geometric']\")"
+                                      ".title").count("uniform over -2..2 frames") == 1
+        # the probability of improvement for a chosen metric: P(two-seeds better than one-seed) = 100 %
+        select = browser.find_element("css selector", "#improvement-0 select.improvement-metric")
+        browser.execute_script("arguments[0].value = 'lve_rig'; arguments[0].dispatchEvent(new Event('change'))",
+                               select)
+        cell = browser.execute_script(
+            "const m = document.querySelector('#improvement-0 table.improvement-matrix[data-metric=\"lve_rig\"]');"
+            "const runs = [...m.querySelectorAll('tbody tr')].map(r => r.dataset.row);"
+            "const row = m.querySelector('tr[data-row=\"two-seeds\"]');"
+            "const cell = row.cells[1 + runs.indexOf('one-seed')]; return [cell.textContent, cell.className];")
+        assert cell == ["100%", "sure"]
+    finally:
+        server.shutdown()

@@ -35,6 +35,9 @@ def test_rescoring_a_stored_run_with_an_expert_equals_scoring_with_it(built_data
         assert {k: row_b[k] for k in numbers} == pytest.approx(numbers, rel=1e-5, abs=1e-9)
     assert a["protocol"]["lipsync_models"] == b["protocol"]["lipsync_models"]
     assert a["protocol"]["lipsync_models"]["sync_expert"]["trained_on"] == {"data": "test"}
+    # a result combining several training seeds is refused (one line, exit 2), not half-rescored
+    plain.write_text(json.dumps({**b, "seeds": [0, 1]}))
+    assert rescore_main([str(plain), "--sync-expert", str(expert_path), "--quiet"]) == 2
 
 
 def test_rescore_needs_a_model(tmp_path, capsys):

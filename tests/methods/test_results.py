@@ -83,3 +83,28 @@ def test_git_dirty_ignores_the_committed_output_folders(tmp_path):
     assert state["dirty"] is False and len(state["revision"]) == 40
     (tmp_path / "benchmark/code.py").write_text("1\n")
     assert git_revision(tmp_path / "benchmark")["dirty"] is True
+
+
+def test_a_run_over_several_seeds_is_named_by_them():
+    r = _result(protocol={"samples": 5, "seed": 0, "seeds": [0, 1, 2]})
+    assert result_filename(r) == "m__abc123__s5__seeds0-1-2.json"
+
+
+def test_schema_1_results_read_with_their_names_in_the_space_they_were_scored_in(tmp_path):
+    """Before the two reference spaces, vertex rows were scored against the source meshes
+    and coefficient rows against the rig reconstruction of the ground truth."""
+    old = {"lve": {"mean": 1.2, "std": 0.1, "higher_is_better": False, "unit": "mm"},
+           "apd": {"mean": 3.0, "std": 0.1, "higher_is_better": True, "unit": "mm"}, **METRICS}
+    for output, space in (("vertices", "mesh"), ("coefficients", "rig"), (None, "rig")):
+        r = _result(method={"name": "m", "config": {}, **({"output": output} if output else {})}, metrics=old,
+                    per_sentence=[{"subject": "s", "sentence": "q", "lve": 1.2}])
+        r["schema_version"] = 1
+        path = tmp_path / f"{space}-{output}.json"
+        path.write_text(json.dumps(r))
+        read = read_result(path)
+        assert read["schema_version"] == 1
+        assert set(read["metrics"]) == {f"lve_{space}", f"apd_{space}", "fd"}
+        assert read["per_sentence"] == [{"subject": "s", "sentence": "q", f"lve_{space}": 1.2}]
+    assert _result()["schema_version"] == 2
+    with pytest.raises(ValueError, match="schema_version"):
+        check_result({**_result(), "schema_version": 3})

@@ -132,7 +132,9 @@ def test_result_file_contents(dataset, tmp_path):
     assert r["protocol"] == {"samples": 4, "seed": 3, "budget": {"max_steps": 5, "max_seconds": None},
                              "clip": False, "n_clipped": 0, "checkpoint": None, "deterministic": True,
                              "generate_time_limit": {"base_s": 120.0, "per_audio_second_s": 60.0},
-                             "verified": False}
+                             "verified": False,
+                             "convergence_check": "not checked: the method's train takes no on_checkpoint"}
+    assert "convergence" not in r and r["timings"]["convergence_s"] is None  # an old plug-in: no check
     assert set(r["metrics"]) == {"coeff_mse", "sync"}
     assert r["metrics"]["coeff_mse"]["higher_is_better"] is False
     assert {"train_s", "generate_s", "evaluate_s", "total_s"} <= set(r["timings"])

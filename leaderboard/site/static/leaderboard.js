@@ -1,5 +1,12 @@
-// Leaderboard page: one grouped, sortable table per dataset and a chart per metric group.
+// Leaderboard page: one grouped, sortable table per dataset, a chart per metric group, and
+// the probability of improvement between any two rows for a chosen metric.
 import { arrow, el, fetchJSON, fmt, intervalChart, makeSortable } from "./site.js";
+
+const NOT_SETTLED = "\u2020";  // the tables' footnote mark
+
+function isAvOffset(name) {
+  return name.startsWith("av_offset_") || name.startsWith("av_lag_bias_");
+}
 
 function metricCell(row, name) {
   const m = row.metrics[name];
@@ -7,16 +14,91 @@ function metricCell(row, name) {
   const cell = el("td", { "data-value": String(m.mean), class: (row.best || []).includes(name) ? "best" : "" },
     fmt(m.mean));
   if (m.ci95) cell.append(" ", el("span", { class: "ci", text: `[${fmt(m.ci95[0])}, ${fmt(m.ci95[1])}]` }));
+  if (m.seed_range) {
+    cell.append(" ", el("span", { class: "seeds", title: "lowest and highest per-seed mean",
+      text: `seeds [${fmt(m.seed_range[0])}, ${fmt(m.seed_range[1])}]` }));
+  }
   return cell;
 }
 
 function rowElement(row, metrics) {
   const label = el("td", { class: "label", "data-value": row.label });
   label.append(el("a", { href: `method.html?run=${encodeURIComponent(row.run)}`, text: row.label }));
+  if (row.settled === false) {
+    label.append(" ", el("span", { class: "not-settled", title: `not settled: ${row.not_settled || ""}`,
+      text: NOT_SETTLED }));
+  }
   if (row.samples > 1) label.append(el("span", { class: "ci", text: ` S=${row.samples}` }));
+  if (row.seeds && row.seeds.length > 1) {
+    label.append(el("span", { class: "ci", text: ` seeds ${row.seeds.join(",")}` }));
+  }
   const tr = el("tr", { class: row.reference ? "reference" : "method", "data-run": row.run }, label);
   for (const name of metrics) tr.append(metricCell(row, name));
   return tr;
+}
+
+function notes(table) {
+  const out = [];
+  if (table.notes.av_offset) out.push(el("p", { class: "note av-note", text: table.notes.av_offset }));
+  const unsettled = [...table.methods, ...table.references].filter((r) => r.settled === false);
+  if (unsettled.length) {
+    const which = unsettled.map((r) => r.not_settled).join("; ");
+    out.push(el("p", { class: "note not-settled-note", text: `${NOT_SETTLED} Not settled (moved by more than the ` +
+      `interval's half-width between half and full training budget): ${which}.` }));
+  }
+  if (table.notes.fallback.length) {
+    const labels = table.notes.fallback.map((name) => table.metrics[name].label).join(", ");
+    out.push(el("p", { class: "note fallback-note", text: `Best in ${labels} by the older rule (95% interval ` +
+      "disjoint from the runner-up's): nothing to resample in these result files (neither per-sentence values nor " +
+      `bootstrap replicates, or fewer than ${table.notes.min_sentences} sentences).` }));
+  }
+  return out;
+}
+
+// P(row better than column) for the chosen metric, over paired bootstrap resamples.
+function improvementSection(table, index) {
+  const names = Object.keys(table.improvement.metrics);
+  const section = el("div", { class: "improvement", id: `improvement-${index}` });
+  section.append(el("h3", { text: "Probability of improvement" }));
+  if (!names.length) {
+    section.append(el("p", { class: "note", text: "These result files store nothing to resample." }));
+    return section;
+  }
+  const ordered = table.groups.flatMap((g) => g.metrics).filter((n) => names.includes(n));
+  const select = el("select", { class: "improvement-metric" });
+  ordered.forEach((name) => select.append(el("option", { value: name,
+    text: `${table.metrics[name].label} ${arrow(table.metrics[name].higher_is_better)}` })));
+  const holder = el("div");
+  const rows = [...table.methods, ...table.references];
+  const byRun = Object.fromEntries(rows.map((r) => [r.run, r]));
+  const runs = table.improvement.runs;
+  function draw() {
+    const matrix = table.improvement.metrics[select.value];
+    const head = el("tr", {}, el("th", { class: "label", text: "P(row better than column)" }));
+    runs.forEach((run) => head.append(el("th", { text: byRun[run].label })));
+    const body = el("tbody");
+    runs.forEach((run, i) => {
+      const tr = el("tr", { "data-row": run, class: byRun[run].reference ? "reference" : "method" },
+        el("td", { class: "label", text: byRun[run].label }));
+      runs.forEach((other, j) => {
+        const p = matrix[i][j];
+        const cls = p === null ? "" : p >= 0.95 ? "sure" : p <= 0.05 ? "sure-not" : "";
+        tr.append(el("td", { "data-p": p === null ? "" : String(p), class: cls,
+          text: p === null ? (i === j ? "" : "–") : `${Math.round(100 * p)}%` }));
+      });
+      body.append(tr);
+    });
+    holder.replaceChildren(el("table", { class: "improvement-matrix", "data-metric": select.value },
+      el("thead", {}, head), body));
+  }
+  select.addEventListener("change", draw);
+  section.append(el("div", { class: "controls" }, el("label", {}, "metric ", select)),
+    el("p", { class: "note", text: "Fraction of paired bootstrap resamples (the same resampled sentences for both " +
+      "rows, training seeds resampled too for rows trained with several) in which the row's value is better than " +
+      "the column's; ties count half. A method is in bold in the table only where it beats the runner-up in at " +
+      "least 95%." }), holder);
+  draw();
+  return section;
 }
 
 function renderTable(table, index) {
@@ -29,9 +111,11 @@ function renderTable(table, index) {
   const metricRow = el("tr");
   metrics.forEach((name, i) => {
     const spec = table.metrics[name];
-    const th = el("th", { class: "sortable", "data-column": String(i + 1), "data-metric": name,
-      title: `${name}${spec.unit ? ` (${spec.unit})` : ""}` });
+    let title = `${name}${spec.unit ? ` (${spec.unit})` : ""}`;
+    if (isAvOffset(name) && table.notes.av_offset) title += `\n${table.notes.av_offset}`;
+    const th = el("th", { class: "sortable", "data-column": String(i + 1), "data-metric": name, title });
     th.textContent = `${spec.label} ${arrow(spec.higher_is_better)}`;
+    if (table.best_rule[name] === "intervals") th.classList.add("fallback");
     metricRow.append(th);
   });
   const methods = el("tbody", { class: "methods" });
@@ -42,7 +126,7 @@ function renderTable(table, index) {
   table.references.forEach((row) => references.append(rowElement(row, metrics)));
   const tableEl = el("table", { class: "leaderboard" }, el("thead", {}, groupRow, metricRow), methods, references);
   makeSortable(tableEl);
-  section.append(tableEl);
+  section.append(tableEl, ...notes(table));
 
   for (const group of table.groups) {
     const charts = el("div", { class: "charts" });
@@ -59,6 +143,7 @@ function renderTable(table, index) {
     }
     section.append(el("h3", { text: group.name }), charts);
   }
+  section.append(improvementSection(table, index));
   return section;
 }
 

@@ -5,7 +5,8 @@ import { arrow, el, fetchJSON, fmt, linePlot, makeSortable, param, sortBodies } 
 const runId = param("run");
 const run = await fetchJSON(`data/runs/${encodeURIComponent(runId)}.json`);
 document.title = `${run.label} — BlendVOCA`;
-document.getElementById("title").textContent = `${run.label} (${run.method.output || "coefficients"} output)`;
+document.getElementById("title").textContent = `${run.label} (${run.method.output || "coefficients"} output)` +
+  (run.convergence && run.convergence.settled === false ? " \u2020 not settled" : "");
 
 // Per-sentence table.
 const metricNames = run.metric_order.filter((name) =>
@@ -49,6 +50,14 @@ const facts = {
   protocol: JSON.stringify(run.protocol, null, 1),
   ...Object.fromEntries(Object.entries(run.provenance).map(([k, v]) => [k, JSON.stringify(v, null, 1)])),
 };
+if (run.seeds && run.seeds.length) {
+  facts.seeds = run.seeds.join(", ");
+  for (const entry of run.per_seed || []) facts[`seed ${entry.seed}`] = JSON.stringify(entry.metrics, null, 1);
+}
+if (run.convergence) {
+  facts.convergence = `${run.convergence.settled === false ? "NOT SETTLED" : "settled"}: ` +
+    JSON.stringify(run.convergence, null, 1);
+}
 for (const [key, value] of Object.entries(facts)) provenance.append(el("dt", { text: key }), el("dd", { text: value }));
 
 // Track plots.

@@ -1,0 +1,86 @@
+"""``python -m benchmark.sanity --data BUILD --out DIR [--levels small|full] [--quiet]``:
+check that every metric reacts to what it claims to measure.
+
+The ground-truth coefficient tracks of the build's test split are disturbed at five or
+more levels per kind (time shift and advance, temporal smoothing, i.i.d. noise,
+damping toward the neutral, mouth-only damping, sentence swaps, noisy samples,
+constant offsets), each disturbed set is scored through the normal evaluation
+(``benchmark.evaluate.evaluate_split``), and each metric's response is judged
+against its declaration (``benchmark/sanity/expectations.py``: rises, falls, must not
+react, equals the level, or no claim, each with its reason). Writes
+``DIR/sanity.json`` (``{metric: {disturbance: {levels, values, rho, expected, ok,
+...}}}``), ``DIR/sanity.png`` (the metric x disturbance grid) and
+``DIR/sanity_meta.json`` (how it was run). Exit status 4 when a metric breaks its
+declaration (after writing the files), 2 for a build without a test split or a bad flag.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+from blendvoca import cli
+from blendvoca.errors import CheckFailed, UserError
+
+__all__ = ["main"]
+
+
+@cli.command
+def main(argv=None) -> int:
+    p = cli.parser("benchmark.sanity", __doc__)
+    p.add_argument("--out", required=True, metavar="DIR",
+                   help="folder for sanity.json, sanity.png and sanity_meta.json")
+    p.add_argument("--levels", choices=("small", "full"), default="small",
+                   help="small: 5 levels per disturbance (CI); full: 8 (default small)")
+    p.add_argument("--disturbances", default=None, metavar="KIND,...",
+                   help="only these disturbances (comma-separated; default all: "
+                        "time_shift, time_advance, smoothing, noise, damping, mouth_damping, sentence_swap, "
+                        "noisy_samples, constant_offset)")
+    p.add_argument("--split", default="test", help="split whose ground truth is disturbed (default test)")
+    p.add_argument("--sync-expert", default=None, metavar="PATH",
+                   help="also judge the learned sync expert's AV offset and confidence (benchmark.lipsync)")
+    cli.add_data_option(p)
+    cli.add_quiet_option(p)
+    args = p.parse_args(argv)
+
+    from benchmark.protocol import check_results_dir, default_data_root, open_data
+    from benchmark.sanity.disturbances import DISTURBANCES
+    from benchmark.sanity.report import ground_truth, run_sanity
+
+    kinds = None
+    if args.disturbances is not None:
+        kinds = [k.strip() for k in args.disturbances.split(",") if k.strip()]
+        unknown = [k for k in kinds if k not in DISTURBANCES]
+        if unknown or not kinds:
+            raise UserError(f"--disturbances: unknown {unknown or args.disturbances!r}; expected some of "
+                            f"{', '.join(DISTURBANCES)}")
+    data = default_data_root(progress=not args.quiet) if args.data is None else Path(args.data).expanduser()
+    dataset = open_data(data)
+    ground_truth(dataset, args.split)  # a build without that split: one error line, nothing written
+    options = {"progress": False}
+    if args.sync_expert is not None:
+        if not Path(args.sync_expert).expanduser().is_file():
+            raise UserError(f"--sync-expert {args.sync_expert}: no such file")
+        options["sync_expert"] = str(Path(args.sync_expert).expanduser())
+    out = check_results_dir(Path(args.out).expanduser())
+    table, failed = run_sanity(dataset, out, levels=args.levels, split=args.split, kinds=kinds, options=options,
+                               progress=not args.quiet)
+    counts = {}
+    for row in table.values():
+        for entry in row.values():
+            counts[entry["status"]] = counts.get(entry["status"], 0) + 1
+    print(f"sanity: {counts.get('held', 0)} declarations held, {counts.get('failed', 0)} failed, "
+          f"{counts.get('no claim', 0)} pairs without a claim, {counts.get('not scored', 0)} declared but not scored")
+    for metric, kind, entry in failed:
+        print(f"FAILED {metric} under {kind}: declared {entry['expected']}; {entry['why']}; "
+              f"values {[round(v, 4) for v in entry['values']]} at levels {entry['levels']}")
+    print(out / "sanity.json")
+    print(out / "sanity.png")
+    if failed:
+        raise CheckFailed(f"{len(failed)} metric declaration(s) broken: "
+                          + ", ".join(f"{m} under {d}" for m, d, _e in failed))
+    return cli.EXIT_OK
+
+
+if __name__ == "__main__":
+    sys.exit(main())

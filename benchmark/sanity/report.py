@@ -1,0 +1,253 @@
+"""Score the disturbed ground truth through the normal evaluation and judge every metric.
+
+:func:`sanity_scores` applies each disturbance of :data:`~benchmark.sanity.disturbances.DISTURBANCES`
+at its levels to the ground-truth tracks of a split and scores each disturbed set with
+:func:`benchmark.evaluate.evaluate_split` (fewer bootstrap resamples than a run: the
+suite reads means, not intervals; the metric definitions are the run's).
+:func:`sanity_table` turns the scores into ``{metric: {disturbance: entry}}`` judged
+against :data:`~benchmark.sanity.expectations.EXPECTATIONS`; :func:`write_report`
+writes ``sanity.json`` and ``sanity.png``.
+"""
+
+from __future__ import annotations
+
+import inspect
+import json
+import time
+import warnings
+from collections.abc import Mapping
+from pathlib import Path
+
+import numpy as np
+
+from benchmark.sanity.disturbances import DISTURBANCES, disturb
+from benchmark.sanity.expectations import EXPECTATIONS, declared, verdict
+
+__all__ = ["SANITY_OPTIONS", "failures", "ground_truth", "plot_table", "run_sanity", "sanity_scores", "sanity_table",
+           "write_report"]
+
+#: evaluate_split options of the sanity run: the suite compares means across levels,
+#: so the bootstrap intervals get a handful of resamples and WInD two seeded fits (the same
+#: seeds at every level: the fit noise is common to all levels).
+SANITY_OPTIONS = {"wind_repeats": 2, "resamples": 10, "fd_resamples": 5, "wind_resamples": 1, "workers": 2}
+
+
+def _evaluate(generated, dataset, split, options):
+    """``evaluate_split`` with the options it accepts (older and newer signatures alike)."""
+    import benchmark.evaluate as evaluate
+
+    accepted = inspect.signature(evaluate.evaluate_split).parameters
+    kwargs = {k: v for k, v in options.items() if k in accepted}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the same warnings at every level (e.g. no mesh space)
+        scores = evaluate.evaluate_split(generated, dataset, split=split, **kwargs)
+    return {name: float(entry["mean"]) for name, entry in scores.items()
+            if isinstance(entry, Mapping) and entry.get("mean") is not None}
+
+
+def ground_truth(dataset, split: str = "test") -> dict:
+    """``{(subject, sentence): (T, K)}`` of a split; UserError when it has no sentence."""
+    from blendvoca.errors import UserError
+
+    subjects = dataset.split(split)
+    keys = [(s, t) for s in subjects for t in dataset.sentences(s)]
+    if not keys:
+        raise UserError(f"benchmark.sanity: the build {getattr(dataset, 'root', dataset)} has no sentences in its "
+                        f"{split!r} split; the suite disturbs that split's ground truth")
+    return {k: np.asarray(dataset.coeffs(*k), dtype=np.float64) for k in keys}
+
+
+def sanity_scores(dataset, *, levels: str = "small", split: str = "test", kinds=None, options=None,
+                  progress: bool = False) -> dict:
+    """``{kind: [(level, {metric: mean})]}``: every disturbance at every level, scored.
+
+    Parameters
+    ----------
+    dataset : a BlendVOCA dataset (``split``, ``sentences``, ``coeffs``, ``names`` and
+        what ``evaluate_split`` reads)
+    levels : "small" or "full"
+    kinds : iterable of disturbance names, optional (default all)
+    options : dict, optional
+        ``evaluate_split`` keyword options over :data:`SANITY_OPTIONS` (e.g.
+        ``sync_expert``, ``wind_cache``); options that ``evaluate_split`` does not take
+        are dropped.
+    """
+    from tqdm import tqdm
+
+    options = {**SANITY_OPTIONS, **(options or {})}
+    truth = ground_truth(dataset, split)
+    names = tuple(dataset.names)
+    kinds = list(DISTURBANCES) if kinds is None else list(kinds)
+    for kind in kinds:
+        if kind not in DISTURBANCES:
+            raise ValueError(f"sanity_scores: unknown disturbance {kind!r}; known: {', '.join(DISTURBANCES)}")
+    jobs = [(kind, level) for kind in kinds for level in DISTURBANCES[kind].levels(levels)]
+    out, undisturbed = {}, None
+    for kind, level in tqdm(jobs, desc="sanity", unit="score", disable=not progress):
+        count = DISTURBANCES[kind].sample_count(levels)
+        single = count == 1
+        if level == 0 and single and undisturbed is not None:
+            values = undisturbed  # level 0 of every single-sample disturbance is the truth itself
+        else:
+            values = _evaluate(disturb(kind, truth, level, names, count), dataset, split, options)
+            if level == 0 and single:
+                undisturbed = values
+        out.setdefault(kind, []).append((level, values))
+    return out
+
+
+def _metric_order(names) -> list:
+    try:
+        from benchmark.metrics.registry import ordered_metrics
+
+        return list(ordered_metrics(list(names)))
+    except (KeyError, ValueError):
+        return sorted(names)
+
+
+def sanity_table(scores: Mapping, table=None) -> dict:
+    """``{metric: {disturbance: entry}}`` (:func:`~benchmark.sanity.expectations.verdict`
+    entries plus ``status``: ``held``, ``failed``, ``no claim`` or ``not scored``).
+
+    Every metric the evaluation returned gets every disturbance it was scored under;
+    every declaration of ``table`` (default :data:`EXPECTATIONS`) on a disturbance that
+    was run but a metric that was not returned is kept as ``not scored``.
+    """
+    table = EXPECTATIONS if table is None else table
+    scored = {m for rows in scores.values() for _level, values in rows for m in values}
+    result = {}
+    for metric in _metric_order(scored):
+        for kind, rows in scores.items():
+            pairs = [(level, values[metric]) for level, values in rows if metric in values]
+            if len(pairs) < len(rows):
+                continue  # e.g. multimodality: only where samples are several
+            reference = None
+            e = declared(metric, kind, table)
+            if e.relative_to is not None and e.relative_to in scores:
+                ref_rows = scores[e.relative_to]
+                if all(metric in v for _l, v in ref_rows):
+                    reference = [v[metric] for _l, v in ref_rows]
+            entry = verdict(e, [p[0] for p in pairs], [p[1] for p in pairs], reference)
+            entry["status"] = ("no claim" if e.expected == "any" else "held" if entry["ok"] else "failed")
+            result.setdefault(metric, {})[kind] = entry
+    for (metric, kind), e in table.items():
+        if kind in scores and metric not in scored:
+            entry = {"levels": [float(level) for level, _v in scores[kind]], "values": None, "rho": None,
+                     "expected": e.expected, "ok": True, "reason": e.reason, "status": "not scored"}
+            result.setdefault(metric, {})[kind] = entry
+    return result
+
+
+def failures(table: Mapping) -> list:
+    """``[(metric, disturbance, entry)]`` of the declarations that did not hold."""
+    return [(m, d, e) for m, row in table.items() for d, e in row.items() if not e.get("ok", True)]
+
+
+_COLOURS = {"held": "#d8f0d0", "failed": "#f7c8c4", "no claim": "#eeeeee", "limitation": "#fbe6b8"}
+_MARKS = {"rises": "\u2191", "falls": "\u2193", "must not react": "\u2248", "equals level": "=k", "any": "\u00b7"}
+
+
+def plot_table(table: Mapping, path, *, title: str = "") -> Path:
+    """The metric x disturbance grid as a PNG: one cell per pair, the values over the
+    levels as a line (scaled to the cell; the range is printed), the declaration
+    (arrow), Spearman rho and the verdict as the cell colour (green held, red failed,
+    amber a known limitation as declared, grey no claim)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.patches import Rectangle
+
+    metrics = [m for m, row in table.items() if any(e["status"] != "not scored" for e in row.values())]
+    kinds = [k for k in DISTURBANCES if any(k in table[m] for m in metrics)]
+    kinds += sorted({k for m in metrics for k in table[m]} - set(kinds))
+    cw, ch = 1.0, 1.0
+    fig_w = 2.2 + 1.45 * len(kinds)
+    fig_h = 1.2 + 0.5 * len(metrics)
+    fig, ax = plt.subplots(figsize=(fig_w, fig_h), dpi=90)
+    ax.set_xlim(0, len(kinds) * cw)
+    ax.set_ylim(len(metrics) * ch, 0)
+    ax.set_axis_off()
+    for j, kind in enumerate(kinds):
+        label = DISTURBANCES[kind].label if kind in DISTURBANCES else kind
+        ax.text((j + 0.5) * cw, -0.15, label, ha="center", va="bottom", fontsize=7, rotation=0, wrap=True)
+    for i, metric in enumerate(metrics):
+        ax.text(-0.05, (i + 0.5) * ch, metric, ha="right", va="center", fontsize=7, family="monospace")
+        for j, kind in enumerate(kinds):
+            e = table[metric].get(kind)
+            x0, y0 = j * cw, i * ch
+            if e is None or e["status"] == "not scored":
+                ax.add_patch(Rectangle((x0, y0), cw, ch, facecolor="white", edgecolor="#cccccc", lw=0.4))
+                continue
+            status = "limitation" if e.get("known_limitation") and e["status"] == "held" else e["status"]
+            ax.add_patch(Rectangle((x0, y0), cw, ch, facecolor=_COLOURS[status], edgecolor="#999999", lw=0.4))
+            v = np.asarray(e["values"], dtype=np.float64)
+            lo, hi = float(np.nanmin(v)), float(np.nanmax(v))
+            span = hi - lo
+            y = np.full_like(v, 0.5) if not span > 1e-12 * max(1.0, abs(hi)) else (v - lo) / span
+            xs = x0 + 0.08 * cw + 0.84 * cw * np.linspace(0, 1, len(v))
+            ys = y0 + 0.82 * ch - 0.5 * ch * y
+            ax.plot(xs, ys, "-", color="#333333", lw=0.8)
+            ax.plot(xs, ys, "o", color="#333333", ms=1.6)
+            rho = "n/a" if e["rho"] is None else f"{e['rho']:+.2f}"
+            ax.text(x0 + 0.04 * cw, y0 + 0.2 * ch, _MARKS.get(e["expected"], "?"), fontsize=6.5, va="center")
+            ax.text(x0 + 0.96 * cw, y0 + 0.2 * ch, f"\u03c1 {rho}", fontsize=5.5, ha="right", va="center")
+            ax.text(x0 + 0.5 * cw, y0 + 0.95 * ch, f"{lo:.3g}..{hi:.3g}", fontsize=4.5, ha="center",
+                    va="bottom", color="#555555")
+    legend = ("\u2191 rises  \u2193 falls  \u2248 must not react  =k equals the level  \u00b7 no claim   |   "
+              "green held, red failed, amber known limitation (as declared), grey no claim; "
+              "line: the metric's mean over the levels (scaled per cell; range below)")
+    fig.text(0.01, 0.005, legend, fontsize=6.5, ha="left", va="bottom")
+    if title:
+        fig.suptitle(title, fontsize=9)
+    fig.subplots_adjust(left=2.0 / fig_w, right=0.99, top=1 - 0.75 / fig_h, bottom=0.35 / fig_h)
+    path = Path(path)
+    fig.savefig(path)
+    plt.close(fig)
+    return path
+
+
+def _json_safe(x):
+    if isinstance(x, float) and not np.isfinite(x):
+        return None
+    if isinstance(x, dict):
+        return {k: _json_safe(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_json_safe(v) for v in x]
+    return x
+
+
+def write_report(table: Mapping, out, *, title: str = "", meta: Mapping | None = None) -> tuple[Path, Path]:
+    """Write ``out/sanity.json`` (the table) and ``out/sanity.png`` (:func:`plot_table`);
+    with ``meta``, also ``out/sanity_meta.json`` (how the suite was run)."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    json_path = out / "sanity.json"
+    json_path.write_text(json.dumps(_json_safe(dict(table)), indent=1) + "\n")
+    if meta is not None:
+        (out / "sanity_meta.json").write_text(json.dumps(_json_safe(dict(meta)), indent=1) + "\n")
+    return json_path, plot_table(table, out / "sanity.png", title=title)
+
+
+def run_sanity(dataset, out, *, levels: str = "small", split: str = "test", kinds=None, options=None,
+               table=None, progress: bool = False) -> tuple[dict, list]:
+    """Score, judge and write the report; returns ``(table, failures)``."""
+    start = time.perf_counter()
+    scores = sanity_scores(dataset, levels=levels, split=split, kinds=kinds, options=options, progress=progress)
+    result = sanity_table(scores, table)
+    failed = failures(result)
+    seconds = time.perf_counter() - start
+    counts = {s: sum(e["status"] == s for row in result.values() for e in row.values())
+              for s in ("held", "failed", "no claim", "not scored")}
+    root = getattr(dataset, "root", None)
+    title = (f"metric sanity: {root} ({split} split, levels {levels}) - {counts['held']} held, "
+             f"{counts['failed']} failed, {counts['no claim']} without a claim, {counts['not scored']} not scored")
+    shown_options = {k: (v if isinstance(v, (int, float, str, bool, type(None))) else str(v))
+                     for k, v in {**SANITY_OPTIONS, **(options or {})}.items()}
+    meta = {"data": None if root is None else str(root), "manifest_hash": getattr(dataset, "manifest_hash", None),
+            "split": split, "levels": levels, "evaluate_options": shown_options, "seconds": round(seconds, 1),
+            "counts": counts, "failed": [f"{m} / {d}" for m, d, _e in failed]}
+    if meta["manifest_hash"] is not None:
+        meta["manifest_hash"] = str(meta["manifest_hash"])
+    write_report(result, out, title=title, meta=meta)
+    return result, failed
