@@ -210,13 +210,14 @@ class BlendVOCADataset:
 
     def scored_files(self, subjects) -> list[str]:
         """The files a run that scores ``subjects`` reads of them, as the manifest lists
-        them (relative paths, sorted): every coefficient track and audio file of those
-        speakers, and their rig (``rigs/<subject>.npz``, or the SAiD-layout heads where
-        there is none)."""
+        them (relative paths, sorted): every coefficient track, fitted oracle sample
+        (synthetic corpora) and audio file of those speakers, and their rig
+        (``rigs/<subject>.npz``, or the SAiD-layout heads where there is none)."""
         wanted = []
         for subject in subjects:
             self._check_subject(subject)
-            folders = (f"{fmt.COEFFS_DIR}/{subject}/", f"{fmt.AUDIO_DIR}/{subject}/")
+            folders = (f"{fmt.COEFFS_DIR}/{subject}/", f"{fmt.AUDIO_DIR}/{subject}/",
+                       f"{fmt.ORACLE_COEFFS_DIR}/{subject}/")
             wanted += [rel for rel in self._listed if rel.startswith(folders)]
             if fmt.rig_relpath(subject) in self._listed:
                 wanted.append(fmt.rig_relpath(subject))

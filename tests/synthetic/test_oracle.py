@@ -193,3 +193,22 @@ def test_benchmark_run_exit_2_cases_and_a_scored_run(oracle_build, built_dataset
     assert len(files) == 2
     protocols = sorted(json.loads(p.read_text())["protocol"]["samples"] for p in files)
     assert protocols == [1, 3]
+
+
+def test_an_edited_oracle_track_fails_the_check_before_a_run(oracle_build, tmp_path):
+    """The oracle tracks a run reads are verified against the manifest like the ground truth."""
+    import shutil
+
+    from blendvoca.errors import CheckFailed
+
+    build = tmp_path / "B"
+    shutil.copytree(oracle_build, build)
+    dataset = open_blendvoca(build)
+    subject = dataset.split("test")[0]
+    oracle_files = [rel for rel in dataset.scored_files([subject]) if rel.startswith("oracle_coeffs/")]
+    assert len(oracle_files) == K * len(dataset.sentences(subject))
+    dataset.verify([subject])
+    path = build / oracle_files[0]
+    path.write_text(path.read_text().replace("0.", "0.9", 1))
+    with pytest.raises(CheckFailed, match=oracle_files[0].split("/")[-1]):
+        open_blendvoca(build).verify([subject])
