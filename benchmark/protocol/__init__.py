@@ -35,6 +35,7 @@ from benchmark.protocol.convergence import (
     CHECKED,
     NOT_CHECKED,
     HalfBudgetCheck,
+    checked_convergence,
     convergence_record,
     half_budget_check,
 )
@@ -142,11 +143,7 @@ def run(spec: RunSpec, *, evaluate=None, open_dataset=None) -> Path:
     try:
         generated = generate(spec, inputs.dataset, trained, store=writer)
         scored = score(spec, inputs.dataset, generated, evaluate=evaluate)
-        convergence = None
-        if check is not None:
-            convergence = convergence_record(check.result, scored.metrics)
-            reason = NOT_CHECKED["no_call"] if not check.called else (
-                NOT_CHECKED["no_metrics"] if convergence is None else CHECKED)
+        convergence, reason = checked_convergence(check, reason, scored.metrics)
         timings = {"train_s": trained.train_s, "load_s": trained.load_s, "generate_s": generated.seconds,
                    "evaluate_s": scored.seconds, "convergence_s": trained.convergence_s,
                    "total_s": time.perf_counter() - started}

@@ -253,6 +253,28 @@ def convergence_record(half: HalfBudget | None, metrics) -> dict | None:
             "settled": all(m["settled"] for m in out.values())}
 
 
+def checked_convergence(check: HalfBudgetCheck | None, reason: str | None, metrics) -> tuple[dict | None, str | None]:
+    """A run's ``convergence`` record and what ``protocol.convergence_check`` says of it.
+
+    Parameters
+    ----------
+    check, reason
+        What :func:`half_budget_check` returned for the run.
+    metrics : mapping
+        The run's full-budget metric entries.
+
+    Returns
+    -------
+    (record or None, :data:`CHECKED` or the reason it was not checked)
+    """
+    if check is None:
+        return None, reason
+    record = convergence_record(check.result, metrics)
+    if not check.called:
+        return record, NOT_CHECKED["no_call"]
+    return record, NOT_CHECKED["no_metrics"] if record is None else CHECKED
+
+
 def combined_convergence(per_seed, metrics) -> dict | None:
     """The top-level ``convergence`` of a run over several seeds from each seed's record
     (``per_seed``, :func:`convergence_record` outputs) and the combined metric entries.

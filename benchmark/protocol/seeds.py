@@ -45,9 +45,8 @@ from benchmark.metrics.bootstrap import (
 from benchmark.metrics.registry import METRICS
 from benchmark.protocol.convergence import (
     CHECKED,
-    NOT_CHECKED,
+    checked_convergence,
     combined_convergence,
-    convergence_record,
     half_budget_check,
 )
 from benchmark.protocol.generation import generate
@@ -329,11 +328,7 @@ def run_seeds(spec, inputs, *, evaluate=None, provenance: dict, started: float |
                 writer = track_writer(spec, inputs, trained)
             generated = generate(seed_spec, inputs.dataset, trained, store=writer.for_seed(seed))
             scored = score(seed_spec, inputs.dataset, generated, evaluate=evaluate)
-            convergence = None
-            if check is not None:
-                convergence = convergence_record(check.result, scored.metrics)
-                reason = NOT_CHECKED["no_call"] if not check.called else (
-                    NOT_CHECKED["no_metrics"] if convergence is None else None)
+            convergence, reason = checked_convergence(check, reason, scored.metrics)
             reasons.append(reason)
             runs.append(SeedRun(
                 seed=int(seed), metrics=dict(scored.metrics), per_sentence=list(scored.per_sentence),
@@ -348,9 +343,10 @@ def run_seeds(spec, inputs, *, evaluate=None, provenance: dict, started: float |
             values = [run.timings.get(key) for run in runs]
             timings[key] = None if all(v is None for v in values) else float(sum(v for v in values if v is not None))
         timings["total_s"] = time.perf_counter() - started
-        reason = next((r for r in reasons if r is not None), None)
+        # checked only when every seed was; else the first seed's reason
+        reason = next((r for r in reasons if r != CHECKED), CHECKED)
         return store_seeds(spec, inputs, first_trained, runs, combined, writer=writer, timings=timings,
-                           provenance=provenance, convergence_check=CHECKED if reason is None else reason)
+                           provenance=provenance, convergence_check=reason)
     except BaseException:
         if writer is not None:
             writer.discard()
