@@ -1,7 +1,9 @@
-"""``python -m blendvoca.build [--vocaset DIR] [--out DIR] [--workers N] [--shapes speech|all]``.
+"""``python -m blendvoca.build [--dataset NAME --root DIR | --vocaset DIR] [--out DIR] [--shapes speech|all]``.
 
-Build BlendVOCA (speaker rigs + fitted coefficient tracks) from VOCASET. Resumable:
-rerun the same command after an interruption.
+Build BlendVOCA (speaker rigs + fitted coefficient tracks) from VOCASET, or the same
+layout from another corpus (``--dataset``: the adapters of :mod:`blendvoca.datasets`,
+``docs/datasets.md``). ``--vocaset DIR`` is ``--dataset vocaset --root DIR``. The
+VOCASET build is resumable: rerun the same command after an interruption.
 
 Exit status (:mod:`blendvoca.cli`): 0 everything built, 5 the build ran to its end
 but some items failed (each printed as ``FAILED subject sentence (stage): reason``,
@@ -12,37 +14,62 @@ complete), 2 a usage, input or output-folder error (nothing built), 130 interrup
 
 from __future__ import annotations
 
+import inspect
 import sys
 import time
 
 from blendvoca import cli
-from blendvoca.builder.pipeline import build_dataset, default_output_dir
+from blendvoca.builder.pipeline import default_output_dir
+from blendvoca.datasets import adapter, dataset_names
 from blendvoca.format.layout import MANIFEST_FILE, REPORT_DIR
 
 
 @cli.command
 def main(argv: list[str] | None = None) -> int:
-    p = cli.parser("blendvoca.build", "Build BlendVOCA (speaker rigs + fitted coefficient tracks) from VOCASET. "
-                                      "Resumable: rerun the same command after an interruption.")
-    p.add_argument("--vocaset", default=None,
-                   help="VOCASET root (official or processed layout); default: the bundled synthetic corpus")
+    p = cli.parser("blendvoca.build", "Build BlendVOCA (speaker rigs + fitted coefficient tracks) from VOCASET, or "
+                                      "the same layout from another corpus (--dataset). Resumable: rerun the same "
+                                      "command after an interruption.")
+    p.add_argument("--dataset", default=None, metavar="NAME",
+                   help=f"the corpus at --root: {', '.join(dataset_names())} (docs/datasets.md); default vocaset")
+    p.add_argument("--root", default=None, metavar="DIR", help="the corpus, in the layout of --dataset")
+    p.add_argument("--vocaset", default=None, metavar="DIR",
+                   help="VOCASET root (official or processed layout): the same as --dataset vocaset --root DIR; "
+                        "default: the bundled synthetic corpus")
     p.add_argument("--out", default=None,
-                   help="output folder (required with --vocaset; default for the bundled corpus: "
+                   help="output folder (required with a corpus; default for the bundled corpus: "
                         "<user cache>/blendvoca-default, where the benchmark looks for it)")
     p.add_argument("--workers", type=int, default=None, help="processes, >= 1 (default: all cores)")
     p.add_argument("--shapes", choices=("speech", "all"), default="speech",
                    help="the 32 BlendVOCA shapes or all ARKit shapes")
     p.add_argument("--delta", type=float, default=0.1, help="rate bound |u[t+1] - u[t]| per 60 fps frame (> 0)")
     p.add_argument("--no-report", action="store_true", help=f"skip {REPORT_DIR}/")
+    p.add_argument("--pose-fit", choices=("joint", "remove"), default=None,
+                   help="posed corpora (biwi, multiface): joint = alternate the rigid alignment and the fit "
+                        "(default), remove = remove the pose first, then fit (docs/pose.md)")
     cli.add_quiet_option(p)
     args = p.parse_args(argv)
+    if args.vocaset is not None and (args.dataset is not None or args.root is not None):
+        p.error("--vocaset DIR is the short form of --dataset vocaset --root DIR: give one form, not both")
+    dataset = args.dataset or "vocaset"
+    root = args.vocaset if args.vocaset is not None else args.root
+    if args.dataset is None and args.root is not None:
+        p.error(f"--root needs --dataset NAME ({', '.join(dataset_names())})")
+    build = adapter(dataset)  # an unknown name is refused before anything else
+    if root is None and dataset != "vocaset":
+        p.error(f"--dataset {dataset} needs --root DIR, the corpus (docs/datasets.md)")
     if args.out is None:
-        if args.vocaset is not None:
-            p.error("--out is required with --vocaset")
+        if root is not None:
+            p.error(f"--out is required with {'--vocaset' if args.vocaset is not None else '--root'}")
         args.out = default_output_dir()
+    extra = {}
+    if args.pose_fit is not None:
+        if "pose_fit" not in inspect.signature(build).parameters:
+            p.error(f"--pose-fit: the {dataset} corpus is not posed (it applies to posed corpora: "
+                    f"{', '.join(n for n in dataset_names() if 'pose_fit' in inspect.signature(adapter(n)).parameters)})")
+        extra["pose_fit"] = args.pose_fit
     start = time.perf_counter()
-    summary = build_dataset(args.out, args.vocaset, workers=args.workers, shapes=args.shapes,
-                            delta=args.delta, report=not args.no_report, progress=not args.quiet)
+    summary = build(root, args.out, workers=args.workers, shapes=args.shapes, delta=args.delta,
+                    report=not args.no_report, progress=not args.quiet, **extra)
     elapsed = time.perf_counter() - start
     print(f"{summary.out}: speakers built {summary.built['speakers']}, up to date {summary.skipped['speakers']}; "
           f"sentences built {summary.built['sentences']}, up to date {summary.skipped['sentences']}; "

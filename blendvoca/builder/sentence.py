@@ -4,8 +4,14 @@ from __future__ import annotations
 
 import numpy as np
 
+from blendvoca.errors import UserError
 from blendvoca.fit import fit_sequence
 from blendvoca.rig import Rig
+
+#: How posed input is unposed: ``joint`` alternates the rigid alignment and the coefficient fit
+#: (:func:`blendvoca.fit.joint_pose.fit_pose_and_coefficients`, the default); ``remove`` aligns to
+#: the neutral on stable vertices first, then fits (:func:`blendvoca.fit.remove_head_pose`).
+POSE_FITS = ("joint", "remove")
 
 
 def lip_aperture(frames: np.ndarray, upper_lip: int, lower_lip: int) -> np.ndarray:
@@ -27,7 +33,8 @@ def lip_aperture(frames: np.ndarray, upper_lip: int, lower_lip: int) -> np.ndarr
     return np.linalg.norm(upper - lower, axis=1)
 
 
-def sentence_fit(rig: Rig, frames: np.ndarray, head_index, *, delta: float = 0.1):
+def sentence_fit(rig: Rig, frames: np.ndarray, head_index, *, delta: float = 0.1, posed: bool = False,
+                 pose_fit: str = "joint", stable=None):
     """Fit one sentence on the head crop and summarise the fit.
 
     Parameters
@@ -41,6 +48,14 @@ def sentence_fit(rig: Rig, frames: np.ndarray, head_index, *, delta: float = 0.1
         Vertices the fit uses (FLAME head crop).
     delta : float
         Rate bound.
+    posed : bool
+        The frames carry a head pose (the corpus reader's ``posed``); False:
+        they are fitted as they are.
+    pose_fit : {"joint", "remove"}
+        How posed frames are unposed (:data:`POSE_FITS`).
+    stable : (S,) ndarray of int, optional
+        Stable vertices of the starting (``joint``) or only (``remove``) rigid
+        alignment; default as :func:`blendvoca.fit.remove_head_pose`.
 
     Returns
     -------
@@ -49,10 +64,28 @@ def sentence_fit(rig: Rig, frames: np.ndarray, head_index, *, delta: float = 0.1
         JSON-ready: ``frames``, ``rmse_mm`` (mean over frames of the per-frame
         RMSE), ``max_error_mm``, ``active`` (fractions of lower / upper / rate
         constraints active), ``usage`` (per-shape mean coefficient),
-        ``active_per_shape`` and ``solver``.
+        ``active_per_shape`` and ``solver``; for posed frames also ``pose``
+        (the removed pose's summary, ``method``, and for ``joint`` its
+        ``iterations`` and ``converged``).
     """
-    # VOCASET's unposedcleaneddata (and the synthetic corpus's) carry no head pose.
-    result = fit_sequence(rig.neutral, rig.deltas, frames, delta=delta, vertex_subset=head_index, unposed=True)
+    if pose_fit not in POSE_FITS:
+        raise UserError(f"--pose-fit: expected one of {', '.join(POSE_FITS)}, got {pose_fit!r}")
+    pose = None
+    if not posed:
+        # VOCASET's unposedcleaneddata (and the synthetic corpus's) carry no head pose.
+        result = fit_sequence(rig.neutral, rig.deltas, frames, delta=delta, vertex_subset=head_index, unposed=True)
+    elif pose_fit == "joint":
+        from blendvoca.fit.joint_pose import fit_pose_and_coefficients
+
+        joint = fit_pose_and_coefficients(rig.neutral, rig.deltas, frames, delta=delta, vertex_subset=head_index,
+                                          stable=stable)
+        result = joint.fit
+        pose = {**joint.pose.summary(), "method": "joint", "iterations": joint.iterations,
+                "converged": joint.converged}
+    else:
+        result = fit_sequence(rig.neutral, rig.deltas, frames, delta=delta, vertex_subset=head_index,
+                              unposed=False, stable=stable)
+        pose = {**result.pose.summary(), "method": "remove"}
     activity = result.activity
     stats = {
         "frames": int(frames.shape[0]),
@@ -64,4 +97,6 @@ def sentence_fit(rig: Rig, frames: np.ndarray, head_index, *, delta: float = 0.1
         "solver": result.solver,
         "converged": bool(result.converged),
     }
+    if pose is not None:
+        stats["pose"] = pose
     return result.coeffs, stats

@@ -37,7 +37,7 @@ SUFFIX: dict[str, str] = {"livelink": ".csv", "arkit-json": ".json", "a2f-json":
 
 
 def export_track(out, coeffs, names: Sequence[str], fmt: str, *, rig=None, fps: float = 60.0,
-                 audio=None, clip: bool = False) -> AlignedTrack:
+                 audio=None, clip: bool = False, convention: str | None = None) -> AlignedTrack:
     """Write a ``(T, K)`` track in format ``fmt``.
 
     Parameters
@@ -52,6 +52,10 @@ def export_track(out, coeffs, names: Sequence[str], fmt: str, *, rig=None, fps: 
         references it)
     clip : bool
         Clip weights outside [0, 1] instead of refusing the track.
+    convention : str, optional
+        ``csv`` only: write the columns of this naming convention of :mod:`blendvoca.names`
+        (``unitalker51``, ``metahuman``, ...), in its order and spelling, instead of the
+        rig's names or BlendVOCA's 32.
 
     Returns
     -------
@@ -70,13 +74,15 @@ def export_track(out, coeffs, names: Sequence[str], fmt: str, *, rig=None, fps: 
         raise UserError(f"export_track: format {fmt!r} needs a rig (the mesh and its blendshapes)")
     if fps <= 0:
         raise UserError(f"export_track: fps must be positive, got {fps}")
+    if convention is not None and fmt != "csv":
+        raise UserError(f"export_track: a convention applies to the csv format only; {fmt!r} has its own columns")
     checked, _ = check_track(coeffs, names, where="export_track")
     coeffs, clipped = unit_range_track(checked, tuple(str(n) for n in names), where="export_track", clip=clip)
-    aligned = _write(out, coeffs, names, fmt, rig=rig, fps=fps, audio=audio)
+    aligned = _write(out, coeffs, names, fmt, rig=rig, fps=fps, audio=audio, convention=convention)
     return dataclasses.replace(aligned, clipped=clipped)
 
 
-def _write(out, coeffs, names, fmt: str, *, rig, fps: float, audio) -> AlignedTrack:
+def _write(out, coeffs, names, fmt: str, *, rig, fps: float, audio, convention=None) -> AlignedTrack:
     """Write a checked track in ``fmt`` (:func:`export_track`)."""
     if fmt == "livelink":
         from blendvoca.export.livelink import write_livelink_csv
@@ -100,7 +106,12 @@ def _write(out, coeffs, names, fmt: str, *, rig, fps: float, audio) -> AlignedTr
         return write_usd(out, rig, coeffs, names, fps, audio=audio)
     from blendvoca.io.coeffs import write_coeffs_csv
     from blendvoca.names import BLENDVOCA_NAMES
+    from blendvoca.names import convention as named_convention
 
+    if convention is not None:
+        aligned = align_track(coeffs, names, convention, where="csv")
+        write_coeffs_csv(out, aligned.coeffs, named_convention(convention).columns())
+        return aligned
     aligned = align_track(coeffs, names, rig.names if rig is not None else BLENDVOCA_NAMES, where="csv")
     write_coeffs_csv(out, aligned.coeffs, aligned.names)
     return aligned

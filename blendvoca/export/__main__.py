@@ -1,6 +1,10 @@
 """Write a coefficient track as Live Link Face CSV, ARKit JSON, Audio2Face JSON, GLB or USD.
 
-``python -m blendvoca.export --coeffs CSV --format FMT --out FILE [--rig RIG] [--fps F] [--audio WAV] [--clip]``.
+``python -m blendvoca.export --coeffs CSV --format FMT --out FILE [--rig RIG] [--fps F] [--audio WAV] [--clip]
+[--convention NAME]``.
+
+``--convention`` (``csv`` only) writes the columns of a naming convention of
+``blendvoca.names`` (``python -m blendvoca.names list``) in its order and spelling.
 
 Weights outside [0, 1] are refused (the first frame and column named), as the
 benchmark refuses them, unless ``--clip`` clips them and says how many moved.
@@ -32,7 +36,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--clip", action="store_true",
                         help="clip weights outside [0, 1] into it (and say how many moved) instead of refusing "
                              "the track")
+    parser.add_argument("--convention", default=None, metavar="NAME",
+                        help="csv only: the columns of this naming convention (python -m blendvoca.names list), "
+                             "in its order and spelling")
     args = parser.parse_args(argv)
+    if args.convention is not None:
+        from blendvoca.names import convention_names
+
+        if args.fmt != "csv":
+            raise UserError(f"--convention applies to --format csv only; {args.fmt} has its own columns")
+        convention_names(args.convention)  # an unknown name, or one without a fixed order, is refused now
     if args.fmt in NEEDS_RIG and not args.rig:
         raise UserError(f"--format {args.fmt} needs --rig (a rig .npz or SAiD folder)")
     if not args.fps > 0:
@@ -44,7 +57,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     # checked here too so that a bad value is reported against the file the user gave
     coeffs, _ = check_track(coeffs, names, where=args.coeffs)
     coeffs, clipped = unit_range_track(coeffs, names, where=args.coeffs, clip=args.clip)
-    aligned = export_track(args.out, coeffs, names, args.fmt, rig=rig, fps=args.fps, audio=args.audio)
+    aligned = export_track(args.out, coeffs, names, args.fmt, rig=rig, fps=args.fps, audio=args.audio,
+                           convention=args.convention)
     aligned = dataclasses.replace(aligned, clipped=clipped)
     for note in aligned.notes():
         print(note, file=sys.stderr)

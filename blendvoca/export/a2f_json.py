@@ -16,18 +16,17 @@ from blendvoca.errors import DataError
 from blendvoca.export._support import count, positive_number, read_json_object, string_list, weight_matrix
 from blendvoca.export.align import AlignedTrack, align_track
 from blendvoca.io.atomic import atomic_write
-from blendvoca.names import ARKIT_FACE_ORDER
 
 
 def a2f_document(coeffs, names: Sequence[str], fps: float = 60.0, track_path: str = "") -> tuple[dict, AlignedTrack]:
     """The A2F JSON document of a track over the 52 ARKit poses (shapes it lacks are 0)."""
-    aligned = align_track(coeffs, names, ARKIT_FACE_ORDER, where="a2f-json")
+    aligned = align_track(coeffs, names, "a2f52", where="a2f-json")
     doc = {
         "exportFps": int(fps) if float(fps).is_integer() else float(fps),
         "trackPath": str(track_path),
-        "numPoses": len(ARKIT_FACE_ORDER),
+        "numPoses": len(aligned.names),
         "numFrames": int(len(aligned.coeffs)),
-        "facsNames": list(ARKIT_FACE_ORDER),
+        "facsNames": list(aligned.names),
         "weightMat": [[round(float(v), 9) for v in row] for row in aligned.coeffs],
     }
     return doc, aligned

@@ -1,15 +1,20 @@
-"""Map a coefficient track's columns onto the shapes a target format or rig carries."""
+"""Map a coefficient track's columns onto the shapes a target format or rig carries.
+
+The mapping is :func:`blendvoca.names.remap` (by name, values copied): every
+format's column order is a convention of :mod:`blendvoca.names` or a rig's names.
+"""
 
 from __future__ import annotations
 
 from collections.abc import Sequence
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
 from blendvoca.errors import UserError
 from blendvoca.io.arrays import float_array
-from blendvoca.names import arkit_name
+from blendvoca.names import MissingShapesWarning, arkit_name, convention_names, remap, remap_columns
 
 
 @dataclass(frozen=True)
@@ -109,28 +114,25 @@ def unit_range_track(coeffs, names: Sequence[str], *, where: str, clip: bool = F
                     f"weights are in [0, 1]: pass --clip (clip=True) to clip them")
 
 
-def align_track(coeffs, names: Sequence[str], target: Sequence[str], *, where: str = "track") -> AlignedTrack:
+def align_track(coeffs, names: Sequence[str], target, *, where: str = "track") -> AlignedTrack:
     """Reorder a track's columns to ``target`` by name; target shapes it lacks are 0.
 
     Parameters
     ----------
     coeffs : (T, K) array_like
     names : K ARKit names (any case), the track's columns
-    target : K' ARKit names, the wanted columns
+    target : K' ARKit names, the wanted columns, or a convention name of
+        :mod:`blendvoca.names` (``"livelink"``, ``"a2f52"``, ...)
 
     Returns
     -------
-    AlignedTrack with ``coeffs`` of shape (T, K')
+    AlignedTrack with ``coeffs`` of shape (T, K'); its ``missing`` names the
+    zero-filled shapes (the notes report them, so the remap's warning is not repeated)
     """
     coeffs, names = check_track(coeffs, names, where=where)
-    target = tuple(arkit_name(n) or n for n in target)
-    index = {n: i for i, n in enumerate(names)}
-    out = np.zeros((len(coeffs), len(target)), dtype=np.float64)
-    missing = []
-    for k, n in enumerate(target):
-        if n in index:
-            out[:, k] = coeffs[:, index[n]]
-        else:
-            missing.append(n)
-    dropped = tuple(n for n in names if n not in set(target))
-    return AlignedTrack(out, target, tuple(missing), dropped)
+    target = convention_names(target) if isinstance(target, str) else tuple(arkit_name(n) or n for n in target)
+    _, missing, dropped = remap_columns(names, target)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", MissingShapesWarning)
+        out = remap(coeffs, names, target, missing="zero")
+    return AlignedTrack(out, target, missing, dropped)

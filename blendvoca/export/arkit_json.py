@@ -16,20 +16,19 @@ from blendvoca.errors import DataError
 from blendvoca.export._support import positive_number, read_json_object, string_list, weight_matrix
 from blendvoca.export.align import AlignedTrack, align_track
 from blendvoca.io.atomic import atomic_write
-from blendvoca.names import ARKIT_FACE_ORDER
 
 FORMAT_NAME = "arkit-blendshapes"
 
 
 def arkit_json_document(coeffs, names: Sequence[str], fps: float = 60.0) -> tuple[dict, AlignedTrack]:
     """The JSON document of a track (shapes it lacks are 0) and the aligned track."""
-    aligned = align_track(coeffs, names, ARKIT_FACE_ORDER, where="arkit-json")
+    aligned = align_track(coeffs, names, "arkit52", where="arkit-json")
     doc = {
         "format": FORMAT_NAME,
         "version": 1,
         "frameRate": float(fps),
         "numFrames": int(len(aligned.coeffs)),
-        "blendShapeNames": list(ARKIT_FACE_ORDER),
+        "blendShapeNames": list(aligned.names),
         "timestamps": [round(t / fps, 9) for t in range(len(aligned.coeffs))],
         "weights": [[round(float(v), 9) for v in row] for row in aligned.coeffs],
     }

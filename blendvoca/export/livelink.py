@@ -19,7 +19,7 @@ from blendvoca.errors import DataError, UserError
 from blendvoca.export.align import AlignedTrack, align_track
 from blendvoca.io.atomic import atomic_write
 from blendvoca.io.coeffs import read_coeffs_csv
-from blendvoca.names import ARKIT_FACE_ORDER, LIVELINK_HEADER, LIVELINK_ROTATION_COLUMNS, LIVELINK_SHAPE_COLUMNS
+from blendvoca.names import LIVELINK_HEADER, LIVELINK_ROTATION_COLUMNS, LIVELINK_SHAPE_COLUMNS
 
 _TIMECODE = re.compile(r"^(\d+):(\d{2}):(\d{2}):(\d+)(?:\.(\d+))?$")
 
@@ -56,7 +56,7 @@ def parse_livelink_timecode(text: str, fps: float) -> float:
 def format_livelink_csv(coeffs, names: Sequence[str], fps: float = 60.0) -> tuple[str, AlignedTrack]:
     """The CSV text of a track in Live Link Face's layout; shapes the track lacks are 0,
     the rotations are 0."""
-    aligned = align_track(coeffs, names, [c[0].lower() + c[1:] for c in LIVELINK_SHAPE_COLUMNS], where="livelink")
+    aligned = align_track(coeffs, names, "livelink", where="livelink")
     rotations = np.zeros(len(LIVELINK_ROTATION_COLUMNS))
     lines = [",".join(LIVELINK_HEADER)]
     count = len(LIVELINK_SHAPE_COLUMNS) + len(LIVELINK_ROTATION_COLUMNS)
@@ -79,13 +79,13 @@ def read_livelink_csv(path, fps: float = 60.0) -> tuple[np.ndarray, tuple[str, .
 
     Returns
     -------
-    coeffs : (T, 52) float64 ndarray, columns in :data:`ARKIT_FACE_ORDER`
+    coeffs : (T, 52) float64 ndarray, columns in ARKit's order (the ``arkit52`` convention)
     names : the 52 camelCase names
     times : (T,) float64 ndarray, seconds of each row's timecode at ``fps``
     """
     import csv
 
-    coeffs, names = read_coeffs_csv(path, names=ARKIT_FACE_ORDER)
+    coeffs, names = read_coeffs_csv(path, names="arkit52")
     with open(path, newline="", encoding="utf-8-sig") as f:
         reader = csv.reader(f)
         header = [h.strip() for h in next(reader)]

@@ -19,7 +19,7 @@ import numpy as np
 from blendvoca.errors import DataError, UserError
 from blendvoca.io.arrays import float_array
 from blendvoca.io.atomic import atomic_write
-from blendvoca.names import LIVELINK_ROTATION_COLUMNS, arkit_name
+from blendvoca.names import LIVELINK_ROTATION_COLUMNS, arkit_name, convention_names
 
 # Columns that carry no blendshape weight: Live Link Face's timecode, shape count and
 # head/eye rotations.
@@ -34,15 +34,17 @@ def _column_name(header: str) -> str | None:
     return arkit_name(header) or header
 
 
-def read_coeffs_csv(path, names: Sequence[str] | None = None, *,
+def read_coeffs_csv(path, names: Sequence[str] | str | None = None, *,
                     missing: str = "error") -> tuple[np.ndarray, tuple[str, ...]]:
     """Read a coefficient CSV (BlendVOCA/SAiD layout or a Live Link Face export).
 
     Parameters
     ----------
     path : str or os.PathLike
-    names : sequence of str, optional
-        Wanted columns, in the wanted order (ARKit names in any case). Columns of the
+    names : sequence of str or str, optional
+        Wanted columns, in the wanted order (ARKit names in any case), or the name of
+        a convention of :mod:`blendvoca.names` (``"arkit52"``, ``"said32"``, ...) for its
+        columns in its order. Columns of the
         file that are not in ``names`` are ignored. Without ``names``, every column
         but the ignored Live Link ones, which must then all be ARKit names.
     missing : {"error", "zero"}
@@ -80,6 +82,8 @@ def read_coeffs_csv(path, names: Sequence[str] | None = None, *,
                              "(any case) plus optionally Live Link Face's Timecode, BlendShapeCount and rotation columns")
         wanted = tuple(kept)
     else:
+        if isinstance(names, str):
+            names = convention_names(names)
         wanted = tuple(arkit_name(n) or str(n) for n in names)
     absent = [n for n in wanted if n not in kept]
     if absent and missing == "error":

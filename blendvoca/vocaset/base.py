@@ -12,8 +12,9 @@ from pathlib import Path
 import numpy as np
 
 from blendvoca.errors import DataError
+from blendvoca.io.audio import read_wav, to_mono
 from blendvoca.io.json_file import json_kind, read_json
-from blendvoca.vocaset.checks import first_bad_frame
+from blendvoca.vocaset.checks import first_bad_frame, wav_truncation
 from blendvoca.vocaset.errors import Problem, VocasetError
 from blendvoca.vocaset.splits import FPS, NUM_VERTICES, corpus_splits
 
@@ -77,6 +78,9 @@ class VocasetCorpus:
 
     layout: str = ""
     fps: int = FPS
+    #: Whether ``frames`` carry the head pose (VOCASET's unposedcleaneddata does not; the
+    #: build fits the pose of posed corpora together with the expression).
+    posed: bool = False
 
     def __init__(self, root, *, num_vertices: int = NUM_VERTICES):
         self.root = Path(os.fspath(root))
@@ -140,9 +144,37 @@ class VocasetCorpus:
     def audio(self, subject: str, sentence: str) -> tuple[np.ndarray, int]:
         raise NotImplementedError
 
+    def _wav_audio(self, subject: str, sentence: str, path: Path) -> tuple[np.ndarray, int]:
+        """The WAV file ``path`` of one sentence as :meth:`audio` returns it; a missing, truncated,
+        unreadable or empty file is recorded and raised as that sentence's problem."""
+        if not path.is_file():
+            self._fail("missing_audio", subject, sentence, f"{path} not found")
+        why = wav_truncation(path)
+        if why is not None:
+            self._fail("truncated", subject, sentence, f"{path}: {why}")
+        try:
+            samples, rate = read_wav(path)
+        except (ValueError, OSError) as error:
+            self._fail("unreadable", subject, sentence, str(error))
+        if samples.size == 0:
+            self._fail("empty_audio", subject, sentence, f"{path}: no samples")
+        return to_mono(samples).astype(np.float32), rate
+
     @property
     def faces(self) -> np.ndarray:
         raise NotImplementedError
+
+    def landmarks(self) -> np.ndarray:
+        """The 68 iBUG landmark vertices of the corpus's topology (FLAME's: the asset ``flame-landmarks``)."""
+        from blendvoca.assets import load_index_list
+
+        return load_index_list("flame-landmarks")
+
+    def head_index(self) -> np.ndarray:
+        """The vertices the rig transfer and the fit use (FLAME's head crop: the asset ``flame-head-idx``)."""
+        from blendvoca.assets import load_index_list
+
+        return load_index_list("flame-head-idx")
 
     @property
     def splits(self) -> dict[str, list[str]]:

@@ -19,9 +19,8 @@ from pathlib import Path
 
 import numpy as np
 
-from blendvoca.io.audio import read_wav, to_mono
 from blendvoca.io.mesh import MeshFormatError, read_ply, read_ply_sequence, read_ply_vertices
-from blendvoca.vocaset.checks import frame_gaps, wav_truncation
+from blendvoca.vocaset.checks import frame_gaps
 from blendvoca.vocaset.base import VocasetCorpus
 from blendvoca.vocaset.errors import Problem, VocasetError, check_safe_name
 
@@ -218,16 +217,4 @@ class OfficialVocaset(VocasetCorpus):
     def audio(self, subject: str, sentence: str) -> tuple[np.ndarray, int]:
         """Speech of one sentence at its native rate: ``(samples (N,) float32 mono, rate)``."""
         self._check_subject(subject)
-        path = self.root / "audio" / subject / f"{sentence}.wav"
-        if not path.is_file():
-            self._fail("missing_audio", subject, sentence, f"{path} not found")
-        why = wav_truncation(path)
-        if why is not None:
-            self._fail("truncated", subject, sentence, f"{path}: {why}")
-        try:
-            samples, rate = read_wav(path)
-        except (ValueError, OSError) as error:
-            self._fail("unreadable", subject, sentence, str(error))
-        if samples.size == 0:
-            self._fail("empty_audio", subject, sentence, f"{path}: no samples")
-        return to_mono(samples).astype(np.float32), rate
+        return self._wav_audio(subject, sentence, self.root / "audio" / subject / f"{sentence}.wav")

@@ -91,3 +91,14 @@ def test_missing_columns_as_zero(tmp_path):
     coeffs, names = read_coeffs_csv(tmp_path / "a.csv", names=["eyeBlinkLeft", "jawOpen", "mouthClose"], missing="zero")
     np.testing.assert_array_equal(coeffs, [[0, 0.1, 0.2], [0, 0.3, 0.4]])
     assert missing_columns(tmp_path / "a.csv", ["eyeBlinkLeft", "JawOpen"]) == ("eyeBlinkLeft",)
+
+
+def test_a_convention_name_selects_its_columns_in_its_order(tmp_path):
+    from blendvoca.names import convention_names
+
+    names = convention_names("arkit52")
+    track = np.arange(3 * 52, dtype=np.float64).reshape(3, 52) / 1000.0
+    write_coeffs_csv(tmp_path / "t.csv", track, names)
+    coeffs, read_names = read_coeffs_csv(tmp_path / "t.csv", names="unitalker51")
+    assert read_names == convention_names("unitalker51")
+    assert np.allclose(coeffs, track[:, [names.index(n) for n in read_names]])

@@ -1,0 +1,397 @@
+"""Coefficient corpora (ARKit weights captured or solved per frame) as BlendVOCA folders.
+
+A coefficient corpus needs no rig retargeting and no fit: each take's weights are
+read, moved to ARKit's names by :func:`blendvoca.names.remap`, resampled to the
+build's 60 fps by :func:`blendvoca.fit.resample.resample_sequence` and written,
+with the take's speech, in the layout of :mod:`blendvoca.format`. What differs
+between corpora (where the files are, how a take's weights and sound are read) is
+an adapter's list of :class:`Take`; :func:`build_coefficient_dataset` does the rest.
+
+What the folder holds, per speaker: ``blendshape_coeffs/<subject>/sentenceNN.csv``
+(the corpus's shapes in ARKit's order, plus any of BlendVOCA's 32 speech shapes it
+lacks as 0 with a warning), ``audio/<subject>/sentenceNN.wav`` and
+``rigs/<subject>.npz``, the ARKit reference rig (51 shapes): these corpora have no
+meshes, so every speaker is rendered through the one reference head (rig space
+only). ``splits.json`` splits by speaker; ``manifest.json`` records the dataset
+(``dataset``: name, title, kind, the source file of every sentence).
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import time
+import warnings
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+import blendvoca
+from blendvoca import format as fmt
+from blendvoca.builder.outdir import build_lock, check_output_dir, claim_output_dir, unwritable
+from blendvoca.builder.pipeline import BuildInputError, BuildSummary
+from blendvoca.builder.report import coeffs_std
+from blendvoca.errors import BlendVOCAError, DataError, UserError
+from blendvoca.fit.resample import resample_sequence
+from blendvoca.format.manifest import BUILD_TOOL
+from blendvoca.io.atomic import atomic_write
+from blendvoca.names import ARKIT_FACE_ORDER, BLENDVOCA_NAMES, MissingShapesWarning, arkit_name, remap
+
+#: Audio and motion durations further apart than this share are reported (as the mesh build does).
+DURATION_TOLERANCE = 0.05
+#: ``dataset.kind`` of a coefficient corpus in the manifest: no source meshes.
+KIND = "coefficients"
+
+
+class DatasetLayoutError(UserError):
+    """A ``--root`` that is not in the layout the dataset's adapter reads; names the expected files."""
+
+
+@dataclass(frozen=True)
+class Take:
+    """One take (sentence) of a coefficient corpus, read on demand.
+
+    Attributes
+    ----------
+    subject : str
+        The speaker, as the folder will name it (letters, digits, ``_ . -``).
+    name : str
+        The take's name in the corpus.
+    source : str
+        Its coefficient file, relative to the corpus root (recorded in the manifest).
+    weights : callable () -> (coeffs (T, K), names (K,), fps)
+        The take's weights, their ARKit names (any case) and frame rate.
+    audio : callable () -> (samples (N,), rate)
+    split : str, optional
+        The corpus's own split of the take, if it has one.
+    """
+
+    subject: str
+    name: str
+    source: str
+    weights: Callable[[], tuple]
+    audio: Callable[[], tuple]
+    split: str | None = None
+
+
+def safe_name(text: str) -> str:
+    """``text`` with every character but letters, digits, ``_``, ``.`` and ``-`` replaced by ``_``
+    (and no leading dot): a name the layout can use for a folder or a file."""
+    name = re.sub(r"[^A-Za-z0-9_.-]", "_", str(text).strip()) or "_"
+    return "_" + name[1:] if name.startswith(".") else name
+
+
+def frame_rate(times, *, where: str) -> float:
+    """Frames per second of a track from its frame times (seconds).
+
+    The rate over the whole track, ``(T - 1) / (t_last - t_first)``, snapped to the
+    nearest whole number when within 0.1 % of it: capture apps store times rounded
+    (to the microsecond, or to timecode frames), which would otherwise turn 60 fps
+    into 59.999 and make the resampling blend neighbouring frames.
+
+    Raises
+    ------
+    DataError
+        Fewer than two times, or times that do not increase (naming ``where``).
+    """
+    times = np.asarray(times, dtype=np.float64)
+    if times.ndim != 1 or len(times) < 2:
+        raise DataError(f"{where}: need at least 2 frame times to tell the frame rate, got {times.shape}")
+    steps = np.diff(times)
+    if not np.all(np.isfinite(steps)) or np.any(steps <= 0):
+        t = int(np.argmax(~np.isfinite(steps) | (steps <= 0)))
+        raise DataError(f"{where}: frame times do not increase (frame {t + 1}: {times[t + 1]} after {times[t]})")
+    fps = (len(times) - 1) / (times[-1] - times[0])
+    return float(round(fps)) if abs(fps - round(fps)) <= 1e-3 * fps else float(fps)
+
+
+def build_columns(names) -> tuple[str, ...]:
+    """The columns a take is written with: its shapes and BlendVOCA's 32, in ARKit's order."""
+    have = set(names) | set(BLENDVOCA_NAMES)
+    return tuple(n for n in ARKIT_FACE_ORDER if n in have)
+
+
+def take_track(coeffs, names, fps: float, *, where: str) -> tuple[np.ndarray, tuple[str, ...], list[str]]:
+    """A take's weights as the build writes them: ARKit order, 60 fps.
+
+    Parameters
+    ----------
+    coeffs : (T, K) array_like
+    names : K ARKit names (any case)
+    fps : float
+        The take's frame rate.
+    where : str
+        What the take is, for messages.
+
+    Returns
+    -------
+    track : (T', K') float64 ndarray at :data:`blendvoca.format.FPS`
+    columns : K' names (:func:`build_columns`)
+    notes : list of str
+        The speech shapes the take lacks (written as 0), if any.
+    """
+    coeffs = np.asarray(coeffs, dtype=np.float64)
+    if coeffs.ndim != 2 or len(coeffs) == 0:
+        raise DataError(f"{where}: expected (T, K) weights with T >= 1, got shape {coeffs.shape}")
+    if not np.all(np.isfinite(coeffs)):
+        t, k = np.argwhere(~np.isfinite(coeffs))[0]
+        raise DataError(f"{where}: NaN/inf weight at frame {t}, column {k}")
+    try:
+        canonical = tuple(arkit_name(n) or str(n) for n in names)
+        columns = build_columns(canonical)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", MissingShapesWarning)
+            track = remap(coeffs, canonical, columns, missing="zero")
+    except UserError as error:  # names that are not ARKit's, or as many as the weights
+        raise DataError(f"{where}: {error}") from None
+    notes = [str(w.message) for w in caught if issubclass(w.category, MissingShapesWarning)]
+    return resample_sequence(track, fps, fmt.FPS), columns, notes
+
+
+def subject_splits(subjects: list[str]) -> dict:
+    """A split by speaker of sorted ``subjects`` in VOCASET's proportions
+    (:func:`blendvoca.vocaset.splits.proportional_split`: a sixth each to val and test).
+
+    Raises
+    ------
+    BuildInputError
+        Fewer than 3 speakers (each split needs one).
+    """
+    from blendvoca.vocaset.splits import proportional_split
+
+    subjects = sorted(subjects)
+    if len(subjects) < 3:
+        raise BuildInputError(f"the corpus has {len(subjects)} speaker(s) {subjects}; a BlendVOCA folder splits by "
+                              "speaker into train, val and test, which needs at least 3")
+    return proportional_split(subjects)
+
+
+def corpus_splits(takes: list[Take]) -> tuple[dict, str | None]:
+    """The corpus's own split when it is by speaker, else :func:`subject_splits`.
+
+    Returns
+    -------
+    splits : dict
+        ``{"train": [...], "val": [...], "test": [...]}`` of subjects.
+    note : str or None
+        Why the corpus's own split was not used, when it has one.
+    """
+    subjects = sorted({t.subject for t in takes})
+    declared = {}
+    for take in takes:
+        if take.split is not None:
+            declared.setdefault(take.subject, set()).add(take.split)
+    if declared and len(declared) == len(subjects) and all(len(v) == 1 for v in declared.values()):
+        splits = {name: sorted(s for s, v in declared.items() if name in v) for name in ("train", "val", "test")}
+        if all(splits.values()) and set().union(*declared.values()) <= set(splits):
+            return splits, None
+    note = None
+    if declared:
+        note = ("the corpus splits by sentence (a speaker's takes in several splits), a BlendVOCA folder by "
+                "speaker: the speakers are split a sixth each to val and test (sorted by name)")
+    return subject_splits(subjects), note
+
+
+def sentence_names(takes: list[Take]) -> dict:
+    """``{(subject, take name): "sentenceNN"}``: each speaker's takes numbered from 1 in
+    name order (two digits, more when a speaker has over 99)."""
+    by_subject: dict[str, list[str]] = {}
+    for take in takes:
+        by_subject.setdefault(take.subject, []).append(take.name)
+    out = {}
+    for subject, names in by_subject.items():
+        repeated = sorted({n for n in names if names.count(n) > 1})
+        if repeated:
+            raise DataError(f"{subject}: takes named alike: {repeated[:5]}")
+        width = max(2, len(str(len(names))))
+        for k, name in enumerate(sorted(names), start=1):
+            out[(subject, name)] = f"sentence{k:0{width}d}"
+    return out
+
+
+def _previous_files(out: Path, dataset: str) -> list[str]:
+    """Data files a previous build of ``dataset`` into ``out`` listed (to remove those no longer built)."""
+    try:
+        manifest = fmt.read_manifest(out)
+    except (DataError, OSError):
+        return []
+    if (manifest.get("dataset") or {}).get("name") != dataset:
+        return []
+    return sorted(manifest.get("files") or {})
+
+
+#: The data-format version of coefficient builds (part of their recipe id): change it when
+#: what the adapters write from the same corpus changes.
+COEFFICIENT_FORMAT = "coeffs1"
+
+
+def coefficient_recipe(root: Path, dataset: str) -> dict:
+    """The recipe of building ``dataset`` from the corpus at ``root``: every corpus file, the
+    adapter, the frame rate and the reference rig every speaker gets (:func:`blendvoca.format.make_recipe`)."""
+    from blendvoca.assets import resolve
+
+    return fmt.make_recipe(fmt.corpus_files(root), {"dataset": dataset, "fps": fmt.FPS}, root=root,
+                           assets={"arkit-reference-rig": fmt.file_digest(resolve("arkit-reference-rig"))},
+                           format_version=COEFFICIENT_FORMAT)
+
+
+def write_dataset_manifest(out: Path, *, files, dataset: dict, params: dict, failures: list,
+                           recipe: dict | None = None) -> Path:
+    """Write ``manifest.json`` of a coefficient build: the files with their sha256, the dataset record,
+    the recipe (the dataset's identity, :func:`coefficient_recipe`) and the per-file tolerances."""
+    listed = sorted(set(files))
+    data = {
+        "tool": BUILD_TOOL,
+        "version": blendvoca.__version__,
+        "parameters": params,
+        "dataset": dataset,
+        "failures": failures,
+        "files": {rel: fmt.file_digest(out / rel) for rel in listed},
+        "tolerances": fmt.default_tolerances(listed),
+    }
+    if recipe is not None:
+        data["recipe"] = recipe
+    path = fmt.manifest_path(out)
+    with atomic_write(path, "w", encoding="utf-8") as f:
+        f.write(json.dumps(data, indent=1, sort_keys=True) + "\n")
+    return path
+
+
+def _report(out: Path, dataset: dict, summary: BuildSummary, splits: dict, notes: list[str]) -> str:
+    """``report/README.md`` of a coefficient build; returns its relative path."""
+    lines = [f"# {dataset['title']} as a BlendVOCA folder", "",
+             f"Built by `python -m blendvoca.build --dataset {dataset['name']}` from `{dataset['root']}`: "
+             f"{summary.built['sentences']} sentences of {summary.built['speakers']} speakers, weights moved to "
+             f"ARKit's names ({dataset['convention']} convention) and resampled to {fmt.FPS} fps. No source "
+             "meshes: vertex metrics are scored through the ARKit reference rig (rig space) only.", "",
+             "| split | speakers |", "|---|---|"]
+    lines += [f"| {name} | {', '.join(subjects)} |" for name, subjects in splits.items()]
+    if notes or summary.warnings:
+        lines += ["", "## Notes", ""] + [f"- {n}" for n in notes]
+        lines += [f"- {w['subject']} {w['sentence'] or ''}: {w['message']}" for w in summary.warnings]
+    if summary.failures:
+        lines += ["", "## Failed", ""] + [f"- {f['subject']} {f['sentence'] or ''}: {f['reason']}"
+                                         for f in summary.failures]
+    rel = f"{fmt.REPORT_DIR}/README.md"
+    (out / fmt.REPORT_DIR).mkdir(exist_ok=True)
+    with atomic_write(out / rel, "w", encoding="utf-8") as f:
+        f.write("\n".join(lines) + "\n")
+    return rel
+
+
+def build_coefficient_dataset(out, root, takes: Iterable[Take], *, dataset: str, title: str, convention: str,
+                              report: bool = True, progress: bool = True) -> BuildSummary:
+    """Write the BlendVOCA folder of a coefficient corpus.
+
+    Parameters
+    ----------
+    out : path
+        The folder to write (new, empty, or a previous build).
+    root : path
+        The corpus (recorded in the manifest; ``out`` may not be inside it).
+    takes : iterable of Take
+        What the adapter found; none is read before the output folder is accepted.
+    dataset, title : str
+        The registry name (``beat``) and the name tables show (``BEAT``).
+    convention : str
+        The corpus's naming convention (:mod:`blendvoca.names`), for the record.
+    report, progress : bool
+        Write ``report/README.md``; show a progress bar.
+
+    Returns
+    -------
+    BuildSummary
+        ``built`` counts speakers and sentences; a take that cannot be read is a
+        failure (``stage`` ``"input"``), the others are built.
+
+    Raises
+    ------
+    BlendVOCAError
+        Before any work: fewer than 3 speakers, an unusable ``out``
+        (``OutputDirError``), takes named alike.
+    """
+    started = time.perf_counter()
+    out, root = Path(out).expanduser().resolve(), Path(root).expanduser().resolve()
+    takes = list(takes)
+    check_output_dir(out, root)
+    splits, split_note = corpus_splits(takes)
+    numbers = sentence_names(takes)
+    previous = _previous_files(out, dataset)
+    recipe = coefficient_recipe(root, dataset)  # the identity, known before any output is written
+    claim_output_dir(out)
+    summary = BuildSummary(out=out)
+    notes = [split_note] if split_note else []
+    with build_lock(out):
+        fmt.remove_manifest(out)
+        files, tracks, sources, built_subjects = [], [], {}, set()
+        try:
+            from tqdm import tqdm
+
+            iterator = tqdm(takes, desc=f"{dataset} takes", disable=not progress, leave=False)
+        except ImportError:  # pragma: no cover - tqdm is a dependency
+            iterator = takes
+        for take in iterator:
+            sentence = numbers[(take.subject, take.name)]
+            where = f"{root / take.source}"
+            try:
+                coeffs, names, fps = take.weights()
+                track, columns, missing = take_track(coeffs, names, fps, where=where)
+                samples, rate = take.audio()
+                samples = np.asarray(samples, dtype=np.float32)
+                seconds_audio, seconds_motion = len(samples) / float(rate), len(track) / fmt.FPS
+                if seconds_audio <= 0:
+                    raise DataError(f"{where}: the take's audio is empty")
+                if abs(seconds_audio - seconds_motion) > DURATION_TOLERANCE * max(seconds_audio, seconds_motion):
+                    summary.warnings.append({"subject": take.subject, "sentence": sentence, "message":
+                                             f"audio {seconds_audio:.2f} s and motion {seconds_motion:.2f} s differ; "
+                                             "both were cut to the shorter"})
+                frames = min(len(track), int(np.floor(seconds_audio * fmt.FPS + 1e-9)))
+                track, samples = track[:frames], samples[: int(round(frames / fmt.FPS * rate))]
+                if frames < 1:
+                    raise DataError(f"{where}: shorter than one frame at {fmt.FPS} fps")
+            except (BlendVOCAError, OSError, ValueError, KeyError, TypeError) as error:
+                summary.failures.append({"subject": take.subject, "sentence": sentence, "stage": "input",
+                                         "reason": f"{take.source}: {error}"})
+                continue
+            for message in missing:
+                summary.warnings.append({"subject": take.subject, "sentence": sentence, "message": message})
+            try:
+                files.append(fmt.write_coeffs(out, take.subject, sentence, track, columns))
+                files.append(fmt.write_audio(out, take.subject, sentence, samples, int(rate)))
+            except OSError as error:
+                raise unwritable(error, out) from None
+            tracks.append(remap(track, columns, BLENDVOCA_NAMES, missing="refuse"))
+            sources[f"{take.subject}/{sentence}"] = take.source
+            built_subjects.add(take.subject)
+            summary.built["sentences"] += 1
+        if not tracks:
+            raise DataError(f"{root}: no take of the {title} corpus could be read: "
+                            + "; ".join(f["reason"] for f in summary.failures[:3]))
+        splits = {name: [s for s in subjects if s in built_subjects] for name, subjects in splits.items()}
+        if not all(splits.values()):
+            raise DataError(f"{root}: after the takes that failed, a split has no speaker left ({splits}); "
+                            "see the failures: " + "; ".join(f["reason"] for f in summary.failures[:3]))
+        from blendvoca.rig import load_arkit_reference
+
+        reference = load_arkit_reference("all")
+        try:
+            for subject in sorted(built_subjects):
+                files.append(fmt.write_rig(out, subject, reference))
+            files.append(fmt.write_coeffs_std(out, coeffs_std(tracks), BLENDVOCA_NAMES))
+            files.append(fmt.write_splits(out, splits))
+        except OSError as error:
+            raise unwritable(error, out) from None
+        summary.built["speakers"] = len(built_subjects)
+        record = {"name": dataset, "title": title, "kind": KIND, "meshes": False, "convention": convention,
+                  "root": str(root), "fps": fmt.FPS, "sources": dict(sorted(sources.items()))}
+        if report:
+            files.append(_report(out, record, summary, splits, notes))
+        for rel in sorted(set(previous) - set(files)):
+            (out / rel).unlink(missing_ok=True)
+        write_dataset_manifest(out, files=files, dataset=record, failures=summary.failures,
+                               params={"dataset": dataset, "fps": fmt.FPS, "report": bool(report)}, recipe=recipe)
+    summary.warnings[:0] = [{"subject": "", "sentence": None, "message": n} for n in notes]
+    summary.seconds["total"] = time.perf_counter() - started
+    return summary

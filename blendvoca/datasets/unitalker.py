@@ -1,0 +1,135 @@
+"""The UniTalker adapter (``--dataset unitalker --root DIR``): its D6/D7 corpora, 51 ARKit weights.
+
+Layout read (UniTalker's processed release, ``unitalker_data_release/<corpus>/``,
+as its ``dataset/dataset.py`` and ``dataset/data_item.py`` read it)::
+
+    <root>/train.json, val.json, test.json   {"info": {"id_list": [speaker, ...]},
+                                               "data": [{"annot_path", "audio_path", "id",
+                                                         "annot_type", "dataset", "fps"}, ...]}
+    <root>/<annot_path>                       (T, 51) float .npy, columns in UniTalker's order
+    <root>/<audio_path>                       .wav, or a .npy of 16 kHz samples
+
+Paths in the JSON are relative to ``<root>``. Only items of the corpus's
+annotation type are read (``inhouse_blendshape_weight`` for D6/D7); the speaker
+is ``id_list[id]``. The same layout carries 3D-ETF in UniTalker's release
+(:mod:`blendvoca.datasets.etf3d`). See ``docs/datasets.md``.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+
+from blendvoca.builder.pipeline import BuildSummary
+from blendvoca.datasets.coefficients import DatasetLayoutError, Take, build_coefficient_dataset, safe_name
+from blendvoca.errors import DataError
+from blendvoca.io.json_file import read_json
+from blendvoca.names import convention_names
+
+SPLIT_FILES = ("train.json", "val.json", "test.json")
+#: ``annot_type`` of UniTalker's ARKit corpora D6 and D7.
+ANNOT_TYPE = "inhouse_blendshape_weight"
+
+
+def expected_layout(annot_type: str, width: int) -> str:
+    """The files a root in UniTalker's layout holds, for messages."""
+    return (f"<root>/train.json, val.json or test.json ({{'info': {{'id_list': [...]}}, 'data': [{{'annot_path', "
+            f"'audio_path', 'id', 'annot_type': '{annot_type}', 'fps'}}, ...]}}) and the (T, {width}) .npy weights "
+            "and .wav (or 16 kHz .npy) audio they name, relative to <root>")
+
+
+def _audio_reader(path: Path):
+    """A reader of one item's speech: a WAV, or UniTalker's .npy of 16 kHz samples."""
+    def read():
+        if path.suffix.lower() == ".npy":
+            samples = np.load(path, allow_pickle=False)
+            if samples.ndim != 1:
+                raise DataError(f"{path}: expected (N,) audio samples at 16 kHz, got shape {samples.shape}")
+            return samples.astype(np.float32), 16000
+        from blendvoca.io.audio import load_audio
+
+        return load_audio(path, rate=16000), 16000
+    return read
+
+
+def _weights_reader(path: Path, names: tuple[str, ...], fps: float):
+    """A reader of one item's weights: a ``(T, len(names))`` .npy."""
+    def read():
+        weights = np.load(path, allow_pickle=False)
+        if weights.ndim != 2 or weights.shape[1] != len(names):
+            raise DataError(f"{path}: expected (T, {len(names)}) weights, got shape {weights.shape}")
+        return weights, names, fps
+    return read
+
+
+def unitalker_layout_takes(root, *, annot_type: str, convention: str) -> list[Take]:
+    """The items of a root in UniTalker's layout whose ``annot_type`` is ``annot_type``.
+
+    Parameters
+    ----------
+    root : path
+    annot_type : str
+        The annotation type to read (``inhouse_blendshape_weight``, ``3DETF_blendshape_weight``).
+    convention : str
+        The names of the weights' columns (:mod:`blendvoca.names`).
+
+    Raises
+    ------
+    DatasetLayoutError
+        ``root`` holds none of the split files, or no item of ``annot_type`` (naming the expected files).
+    DataError
+        A split file that is not UniTalker's JSON (naming the file and the entry).
+    """
+    root = Path(os.fspath(root)).expanduser()
+    names = convention_names(convention)
+    expected = expected_layout(annot_type, len(names))
+    if not root.is_dir():
+        raise DatasetLayoutError(f"--root {root}: not a folder; expected {expected}")
+    present = [root / name for name in SPLIT_FILES if (root / name).is_file()]
+    if not present:
+        raise DatasetLayoutError(f"--root {root}: none of {', '.join(SPLIT_FILES)}; expected {expected}")
+    takes, seen = [], set()
+    for path in present:
+        doc = read_json(path, what="UniTalker's split JSON (info, data)")
+        try:
+            speakers = doc["info"]["id_list"]
+            items = doc["data"]
+            if not isinstance(speakers, list) or not isinstance(items, list):
+                raise TypeError("info.id_list and data must be lists")
+        except (KeyError, TypeError) as error:
+            raise DataError(f"{path}: not UniTalker's split JSON ({error}); expected {expected}") from None
+        for k, item in enumerate(items):
+            try:
+                if item["annot_type"] != annot_type:
+                    continue
+                annot, audio = root / item["annot_path"], root / item["audio_path"]
+                subject = safe_name(speakers[int(item["id"])])
+                fps = float(item["fps"])
+            except (KeyError, TypeError, ValueError, IndexError) as error:
+                raise DataError(f"{path}: data[{k}] is not a UniTalker item "
+                                f"({type(error).__name__}: {error})") from None
+            name = Path(item["annot_path"]).with_suffix("").as_posix()
+            if (subject, name) in seen:
+                continue
+            seen.add((subject, name))
+            takes.append(Take(subject=subject, name=name, source=Path(item["annot_path"]).as_posix(),
+                              weights=_weights_reader(annot, names, fps), audio=_audio_reader(audio),
+                              split=path.stem))
+    if not takes:
+        raise DatasetLayoutError(f"--root {root}: no item of annot_type {annot_type!r} in "
+                                 f"{', '.join(p.name for p in present)}; expected {expected}")
+    return takes
+
+
+def build(root, out, *, workers: int | None = None, shapes: str = "speech", delta: float = 0.1,
+          report: bool = True, progress: bool = True) -> BuildSummary:
+    """Build the BlendVOCA folder of UniTalker's D6 or D7 corpus at ``root`` into ``out``.
+
+    ``workers``, ``shapes`` and ``delta`` do not apply (nothing is fitted; every shape
+    of the corpus is kept). See :func:`blendvoca.datasets.coefficients.build_coefficient_dataset`.
+    """
+    takes = unitalker_layout_takes(root, annot_type=ANNOT_TYPE, convention="unitalker51")
+    return build_coefficient_dataset(out, root, takes, dataset="unitalker", title="UniTalker (D6/D7)",
+                                     convention="unitalker51", report=report, progress=progress)
