@@ -57,9 +57,24 @@ class BlendVOCADataset:
     names : tuple of str
         Coefficient column order (BlendVOCA's 32 names).
     subjects : list of str
+    recipe_id : str
+        The dataset's identity (64 hex digits), the same on every machine that
+        builds the same corpus with the same tool and parameters: the recipe id
+        its manifest records (:func:`blendvoca.format.dataset_id`; a folder listed
+        by an older tool: its content hash). Results record it and are named by it.
     manifest_hash : str
-        sha256 of the data files listed in ``manifest.json`` with their sha256
-        (the build report excluded): :func:`blendvoca.format.manifest_hash`.
+        The content hash: sha256 of the data files listed in ``manifest.json``
+        with their sha256 (the build report excluded,
+        :func:`blendvoca.format.manifest_hash`); it differs between BLAS kernels,
+        and results record it for information.
+    dataset_name, dataset_title : str
+        The corpus the build was made from (``vocaset``, ``beat``, ... and the name
+        tables show): the manifest's ``dataset`` record, VOCASET for a build without one.
+    has_meshes : bool
+        Whether the build's source meshes can be scored against (the mesh-space
+        metrics): False for coefficient corpora (BEAT, UniTalker, 3D-ETF), which have
+        none, and for vertex corpora of other topologies than FLAME (BIWI, Multiface:
+        the lip and upper-face regions are FLAME's), docs/datasets.md.
     """
 
     def __init__(self, root: str | PathLike, vocaset: str | PathLike | None = None):
@@ -77,6 +92,21 @@ class BlendVOCADataset:
                             "not a BlendVOCA dataset")
         self._splits = self._read_splits()
         self.manifest_hash = fmt.manifest_hash(root)
+        self.recipe_id = fmt.dataset_id(root)
+        try:
+            manifest = fmt.read_manifest(root)
+        except (DataError, FileNotFoundError):
+            manifest = {}
+        record = manifest.get("dataset") if isinstance(manifest.get("dataset"), dict) else {}
+        reader = (manifest.get("parameters") or {}).get("reader") if isinstance(manifest.get("parameters"), dict) \
+            else None
+        self.dataset_name = str(record.get("name") or "vocaset")
+        self.dataset_title = str(record.get("title") or ("VOCASET" if self.dataset_name == "vocaset"
+                                                           else self.dataset_name))
+        self.has_meshes = bool(record.get("meshes", True)) and reader is None
+        if reader is not None:  # a vertex corpus read by its own reader (biwi, multiface): name it
+            self.dataset_name = reader.rpartition(".")[2].split(":")[0]
+            self.dataset_title = self.dataset_name.upper() if self.dataset_name == "biwi" else self.dataset_name.title()
 
     def _listed_path(self, relpath: str) -> Path | None:
         """The file at ``relpath`` when the manifest lists it and it is on disk, else None."""
@@ -282,8 +312,13 @@ class BlendVOCADataset:
         Raises
         ------
         FileNotFoundError
-            None of them names an existing folder (the message says how to give one).
+            A build without source meshes to score against (:attr:`has_meshes`), or
+            none of the places names an existing folder (the message says how to give one).
         """
+        if not self.has_meshes:
+            raise FileNotFoundError(
+                f"BlendVOCADataset {self.root}: a build of the {self.dataset_title} corpus, which has no source meshes "
+                "in FLAME topology to score against (docs/datasets.md); its vertex metrics are rig-space only")
         candidates = []
         if self._vocaset is not None:
             candidates.append(("open_blendvoca(vocaset=...)", self._vocaset))

@@ -5,7 +5,7 @@ Schema (``schema_version`` 2)::
     {
       "schema_version": 2,
       "method":   {"name", "label", "class", "stochastic", "reference", "config"},
-      "dataset":  {"manifest_hash", "path", "split", "num_sentences", "num_subjects"},
+      "dataset":  {"recipe_id", "manifest_hash", "path", "split", "num_sentences", "num_subjects"},
       "protocol": {"samples", "seed", "budget", "clip", "n_clipped", "deterministic",
                    "generate_time_limit", "checkpoint", "checkpoint_sha256"?,
                    "sentence_batch"?, "lipsync_models"?: {model: {"path", "sha256", ...}}},
@@ -15,10 +15,22 @@ Schema (``schema_version`` 2)::
       "tracks":   "<run>"   (stored tracks folder, relative to the JSON; benchmark.runs)
       "provenance": {"date", "git_revision", "git_dirty", "python", "platform",
                      "versions": {package: version}, "hardware": {...}},
-      "timings":  {"train_s", "load_s", "generate_s", "evaluate_s", "total_s"}
+      "timings":  {"train_s", "load_s", "generate_s", "evaluate_s", "total_s"},
+      "latency"?: {"lookahead_s", "first_frame_s", "compute_per_audio_s", "rtf"}
     }
 
+``latency`` (:func:`benchmark.protocol.generation.measure_latency`; seconds, null where
+not known) depends on the machine like ``timings``: it is not part of what a rerun must
+reproduce (the metrics and per-sentence values), and results written before it have none.
+
 Tables are only ever rendered from these files (``python -m leaderboard.build``).
+
+``dataset.recipe_id`` is the dataset's identity (:func:`blendvoca.format.dataset_id`: the
+build's inputs, tool format version and parameters, the same on every machine); it names
+the file and keys the leaderboard section (:func:`dataset_key`). ``dataset.manifest_hash``
+is the content hash of the files scored, for information (it differs between BLAS
+kernels). A result without a ``recipe_id`` (written before it existed) is keyed by its
+``manifest_hash``; the committed results were re-keyed (``leaderboard/rekey.py``).
 
 Schema 1 (protocol v2) named the vertex metrics without their reference space:
 vertex rows were scored against the source meshes, coefficient rows against the rig
@@ -47,12 +59,14 @@ from blendvoca.format import blas_kernels
 from blendvoca.io.atomic import atomic_write
 
 __all__ = [
+    "LATENCY_FIELDS",
     "METRIC_FIELDS",
     "READABLE_SCHEMAS",
     "SCHEMA_VERSION",
     "build_result",
     "check_result",
     "current_provenance",
+    "dataset_key",
     "git_revision",
     "hardware_info",
     "package_versions",
@@ -65,6 +79,8 @@ SCHEMA_VERSION = 2
 #: Versions :func:`read_result` and :func:`check_result` accept (1: read with its names mapped).
 READABLE_SCHEMAS = (1, 2)
 METRIC_FIELDS = ("mean", "std", "higher_is_better", "unit")
+#: Fields of a result's optional ``latency`` section, seconds or null.
+LATENCY_FIELDS = ("lookahead_s", "first_frame_s", "compute_per_audio_s", "rtf")
 _SECTIONS = ("method", "dataset", "protocol", "metrics", "provenance", "timings")
 
 #: Distributions whose versions are recorded when installed.
@@ -190,7 +206,7 @@ def current_provenance() -> dict:
 
 def build_result(*, method: dict, dataset: dict, protocol: dict, metrics: dict, timings: dict,
                  provenance: dict | None = None, tracks: str | None = None,
-                 per_sentence: list | None = None) -> dict:
+                 per_sentence: list | None = None, latency: dict | None = None) -> dict:
     """Assemble and check a result record.
 
     Parameters
@@ -198,7 +214,7 @@ def build_result(*, method: dict, dataset: dict, protocol: dict, metrics: dict, 
     method : dict
         ``name``, ``label``, ``class``, ``stochastic``, ``reference``, ``config``.
     dataset : dict
-        ``manifest_hash``, ``path``, ``split`` ...
+        ``recipe_id``, ``manifest_hash``, ``path``, ``split`` ...
     protocol : dict
         ``samples``, ``seed``, ``budget`` ...
     metrics : dict
@@ -212,6 +228,8 @@ def build_result(*, method: dict, dataset: dict, protocol: dict, metrics: dict, 
         The stored tracks folder, relative to the JSON's folder (``benchmark.runs``).
     per_sentence : list of dict, optional
         One ``{"subject", "sentence", metric: value, ...}`` row per scored sentence.
+    latency : dict, optional
+        ``{"lookahead_s", "first_frame_s", "compute_per_audio_s", "rtf"}`` (seconds or None).
 
     Returns
     -------
@@ -233,6 +251,9 @@ def build_result(*, method: dict, dataset: dict, protocol: dict, metrics: dict, 
         result["tracks"] = str(tracks)
     if per_sentence is not None:
         result["per_sentence"] = list(per_sentence)
+    if latency is not None:
+        result["latency"] = {key: (None if latency.get(key) is None else round(float(latency[key]), 4))
+                             for key in LATENCY_FIELDS}
     result["method"].setdefault("label", result["method"].get("name"))
     check_result(result)
     return result
@@ -252,13 +273,24 @@ def check_result(result, where: str = "result") -> dict:
     for key in ("name", "config"):
         if key not in result["method"]:
             raise ValueError(f"{where}: method section lacks {key!r}")
-    for section, key in (("method", "name"), ("method", "label"), ("dataset", "manifest_hash")):
+    for section, key in (("method", "name"), ("method", "label"), ("dataset", "manifest_hash"),
+                         ("dataset", "recipe_id")):
         value = result[section].get(key)
         if value is not None and not isinstance(value, str):  # tables key and sort on these
             raise ValueError(f"{where}: {section}.{key}: expected a string, got {type(value).__name__}")
-    if not result["dataset"].get("manifest_hash"):
-        raise ValueError(f"{where}: dataset section lacks 'manifest_hash'")
+    if not result["dataset"].get("manifest_hash") and not result["dataset"].get("recipe_id"):
+        raise ValueError(f"{where}: dataset section lacks 'recipe_id' (and 'manifest_hash')")
     _clean_metrics(result["metrics"])
+    latency = result.get("latency")
+    if latency is not None:
+        if not isinstance(latency, dict):
+            raise ValueError(f"{where}: latency: expected an object, got {type(latency).__name__}")
+        for key, value in latency.items():
+            if key not in LATENCY_FIELDS:
+                raise ValueError(f"{where}: latency.{key}: unknown field; expected some of {LATENCY_FIELDS}")
+            if value is not None and (isinstance(value, bool) or not isinstance(value, (int, float))
+                                      or not math.isfinite(value) or value < 0):
+                raise ValueError(f"{where}: latency.{key}: expected seconds >= 0 or null, got {value!r}")
     try:
         json.dumps(result, allow_nan=False)
     except (TypeError, ValueError) as exc:
@@ -270,11 +302,19 @@ def _slug(text: str) -> str:
     return re.sub(r"[^a-z0-9._-]+", "-", str(text).lower()).strip("-") or "method"
 
 
+def dataset_key(result: dict) -> str:
+    """The identity of the dataset a result was scored on: ``dataset.recipe_id``, or for a result
+    written before recipe ids existed its ``dataset.manifest_hash`` (the content hash)."""
+    dataset = result["dataset"]
+    return str(dataset.get("recipe_id") or dataset["manifest_hash"])
+
+
 def result_filename(result: dict) -> str:
-    """``<label>__<manifest hash[:12]>__s<samples>__seed<seed>.json`` (one file per run setting);
-    a run over several training seeds (``protocol.seeds``) ends ``__seeds0-1-2.json``."""
+    """``<label>__<recipe id[:12]>__s<samples>__seed<seed>.json`` (one file per run setting;
+    :func:`dataset_key`); a run over several training seeds (``protocol.seeds``) ends
+    ``__seeds0-1-2.json``."""
     label = _slug(result["method"].get("label") or result["method"]["name"])
-    manifest = _slug(result["dataset"]["manifest_hash"])[:12]
+    manifest = _slug(dataset_key(result))[:12]
     protocol = result["protocol"]
     seeds = protocol.get("seeds")
     seed = f"seeds{'-'.join(str(int(s)) for s in seeds)}" if seeds else f"seed{protocol.get('seed')}"

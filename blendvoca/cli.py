@@ -233,9 +233,25 @@ def add_config_options(p: argparse.ArgumentParser, *, preset_default: str | None
                        help="method config entry (repeatable; VALUE parsed as JSON when possible)")
 
 
-def parse_config(pairs=(), *, preset: str | None = None) -> dict:
+def parse_config(pairs=(), *, preset: str | None = None, schema=None, method: str = "method") -> dict:
     """Method config from ``KEY=VALUE`` strings (values parsed as JSON when they can be);
-    ``preset`` (``--preset``) is passed through as ``config["preset"]``."""
+    ``preset`` (``--preset``) is passed through as ``config["preset"]``.
+
+    ``schema``, the method's declaration (a
+    :class:`benchmark.methods.config.ConfigSchema`, or any object with its ``parse``
+    and ``check``), reads each value against its option's type and refuses an unknown
+    key or a wrong type with a :class:`UserError` naming ``method``, the key, the
+    expected type and what arrived; None (a method that declares nothing) only parses.
+    """
+    if schema is not None:
+        config = schema.parse(list(pairs or ()), method=method)
+        if preset is not None:
+            try:
+                schema.check({"preset": preset}, method=method)
+            except UserError as exc:  # name the option the user typed
+                raise UserError(str(exc).replace("--config preset", "--preset", 1)) from None
+            config["preset"] = preset
+        return config
     config = {}
     for pair in pairs or ():
         key, sep, value = str(pair).partition("=")

@@ -34,7 +34,7 @@ from benchmark.metrics.bootstrap import (
     two_level_replicates,
 )
 from benchmark.metrics.registry import METRICS, ordered_metrics
-from benchmark.results import read_result
+from benchmark.results import dataset_key, read_result
 from blendvoca.errors import DataError, UserError
 
 __all__ = [
@@ -122,14 +122,25 @@ class Row:
 
 @dataclass
 class Table:
-    """All results on one dataset manifest."""
+    """All results on one dataset (one recipe id, :func:`benchmark.results.dataset_key`)."""
 
+    #: The section's key: the dataset's recipe id (a result without one: its content hash).
+    #: The field keeps the name it had when sections were keyed by the content hash.
     manifest_hash: str
     split: str
     num_sentences: int | None
     columns: list  # [Column] in registry order
     rows: list  # [Row] methods, sorted by label
     references: list  # [Row] reference rows, sorted by label
+    #: The dataset's display name (its results' ``dataset.title`` or ``dataset.name``; "" for results without one).
+    name: str = ""
+    #: Latent metrics computed with a VAE trained on another dataset (a result's ``latent_out_of_domain``).
+    latent_out_of_domain: bool = False
+
+    @property
+    def recipe_id(self) -> str:
+        """The section's dataset identity (the same value as :attr:`manifest_hash`)."""
+        return self.manifest_hash
 
     @property
     def groups(self) -> list:
@@ -177,7 +188,7 @@ def check_schema_versions(results: list, paths: list) -> None:
     """
     by_manifest: dict = {}
     for result, path in zip(results, paths):
-        versions = by_manifest.setdefault(result["dataset"]["manifest_hash"], {})
+        versions = by_manifest.setdefault(dataset_key(result), {})
         versions.setdefault(result.get("schema_version"), []).append(str(path))
     problems = []
     for manifest, versions in sorted(by_manifest.items()):
@@ -291,7 +302,8 @@ def tabulable(result: dict, path) -> dict:
     (the schema check leaves some free); DataError naming ``path`` and the field otherwise."""
     path = Path(path)
     expected = (
-        ("dataset", "manifest_hash", str, False),
+        ("dataset", "manifest_hash", str, True),
+        ("dataset", "recipe_id", str, True),
         ("dataset", "split", str, True),
         ("dataset", "num_sentences", int, True),
         ("method", "name", str, False),
@@ -333,7 +345,7 @@ def tables_by_manifest(results: list[dict]) -> list[Table]:
     """
     groups: dict[str, list[tuple[int, dict]]] = {}
     for index, result in enumerate(results):
-        groups.setdefault(result["dataset"]["manifest_hash"], []).append((index, result))
+        groups.setdefault(dataset_key(result), []).append((index, result))
     tables = []
     for manifest_hash in sorted(groups):
         sources = [index for index, _ in groups[manifest_hash]]
@@ -385,8 +397,20 @@ def tables_by_manifest(results: list[dict]) -> list[Table]:
             columns=[columns[n] for n in known + other],
             rows=[r for r in rows if not r.reference],
             references=[r for r in rows if r.reference],
+            name=" / ".join(sorted({dataset_name(r["dataset"]) for r in group} - {""})),
+            latent_out_of_domain=any(_latent_out_of_domain(r) for r in group),
         ))
     return tables
+
+
+def dataset_name(record: dict) -> str:
+    """The display name of a result's ``dataset`` record: its ``title``, else its ``name``, else ""."""
+    return str(record.get("title") or record.get("name") or "")
+
+
+def _latent_out_of_domain(result: dict) -> bool:
+    """Whether a result flags its latent metrics as out of domain (``dataset`` or ``protocol`` record)."""
+    return bool(result["dataset"].get("latent_out_of_domain") or result["protocol"].get("latent_out_of_domain"))
 
 
 def result_seeds(result: dict) -> list:

@@ -18,7 +18,8 @@ from benchmark.metrics.registry import METRICS
 
 from .collect import MIN_PAIRED_SENTENCES, Column, Row, Table, best_mark, column_decimals
 
-__all__ = ["AV_OFFSET_NOTE", "NOT_SETTLED_MARK", "group_notes", "latex_tables", "markdown_tables", "not_settled_text"]
+__all__ = ["AV_OFFSET_NOTE", "NOT_SETTLED_MARK", "group_notes", "latex_tables", "markdown_tables", "not_settled_text",
+           "rtf_text"]
 
 #: Mark after the label of a row whose training had not settled (``convergence.settled`` false).
 NOT_SETTLED_MARK = "†"
@@ -37,7 +38,8 @@ _RULE = ("Best method in **bold** only where it beats the runner-up in at least 
          "better; cells are mean [95 % bootstrap interval over sentences, and seeds where there are several] "
          "and, for rows trained with several seeds, seeds [lowest, highest] of the per-seed means; "
          f"{NOT_SETTLED_MARK}: not settled (the row's value moved by more than its interval's half-width "
-         "between half and full training budget).")
+         "between half and full training budget); RTF: real-time factor, wall seconds of generation per second "
+         "of audio on the run's machine (below 1 is faster than the speech; - for results without a latency record).")
 
 
 def _latex_escape(text: str) -> str:
@@ -130,13 +132,28 @@ def group_notes(table: Table, columns: list, marks: list) -> list:
     return notes
 
 
+#: Under a table whose latent metrics used a VAE trained on another dataset.
+OUT_OF_DOMAIN_NOTE = ("Latent metrics (FD, WInD, multimodality, latent energy) use the published VAE, trained on "
+                      "BlendVOCA: on this dataset they are out of domain (docs/datasets.md says how to train a "
+                      "VAE on it).")
+
+
 def _title(group: str) -> str:
     return group[:1].upper() + group[1:]
 
 
 def _caption(table: Table) -> str:
     n = f", {table.num_sentences} sentences" if table.num_sentences else ""
-    return f"dataset manifest {table.manifest_hash[:12]} ({table.split} split{n})"
+    named = f"{table.name}, " if table.name else ""
+    return f"{named}dataset recipe {table.recipe_id[:12]} ({table.split} split{n})"
+
+
+def rtf_text(row: Row, decimals: int = 3) -> str:
+    """The row's real-time factor (``latency.rtf`` of its result: wall seconds of generation per
+    second of audio) to ``decimals`` significant digits, or ``"-"`` for a result without a latency record."""
+    latency = (row.result or {}).get("latency") if isinstance(row.result, dict) else None
+    rtf = latency.get("rtf") if isinstance(latency, dict) else None
+    return "-" if rtf is None else f"{float(rtf):.{decimals}g}"
 
 
 def _md_row(label: str, row: Row, cells, bold_flags) -> str:
@@ -149,7 +166,7 @@ def _md_row(label: str, row: Row, cells, bold_flags) -> str:
         mean = f"**{mean}**" if is_bold else mean
         text = mean if interval is None else f"{mean} {interval}"
         out.append(text if seeds is None else f"{text} seeds {seeds}")
-    out.append(str(row.samples))
+    out += [str(row.samples), rtf_text(row)]
     return "| " + " | ".join(out) + " |"
 
 
@@ -160,12 +177,15 @@ def markdown_tables(tables: list[Table]) -> str:
     if not tables:
         lines += ["No results yet.", ""]
     for table in tables:
-        lines += [f"## Dataset `{table.manifest_hash[:12]}`", "", f"Full manifest hash `{table.manifest_hash}`, "
+        lines += [f"## {table.name + ': d' if table.name else 'D'}ataset `{table.recipe_id[:12]}`", "",
+                  f"Full recipe id `{table.recipe_id}`, "
                   f"{table.split} split" + (f", {table.num_sentences} sentences." if table.num_sentences else "."), ""]
+        if table.latent_out_of_domain:
+            lines += [OUT_OF_DOMAIN_NOTE, ""]
         for group, columns in table.groups:
             method_cells, reference_cells, bold, marks = _group_cells(table, columns)
             header = ["Method"] + [f"{c.label}{f' ({c.unit})' if c.unit else ''} {_ARROWS[c.higher_is_better][0]}"
-                                   .rstrip() for c in columns] + ["S"]
+                                   .rstrip() for c in columns] + ["S", "RTF"]
             lines += [f"### {_title(group)}", "", "| " + " | ".join(header) + " |",
                       "|" + "|".join([":---"] + ["---:"] * (len(header) - 1)) + "|"]
             for i, row in enumerate(table.rows):
@@ -192,7 +212,7 @@ def _tex_row(label: str, row: Row, cells, bold_flags) -> str:
         small = " ".join(part for part in ([f"${interval}$"] if interval else []) + (
             [f"seeds ${seeds}$"] if seeds else []))
         out.append(f"{mean} {{\\scriptsize {small}}}" if small else mean)
-    out.append(str(row.samples))
+    out += [str(row.samples), rtf_text(row)]
     return " & ".join(out) + r" \\"
 
 
@@ -218,7 +238,7 @@ def latex_tables(tables: list[Table]) -> str:
             method_cells, reference_cells, bold, marks = _group_cells(table, columns)
             header = ["Method"] + [
                 f"{_latex_escape(c.label)}{' (' + _latex_unit(c.unit) + ')' if c.unit else ''} "
-                f"{_ARROWS[c.higher_is_better][1]}".rstrip() for c in columns] + ["$S$"]
+                f"{_ARROWS[c.higher_is_better][1]}".rstrip() for c in columns] + ["$S$", "RTF"]
             body = [_tex_row(_latex_escape(row.label), row, [col[i] for col in method_cells], [i in b for b in bold])
                     for i, row in enumerate(table.rows)]
             if table.references:
@@ -231,9 +251,9 @@ def latex_tables(tables: list[Table]) -> str:
                 f"\\caption{{BlendVOCA benchmark, {_latex_escape(group)} metrics, {_latex_escape(_caption(table))}. "
                 "Mean [95\\,\\% bootstrap interval]; seeds [lowest, highest per-seed mean] for rows trained with "
                 "several seeds; bold: best, beats the runner-up in at least 95\\,\\% of the paired resamples.}",
-                f"\\label{{tab:blendvoca-{table.manifest_hash[:12]}-{slug}}}",
+                f"\\label{{tab:blendvoca-{table.recipe_id[:12]}-{slug}}}",
                 r"\resizebox{\linewidth}{!}{%",
-                f"\\begin{{tabular}}{{l{'r' * len(columns)}r}}", r"\toprule",
+                f"\\begin{{tabular}}{{l{'r' * len(columns)}rr}}", r"\toprule",
                 " & ".join(header) + r" \\", r"\midrule", *body, r"\bottomrule", r"\end{tabular}}",
                 *_tex_notes(group_notes(table, columns, marks)), r"\end{table}", "",
             ]

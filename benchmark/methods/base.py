@@ -24,7 +24,7 @@ import numpy as np
 from .contract import OUTPUT_COEFFICIENTS, OUTPUT_KINDS
 
 __all__ = ["CONFIG_FILE", "Budget", "Method", "checkpoint_step", "progress_bars", "show_progress",
-           "takes_checkpoint_hook"]
+           "takes_checkpoint_hook", "takes_device"]
 
 #: File in which :meth:`Method.save` stores the constructor config.
 CONFIG_FILE = "method_config.json"
@@ -127,17 +127,29 @@ def checkpoint_step(total_steps) -> int | None:
     return int(total) // 2
 
 
+def _takes_keyword(function, name: str) -> bool:
+    """Whether ``function`` accepts the keyword ``name`` (by that name, or ``**kwargs``)."""
+    try:
+        parameters = inspect.signature(function).parameters.values()
+    except (TypeError, ValueError):
+        return False
+    return any(p.name == name and p.kind in (p.KEYWORD_ONLY, p.POSITIONAL_OR_KEYWORD)
+               or p.kind == p.VAR_KEYWORD for p in parameters)
+
+
+def takes_device(train) -> bool:
+    """Whether the bound or unbound ``train`` accepts ``device=`` (a keyword of that
+    name, or ``**kwargs``). Plug-ins written before the option existed do not: the
+    runner then calls ``train`` without it and the method trains where it always did."""
+    return _takes_keyword(train, "device")
+
+
 def takes_checkpoint_hook(train) -> bool:
     """Whether the bound or unbound ``train`` accepts ``on_checkpoint=`` (a keyword of
     that name, or ``**kwargs``). Plug-ins written before the hook existed do not: the
     runner then calls ``train(dataset, seed=..., budget=...)`` and records the run as
     not checked for convergence."""
-    try:
-        parameters = inspect.signature(train).parameters.values()
-    except (TypeError, ValueError):
-        return False
-    return any(p.name == "on_checkpoint" and p.kind in (p.KEYWORD_ONLY, p.POSITIONAL_OR_KEYWORD)
-               or p.kind == p.VAR_KEYWORD for p in parameters)
+    return _takes_keyword(train, "on_checkpoint")
 
 
 class Method(abc.ABC):
@@ -183,6 +195,23 @@ class Method(abc.ABC):
     #: equal the checkpoint's.
     sampling_options: tuple = ()
 
+    @classmethod
+    def config_schema(cls):
+        """The config keys this method accepts, with types (a
+        :class:`~benchmark.methods.config.ConfigSchema`), or None when it declares none.
+
+        ``benchmark.run --config`` values are checked against it before any work.
+        The default reads the ``__init__`` signature (annotations, defaults) and the
+        class docstring's ``Parameters``; preset-based plug-ins extend it with their
+        presets' keys; a constructor taking only ``**config`` declares nothing (its
+        values are only parsed as JSON).
+        """
+        from .config import ConfigSchema
+
+        if cls.__init__ is Method.__init__:
+            return None
+        return ConfigSchema.from_signature(cls.__init__, cls.__doc__)
+
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)
         if cls.output not in OUTPUT_KINDS:
@@ -200,7 +229,7 @@ class Method(abc.ABC):
         ``type(self)(**self.config())`` rebuilds the method."""
         return dict(self._config)
 
-    def train(self, dataset, *, seed: int, budget: Budget, on_checkpoint=None) -> None:
+    def train(self, dataset, *, seed: int, budget: Budget, on_checkpoint=None, device=None) -> None:
         """Train on ``dataset.split("train")`` / ``("val")``; default: nothing to train.
 
         Parameters
@@ -232,6 +261,17 @@ class Method(abc.ABC):
             A time-limited run (its half is not known in advance) and a method that
             does not train in steps do not call it; plug-ins whose ``train`` does not
             take ``on_checkpoint`` still work (the run is recorded as not checked).
+        device : str or torch.device, optional
+            Where a method that runs a network trains it and then generates
+            (``benchmark.run --device``: ``"cpu"``, ``"cuda"``, ``"cuda:N"``). None: the
+            method's own choice, the CPU for every bundled baseline. A method that
+            trains on a device stays there, so that :meth:`generate` runs there too; a
+            loaded method is moved by its ``to(device)`` when it has one. ``"cpu"`` must
+            train exactly what None trains (the same seed, the same weights); on a GPU
+            a method may use mixed precision where its config allows it. Plug-ins
+            whose ``train`` does not take ``device`` still work: the runner passes it
+            only to a ``train`` that accepts it (:func:`takes_device`), as for
+            ``on_checkpoint``.
         """
         return
 

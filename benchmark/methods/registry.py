@@ -23,6 +23,7 @@ __all__ = [
     "UnknownMethodError",
     "available_methods",
     "get_method",
+    "method_schema",
     "register",
     "register_lazy",
     "unregister",
@@ -222,3 +223,13 @@ def get_method(name: str) -> type[Method]:
     if isinstance(entry, str):
         _REGISTRY[name] = cls  # resolve once
     return cls
+
+
+def method_schema(method):
+    """The config declaration (:class:`~benchmark.methods.config.ConfigSchema`) of a method
+    class or registered name (its ``config_schema``, a classmethod or an attribute), or
+    None when it declares none."""
+    if isinstance(method, str):
+        method = get_method(method)
+    declared = getattr(method, "config_schema", None)
+    return declared() if callable(declared) else declared

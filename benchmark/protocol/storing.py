@@ -14,7 +14,16 @@ from benchmark.runs import TrackWriter, seed_folder_name, tracks_folder_name
 from blendvoca.errors import MethodError
 from blendvoca.format import content_digest
 
-__all__ = ["lipsync_models_provenance", "result_name", "store", "store_seeds", "track_writer", "write_run"]
+__all__ = ["dataset_identity", "lipsync_models_provenance", "result_name", "store", "store_seeds", "track_writer", "write_run"]
+
+
+def dataset_identity(dataset) -> dict:
+    """``{"manifest_hash", "recipe_id"}`` of an opened build: the recipe id names results and
+    leaderboard sections (the same on every processor, docs/build.md "Dataset identity"),
+    the content hash is kept for information; a dataset without a recipe (a build made
+    before recipes, a test double) is named by its content hash."""
+    manifest_hash = str(dataset.manifest_hash)
+    return {"manifest_hash": manifest_hash, "recipe_id": str(getattr(dataset, "recipe_id", None) or manifest_hash)}
 
 
 def result_name(spec, dataset, trained) -> str:
@@ -24,7 +33,7 @@ def result_name(spec, dataset, trained) -> str:
     if spec.seeds is not None:
         protocol["seeds"] = [int(s) for s in spec.seeds]
     return result_filename({"method": {"name": spec.method, "label": trained.label},
-                            "dataset": {"manifest_hash": str(dataset.manifest_hash)}, "protocol": protocol})
+                            "dataset": dataset_identity(dataset), "protocol": protocol})
 
 
 def track_writer(spec, inputs, trained) -> TrackWriter:
@@ -88,13 +97,20 @@ def _method_section(spec, trained, method_config: dict) -> dict:
 
 def _dataset_section(spec, inputs, *, num_subjects: int, num_sentences: int) -> dict:
     data_root = inputs.data_root
-    return {
-        "manifest_hash": str(inputs.dataset.manifest_hash),
+    section = {
+        **dataset_identity(inputs.dataset),
         "path": str(Path(data_root).resolve()) if isinstance(data_root, (str, os.PathLike)) else str(data_root),
         "split": spec.split,
         "num_subjects": int(num_subjects),
         "num_sentences": int(num_sentences),
     }
+    name = getattr(inputs.dataset, "dataset_name", "vocaset")
+    if name != "vocaset":
+        # another corpus than the one the published VAE was trained on (BlendVOCA, from VOCASET):
+        # its latent metrics are out of domain unless the run was given a VAE trained on it
+        section.update(name=name, title=getattr(inputs.dataset, "dataset_title", name),
+                       latent_out_of_domain=getattr(spec, "vae", None) is None)
+    return section
 
 
 def _protocol_section(spec, inputs, trained, *, n_clipped: int, evaluation: dict | None = None,
@@ -119,6 +135,10 @@ def _protocol_section(spec, inputs, trained, *, n_clipped: int, evaluation: dict
         **({"lipsync_models": lipsync_models_provenance(spec.syncnet, spec.sync_expert)}
            if spec.evaluates_lipsync_models else {}),
         **({"convergence_check": convergence_check} if convergence_check is not None else {}),
+        **({"vae": {"path": str(spec.vae), "sha256": content_digest(spec.vae)}}
+           if getattr(spec, "vae", None) is not None else {}),
+        # a GPU's results differ from the CPU's by float rounding: say where it ran (absent: the CPU)
+        **({"device": spec.device} if getattr(spec, "device", None) not in (None, "cpu") else {}),
     }
     protocol.update(dict(evaluation or {}))
     return protocol
@@ -173,6 +193,7 @@ def store(spec, inputs, trained, generated, scored, *, writer: TrackWriter, timi
         tracks=tracks_folder_name(filename),
         per_sentence=scored.per_sentence,
         provenance=provenance,
+        latency=getattr(generated, "latency", None),
     )
     if convergence is not None:
         result["convergence"] = convergence
@@ -228,6 +249,8 @@ def store_seeds(spec, inputs, trained, runs, combined, *, writer: TrackWriter, t
         tracks=f"{folder}/{seed_folder_name(first.seed)}",
         per_sentence=combined.per_sentence,
         provenance=provenance,
+        # the first seed's: the chunked configuration and the machine are the same for every seed
+        latency=first.latency,
     )
     result["seeds"] = [int(s) for s in spec.seeds]
     result["per_seed"] = per_seed

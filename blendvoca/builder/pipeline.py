@@ -13,6 +13,11 @@ Stages (each a pure function; this module only reads and writes files):
    truth -> ``oracle_coeffs/<subject>/<sentence>-<k>.csv``;
 3. summary: ``coeffs_std.csv``, ``splits.json``, ``report/``, ``manifest.json``.
 
+The build's recipe id (:func:`blendvoca.format.make_recipe`: every corpus file's
+digest, the assets', the data-format version and the parameters) is computed
+before any output is written and stored in the manifest: it is the dataset's
+identity on every machine, whatever BLAS kernel rounds the fits.
+
 Every stage has a record in ``.buildstate/`` keyed by a digest of its inputs
 and parameters, written after its outputs (which are written atomically): a
 rerun skips what is up to date, redoes what an interruption cut short or what
@@ -55,6 +60,7 @@ ORACLE_STAGE_VERSION = "1"
 AUDIO_RATE = fmt.AUDIO_RATE
 #: Inner-lip landmarks (0-based) of the 68-point scheme: upper and lower lip middle.
 LIP_LANDMARKS = (62, 66)
+FLAME_VERTICES = 5023
 
 
 class BuildInputError(UserError):
@@ -95,21 +101,41 @@ class BuildSummary:
 # ----------------------------------------------------------------------------- context
 
 
-def _static_inputs(shapes):
-    """Asset-derived inputs shared by all workers (digests go into stage keys)."""
+def _static_inputs(shapes, corpus=None):
+    """Asset-derived inputs shared by all workers (digests go into stage keys).
+
+    The 68 landmarks and the fitted vertices come from the corpus reader
+    (``landmarks()``, ``head_index()``: FLAME's assets for VOCASET-like corpora,
+    the user's landmark file for BIWI and Multiface).
+    """
     from blendvoca.assets import load_index_list, resolve
     from blendvoca.rig import shape_names
 
-    return {
+    flame = corpus is None or corpus.num_vertices == FLAME_VERTICES
+    assets = ("arkit-reference-rig", "arkit-landmarks") + (("flame-landmarks", "flame-head-idx") if flame else ())
+    static = {
         "shapes": list(shape_names(shapes)),
         "reference_landmarks": load_index_list("arkit-landmarks"),
-        "flame_landmarks": load_index_list("flame-landmarks"),
-        "head_index": load_index_list("flame-head-idx"),
-        "assets": {
-            asset: file_digest(resolve(asset))
-            for asset in ("arkit-reference-rig", "arkit-landmarks", "flame-landmarks", "flame-head-idx")
-        },
+        "landmarks": load_index_list("flame-landmarks") if corpus is None else corpus.landmarks(),
+        "head_index": load_index_list("flame-head-idx") if corpus is None else corpus.head_index(),
+        "assets": {asset: file_digest(resolve(asset)) for asset in assets},
     }
+    if not flame:  # another topology: the user's landmark file and the fitted vertices take part in every rig
+        static["assets"]["landmarks"] = array_digest(static["landmarks"])
+        static["assets"]["head_index"] = array_digest(static["head_index"])
+    return static
+
+
+def open_corpus(root, reader=None):
+    """The corpus at ``root`` read by ``reader`` (``"module:callable"``; default VOCASET's ``open_vocaset``)."""
+    if reader is None:
+        from blendvoca.vocaset import open_vocaset
+
+        return open_vocaset(root)
+    import importlib
+
+    module, _, name = reader.partition(":")
+    return getattr(importlib.import_module(module), name)(root)
 
 
 _WORKER: dict = {}
@@ -194,16 +220,15 @@ def _worker_init(corpus_root, out, params, shared=None):
     except ImportError:  # pragma: no cover
         pass
     _keep_freed_memory()
-    from blendvoca.vocaset import open_vocaset
-
     opened = _OPENED.get(str(corpus_root))
     forked = opened is not None and opened[0] != os.getpid()
+    corpus = opened[1] if forked else open_corpus(corpus_root, params.get("reader"))
     _WORKER.clear()
     _WORKER.update(
-        corpus=opened[1] if forked else open_vocaset(corpus_root),
+        corpus=corpus,
         out=Path(out),
         params=params,
-        static=_static_inputs(params["shapes"]),
+        static=_static_inputs(params["shapes"], corpus),
         rigs={},
         shared=shared or {},
     )
@@ -242,7 +267,7 @@ def _shared_correspondence(corpus, subjects, out, params):
     from blendvoca.retarget import correspondence_for_target
     from blendvoca.vocaset.checks import template_scale_problem
 
-    static = _static_inputs(params["shapes"])
+    static = _static_inputs(params["shapes"], corpus)
     faces = corpus.faces
     faces_digest = array_digest(faces)
     reference_template = reference_digest = None
@@ -273,7 +298,7 @@ def _shared_correspondence(corpus, subjects, out, params):
                 reference = _reference_rig(static, params)
                 shared["correspondence"] = correspondence_for_target(
                     reference.neutral, reference.faces, reference_template, faces,
-                    static["reference_landmarks"], static["flame_landmarks"], crop=static["head_index"])
+                    static["reference_landmarks"], static["landmarks"], crop=static["head_index"])
         except Exception:  # each rig task computes (and reports) its own then
             shared["correspondence"] = None
     return shared
@@ -327,7 +352,7 @@ def _speaker_task(subject):
         reference = _reference_rig(static, params)
         read_s, clock = time.perf_counter() - clock, time.perf_counter()
         rig = speaker_rig(reference, template, faces, static["reference_landmarks"],
-                          static["flame_landmarks"], static["head_index"], correspondence=correspondence)
+                          static["landmarks"], static["head_index"], correspondence=correspondence)
         compute_s, clock = time.perf_counter() - clock, time.perf_counter()
         _invalidate_manifest(out)
         head = static["head_index"]
@@ -380,19 +405,23 @@ def _sentence_task(item):
         inputs = {"frames": array_digest(frames, dtype=np.float64), "audio": array_digest(samples),
                   "audio_rate": int(rate)}
         warnings = _sentence_warnings(corpus, frames, samples, rate)
-        key = stage_key({
+        key = {
             "stage": "sentence", "version": FIT_STAGE_VERSION, "rig": rig_key,
             "frames": inputs["frames"], "audio": inputs["audio"], "rate": int(rate),
             "delta": params["delta"], "audio_rate": AUDIO_RATE,
-        })
+        }
+        if corpus.posed:  # how the pose was taken out decides the coefficients
+            key["pose_fit"] = params["pose_fit"]
+        key = stage_key(key)
         record = read_record(path)
         if is_up_to_date(out, record, key):
             return {**base, "status": "skipped", "warnings": warnings}
         _invalidate_manifest(out)
         rig = _load_rig(subject)
         read_s, clock = time.perf_counter() - clock, time.perf_counter()
-        coeffs, stats = sentence_fit(rig, frames, static["head_index"], delta=params["delta"])
-        lips = static["flame_landmarks"][list(LIP_LANDMARKS)]
+        coeffs, stats = sentence_fit(rig, frames, static["head_index"], delta=params["delta"], posed=corpus.posed,
+                                     pose_fit=params.get("pose_fit", "joint"))
+        lips = static["landmarks"][list(LIP_LANDMARKS)]
         stats["lip_aperture_mm"] = [round(float(v) * 1000.0, 6) for v in lip_aperture(frames, *lips)]
         compute_s, clock = time.perf_counter() - clock, time.perf_counter()
         files = [fmt.write_coeffs(out, subject, sentence, coeffs, rig.names),
@@ -540,6 +569,8 @@ def build_dataset(
     delta: float = 0.1,
     report: bool = True,
     progress: bool = True,
+    reader: str | None = None,
+    pose_fit: str = "joint",
 ) -> BuildSummary:
     """Build BlendVOCA from a VOCASET corpus into ``out`` (resumable).
 
@@ -561,6 +592,14 @@ def build_dataset(
         Write ``report/`` (Markdown + PNG figures).
     progress : bool
         Progress bars on stderr.
+    reader : str, optional
+        ``"module:callable"`` opening the corpus at ``vocaset`` (the readers of
+        :mod:`blendvoca.datasets`, e.g. ``"blendvoca.datasets.biwi:open_biwi"``);
+        default VOCASET's (official or processed layout).
+    pose_fit : {"joint", "remove"}
+        How the frames of a posed corpus (its reader's ``posed``) are unposed:
+        the joint pose and expression fit, or the pose removal then the fit
+        (:func:`blendvoca.builder.sentence.sentence_fit`).
 
     Returns
     -------
@@ -583,11 +622,13 @@ def build_dataset(
         cannot be written (disk full, read-only; no manifest is left) and
         worker processes that cannot start or die (``WorkerStartError``).
     """
-    from blendvoca.vocaset import open_vocaset
+    from .sentence import POSE_FITS
 
     # Everything a user can get wrong is checked before any work (and before --out is touched).
     if shapes not in ("speech", "all"):
         raise BuildInputError(f"--shapes: expected 'speech' or 'all', got {shapes!r}")
+    if pose_fit not in POSE_FITS:
+        raise BuildInputError(f"--pose-fit: expected one of {', '.join(POSE_FITS)}, got {pose_fit!r}")
     workers = check_workers(workers)
     delta = check_delta(delta)
     if vocaset is None:
@@ -597,15 +638,22 @@ def build_dataset(
     out = Path(out).expanduser().resolve()
     vocaset = Path(vocaset).expanduser().resolve()
     check_output_dir(out, vocaset)
-    corpus = open_vocaset(vocaset)
+    corpus = open_corpus(vocaset, reader)
     check_corpus(corpus)
     params = {"shapes": shapes, "delta": float(delta)}
-    _static_inputs(shapes)  # every asset resolved and verified here, once, before any worker starts
+    if reader is not None:  # recorded in the manifest's parameters: how the corpus was read
+        params["reader"] = reader
+    if corpus.posed:
+        params["pose_fit"] = pose_fit
+    static = _static_inputs(shapes, corpus)  # every asset resolved and verified here, once, before any worker starts
     corpus.faces  # noqa: B018 - the topology (or the flame-sample asset it falls back to), checked here too
+    # The identity, known before any output; the topology is read from the corpus or an asset.
+    recipe = build_recipe(vocaset, params, {**static["assets"], "topology": array_digest(corpus.faces)})
     claim_output_dir(out)
     with build_lock(out):
         try:
-            return _build(out, vocaset, corpus, params, workers=workers, report=report, progress=progress)
+            return _build(out, vocaset, corpus, params, workers=workers, report=report, progress=progress,
+                          recipe=recipe)
         except OutputDirError:
             remove_manifest(out)
             raise
@@ -689,11 +737,23 @@ def _task_seconds(results) -> dict:
     return seconds
 
 
-def _build(out, vocaset, corpus, params, *, workers, report, progress):
+#: The data-format version of a build's recipe: the folder format's and the stages' algorithm
+#: versions, so that a stage whose outputs change gives its builds another identity.
+RECIPE_FORMAT = f"{fmt.FORMAT_VERSION}/rig{RIG_STAGE_VERSION}/fit{FIT_STAGE_VERSION}/oracle{ORACLE_STAGE_VERSION}"
+
+
+def build_recipe(vocaset, params: dict, assets: dict) -> dict:
+    """The recipe of building the corpus at ``vocaset`` with ``params`` (``assets``: ``{asset id: sha256}``)."""
+    return fmt.make_recipe(fmt.corpus_files(vocaset), params, root=vocaset, assets=assets,
+                           format_version=RECIPE_FORMAT)
+
+
+def _build(out, vocaset, corpus, params, *, workers, report, progress, recipe=None):
     _OPENED.clear()
     _OPENED[str(vocaset)] = (os.getpid(), corpus)
     try:
-        return _build_stages(out, vocaset, corpus, params, workers=workers, report=report, progress=progress)
+        return _build_stages(out, vocaset, corpus, params, workers=workers, report=report, progress=progress,
+                             recipe=recipe)
     finally:
         _OPENED.clear()
 
@@ -711,7 +771,7 @@ def _declared_share(corpus) -> dict | None:
             "oracle_samples": oracle_count(meta)}
 
 
-def _build_stages(out, vocaset, corpus, params, *, workers, report, progress):
+def _build_stages(out, vocaset, corpus, params, *, workers, report, progress, recipe=None):
     remove_stale_temporaries(out)
     summary = BuildSummary(out)
     initargs = (str(vocaset), str(out), params)
@@ -775,7 +835,7 @@ def _build_stages(out, vocaset, corpus, params, *, workers, report, progress):
                                  workers=workers, initargs=initargs, progress=progress)
     clock = time.perf_counter()
     report_s = _write_summary_files(out, corpus, vocaset, subjects, params, summary, report=report,
-                                    oracle_items=oracle_items)
+                                    oracle_items=oracle_items, recipe=recipe)
     summary.seconds["summary"] = time.perf_counter() - clock
     if report_s is not None or summary.built["speakers"] or summary.built["sentences"]:
         # Something was done: the timings of this build (a no-op rerun leaves them as they are).
@@ -831,7 +891,7 @@ SUMMARY_OUTPUTS = (fmt.COEFFS_STD_FILE, fmt.RESIDUALS_FILE, fmt.SPLITS_FILE,
                    *(f"{fmt.REPORT_DIR}/{name}" for name in REPORT_FILES))
 
 
-def _write_summary_files(out, corpus, vocaset, subjects, params, summary, *, report, oracle_items=()):
+def _write_summary_files(out, corpus, vocaset, subjects, params, summary, *, report, oracle_items=(), recipe=None):
     """Write the summary outputs unless up to date; return the seconds spent on the report (None: up to date)."""
     from blendvoca.format.manifest import write_manifest
 
@@ -852,6 +912,8 @@ def _write_summary_files(out, corpus, vocaset, subjects, params, summary, *, rep
     share = _declared_share(corpus)
     if share is not None:
         extra["share"] = share
+    if recipe is not None:  # the manifest records it: another recipe, another manifest
+        extra["recipe"] = recipe["id"]
     summary_key = stage_key({"stage": "summary", "keys": keys, "failures": summary.failures, "params": params,
                              "report": report, "version": blendvoca.__version__, "splits": corpus.splits,
                              **extra})
@@ -899,7 +961,8 @@ def _write_summary_files(out, corpus, vocaset, subjects, params, summary, *, rep
         report_s = time.perf_counter() - clock
     files += [rel for rel in SUMMARY_OUTPUTS if (out / rel).is_file()]
     manifest = write_manifest(out, files=files, vocaset=vocaset, corpus=corpus, params=params, records=records,
-                              rig_records=rig_records, failures=summary.failures, version=blendvoca.__version__)
+                              rig_records=rig_records, failures=summary.failures, version=blendvoca.__version__,
+                              recipe=recipe)
     listed = fmt.listed_files(out)
     listed[fmt.MANIFEST_FILE] = file_digest(manifest)
     write_record(summary_path, {"key": summary_key, "status": "ok", "files": listed})

@@ -23,6 +23,12 @@ and ``manifest.json``, which lists the files that make up the dataset. The build
     SAiD-layout folder, also ``python -m blendvoca.build.manifest DIR``), the
     dataset's identity (``manifest_hash``) and the BLAS kernels a build ran on
     (``blas_kernels``).
+:mod:`~blendvoca.format.recipe`
+    The dataset's identity across machines: the recipe id (``make_recipe``,
+    ``recipe_id``: the inputs' digests, the data-format version, the parameters; the
+    manifest stores it, :func:`~blendvoca.format.manifest.dataset_id` reads it) and
+    the per-file tolerances two builds of one recipe are compared within
+    (:mod:`~blendvoca.format.compare`, ``python -m blendvoca.format compare A B``).
 :mod:`~blendvoca.format.hashing`
     The sha256 digests of files, folders and arrays that manifests list and stage
     keys are made of.
@@ -87,9 +93,19 @@ from .layout import (
     template_path,
     template_relpath,
 )
+from .recipe import (
+    FORMAT_VERSION,
+    corpus_files,
+    default_tolerances,
+    file_tolerance,
+    make_recipe,
+    recipe_id,
+    recipe_key,
+)
 from .manifest import (
     ManifestError,
     blas_kernels,
+    dataset_id,
     listed_files,
     manifest_hash,
     read_manifest,
@@ -108,6 +124,7 @@ __all__ = [
     "COEFFS_STD_FILE",
     "DATA_DIRS",
     "DATA_FILES",
+    "FORMAT_VERSION",
     "FPS",
     "MANIFEST_FILE",
     "ManifestError",
@@ -131,7 +148,11 @@ __all__ = [
     "coeffs_relpath",
     "coeffs_std_path",
     "content_digest",
+    "corpus_files",
+    "dataset_id",
+    "default_tolerances",
     "file_digest",
+    "file_tolerance",
     "files_digests",
     "is_report_file",
     "listed_files",
@@ -148,6 +169,9 @@ __all__ = [
     "read_rig",
     "read_said_rig",
     "read_splits",
+    "make_recipe",
+    "recipe_id",
+    "recipe_key",
     "recorded_vocaset",
     "remove_manifest",
     "report_dir",

@@ -6,8 +6,15 @@ and the failures, and the BLAS kernels the build ran on (:func:`blas_kernels`: t
 outputs depend on them) (no timestamps: identical builds, identical bytes). Readers
 (``benchmark.data.open_blendvoca``) use only the files it lists
 (:func:`listed_files`); a folder without one is refused with the command that
-builds it. The dataset's identity, which result files record, is
-:func:`manifest_hash`: the listed data files and their sha256, the report left out.
+builds it.
+
+The dataset's identity, which names result files and leaderboard sections, is its
+recipe id (``recipe.id``, :func:`dataset_id`; :mod:`blendvoca.format.recipe`): the
+digests of the build's inputs, the data-format version and the parameters, the same
+on every machine. The content hash (:func:`manifest_hash`: the listed data files and
+their sha256, the report left out) verifies a build's own files and differs between
+BLAS kernels; ``tolerances`` stores, per array file, how far two builds of one
+recipe may differ (``python -m blendvoca.format compare A B``).
 
 A hand-made SAiD-layout folder (``blendshape_coeffs/``, ``audio/``,
 ``blendshapes_head/``, ``templates_head/``) is made readable by listing its
@@ -28,6 +35,7 @@ from blendvoca.io.json_file import read_json
 from blendvoca.io.atomic import atomic_write
 
 from .hashing import file_digest
+from .recipe import default_tolerances, make_recipe
 from .layout import COEFFS_DIR, DATA_DIRS, DATA_FILES, MANIFEST_FILE, STATE_DIR, is_report_file, manifest_path
 
 __all__ = [
@@ -38,6 +46,7 @@ __all__ = [
     "MANIFEST_NAME",
     "ManifestError",
     "blas_kernels",
+    "dataset_id",
     "folder_files",
     "listed_files",
     "manifest_dict",
@@ -155,6 +164,23 @@ def manifest_hash(root) -> str:
     return digest.hexdigest()
 
 
+def dataset_id(root) -> str:
+    """The dataset's identity: the recipe id its manifest records (64 hex digits).
+
+    A folder whose manifest records none (a build or hand-made folder listed by an
+    older tool) is identified by its content hash (:func:`manifest_hash`), the
+    identity such folders had: it still matches the results made on it.
+    """
+    try:
+        recipe = read_manifest(root).get("recipe")
+    except ManifestError:
+        recipe = None
+    identity = recipe.get("id") if isinstance(recipe, dict) else None
+    if isinstance(identity, str) and len(identity) == 64 and all(c in "0123456789abcdef" for c in identity):
+        return identity
+    return manifest_hash(root)
+
+
 def recorded_vocaset(root) -> str | None:
     """The VOCASET folder a build recorded (``inputs.vocaset.path``), or None (no manifest,
     an unreadable one, one that records no path as a string, or a hand-made folder's)."""
@@ -193,7 +219,8 @@ def blas_kernels() -> list[str]:
                    for i in threadpool_info() if i.get("user_api") == "blas"})
 
 
-def manifest_dict(out, *, files, vocaset, corpus, params, records, rig_records, failures, version) -> dict:
+def manifest_dict(out, *, files, vocaset, corpus, params, records, rig_records, failures, version,
+                  recipe: dict | None = None, tolerances: dict | None = None) -> dict:
     """Return the manifest of the build in ``out`` as a JSON-ready dict.
 
     Parameters
@@ -215,6 +242,13 @@ def manifest_dict(out, *, files, vocaset, corpus, params, records, rig_records, 
     failures : list of dict
     version : str
         The tool version.
+    recipe : dict, optional
+        The build's recipe (:func:`blendvoca.format.recipe.recipe`), computed before any
+        output was written; stored as ``recipe``. Without it none is stored (and
+        :func:`dataset_id` falls back on the content hash).
+    tolerances : dict, optional
+        ``{relpath: atol}`` for the array files; default
+        :func:`blendvoca.format.recipe.default_tolerances` of ``files``.
     """
     out = _root(out)
     inputs = {"vocaset": {"root_name": Path(vocaset).name, "path": str(Path(vocaset).resolve()),
@@ -234,15 +268,20 @@ def manifest_dict(out, *, files, vocaset, corpus, params, records, rig_records, 
     synthetic = getattr(corpus, "synthetic", None)
     if synthetic:
         inputs["synthetic"] = {"seed": synthetic.get("seed"), "version": synthetic.get("version")}
-    return {
+    listed = sorted(set(files))
+    data = {
         "tool": BUILD_TOOL,
         "version": version,
         "parameters": params,
         "inputs": inputs,
         "failures": failures,
         "blas": blas_kernels(),
-        "files": {rel: file_digest(out / rel) for rel in sorted(set(files))},
+        "files": {rel: file_digest(out / rel) for rel in listed},
+        "tolerances": default_tolerances(listed) if tolerances is None else dict(sorted(tolerances.items())),
     }
+    if recipe is not None:
+        data["recipe"] = recipe
+    return data
 
 
 def _write(path: Path, data: dict) -> Path:
@@ -285,7 +324,10 @@ def write_folder_manifest(root) -> Path:
     files = folder_files(root)
     if not any(rel.startswith(f"{COEFFS_DIR}/") for rel in files):
         raise ManifestError(f"{root}: no {COEFFS_DIR}/<subject>/<sentence>.csv found; not a SAiD-layout folder")
-    data = {"tool": FOLDER_TOOL, "files": {rel: file_digest(root / rel) for rel in files}}
+    # A hand-made folder is its own input: its recipe is its files (by name and digest).
+    data = {"tool": FOLDER_TOOL, "files": {rel: file_digest(root / rel) for rel in files},
+            "recipe": make_recipe([(rel, root / rel) for rel in files], {"tool": FOLDER_TOOL}),
+            "tolerances": default_tolerances(files)}
     return _write(manifest_path(root), data)
 
 

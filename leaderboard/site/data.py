@@ -53,8 +53,16 @@ class SiteRun:
         return Path(path) if path and Path(path).is_dir() else None
 
     @property
+    def recipe_id(self) -> str:
+        """The identity of the dataset the run was scored on (:func:`benchmark.results.dataset_key`)."""
+        from benchmark.results import dataset_key
+
+        return dataset_key(self.result)
+
+    @property
     def manifest_hash(self) -> str:
-        return self.result["dataset"]["manifest_hash"]
+        """The run's dataset key (:attr:`recipe_id`; the name is the older key's)."""
+        return self.recipe_id
 
     def tracks(self) -> dict[tuple[str, str], list[Path]]:
         """``{(subject, sentence): [csv of sample 0, 1, ...]}`` stored with the run (empty if none)."""
@@ -131,6 +139,9 @@ def _row_data(row, run: SiteRun) -> dict:
         "settled": row.settled,
         "not_settled": not_settled_text(row) if row.settled is False else None,
         "has_tracks": bool(run.tracks()) and run.dataset_root is not None,
+        # the result's latency record (seconds), None for results written before it
+        "latency": ({key: _number(value) for key, value in latency.items()}
+                    if isinstance(latency := run.result.get("latency"), dict) else None),
         "metrics": {
             name: {"mean": _number(mean), "std": _number(std),
                    "ci95": [_number(v) for v in ci95] if ci95 else None,
@@ -176,6 +187,8 @@ def leaderboard_data(runs) -> dict:
                 improvement[column.name] = [[_probability(p) for p in line] for line in matrix]
         tables.append({
             "manifest_hash": table.manifest_hash,
+            "name": table.name,
+            "latent_out_of_domain": bool(table.latent_out_of_domain),
             "split": table.split,
             "num_sentences": table.num_sentences,
             "metrics": {column.name: _column_spec(column) for column in table.columns},
@@ -245,6 +258,10 @@ def _tracks_note(run: SiteRun) -> str | None:
     """Why a run's tracks cannot be shown, or None."""
     if not run.result.get("tracks"):
         return "This run stored no tracks."
+    if not run.tracks():
+        return ("This run's generated tracks are not next to its result file, so it has no plots or 3D playback "
+                "(committed leaderboard results hold the scores only; python -m leaderboard.reproduce recreates "
+                "their tracks).")
     if run.dataset_root is None:
         return (f"The dataset this run was scored on ({run.result['dataset'].get('path')}) is not on the machine "
                 f"that made this site; rebuild the site with --data DIR pointing at a copy to see its tracks.")
@@ -281,8 +298,9 @@ class _SentenceData:
 
 
 def with_dataset(runs, data) -> list[SiteRun]:
-    """``runs`` with ``dataset.path`` set to ``data`` for every run scored on that build
-    (same manifest hash), so a site can be made where the data lives elsewhere.
+    """``runs`` with ``dataset.path`` set to ``data`` for every run scored on that dataset
+    (same recipe id: a build of the same corpus, tool and parameters, on any machine),
+    so a site can be made where the data lives elsewhere.
 
     Raises
     ------
@@ -292,11 +310,15 @@ def with_dataset(runs, data) -> list[SiteRun]:
     from benchmark.data import open_blendvoca
 
     data = Path(data).expanduser().resolve()
-    digest = open_blendvoca(data).manifest_hash
-    matched = [run for run in runs if run.manifest_hash == digest]
+    dataset = open_blendvoca(data)
+    digest = dataset.recipe_id
+    # A run that records no recipe id (written before they existed) matches its build's content hash.
+    matched = [run for run in runs if run.recipe_id == digest
+               or (not run.result["dataset"].get("recipe_id")
+                   and run.result["dataset"].get("manifest_hash") == dataset.manifest_hash)]
     if not matched:
-        raise UserError(f"leaderboard.site: --data {data} (manifest {digest[:12]}) is not the dataset of any run "
-                         f"(their manifests: {sorted({r.manifest_hash[:12] for r in runs})})")
+        raise UserError(f"leaderboard.site: --data {data} (recipe {digest[:12]}) is not the dataset of any run "
+                         f"(their recipes: {sorted({r.recipe_id[:12] for r in runs})})")
     for run in matched:
         run.result = {**run.result, "dataset": {**run.result["dataset"], "path": str(data)}}
     return runs

@@ -71,14 +71,14 @@ def test_best_only_where_intervals_do_not_overlap():
     distribution = table1.split("### Distribution")[1]
     lipsync = table1.split("### Lip sync")[1].split("###")[0]
     # FD: beta [0.8, 1.2] is clear of alpha [1.9, 2.1]: bold
-    assert "| beta | **1.00** [0.80, 1.20] | 1 |" in distribution
-    assert "| alpha | 2.00 [1.90, 2.10] | 1 |" in distribution
+    assert "| beta | **1.00** [0.80, 1.20] | 1 | - |" in distribution
+    assert "| alpha | 2.00 [1.90, 2.10] | 1 | - |" in distribution
     # AV confidence: gamma is best but its interval overlaps beta's: nothing bold
     assert "**" not in lipsync
     # the reference row is apart and never highlighted even though it is best
     assert "| *reference rows (not ranked)* |" in distribution
-    assert "| *ground-truth* | 0.00 [0.00, 0.00] | 1 |" in distribution
-    assert "| Method | FD (latent^2) ↓ | S |" in distribution
+    assert "| *ground-truth* | 0.00 [0.00, 0.00] | 1 | - |" in distribution
+    assert "| Method | FD (latent^2) ↓ | S | RTF |" in distribution
     # these results store nothing to resample: the older rule, and the table says so
     assert "Best in FD by the older rule" in distribution
     # a lone method on other data is not highlighted, and other data never mixes in
@@ -90,8 +90,8 @@ def test_latex_escapes_highlights_and_fits_the_page():
     results = [_result("a_b & c", "h", {"lve_rig": (1.0, 0.1, False, "mm", (0.9, 1.1))}),
                _result("d", "h", {"lve_rig": (2.0, 0.1, False, "mm", (1.9, 2.1))})]
     tex = rendered_tables(results)["leaderboard.tex"]
-    assert r"a\_b \& c & $\mathbf{1.00}$ {\scriptsize $[0.90, 1.10]$} & 1 \\" in tex
-    assert r"d & $2.00$ {\scriptsize $[1.90, 2.10]$} & 1 \\" in tex
+    assert r"a\_b \& c & $\mathbf{1.00}$ {\scriptsize $[0.90, 1.10]$} & 1 & - \\" in tex
+    assert r"d & $2.00$ {\scriptsize $[1.90, 2.10]$} & 1 & - \\" in tex
     assert r"LVE rig (mm) $\downarrow$" in tex and r"\resizebox{\linewidth}{!}" in tex
     tex = rendered_tables([_result("a", "h", {"fdd_mesh": (1.0, 0.1, False, "mm^2")})])["leaderboard.tex"]
     assert r"FDD (abs.) mesh (mm$^{2}$) $\downarrow$" in tex
@@ -294,7 +294,7 @@ def test_two_level_marks_and_seed_ranges():
     mark = best_mark(table.rows, table.columns[0])
     assert mark.rule == "resampling" and 0.6 < mark.probability < 0.9 and not mark.rows  # P = 3/4 in expectation
     md = _section(rendered_tables([a, b])["leaderboard.md"], "Vertex")
-    assert "| a | 2.00 [1.00, 3.00] seeds [1.00, 3.00] | 1 |" in md and "**" not in md
+    assert "| a | 2.00 [1.00, 3.00] seeds [1.00, 3.00] | 1 | - |" in md and "**" not in md
     tex = rendered_tables([a, b])["leaderboard.tex"]
     assert r"seeds $[1.00, 3.00]$" in tex
     # seeds that agree: marked

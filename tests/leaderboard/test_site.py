@@ -37,7 +37,8 @@ def _write_run(results, name, dataset, *, reference, samples, transform, lve):
     result = build_result(
         method={"name": name, "label": name, "class": "tests:Fake", "stochastic": samples > 1,
                 "reference": reference, "config": {}, "output": "coefficients"},
-        dataset={"manifest_hash": dataset.manifest_hash, "path": str(dataset.root), "split": "test",
+        dataset={"manifest_hash": dataset.manifest_hash, "recipe_id": dataset.recipe_id, "path": str(dataset.root),
+                 "split": "test",
                  "num_subjects": len(dataset.split("test")), "num_sentences": len(per_sentence)},
         protocol={"samples": samples, "seed": 0, "budget": {}, "clip": False, "n_clipped": 0, "checkpoint": None},
         metrics={"lve_rig": metric}, timings={})
@@ -326,5 +327,44 @@ def test_leaderboard_page_shows_seed_ranges_settling_and_the_av_note(three_js, b
             "const row = m.querySelector('tr[data-row=\"two-seeds\"]');"
             "const cell = row.cells[1 + runs.indexOf('one-seed')]; return [cell.textContent, cell.className];")
         assert cell == ["100%", "sure"]
+    finally:
+        server.shutdown()
+
+
+def test_pages_opened_from_a_file_say_how_to_serve_them(browser, site):
+    """From file:// the browser refuses the module scripts and data: the page itself says what to do."""
+    from selenium.webdriver.common.by import By
+    from selenium.webdriver.support.ui import WebDriverWait
+
+    for page in ("index.html", "method.html", "play.html"):
+        browser.get((site / page).as_uri())
+        note = WebDriverWait(browser, 20).until(lambda d: d.find_elements(By.ID, "file-protocol"))[0].text
+        assert f'python -m http.server --directory "{site}/" 8000' in note, note
+        assert f"http://localhost:8000/{page}" in note and "--serve" in note, note
+    browser.get_log("browser")  # the file:// pages' refusals, expected above
+    # served over http, no such note
+    server, url = serve_site(site, port=0, background=True)
+    try:
+        assert open_page(browser, url + "index.html") == []
+        assert browser.find_elements(By.ID, "file-protocol") == []
+    finally:
+        server.shutdown()
+
+
+def test_runs_without_stored_tracks_say_what_playback_needs(three_js, browser, tmp_path):
+    """The committed results hold no tracks: the playback and method pages say so and what recreates them."""
+    results = tmp_path / "results"
+    results.mkdir()
+    for path in sorted(COMMITTED_RESULTS.glob("*.json"))[:3]:
+        shutil.copyfile(path, results / path.name)
+    site = build_site(results, tmp_path / "site", progress=False)
+    server, url = serve_site(site, port=0, background=True)
+    try:
+        assert open_page(browser, url + "play.html") == []
+        note = browser.execute_script("return document.getElementById('playback-needs').textContent")
+        assert "--data" in note and "leaderboard.reproduce" in note, note
+        run = sorted(results.glob("*.json"))[0].stem
+        page = json.loads((site / "data" / "runs" / f"{run}.json").read_text())
+        assert "not next to its result file" in page["tracks_note"] and "leaderboard.reproduce" in page["tracks_note"]
     finally:
         server.shutdown()

@@ -21,3 +21,23 @@ def test_jaw_follows_the_energy_of_the_speech():
     np.testing.assert_allclose(jaw, np.clip(method.gain * envelope, 0, 1))
     truth = dataset.coeffs(utterance.subject, utterance.sentence)[:, method.jaw]
     assert np.corrcoef(jaw, truth)[0, 1] > 0.8
+
+
+def test_half_budget_check_sees_the_fit_of_half_the_sentences():
+    from benchmark.methods import Budget
+
+    dataset = FakeBlendVOCA(seed=1)
+    n = sum(len(dataset.sentences(s)) for s in dataset.split("train"))
+    method = EnergyJawMethod(noise=0.0)
+    calls = []
+
+    def on_checkpoint(step, total_steps=None):
+        calls.append((step, total_steps, method.gain))
+
+    method.train(dataset, seed=0, budget=Budget(max_steps=10_000), on_checkpoint=on_checkpoint)
+    assert [(step, total) for step, total, _ in calls] == [(n // 2, n)]
+    half = EnergyJawMethod(noise=0.0)
+    half.train(dataset, seed=0, budget=Budget(max_steps=n // 2))
+    assert calls[0][2] == half.gain  # the checkpoint saw exactly a run stopped there
+    method.train(dataset, seed=0, budget=Budget(max_seconds=60), on_checkpoint=on_checkpoint)
+    assert len(calls) == 1  # a time-limited run has no known half

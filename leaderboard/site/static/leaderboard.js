@@ -34,6 +34,12 @@ function rowElement(row, metrics) {
   }
   const tr = el("tr", { class: row.reference ? "reference" : "method", "data-run": row.run }, label);
   for (const name of metrics) tr.append(metricCell(row, name));
+  // real-time factor: wall seconds per second of audio (results without a latency record: "-")
+  const rtf = row.latency ? row.latency.rtf : null;
+  tr.append(el("td", { class: "rtf", "data-value": rtf === null || rtf === undefined ? "" : String(rtf),
+    title: row.latency ? `look-ahead ${row.latency.lookahead_s ?? "whole utterance"} s, first frame ` +
+      `${row.latency.first_frame_s ?? "-"} s, CPU ${row.latency.compute_per_audio_s ?? "-"} s per audio s` : "" },
+    rtf === null || rtf === undefined ? "-" : fmt(rtf)));
   return tr;
 }
 
@@ -103,11 +109,18 @@ function improvementSection(table, index) {
 
 function renderTable(table, index) {
   const section = el("section", { id: `table-${index}` });
-  section.append(el("h2", { text: `Dataset ${table.manifest_hash.slice(0, 12)} — ${table.split} split, ` +
-    `${table.num_sentences ?? "?"} sentences` }));
+  section.append(el("h2", { text: `${table.name ? `${table.name}: d` : "D"}ataset ` +
+    `${table.manifest_hash.slice(0, 12)} — ${table.split} split, ${table.num_sentences ?? "?"} sentences` }));
+  if (table.latent_out_of_domain) {
+    section.append(el("p", { class: "note", text: "The latent metrics (FD, WInD, multimodality, energy_latent) " +
+      "use the published VAE, trained on BlendVOCA: out of domain on this dataset (docs/datasets.md)." }));
+  }
   const metrics = table.groups.flatMap((g) => g.metrics);
   const groupRow = el("tr", {}, el("th", { class: "label", rowspan: "2", text: "method" }));
   for (const group of table.groups) groupRow.append(el("th", { colspan: String(group.metrics.length), text: group.name }));
+  groupRow.append(el("th", { rowspan: "2", class: "sortable rtf", "data-column": String(metrics.length + 1),
+    title: "real-time factor: wall seconds of generation per second of audio (below 1: faster than the speech)",
+    text: "RTF" }));
   const metricRow = el("tr");
   metrics.forEach((name, i) => {
     const spec = table.metrics[name];
@@ -122,7 +135,7 @@ function renderTable(table, index) {
   table.methods.forEach((row) => methods.append(rowElement(row, metrics)));
   const references = el("tbody", { class: "references" });
   references.append(el("tr", { class: "separator" },
-    el("td", { colspan: String(metrics.length + 1), text: "reference and sanity rows (not ranked)" })));
+    el("td", { colspan: String(metrics.length + 2), text: "reference and sanity rows (not ranked)" })));
   table.references.forEach((row) => references.append(rowElement(row, metrics)));
   const tableEl = el("table", { class: "leaderboard" }, el("thead", {}, groupRow, metricRow), methods, references);
   makeSortable(tableEl);

@@ -185,6 +185,16 @@ sentenceSelect.addEventListener("change", load);
 choices.addEventListener("change", load);
 document.getElementById("samples").addEventListener("change", load);
 
+// Say on the page which runs cannot be played back and what playback needs.
+const silent = leaderboard.tables.flatMap((t) => [...t.methods, ...t.references]).filter((r) => !r.has_tracks);
+if (silent.length) {
+  document.getElementById("player-canvas").before(el("p", { class: "note", id: "playback-needs",
+    text: `No 3D playback for ${silent.map((r) => r.label).join(", ")}: playback needs a run's generated tracks ` +
+      "next to its result file and the BlendVOCA build it was scored on, on the machine that builds the site " +
+      "(python -m leaderboard.site --results DIR --data BUILD --out SITE when the build is not at the path the " +
+      "run recorded). The committed leaderboard results hold the scores only: python -m leaderboard.reproduce " +
+      "recreates their tracks and build. Each run's page says which of the two is missing." }));
+}
 if (sentences.size) {
   await load();
 } else {

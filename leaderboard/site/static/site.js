@@ -1,6 +1,14 @@
 // Shared helpers of the results browser pages: data fetching, number formatting,
 // sortable tables and small SVG plots. No dependencies.
 
+// A page whose data did not load says so on the page, not only in the console.
+window.addEventListener("unhandledrejection", (event) => {
+  const note = document.createElement("div");
+  note.className = "warning load-error";
+  note.textContent = `This page could not load its data: ${event.reason && event.reason.message || event.reason}`;
+  document.body.prepend(note);
+});
+
 export async function fetchJSON(path) {
   const response = await fetch(path);
   if (!response.ok) throw new Error(`${path}: HTTP ${response.status}`);

@@ -9,6 +9,7 @@ import numpy as np
 
 from benchmark.methods import AUDIO_RATE as RATE
 from benchmark.methods import FPS, Method
+from benchmark.methods.base import checkpoint_step
 
 __all__ = ["EnergyJawMethod", "energy_envelope"]
 
@@ -57,20 +58,32 @@ class EnergyJawMethod(Method):
         self.gain = None
         self.mean = None
 
-    def train(self, dataset, *, seed, budget):
-        jaw = list(dataset.names).index("jawOpen")
-        xs, ys, tracks = [], [], []
-        for subject in dataset.split("train"):
-            for sentence in dataset.sentences(subject):
-                coeffs = np.asarray(dataset.coeffs(subject, sentence))
-                audio, _ = dataset.audio(subject, sentence)
-                xs.append(energy_envelope(audio, coeffs.shape[0]))
-                ys.append(coeffs[:, jaw])
-                tracks.append(coeffs)
-        x, y = np.concatenate(xs), np.concatenate(ys)
-        self.gain = float(x @ y / max(x @ x, 1e-12))  # least squares through the origin
-        self.mean = np.concatenate(tracks).mean(axis=0)
-        self.jaw = jaw
+    def train(self, dataset, *, seed, budget, on_checkpoint=None, device=None):
+        """Least squares of jawOpen on the energy envelope, one training sentence a step.
+
+        A step budget (``budget.max_steps``) stops it after that many sentences. Halfway
+        through its ``N`` steps it calls ``on_checkpoint(N // 2, total_steps=N)`` with
+        the fit so far in place, for the runner's half-budget check (docs/methods.md,
+        "Settled or not"); a time-limited run has no known half and makes no call.
+        ``device`` is accepted for the contract and unused: the fit is numpy on the CPU.
+        """
+        self.jaw = list(dataset.names).index("jawOpen")
+        sentences = [(s, q) for s in dataset.split("train") for q in dataset.sentences(s)]
+        total = len(sentences) if budget is None else min(len(sentences), budget.steps(len(sentences)))
+        timed = budget is not None and budget.max_seconds is not None
+        half = None if timed else checkpoint_step(total)
+        xy = xx = 0.0
+        coeff_sum, frames = 0.0, 0
+        for step, (subject, sentence) in enumerate(sentences[:total], start=1):
+            coeffs = np.asarray(dataset.coeffs(subject, sentence))
+            audio, _ = dataset.audio(subject, sentence)
+            x = energy_envelope(audio, coeffs.shape[0])
+            xy, xx = xy + float(x @ coeffs[:, self.jaw]), xx + float(x @ x)
+            coeff_sum, frames = coeff_sum + coeffs.sum(axis=0), frames + coeffs.shape[0]
+            self.gain = xy / max(xx, 1e-12)  # least squares through the origin, over the sentences so far
+            self.mean = coeff_sum / frames
+            if on_checkpoint is not None and step == half:
+                on_checkpoint(step, total_steps=total)
 
     def generate(self, utterance, *, samples=1, seed=0):
         rng = np.random.default_rng(seed)
