@@ -6,6 +6,7 @@
     subj_seq_to_idx.pkl   {subject: {"sentenceNN": {frame (0-based int): row of data_verts}}}
     raw_audio_fixed.pkl   {subject: {"sentenceNN": {"audio": (n,) int16 or float, "sample_rate": int}}}
     templates.pkl         {subject: (5023, 3)}
+    data_verts_posed.npy  (optional) the same frames with head pose, in data_verts.npy's row order
 
 VOCA's pickles were written by Python 2, so they are read with
 ``encoding="latin1"``, by a restricted unpickler (:func:`load_data_pickle`)
@@ -41,6 +42,9 @@ from blendvoca.vocaset.checks import frame_gaps
 from blendvoca.vocaset.errors import Problem, VocasetError, check_safe_name
 
 FILES = ("data_verts.npy", "subj_seq_to_idx.pkl", "raw_audio_fixed.pkl", "templates.pkl")
+#: Optional: the frames with head pose, row for row as ``data_verts.npy`` (the synthetic
+#: corpus writes it with ``--head-motion``; VOCASET's own processed files have none).
+POSED_FILE = "data_verts_posed.npy"
 
 
 def sentence_name(key) -> str:
@@ -367,6 +371,41 @@ class ProcessedVocaset(VocasetCorpus):
                 raise VocasetError(p)
         frames = np.asarray(self._rows[rows], dtype=dtype)
         return self._check_frames(subject, sentence, frames, "data_verts.npy")
+
+    def has_posed(self, subject: str, sentence: str) -> bool:
+        """Whether ``data_verts_posed.npy`` is present (it then holds every sentence's rows)."""
+        self._check_subject(subject)
+        return (self.root / POSED_FILE).is_file()
+
+    def posed_frames(self, subject: str, sentence: str) -> np.ndarray:
+        """The sentence with head pose, ``(T, V, 3) float64`` from ``data_verts_posed.npy``.
+
+        Raises
+        ------
+        VocasetError
+            No posed file (``missing_sentence``), or the sentence's rows beyond its end
+            (``truncated``).
+        DataError
+            A posed file of another row shape than ``data_verts.npy``.
+        """
+        rows = self.frame_rows(subject, sentence)
+        path = self.root / POSED_FILE
+        if not path.is_file():
+            self._fail("missing_sentence", subject, sentence, f"{path}: no posed frames (the file is absent)")
+        if getattr(self, "_posed_rows", None) is None:
+            posed, declared = open_rows(path)
+            if posed.ndim == 2 and posed.shape[1] == 3 * self.num_vertices:
+                posed = posed.reshape(len(posed), self.num_vertices, 3)
+            if posed.shape[1:] != (self.num_vertices, 3) or declared != self._declared:
+                raise DataError(f"{path}: holds an array of shape {(declared, *posed.shape[1:])}; expected "
+                                f"data_verts.npy's ({self._declared}, {self.num_vertices}, 3), row for row")
+            self._posed_rows = posed
+        beyond = np.flatnonzero(rows >= len(self._posed_rows))
+        if len(beyond):
+            self._fail("truncated", subject, sentence, f"{path}: holds {len(self._posed_rows)} of the declared rows",
+                       frame=int(beyond[0]))
+        frames = np.asarray(self._posed_rows[rows], dtype=np.float64)
+        return self._check_frames(subject, sentence, frames, POSED_FILE)
 
     def audio(self, subject: str, sentence: str) -> tuple[np.ndarray, int]:
         """Speech at its native rate: ``(samples (N,) float32 mono, rate)``; int16 is scaled by 1/32768."""

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from baselines.reference.oracle import OracleMeanMethod, OracleSampleMethod
+from baselines.regression.ridge import context_frames, ridge_explained
 from benchmark.data import open_blendvoca
 from benchmark.methods import Budget
 from blendvoca.errors import UserError
@@ -90,40 +91,9 @@ def test_oracle_mean_explains_f_and_a_ridge_on_log_mel_less(oracle_build):
     f = DEFAULT_AUDIO_DETERMINED
     print(f"oracle-mean explains {explained:.3f} of the speakers' coefficient variance (F = {f}, K = {K})")
     assert abs(explained - f) <= 0.05
-    ridge = _ridge_explained(dataset)
+    ridge = ridge_explained(dataset)["explained"]
     print(f"ridge on log-mel (+-20 frames), best lambda on the test speaker: {ridge:.3f}")
     assert ridge < f
-
-
-def _ridge_explained(dataset) -> float:
-    """Closed-form ridge on 40 log-mel bands with +-20 frames of context, trained on the train and val
-    speakers, scored on the test speaker with the best of a grid of lambdas (an optimistic figure)."""
-    from baselines.regression.features import motion_rate_features
-
-    def design(subject, sentence):
-        audio, _ = dataset.audio(subject, sentence)
-        y = dataset.coeffs(subject, sentence)
-        mel = motion_rate_features(audio, len(y))
-        padded = np.pad(mel, ((20, 20), (0, 0)), mode="edge")
-        x = np.concatenate([padded[k:k + len(y)] for k in range(41)], axis=1)
-        return x, y
-
-    train = [design(s, q) for split in ("train", "val") for s in dataset.split(split) for q in dataset.sentences(s)]
-    test = [design(s, q) for s in dataset.split("test") for q in dataset.sentences(s)]
-    x = np.concatenate([a for a, _ in train])
-    y = np.concatenate([b for _, b in train])
-    mu, sd = x.mean(axis=0), x.std(axis=0) + 1e-6
-    x = (x - mu) / sd
-    y_mean = y.mean(axis=0)
-    xt = (np.concatenate([a for a, _ in test]) - mu) / sd
-    yt = np.concatenate([b for _, b in test])
-    gram, cross = x.T @ x, x.T @ (y - y_mean)
-    best = -np.inf
-    for lam in (1e0, 1e1, 1e2, 1e3, 1e4, 1e5):
-        w = np.linalg.solve(gram + lam * np.eye(len(gram)), cross)
-        pred = xt @ w + y_mean
-        best = max(best, 1.0 - ((yt - pred) ** 2).sum() / ((yt - yt.mean(axis=0)) ** 2).sum())
-    return best
 
 
 def test_oracle_sample_returns_distinct_samples_and_refuses_more_than_k(oracle_build):
@@ -212,3 +182,12 @@ def test_an_edited_oracle_track_fails_the_check_before_a_run(oracle_build, tmp_p
     path.write_text(path.read_text().replace("0.", "0.9", 1))
     with pytest.raises(CheckFailed, match=oracle_files[0].split("/")[-1]):
         open_blendvoca(build).verify([subject])
+
+
+def test_context_frames_stack_neighbours_with_repeated_edges():
+    frames = np.arange(10.0).reshape(5, 2)
+    stacked = context_frames(frames, 1)
+    assert stacked.shape == (5, 6)
+    np.testing.assert_array_equal(stacked[0], [0, 1, 0, 1, 2, 3])
+    np.testing.assert_array_equal(stacked[2], [2, 3, 4, 5, 6, 7])
+    np.testing.assert_array_equal(stacked[4], [6, 7, 8, 9, 8, 9])

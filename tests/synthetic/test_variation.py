@@ -197,6 +197,15 @@ def test_processed_layout_has_head_motion_too(tmp_path):
     np.testing.assert_allclose(posed[rows], expected, atol=2e-7)
     where = json.loads((out / "synthetic.json").read_text())["head_motion"]["posed_frames"]
     assert where.startswith("data_verts_posed")
+    # the processed reader serves them like the official reader serves registereddata/
+    assert corpus.has_posed("Synth_001_TA", "sentence02")
+    np.testing.assert_array_equal(corpus.posed_frames("Synth_001_TA", "sentence02"), posed[rows].astype(np.float64))
+    plain = open_vocaset(generate_corpus(tmp_path / "q", layout="processed", audio_determined=1.0, **SMALL))
+    assert not plain.has_posed("Synth_001_TA", "sentence02")
+    from blendvoca.vocaset import VocasetError
+
+    with pytest.raises(VocasetError, match="data_verts_posed.npy"):
+        plain.posed_frames("Synth_001_TA", "sentence02")
 
 
 def test_undetermined_scale_covers_what_it_can_make():
@@ -245,5 +254,9 @@ def test_a_build_of_the_old_corpus_is_the_old_build(tmp_path, assets_dir):
     # ``blas`` records the BLAS libraries loaded in the building process (this test
     # session loads more than a fresh interpreter): the environment, not the data
     a.pop("blas", None), b.pop("blas", None)
+    # the dataset identity (recipe id, per-file tolerances) came after the baseline commit:
+    # records about the build, not its files, which must be the same
+    assert set(b) - set(a) == {"recipe", "tolerances"}
+    b.pop("recipe"), b.pop("tolerances")
     assert a == b
     assert not (new / "oracle_coeffs").exists() and not (new / ".buildstate" / "oracle").exists()
