@@ -13,11 +13,13 @@ priors on CodeTalker's and gives no sizes); it wants a GPU.
 from __future__ import annotations
 
 from baselines.common.presets import resolved_preset
+from baselines.common.chunking import chunk_section
 
 DEFAULT_PRESET = "cpu-demo"
 
 PRESETS: dict[str, dict[str, dict]] = {
     "cpu-demo": {
+        "inference": chunk_section(),
         "model": {
             "encoder": {"kind": "logmel", "n_mels": 80},
             # displacements are multiplied by this inside the model (1000: millimetres)
@@ -57,6 +59,7 @@ PRESETS: dict[str, dict[str, dict]] = {
         },
     },
     "paper": {
+        "inference": chunk_section(),
         "model": {
             "encoder": {"kind": "wav2vec2", "path": "${BLENDVOCA_WAV2VEC2:-~/models/wav2vec2-base-960h}"},
             "motion_scale": 1.0,

@@ -16,11 +16,13 @@ from __future__ import annotations
 import copy
 
 from blendvoca.errors import UserError
+from baselines.common.chunking import chunk_section
 
 __all__ = ["PRESETS", "resolve_config"]
 
 PRESETS = {
     "cpu-demo": {
+        "inference": chunk_section(),
         "stage1": {"hidden_size": 64, "num_hidden_layers": 1, "num_attention_heads": 4, "intermediate_size": 128,
                    "face_quan_num": 4, "zquant_dim": 16, "n_embed": 128},
         "model": {"feature_dim": 64, "period": 30, "n_head": 4, "num_layers": 1, "dropout": 0.1,
@@ -32,6 +34,7 @@ PRESETS = {
         "wav2vec2_path": None,
     },
     "paper": {
+        "inference": chunk_section(),
         "stage1": {"hidden_size": 1024, "num_hidden_layers": 6, "num_attention_heads": 8, "intermediate_size": 1536,
                    "face_quan_num": 16, "zquant_dim": 64, "n_embed": 256},
         "model": {"feature_dim": 1024, "period": 30, "n_head": 4, "num_layers": 6, "dropout": 0.1,
@@ -57,9 +60,12 @@ def resolve_config(preset: str, **overrides) -> dict:
             cfg["model"][key] = value
         elif key in cfg["training"]:
             cfg["training"][key] = value
+        elif key in cfg.get("inference", {}):
+            cfg["inference"][key] = value
         elif key in cfg:
             cfg[key] = value
         else:
-            known = sorted({*cfg["model"], *cfg["training"], *(f"vq_{k}" for k in cfg["stage1"]), "wav2vec2_path"})
+            known = sorted({*cfg["model"], *cfg["training"], *cfg["inference"], *(f"vq_{k}" for k in cfg["stage1"]),
+                            "wav2vec2_path"})
             raise UserError(f"unknown config key {key!r}; expected one of {known}")
     return cfg

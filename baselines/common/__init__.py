@@ -12,6 +12,8 @@ module                       holds
 ``attention_bias``           additive biases and boolean masks of the attention
                              layers (SAiD's alignment band, FaceFormer's periodic
                              causal bias and its encoder-decoder mask)
+``chunking``                 long audio in overlapping, crossfaded chunks (the
+                             chunk plan, the blend, the seam measurement)
 ``checkpoint``               reading and writing torch checkpoint files (safe
                              loads only, the converter hint), the authors' state
                              dicts (``module.`` prefixes, wav2vec 2.0 layouts,

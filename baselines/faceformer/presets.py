@@ -11,11 +11,13 @@ from __future__ import annotations
 import copy
 
 from blendvoca.errors import UserError
+from baselines.common.chunking import chunk_section
 
 __all__ = ["PRESETS", "resolve_config"]
 
 PRESETS = {
     "cpu-demo": {
+        "inference": chunk_section(),
         "model": {"feature_dim": 64, "period": 30, "n_head": 4, "num_layers": 1, "dropout": 0.1,
                   "audio": {"kind": "logmel", "n_mels": 80, "hidden_size": 64, "layers": 3, "kernel": 5}},
         "training": {"lr": 1e-3, "max_steps": 4000, "max_seconds": 240.0, "max_epochs": None,
@@ -23,6 +25,7 @@ PRESETS = {
         "wav2vec2_path": None,
     },
     "paper": {
+        "inference": chunk_section(),
         "model": {"feature_dim": 64, "period": 30, "n_head": 4, "num_layers": 1, "dropout": 0.1,
                   "audio": {"kind": "wav2vec2", "config": "base"}},
         "training": {"lr": 1e-4, "max_steps": None, "max_seconds": None, "max_epochs": 100,
@@ -45,9 +48,11 @@ def resolve_config(preset: str, presets: dict = PRESETS, **overrides) -> dict:
             cfg["model"][key] = value
         elif key in cfg.get("training", {}):
             cfg["training"][key] = value
+        elif key in cfg.get("inference", {}):
+            cfg["inference"][key] = value
         elif key in cfg:
             cfg[key] = value
         else:
-            known = sorted(set(cfg) | set(cfg.get("model", {})) | set(cfg.get("training", {})))
+            known = sorted(set(cfg) | set(cfg.get("model", {})) | set(cfg.get("training", {})) | set(cfg.get("inference", {})))
             raise UserError(f"unknown config key {key!r}; expected one of {known}")
     return cfg

@@ -56,7 +56,9 @@ def noised_reference(
     ref = reference.expand(batch, *reference.shape)
     if timestep < 0:
         return ref.clone()
-    noise = torch.randn(ref.shape, generator=generator, dtype=ref.dtype, device=ref.device)
+    # drawn on the generator's device (a CPU generator serves a chain on any device), then moved
+    where = ref.device if generator is None else generator.device
+    noise = torch.randn(ref.shape, generator=generator, dtype=ref.dtype, device=where).to(ref.device)
     t = torch.full((batch,), int(timestep), dtype=torch.long, device=ref.device)
     return add_noise(ref, noise, t, alphas_cumprod.to(ref.dtype))
 

@@ -13,6 +13,11 @@ per-blendshape constraints: columns of ones).  The checkpoint is a ``said.pt`` f
 a directory holding one (``benchmark.run`` output, ``python -m baselines.said.train``);
 it defaults to ``$BLENDVOCA_SAID_CHECKPOINT``.
 
+A WAV longer than the checkpoint's chunk length (10 training windows, 10 s for
+``cpu-demo``) is sampled chunk by chunk and crossfaded, in memory that does not grow
+with its length (:mod:`baselines.common.chunking`; editing with ``--reference`` and the
+authors' weights sample the whole track in one chain).
+
 The authors' published ``SAiD.pth`` is detected by its keys (``--official`` insists
 on it) and samples as their inference script does (DDIM 1000, gamma 2 unless
 ``--steps``/``--guidance``), with ``--eta``, ``--guidance-rescale``, ``--strength``
@@ -52,7 +57,8 @@ def checkpoint_file(path: str | os.PathLike | None) -> Path:
         if not path:
             raise UserError(
                 f"SAiD generate: expected --checkpoint or ${CHECKPOINT_ENV}; train one with "
-                "`python -m baselines.said.train --data DIR --out said.pt` or `python -m benchmark.run --method said`"
+                "`python -m baselines.said.train --data DIR --out said.pt` (then --checkpoint said.pt) or "
+                "`python -m benchmark.run --method said --checkpoint said-ckpt/` (then --checkpoint said-ckpt/)"
             )
     path = Path(os.fspath(path)).expanduser()
     if path.is_dir():

@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from baselines.common.chunking import chunk_plan, chunk_setting, generate_in_chunks
 from baselines.common.threads import torch_threads
 from baselines.said.checkpoint import read_checkpoint, save_checkpoint
 from baselines.said.edit import check_edit_inputs
@@ -27,6 +28,8 @@ from blendvoca.errors import DataError, UserError
 
 FPS = 60
 SAMPLE_RATE = 16000
+#: Default chunk length in training windows: 10 s for ``cpu-demo`` (1 s windows), 20 s for ``paper``.
+CHUNK_WINDOWS = 10
 
 
 def frames_for_audio(num_samples: int, fps: int = FPS, sample_rate: int = SAMPLE_RATE) -> int:
@@ -95,6 +98,26 @@ class SAiD:
         return cls(resolve_config(preset, **overrides), names)
 
     # ---- generation ---------------------------------------------------------------
+    @property
+    def chunk_frames(self) -> int:
+        """Frames per chunk of a long utterance: ``chunk_frames`` of the config, default
+        :data:`CHUNK_WINDOWS` training windows (:mod:`baselines.common.chunking`)."""
+        window = int(self.config.get("training", {}).get("window") or FPS)
+        return chunk_setting(self.config, "chunk_frames", CHUNK_WINDOWS * window)
+
+    @property
+    def chunk_overlap(self) -> int:
+        """Frames two chunks share (the crossfade): ``chunk_overlap`` of the config, default half a
+        training window (0.5 s for ``cpu-demo``), where the UNet's receptive field has settled."""
+        window = int(self.config.get("training", {}).get("window") or FPS)
+        return chunk_setting(self.config, "chunk_overlap", max(1, window // 2))
+
+    @property
+    def lookahead_s(self) -> float:
+        """Audio after frame ``t`` that frame ``t`` needs, in seconds, at worst: the UNet sees its whole
+        chunk in both directions, so the first frame of a chunk waits for the chunk's last audio."""
+        return self.chunk_frames / FPS
+
     @torch.no_grad()
     def generate(
         self,
@@ -144,6 +167,20 @@ class SAiD:
             raise UserError(f"SAiD.generate: expected num_frames >= 2, got {num_frames}")
         k = len(self.names)
         check_edit_inputs(reference, mask, num_frames, k)
+        options = {"samples": samples, "seed": seed, "sampler": sampler, "num_steps": num_steps,
+                   "guidance": guidance, "eta": eta, "progress": progress}
+        plan = chunk_plan(num_frames, self.chunk_frames, self.chunk_overlap)
+        if plan.chunked and reference is None:
+            # a long utterance: chunk by chunk (each its own audio features and chain, the
+            # same seed for each), crossfaded; an edit keeps the whole track in one chain
+            return generate_in_chunks(lambda wav, frames, _index: self._generate_whole(wav, frames, **options),
+                                      audio, num_frames, plan)
+        return self._generate_whole(audio, num_frames, reference=reference, mask=mask, **options)
+
+    @torch.no_grad()
+    def _generate_whole(self, audio, num_frames: int, *, samples, seed, sampler, num_steps, guidance, eta, progress,
+                        reference=None, mask=None) -> np.ndarray:
+        """:meth:`generate` of ``num_frames`` frames in one chain, whatever the chunk length."""
         s = self.config["sampling"]
         sampler = sampler or s["sampler"]
         num_steps = int(num_steps or s["num_steps"])
@@ -210,7 +247,11 @@ class SAiD:
         if not utterances:
             return []
         options = {"sampler": sampler, "num_steps": num_steps, "guidance": guidance, "eta": eta, "progress": progress}
-        if self.model.architecture != "authors" or len(utterances) == 1:
+        def long(audio, frames):
+            return (frames_for_audio(np.asarray(audio).shape[0]) if frames is None else int(frames)) > self.chunk_frames
+
+        if self.model.architecture != "authors" or len(utterances) == 1 or any(long(*u) for u in utterances):
+            # one at a time: a long utterance goes chunk by chunk (:meth:`generate`)
             return [self.generate(audio, frames, samples=samples, seed=seed, **options)
                     for (audio, frames), seed in zip(utterances, seeds)]
         if int(samples) != samples or samples < 1:
@@ -243,7 +284,9 @@ class SAiD:
         k = len(self.names)
         num_frames = max(lengths)
         padded = any(frames != num_frames for frames in lengths)
-        generators = [torch.Generator(device=self.device).manual_seed(seed) for seed in seeds]
+        # CPU generators on every device: a seed gives the same noise on a GPU as on the CPU
+        # (the noise is drawn on the generator's device and moved, baselines.said.sample)
+        generators = [torch.Generator().manual_seed(seed) for seed in seeds]
         conds = [model.condition(model.audio_features(wav, frames)).expand(samples, -1, -1)
                  for wav, frames in zip(waves, lengths)]  # (S, T_i, D) each
         cond = padded_batch(conds, num_frames)

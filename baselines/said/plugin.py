@@ -13,6 +13,7 @@ from pathlib import Path
 import torch
 
 from baselines.common.checkpoint import load_checkpoint_file
+from baselines.common.device import checked_precision, method_device, precision_config
 from baselines.said.dataset import dataset_pairs, mirror_for
 from baselines.said.official import is_official_state, model_from_state
 from baselines.said.official_pipeline import OfficialSAiD
@@ -44,20 +45,38 @@ class SAiDMethod(Method):
     #: sampling keys a trained checkpoint can be scored with (``--checkpoint DIR --config guidance=2``)
     sampling_options = ("sampler", "num_steps", "guidance", "eta")
 
-    def __init__(self, preset: str = "cpu-demo", resolved: dict | None = None, **overrides):
-        super().__init__(preset=preset, **overrides)
+    @classmethod
+    def config_schema(cls):
+        """The constructor's keys plus every flat key of the presets, typed from their values."""
+        from baselines.common.chunking import chunk_options
+        from baselines.common.device import precision_option
+        from benchmark.methods.config import Option
+        from baselines.said.presets import DEFAULT_PRESET, PRESETS
+
+        wav2vec2 = Option("wav2vec2_path", (str, type(None)), None, "local directory of the wav2vec2 encoder")
+        return super().config_schema().with_presets(PRESETS, default=DEFAULT_PRESET, extra=(wav2vec2, precision_option(), *chunk_options()))
+
+    def __init__(self, preset: str = "cpu-demo", resolved: dict | None = None, mixed_precision: str = "off",
+                 **overrides):
+        super().__init__(preset=preset, **precision_config(mixed_precision), **overrides)
+        #: autocast of the training loss on a GPU (docs/gpu.md); nothing on the CPU
+        self.mixed_precision = checked_precision(mixed_precision)
         self.said = SAiD.from_preset(BLENDVOCA_NAMES, preset, **overrides)
 
     def config(self) -> dict:
         """Constructor arguments plus the resolved nested config."""
         return {**super().config(), "resolved": self.said.config}
 
-    def train(self, dataset, *, seed: int, budget: Budget, on_checkpoint=None) -> None:
+    def train(self, dataset, *, seed: int, budget: Budget, on_checkpoint=None, device=None) -> None:
         """Train on the dataset's train split, select on its val split, within ``budget``;
         ``on_checkpoint``: the runner's half-budget call, made when a run without a time
         limit has done half its steps (:func:`baselines.said.train.train_said`); the
-        authors' weights train nothing and make no call."""
+        authors' weights train nothing and make no call. ``device``: where the network
+        trains and then samples (None: where it is, the CPU unless moved by :meth:`to`);
+        the initial weights are drawn on the CPU, so they are the same on every device."""
         if isinstance(self.said, OfficialSAiD):
+            if device is not None:
+                self.to(device)
             return  # the authors' published weights: nothing to train
         names = tuple(dataset.names)
         if names != self.said.names:
@@ -65,7 +84,8 @@ class SAiDMethod(Method):
         # the initial weights from the seed too (the constructor drew them from the global RNG):
         # a step budget then gives the same model in every process
         torch.manual_seed(int(seed))
-        self.said = SAiD(self.said.config, self.said.names).to(self.said.device)
+        target = self.said.device if device is None else method_device(device)
+        self.said = SAiD(self.said.config, self.said.names).to(target)
         val = dataset_pairs(dataset, "val") if dataset.split("val") else None
         train_said(
             self.said,
@@ -77,10 +97,24 @@ class SAiDMethod(Method):
             mirror=mirror_for(names),
             progress=show_progress(),
             on_checkpoint=on_checkpoint,
+            mixed_precision=self.mixed_precision,
         )
 
+    def to(self, device) -> SAiDMethod:
+        """This method with its network on ``device`` (sampling runs there); returns self."""
+        self.said.to(method_device(device))
+        return self
+
+    @property
+    def lookahead_s(self) -> float | None:
+        """Seconds of audio after frame ``t`` that frame ``t`` needs: one chunk (:attr:`SAiD.lookahead_s`);
+        None for the authors' weights, which sample the whole utterance in one chain."""
+        return None if isinstance(self.said, OfficialSAiD) else self.said.lookahead_s
+
     def generate(self, utterance, *, samples=1, seed=0):
-        """Return ``(S, T, 32)`` coefficient tracks in [0, 1] sampled for the utterance's audio (speaker-independent)."""
+        """Return ``(S, T, 32)`` coefficient tracks in [0, 1] sampled for the utterance's audio (speaker-independent);
+        an utterance longer than ``chunk_frames`` (default 10 training windows) goes chunk by chunk
+        (:mod:`baselines.common.chunking`)."""
         return self.said.generate(utterance.audio, utterance.num_frames, samples=int(samples), seed=int(seed))
 
     def generate_many(self, utterances, *, samples=1, seeds):

@@ -8,11 +8,13 @@ directory, 1000 diffusion steps, DDIM 1000, lr 1e-5, EMA 0.9999) and wants a GPU
 from __future__ import annotations
 
 from baselines.common.presets import resolved_preset
+from baselines.common.chunking import chunk_section
 
 DEFAULT_PRESET = "cpu-demo"
 
 PRESETS: dict[str, dict[str, dict]] = {
     "cpu-demo": {
+        "inference": chunk_section(),
         "model": {
             "architecture": "authors",
             "channels": 32,
@@ -56,6 +58,7 @@ PRESETS: dict[str, dict[str, dict]] = {
         },
     },
     "paper": {
+        "inference": chunk_section(),
         "model": {
             # the authors' network: width 192, 6 heads of 32, wav2vec 2.0 features
             # straight into the cross-attention (no projection), dropout 0.1

@@ -24,12 +24,19 @@ def padded_batch(parts, num_frames: int) -> torch.Tensor:
                       for p in parts])
 
 
+def _randn(shape, generator, *, dtype, device) -> torch.Tensor:
+    """Standard normal noise drawn on ``generator``'s device and moved to ``device``: a CPU
+    generator gives the same noise for a seed whether the chain runs on the CPU or a GPU."""
+    where = device if generator is None else generator.device
+    return torch.randn(shape, generator=generator, dtype=dtype, device=where).to(device)
+
+
 def utterance_noise(generators, lengths, samples: int, channels: int, *, num_frames: int, dtype, device):
     """A ``draw()`` for a batch of utterances (``sample_diffusion(..., draw=)``): each utterance's
     ``(samples, T_i, channels)`` noise from its own generator, as it draws it sampled alone, zero-padded
-    (:func:`padded_batch`) to ``num_frames``."""
+    (:func:`padded_batch`) to ``num_frames``; drawn on each generator's device, then moved to ``device``."""
     def draw():
-        return padded_batch([torch.randn((samples, frames, channels), generator=g, dtype=dtype, device=device)
+        return padded_batch([_randn((samples, frames, channels), g, dtype=dtype, device=device)
                              for g, frames in zip(generators, lengths)], num_frames)
     return draw
 
@@ -72,7 +79,9 @@ def sample_diffusion(
     mask : (T, K) Tensor, optional
         1 = keep the reference, 0 = generate.  Required with ``reference``.
     generator : torch.Generator, optional
-        Source of all randomness (initial noise, DDPM/DDIM noise, reference noising).
+        Source of all randomness (initial noise, DDPM/DDIM noise, reference noising). A
+        CPU generator with a chain on a GPU draws on the CPU and moves the noise: the
+        same seed then gives the same noise on every device.
     draw : callable ``() -> (B, T, K) Tensor``, optional
         Draws the initial and the step noise instead of ``generator`` (e.g. one
         generator per utterance of a batch); ``generator`` still noises the reference.
@@ -96,7 +105,7 @@ def sample_diffusion(
     def randn():
         if draw is not None:
             return draw()
-        return torch.randn(shape, generator=generator, dtype=dtype, device=device)
+        return _randn(shape, generator, dtype=dtype, device=device)
 
     x = randn()
     if reference is not None:

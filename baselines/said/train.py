@@ -20,7 +20,7 @@ import numpy as np
 import torch
 from tqdm.auto import tqdm
 
-from baselines.common.device import torch_device
+from baselines.common.device import MixedPrecision, torch_device
 from baselines.common.threads import torch_threads
 from baselines.common.training import call_checkpoint, kept_state
 from baselines.said.augment import training_batch, validation_windows
@@ -126,6 +126,7 @@ def train_said(
     mirror: np.ndarray | None = None,
     progress: bool = True,
     on_checkpoint=None,
+    mixed_precision=None,
 ) -> dict:
     """Train ``said`` in place; at the end it holds the EMA weights with the best validation loss.
 
@@ -151,6 +152,11 @@ def train_said(
         leave if it stopped there (the EMA weights best on validation, a validation at
         that step included but not recorded; the EMA weights without validation), in
         eval mode without gradients; afterwards training goes on exactly as without it.
+    mixed_precision : {"off", "bf16", "fp16"}, optional
+        Autocast of the training loss when ``said`` is on a GPU
+        (:class:`~baselines.common.device.MixedPrecision`); nothing on the CPU. The
+        validation loss is computed in full precision. Timesteps, noise and windows are
+        drawn on CPU generators whatever the device: a seed trains on the same batches.
 
     Returns
     -------
@@ -185,6 +191,7 @@ def train_said(
     fused = all(p.device.type in ("cpu", "cuda") for p in params) or None
     opt = torch.optim.AdamW(params, lr=cfg["lr"], betas=tuple(cfg["betas"]), weight_decay=cfg["weight_decay"], fused=fused)
     ema = EMA(model, cfg["ema_decay"])
+    amp = MixedPrecision(mixed_precision, said.device)
 
     val_batches = None
     if val_pairs:
@@ -240,16 +247,18 @@ def train_said(
                 train_pairs, cfg["batch_size"], cfg["window"], rng,
                 mirror=mirror, mirror_prob=cfg["mirror_prob"], shift_prob=cfg["audio_shift_prob"],
             )
-            loss = diffusion_loss(
-                said, torch.from_numpy(c).to(said.device), torch.from_numpy(a).to(said.device), generator=gen,
-                cond_drop_prob=cfg["cond_drop_prob"], velocity_weight=cfg["velocity_weight"],
-            )
+            with amp.autocast():
+                loss = diffusion_loss(
+                    said, torch.from_numpy(c).to(said.device), torch.from_numpy(a).to(said.device), generator=gen,
+                    cond_drop_prob=cfg["cond_drop_prob"], velocity_weight=cfg["velocity_weight"],
+                )
             opt.zero_grad(set_to_none=True)
-            loss.backward()
+            amp.backward(loss)
             history["lr"].append(opt.param_groups[0]["lr"])
             if cfg.get("grad_clip"):
+                amp.unscale(opt)
                 torch.nn.utils.clip_grad_norm_(params, cfg["grad_clip"], foreach=True)
-            opt.step()
+            amp.step(opt)
             sched.step()
             ema.update(model)
             step += 1

@@ -3,6 +3,8 @@ answer checked against the contract (:mod:`benchmark.methods.contract`)."""
 
 from __future__ import annotations
 
+import dataclasses
+import math
 import sys
 import time
 from dataclasses import dataclass
@@ -11,6 +13,7 @@ import numpy as np
 
 from benchmark.methods import (
     AUDIO_RATE,
+    FPS,
     OUTPUT_COEFFICIENTS,
     OUTPUT_KINDS,
     OUTPUT_VERTICES,
@@ -20,9 +23,14 @@ from benchmark.methods import (
 )
 from benchmark.methods.base import progress_bars
 from benchmark.protocol.limits import GenerateLimit, TimeLimit, generate_limit
+from benchmark.results import LATENCY_FIELDS
 from blendvoca.errors import DataError, MethodError, MethodOutputError, MethodTimeout, UserError
 
-__all__ = ["Generated", "generate", "generated_tracks", "sentence_seed"]
+__all__ = ["LATENCY_FIELDS", "LATENCY_SENTENCES", "Generated", "generate", "generated_tracks", "measure_latency",
+           "sentence_seed"]
+
+#: Sentences of the split (its first ones) the latency is measured on.
+LATENCY_SENTENCES = 3
 
 
 @dataclass(frozen=True)
@@ -43,12 +51,15 @@ class Generated:
         A vertex method's own ``(S, T, V, 3)`` vertices per key (read back from the
         stored run, or kept in memory when nothing is stored); None for coefficient
         methods.
+    latency : dict or None
+        :func:`measure_latency`'s record (None when not measured).
     """
 
     tracks: dict
     n_clipped: int = 0
     seconds: float = 0.0
     vertices: object = None
+    latency: dict | None = None
 
 
 def generate(spec, dataset, trained, *, store=None) -> Generated:
@@ -78,7 +89,72 @@ def generate(spec, dataset, trained, *, store=None) -> Generated:
     vertices = None
     if vertex_method:
         vertices = store.stored_vertices() if store is not None else in_memory
-    return Generated(tracks=tracks, n_clipped=int(n_clipped), seconds=seconds, vertices=vertices)
+    # after the scored tracks are made, so that the extra calls cannot change them
+    latency = measure_latency(trained.method, dataset, split=spec.split, seed=spec.seed, name=spec.method)
+    return Generated(tracks=tracks, n_clipped=int(n_clipped), seconds=seconds, vertices=vertices, latency=latency)
+
+
+def measure_latency(method, dataset, *, split: str = "test", seed: int = 0, name: str | None = None,
+                    sentences: int = LATENCY_SENTENCES) -> dict:
+    """How long a method makes a listener wait, measured on the first ``sentences`` of ``split``.
+
+    One sample per sentence (the stream a player would show), with the seed the run gives
+    the sentence. ``lookahead_s`` is the method's own ``lookahead_s`` (seconds of audio
+    after frame ``t`` that frame ``t`` needs, from its architecture and chunk plan; None
+    when it does not say, i.e. it needs the whole utterance). ``first_frame_s`` is the
+    wall time of generating the first chunk alone (the utterance's first
+    ``lookahead_s`` seconds, or all of it), after which the first frame is final: a
+    live stream shows it ``lookahead_s + first_frame_s`` after the speech began.
+    ``compute_per_audio_s`` is the process's CPU time (every thread) per second of
+    audio, ``rtf`` the wall time per second of audio (the real-time factor: below 1 is
+    faster than the speech), both over whole sentences. Figures depend on the machine
+    (the result's ``provenance.hardware``); no reproducibility check compares them.
+
+    Returns
+    -------
+    dict
+        ``{"lookahead_s", "first_frame_s", "compute_per_audio_s", "rtf"}``, seconds (None: not known).
+
+    Raises
+    ------
+    MethodError
+        ``generate`` raised.
+    """
+    name = name or getattr(method, "name", type(method).__name__)
+    lookahead = getattr(method, "lookahead_s", None)
+    lookahead = None if lookahead is None else float(lookahead)
+    items = [(subject, sentence) for subject in dataset.split(split) for sentence in dataset.sentences(subject)]
+    first_frame = wall = cpu = audio_s = 0.0
+    measured = 0
+    for index, (subject, sentence) in enumerate(items[:max(1, int(sentences))]):
+        audio, rate = dataset.audio(subject, sentence)
+        if rate != AUDIO_RATE:
+            raise DataError(f"dataset audio for {subject}/{sentence}: expected {AUDIO_RATE} Hz, got {rate}")
+        frames = int(np.asarray(dataset.coeffs(subject, sentence)).shape[0])
+        utterance = Utterance(subject=subject, sentence=sentence, split=split, audio=audio, num_frames=frames)
+        head = frames if lookahead is None else max(1, min(frames, int(math.ceil(lookahead * FPS - 1e-9))))
+        head_audio = utterance.audio[:int(round(head * AUDIO_RATE / FPS))] if head < frames else utterance.audio
+        prefix = dataclasses.replace(utterance, audio=head_audio, num_frames=head)
+        try:
+            with progress_bars(False):
+                if measured == 0:  # the first frame of the first sentence
+                    start = time.perf_counter()
+                    method.generate(prefix, samples=1, seed=sentence_seed(seed, index))
+                    first_frame = time.perf_counter() - start
+                start, start_cpu = time.perf_counter(), time.process_time()
+                method.generate(utterance, samples=1, seed=sentence_seed(seed, index))
+                wall += time.perf_counter() - start
+                cpu += time.process_time() - start_cpu
+        except (UserError, DataError, OSError):
+            raise
+        except Exception as exc:
+            raise MethodError(f"method {name!r}, subject {subject!r}, sentence {sentence!r}: generate failed "
+                              f"while timing it: {type(exc).__name__}: {exc}") from exc
+        audio_s += utterance.duration
+        measured += 1
+    values = {"lookahead_s": lookahead, "first_frame_s": first_frame,
+              "compute_per_audio_s": cpu / audio_s if audio_s else None, "rtf": wall / audio_s if audio_s else None}
+    return {key: None if values[key] is None else round(float(values[key]), 4) for key in LATENCY_FIELDS}
 
 
 def sentence_seed(seed: int, index: int) -> int:

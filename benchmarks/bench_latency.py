@@ -1,0 +1,52 @@
+"""Latency of the chunked methods on the bundled default, as the runner measures it.
+
+Each method is trained for a few steps (latency hardly depends on the weights) and
+timed by :func:`benchmark.protocol.generation.measure_latency` on the first test
+sentences: the look-ahead it declares, the time to its first frame, CPU seconds and
+wall seconds (the real-time factor) per second of audio. ``benchmark.run`` stores the
+same record in every result (``latency``) after scoring.
+
+    BLENDVOCA_CACHE=... python benchmarks/bench_latency.py                       # said faceformer codetalker cdface
+    python benchmarks/bench_latency.py --methods said --max-steps 50 --sentences 3
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+METHODS = ("said", "faceformer", "codetalker", "cdface")
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--methods", nargs="+", default=list(METHODS))
+    parser.add_argument("--max-steps", type=int, default=20, help="training steps per method (default 20)")
+    parser.add_argument("--sentences", type=int, default=3, help="test sentences timed (default 3)")
+    args = parser.parse_args(argv)
+
+    import torch
+
+    from benchmark.methods import Budget, get_method
+    from benchmark.protocol.generation import measure_latency
+    from benchmark.protocol.spec import default_data_root, open_data
+
+    torch.set_num_threads(1)
+    dataset = open_data(default_data_root(progress=False))
+    print(f"{'method':>11} {'lookahead (s)':>14} {'first frame (s)':>16} {'CPU s / audio s':>16} {'RTF':>7}")
+    for name in args.methods:
+        method = get_method(name)()
+        method.train(dataset, seed=0, budget=Budget(max_steps=args.max_steps))
+        lat = measure_latency(method, dataset, split="test", seed=0, name=name, sentences=args.sentences)
+        look = "whole" if lat["lookahead_s"] is None else f"{lat['lookahead_s']:.2f}"
+        print(f"{name:>11} {look:>14} {lat['first_frame_s']:>16.3f} {lat['compute_per_audio_s']:>16.3f} "
+              f"{lat['rtf']:>7.3f}", flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
