@@ -1,51 +1,102 @@
 """``python -m leaderboard.reproduce``: the committed leaderboard from nothing.
 
-One command generates the VOCASET-size synthetic corpus (12 speakers x 40 sentences,
-seed 0; test split 2 speakers x 40 sentences), builds BlendVOCA from it, scores every
-built-in method with a step budget (deterministic: the same command gives the same
-numbers) and renders the tables::
+One command generates the VOCASET-size one-to-many synthetic corpus (12 speakers x
+40 sentences, seed 0, 70 % of the motion fixed by the audio, 8 oracle draws per
+sentence; test split 2 speakers x 40 sentences), builds BlendVOCA from it, scores
+every built-in method with a step budget (deterministic: the same command gives the
+same numbers), every trained row with training seeds 0, 1 and 2, and renders the
+tables::
 
     python -m leaderboard.reproduce --work ~/blendvoca-12x40 \\
         --results leaderboard/results --tables leaderboard/tables
 
-Every stage is resumable: an existing corpus, build, trained model or result file
-is reused (``--force`` rescores). ``--only NAME`` scores some methods only. The
-corpus takes about 7 GB and 1 minute, the build about 2 minutes on 2 cores; rows of
-one method that differ only in sampling (CDFace diverse and lips fixed) share one
-training, kept in ``<work>/trained``.
+The plan is a set of tasks (:mod:`leaderboard.executors`): the corpus and its build
+(``--data BUILD`` scores an existing build instead), the learned lip-sync expert, and
+per row and seed the training (rows of one method that differ only in sampling,
+CDFace diverse and lips fixed, share it), generation and scoring, then the row's
+result file. ``--executor sequential`` (the default) runs them one after the other
+in this process; ``--executor ray`` runs them as Ray tasks on a local Ray instance,
+or on an existing cluster with ``--address`` (``pip install -e ".[cluster]"``),
+each with the CPUs, GPUs and memory its row declares; a task whose worker dies runs
+again. Both write the same result files.
+
+Every stage is resumable: an existing corpus, build, trained model, scored seed or
+result file is reused (``--force`` rescores, reusing trained models). ``--only NAME``
+(repeated, or comma-separated) scores some rows only. The corpus takes about 7 GB,
+the build a few minutes on 2 cores. ``--archive DIR`` first moves the result files
+already in ``--results`` (and their tracks) into ``DIR``, which the tables do not
+read. Wall times per stage are kept under ``<work>/stages/timings``;
+``--timings`` prints them per row and stage.
 """
 
 from __future__ import annotations
 
+import shutil
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from blendvoca import cli
 from blendvoca.errors import UserError
+from leaderboard.executors import EXECUTORS
 
-__all__ = ["CORPUS", "PLAN", "PlanEntry", "main", "reproduce"]
+__all__ = ["CORPUS", "PLAN", "SEEDS", "PlanEntry", "archive_results", "main", "plan_tasks", "reproduce"]
 
-#: The synthetic corpus of the committed leaderboard.
-CORPUS = {"speakers": 12, "sentences": 40, "seed": 0, "layout": "processed"}
+#: The synthetic corpus of the committed leaderboard: the one-to-many corpus, whose
+#: oracle draws give the oracle rows.
+CORPUS = {"speakers": 12, "sentences": 40, "seed": 0, "layout": "processed", "audio_determined": 0.7,
+          "oracle_samples": 8}
+#: Folders of the corpus and its build under ``--work`` (named after the corpus, so a
+#: work folder of an earlier corpus is not taken for this one).
+CORPUS_NAME = "synth-one-to-many"
+BUILD_NAME = "blendvoca12x40-one-to-many"
+#: Training seeds of every trained row.
+SEEDS = (0, 1, 2)
 #: Training steps of built-in methods without their own entry.
 DEFAULT_STEPS = 1000
 
 
 @dataclass(frozen=True)
 class PlanEntry:
-    """How one leaderboard row is produced."""
+    """How one leaderboard row is produced.
+
+    Attributes
+    ----------
+    method : str
+        Registered method (``corpus-meshes``: the mesh adapter on the corpus's meshes).
+    config : dict
+    samples : int
+    max_steps : int or None
+    note : str
+    shared_training : str or None
+        Rows with the same key train once per seed: the first row of the plan with the
+        key owns the training (``<work>/trained/<key>/seed<k>``, with its half-budget
+        check), the others load it and change only its sampling options
+        (``Method.sampling_options``). Training is deterministic under a step budget,
+        so this gives the numbers of training again.
+    name : str or None
+        The row's name (``--only``, the work folder); default: the method.
+    cpus, gpus, memory_gb
+        What each of the row's tasks reserves (:class:`leaderboard.executors.Resources`);
+        ``cpus`` is also the task's thread count, on either executor: 2, the cores the
+        committed board was made with (its floats depend on it in the last digits).
+    """
 
     method: str
     config: dict = field(default_factory=dict)
     samples: int = 1
     max_steps: int | None = None
     note: str = ""
-    #: Rows with the same key train once: the first saves its trained method into
-    #: ``<work>/trained/<key>``, the others load it and change only its sampling
-    #: options (``Method.sampling_options``). Training is deterministic under a step
-    #: budget, so this gives the numbers of training again.
     shared_training: str | None = None
+    name: str | None = None
+    cpus: int = 2
+    gpus: float = 0.0
+    memory_gb: float | None = 2.0
+
+    @property
+    def row(self) -> str:
+        """The row's name."""
+        return self.name or self.method
 
 
 #: CDFace's cpu-demo stages stop at a step count only (no time limits: deterministic).
@@ -57,6 +108,8 @@ EXPERT_STEPS = 1271
 #: The rows, in scoring order (cheap references first).
 PLAN = (
     PlanEntry("ground-truth", note="upper reference: the build's own tracks"),
+    PlanEntry("oracle-sample", samples=8, note="the corpus's own conditional draws, 8 samples"),
+    PlanEntry("oracle-mean", note="the mean of the corpus's 8 conditional draws"),
     PlanEntry("mean", note="train-split mean, constant"),
     PlanEntry("static", note="all zeros: the neutral face"),
     PlanEntry("corpus-meshes", note="the source meshes through the mesh adapter (60 fps, head-crop QP fit)"),
@@ -73,7 +126,7 @@ PLAN = (
     PlanEntry("cdface", config=CDFACE_STEPS_ONLY, samples=5, max_steps=1500, shared_training="cdface",
               note="CDFace cpu-demo preset, 1500 steps per stage, 5 samples (the paper's S)"),
     PlanEntry("cdface", config={**CDFACE_STEPS_ONLY, "control": "lips"}, samples=5, max_steps=1500,
-              shared_training="cdface",
+              shared_training="cdface", name="cdface-lips",
               note="CDFace lips fixed, upper face varied (the paper's Table III setting; the model of the row above)"),
 )
 
@@ -83,19 +136,11 @@ def _log(message: str) -> None:
 
 
 def built_dataset(work: Path, *, workers: int = 2, progress: bool = True) -> Path:
-    """The 12 x 40 synthetic corpus and its BlendVOCA build under ``work`` (made when missing)."""
-    from blendvoca.build import build_dataset
-    from blendvoca.synthetic import generate_corpus
+    """The plan's synthetic corpus and its BlendVOCA build under ``work`` (made when missing)."""
+    from leaderboard.executors.stages import built_corpus
 
-    corpus = work / "synth"
-    if not (corpus / "synthetic.json").is_file():
-        _log(f"generating the synthetic corpus into {corpus}")
-        generate_corpus(corpus, progress=progress, **CORPUS)
-    root = work / "blendvoca12x40"
-    summary = build_dataset(root, corpus, workers=workers, progress=progress)
-    if summary.failures:
-        raise RuntimeError(f"build of {root} had {len(summary.failures)} failure(s), e.g. {summary.failures[0]}")
-    return root
+    return built_corpus(work, CORPUS, corpus_name=CORPUS_NAME, build_name=BUILD_NAME, workers=workers,
+                        progress=progress)
 
 
 def _entries(only) -> list:
@@ -106,64 +151,194 @@ def _entries(only) -> list:
              for name in sorted(BUILTIN_METHODS) if name not in planned]
     entries = list(PLAN) + extra
     if only:
-        unknown = sorted(set(only) - {e.method for e in entries})
+        known = {e.row for e in entries} | {e.method for e in entries}
+        unknown = sorted(set(only) - known)
         if unknown:
-            raise UserError(f"--only: unknown plan entries {unknown}; expected some of {[e.method for e in entries]}")
-        entries = [e for e in entries if e.method in only]
+            raise UserError(f"--only: unknown plan entries {unknown}; expected some of "
+                            f"{list(dict.fromkeys(e.row for e in entries))}")
+        # a method name selects each of its rows (cdface: both CDFace rows)
+        entries = [e for e in entries if e.row in only or e.method in only]
     return entries
 
 
-def reproduce(work, results_dir, tables_dir, *, only=None, force: bool = False, progress: bool = True) -> list:
-    """Build the dataset, score the plan's methods into ``results_dir`` and render ``tables_dir``.
+def _trains(entry: PlanEntry) -> bool:
+    """Whether the row's method learns from a training seed (it then runs with seeds)."""
+    from benchmark.methods import get_method
+    from benchmark.protocol.spec import trains_nothing
+
+    return trains_nothing(get_method("mesh-adapter" if entry.method == "corpus-meshes" else entry.method)) is None
+
+
+def _split_names(values) -> list | None:
+    """``--only a,b --only c`` -> ``["a", "b", "c"]`` (None when not given)."""
+    if not values:
+        return None
+    return [name.strip() for value in values for name in str(value).split(",") if name.strip()]
+
+
+def plan_tasks(work, results_dir, *, only=None, data=None, seeds=SEEDS, max_steps=None,
+               expert_steps: int = EXPERT_STEPS, cpus_per_task: int | None = None, force: bool = False,
+               progress: bool = True) -> list:
+    """The plan as tasks (:class:`leaderboard.executors.Task`), in dependency order.
+
+    Parameters
+    ----------
+    work, results_dir : path-like
+    only : sequence of str, optional
+        Row or method names (a method selects each of its rows).
+    data : path-like, optional
+        Score this build; None generates and builds the plan's corpus under ``work``.
+    seeds : sequence of int
+        Training seeds of the trained rows.
+    max_steps : int, optional
+        Caps every row's training steps (quick runs and tests; recorded in each result).
+    expert_steps : int
+        Training steps of the lip-sync expert.
+    cpus_per_task : int, optional
+        Every row's CPUs (and threads) instead of the plan's ``PlanEntry.cpus``.
+
+    Returns
+    -------
+    list of Task
+        ``data``, ``expert``, then per row either ``row/<row>`` (one run), or
+        ``train/<training>/seed<k>``, ``score/<row>/seed<k>`` and ``store/<row>``.
+    """
+    from leaderboard.executors import Resources, Task
+    from leaderboard.executors import stages
+
+    entries = _entries(only)
+    seeds = [int(s) for s in seeds]
+    base = {"work": str(Path(work).expanduser().resolve()), "results": str(Path(results_dir).expanduser().resolve()),
+            "force": bool(force), "progress": bool(progress)}
+    tasks = [
+        Task("data", "data", stages.data_stage, {**base, "data": None if data is None else str(data),
+                                                 "corpus": dict(CORPUS), "corpus_name": CORPUS_NAME,
+                                                 "build_name": BUILD_NAME},
+             resources=Resources(cpus=2, memory_gb=4.0), outputs=(str(Path(base["work"]) / BUILD_NAME),)),
+        Task("expert", "expert", stages.expert_stage, {**base, "expert_steps": int(expert_steps)}, deps=("data",),
+             resources=Resources(cpus=1, memory_gb=2.0), outputs=("<cache>/sync-expert",)),
+    ]
+
+    def row_spec(entry: PlanEntry, trained: bool) -> dict:
+        steps = entry.max_steps
+        if max_steps is not None:
+            steps = int(max_steps) if steps is None else min(int(steps), int(max_steps))
+        return {**base, "row": entry.row, "method": entry.method, "config": dict(entry.config),
+                "samples": entry.samples, "max_steps": steps, "note": entry.note, "corpus_name": CORPUS_NAME,
+                "seeds": list(seeds) if trained else None, "training": entry.shared_training or entry.row}
+
+    trained_rows = [e for e in entries if _trains(e)]
+    owners = {}
+    for entry in list(PLAN) + [e for e in entries if e not in PLAN]:
+        owners.setdefault(entry.shared_training or entry.row, entry)
+    emitted = set()
+    for entry in entries:
+        resources = Resources(cpus=int(cpus_per_task or entry.cpus), gpus=entry.gpus, memory_gb=entry.memory_gb)
+        if entry not in trained_rows:
+            spec = row_spec(entry, False)
+            tasks.append(Task(f"row/{entry.row}", "single", stages.single_stage, spec, deps=("data", "expert"),
+                              resources=resources, outputs=(base["results"],), row=entry.row))
+            continue
+        spec = row_spec(entry, True)
+        training = spec["training"]
+        owner = owners[training]
+        for seed in seeds:
+            key = f"train/{training}/seed{seed}"
+            if key not in emitted:
+                emitted.add(key)
+                sharing = [row_spec(e, True) for e in trained_rows if (e.shared_training or e.row) == training]
+                tasks.append(Task(key, "train", stages.train_stage,
+                                  {**row_spec(owner, True), "seed": seed, "rows": sharing}, deps=("data",),
+                                  resources=resources, row=owner.row, seed=seed,
+                                  outputs=(str(Path(base["work"]) / "trained" / training / f"seed{seed}"),)))
+            tasks.append(Task(f"score/{entry.row}/seed{seed}", "score", stages.score_stage,
+                              {**spec, "seed": seed, "owns_training": owner.row == entry.row},
+                              deps=("data", "expert", key), resources=resources, row=entry.row, seed=seed,
+                              outputs=(str(Path(base["work"]) / "stages" / "rows" / entry.row),)))
+        tasks.append(Task(f"store/{entry.row}", "store", stages.store_stage, spec,
+                          deps=("data", "expert", *(f"score/{entry.row}/seed{s}" for s in seeds)),
+                          resources=Resources(cpus=1, memory_gb=entry.memory_gb), row=entry.row,
+                          outputs=(base["results"],)))
+    return tasks
+
+
+def archive_results(results_dir, archive) -> list:
+    """Move every result file of ``results_dir`` and its tracks folder into ``archive``.
+
+    The tables read only the result files directly in ``results_dir``, so an archive
+    beside it (e.g. ``leaderboard/results-archive/<name>``) keeps the old board out of
+    the new one's tables. Nothing is moved when a name would replace a file already
+    in ``archive``.
 
     Returns
     -------
     list of Path
-        The result files of the plan's rows.
+        The moved result files, at their new place.
     """
-    from benchmark.methods import get_method
-    from benchmark.results import result_filename
-    from benchmark.run import run_method
+    from benchmark.runs import tracks_folder_name
+
+    results_dir, archive = Path(results_dir).expanduser().resolve(), Path(archive).expanduser().resolve()
+    if archive == results_dir:
+        raise UserError(f"--archive {archive}: expected a folder other than --results")
+    moves = []
+    for path in sorted(results_dir.glob("*.json")) if results_dir.is_dir() else ():
+        moves.append(path)
+        tracks = results_dir / tracks_folder_name(path.name)
+        if tracks.is_dir():
+            moves.append(tracks)
+    clashes = [p.name for p in moves if (archive / p.name).exists()]
+    if clashes:
+        raise UserError(f"--archive {archive}: already holds {clashes[:3]}; nothing was moved")
+    archive.mkdir(parents=True, exist_ok=True)
+    for path in moves:
+        shutil.move(str(path), str(archive / path.name))
+    return [archive / p.name for p in moves if p.suffix == ".json"]
+
+
+def reproduce(work, results_dir, tables_dir, *, only=None, force: bool = False, progress: bool = True,
+              executor: str = "sequential", address: str | None = None, data=None, seeds=SEEDS,
+              max_steps: int | None = None, expert_steps: int = EXPERT_STEPS, cpus_per_task: int | None = None,
+              max_retries: int = 3, archive=None) -> list:
+    """Build the dataset, score the plan's rows into ``results_dir`` and render ``tables_dir``.
+
+    Parameters
+    ----------
+    work, results_dir, tables_dir : path-like
+    only : sequence of str, optional
+        Rows to score (row or method names); default: all.
+    executor : {"sequential", "ray"}
+        Where the plan's tasks run (:func:`leaderboard.executors.run_tasks`).
+    address : str, optional
+        An existing Ray cluster (``--executor ray`` only); None starts a local instance.
+    data, seeds, max_steps, expert_steps, cpus_per_task
+        As :func:`plan_tasks`.
+    max_retries : int
+        Ray's reruns of a task whose worker died.
+    archive : path-like, optional
+        First move the result files already in ``results_dir`` there (:func:`archive_results`).
+
+    Returns
+    -------
+    list of Path
+        The result files of the plan's rows, in plan order.
+    """
     from leaderboard.build import build_leaderboard
+    from leaderboard.executors import run_tasks
 
-    work, results_dir = Path(work).expanduser(), Path(results_dir)
-    entries = _entries(only)  # an unknown --only row fails before the corpus and the build are made
-    root = built_dataset(work, progress=progress)
-    from benchmark.data import open_blendvoca
-
-    dataset = open_blendvoca(root)
-    from benchmark.lipsync.expert_training import cached_expert
-
-    # the learned lip-sync expert, trained once on the build's training split (step budget: deterministic)
-    _, expert = cached_expert(root, max_seconds=None, max_steps=EXPERT_STEPS, progress=progress)
-    paths = []
-    for entry in entries:
-        name, config = entry.method, dict(entry.config)
-        if name == "corpus-meshes":
-            from baselines.mesh_adapter.export import exported_corpus_meshes
-
-            meshes = work / "corpus-meshes-60fps"
-            if not (meshes / "adapter.yaml").is_file():
-                exported_corpus_meshes(work / "synth", meshes, fps=60, progress=progress)
-            name, config = "mesh-adapter", {"config": str(meshes / "adapter.yaml")}
-        cls = get_method(name)
-        # the label may depend on the config (mesh-adapter's source, cdface's control)
-        label = getattr(cls(**config), "label", None) or name
-        samples = entry.samples if cls.stochastic else 1
-        expected = results_dir / result_filename({"method": {"name": name, "label": label},
-                                                  "dataset": {"manifest_hash": dataset.manifest_hash},
-                                                  "protocol": {"samples": samples, "seed": 0}})
-        if expected.is_file() and not force:
-            _log(f"{label}: {expected} exists, kept (--force rescores)")
-            paths.append(expected)
-            continue
-        _log(f"{label}: {entry.note}")
-        from benchmark.methods.base import Budget
-
-        checkpoint = None if entry.shared_training is None else work / "trained" / entry.shared_training
-        paths.append(run_method(name, root, samples=samples, seed=0, budget=Budget(max_steps=entry.max_steps),
-                                results_dir=results_dir, config=config, progress=progress, sync_expert=expert,
-                                checkpoint=checkpoint))
+    if executor not in EXECUTORS:
+        raise UserError(f"--executor {executor!r}: expected one of {list(EXECUTORS)}")
+    if address is not None and executor != "ray":
+        raise UserError("--address: only with --executor ray")
+    if data is not None and not Path(data).expanduser().is_dir():
+        raise UserError(f"--data {data}: no such folder")
+    # an unknown --only row fails before the corpus and the build are made
+    tasks = plan_tasks(work, results_dir, only=only, data=data, seeds=seeds, max_steps=max_steps,
+                       expert_steps=expert_steps, cpus_per_task=cpus_per_task, force=force, progress=progress)
+    if archive is not None:
+        for path in archive_results(results_dir, archive):
+            _log(f"archived {path}")
+    values = run_tasks(tasks, executor=executor, address=address, max_retries=max_retries)
+    paths = [Path(values[t.key]) for t in tasks if t.stage in ("single", "store")]
     for path in build_leaderboard(results_dir, tables_dir):
         _log(f"wrote {path}")
     return paths
@@ -172,15 +347,56 @@ def reproduce(work, results_dir, tables_dir, *, only=None, force: bool = False, 
 @cli.command
 def main(argv=None) -> int:
     parser = cli.parser("leaderboard.reproduce", __doc__)
-    parser.add_argument("--work", required=True, help="folder for the corpus (~7 GB) and the build")
-    parser.add_argument("--tables", required=True, help="table folder (the committed one: leaderboard/tables)")
-    parser.add_argument("--only", action="append", default=None, metavar="METHOD", help="score only these rows")
+    parser.add_argument("--work", required=True, help="folder for the corpus (~7 GB), the build and the stages")
+    parser.add_argument("--tables", default=None, help="table folder (the committed one: leaderboard/tables)")
+    parser.add_argument("--only", action="append", default=None, metavar="NAME[,NAME...]",
+                        help="score only these rows (row or method names; repeated or comma-separated)")
     parser.add_argument("--force", action="store_true", help="rescore rows whose result file exists")
-    cli.add_results_option(parser, required=True, help="result folder (the committed one: leaderboard/results)")
+    parser.add_argument("--executor", choices=EXECUTORS, default="sequential",
+                        help="run the plan's tasks in this process (sequential) or as Ray tasks (ray)")
+    parser.add_argument("--address", default=None, metavar="ADDR",
+                        help="an existing Ray cluster ('auto', HOST:6379 or ray://HOST:10001; default: a local "
+                             "Ray instance for the run)")
+    parser.add_argument("--max-retries", type=int, default=3, metavar="N",
+                        help="reruns of a Ray task whose worker died (default 3)")
+    parser.add_argument("--seeds", default=",".join(map(str, SEEDS)), metavar="S1,S2,...",
+                        help="training seeds of the trained rows (default 0,1,2)")
+    parser.add_argument("--expert-steps", type=int, default=EXPERT_STEPS, metavar="N",
+                        help=f"training steps of the lip-sync expert (default {EXPERT_STEPS})")
+    parser.add_argument("--cpus-per-task", type=int, default=None, metavar="N",
+                        help="CPUs (and threads) of every row's tasks instead of the plan's (2); the last digits "
+                             "of some metrics depend on it")
+    parser.add_argument("--archive", default=None, metavar="DIR",
+                        help="first move the result files in --results (and their tracks) into DIR, "
+                             "which the tables do not read")
+    parser.add_argument("--timings", action="store_true",
+                        help="print the wall time per row and stage recorded under --work, and exit")
+    cli.add_data_option(parser, help="score this BlendVOCA build instead of generating and building the "
+                                     "12 x 40 corpus")
+    cli.add_results_option(parser, help="result folder (the committed one: leaderboard/results)")
+    # a step budget caps every row's own (quick runs; recorded in the results): the board has no time budgets
+    cli.add_budget_options(parser)
     cli.add_quiet_option(parser)
     args = parser.parse_args(argv)
-    for path in reproduce(args.work, args.results, args.tables, only=args.only, force=args.force,
-                          progress=not args.quiet):
+    if args.timings:
+        from leaderboard.executors import timing_table
+
+        print(timing_table(args.work))
+        return cli.EXIT_OK
+    for flag, value in (("--results", args.results), ("--tables", args.tables)):
+        if value is None:
+            parser.error(f"{flag} is required")
+    max_steps, max_seconds = cli.budget_limits(args)
+    if max_seconds is not None:
+        parser.error("--budget/--max-seconds: the board's budgets are steps (deterministic); give --max-steps N")
+    if args.cpus_per_task is not None and args.cpus_per_task < 1:
+        parser.error("--cpus-per-task: expected an integer >= 1")
+    from benchmark.protocol import parse_seeds
+
+    for path in reproduce(args.work, args.results, args.tables, only=_split_names(args.only), force=args.force,
+                          progress=not args.quiet, executor=args.executor, address=args.address, data=args.data,
+                          seeds=parse_seeds(args.seeds), max_steps=max_steps, expert_steps=args.expert_steps,
+                          cpus_per_task=args.cpus_per_task, max_retries=args.max_retries, archive=args.archive):
         print(path)
     return cli.EXIT_OK
 

@@ -25,3 +25,163 @@ def test_an_unknown_only_row_is_refused_before_any_work(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("error: --only: unknown plan entries ['nothing']")
     assert not (tmp_path / "w").exists()
+
+
+def test_only_takes_names_comma_separated_and_repeated():
+    from leaderboard.reproduce import _entries, _split_names
+
+    assert _split_names(["mean,regression", " said ", "static,"]) == ["mean", "regression", "said", "static"]
+    assert _split_names(None) is None
+    assert [e.row for e in _entries(_split_names(["mean,regression"]))] == ["mean", "regression"]
+    # a method name selects each of its rows, a row name one
+    assert [e.row for e in _entries(["cdface"])] == ["cdface", "cdface-lips"]
+    assert [e.row for e in _entries(["cdface-lips"])] == ["cdface-lips"]
+
+
+def test_the_plan_corpus_is_the_one_to_many_corpus_with_oracle_rows():
+    import inspect
+
+    from blendvoca.synthetic import generate_corpus
+    from leaderboard.reproduce import CORPUS, PLAN
+
+    inspect.signature(generate_corpus).bind("out", **CORPUS)  # every key is one of its parameters
+    assert CORPUS["audio_determined"] == 0.7 and CORPUS["oracle_samples"] == 8
+    rows = {e.row: e for e in PLAN}
+    assert rows["oracle-sample"].samples == 8 and "oracle-mean" in rows and "corpus-meshes" in rows
+    assert len(rows) == len(PLAN)  # row names are unique
+
+
+def test_trained_rows_run_per_seed_and_the_cdface_rows_share_their_trainings(tmp_path):
+    from leaderboard.reproduce import plan_tasks
+
+    tasks = plan_tasks(tmp_path / "w", tmp_path / "r", only=["mean", "cdface"])
+    keys = [t.key for t in tasks]
+    assert keys[:3] == ["data", "expert", "row/mean"]
+    by_key = {t.key: t for t in tasks}
+    for seed in (0, 1, 2):
+        train = by_key[f"train/cdface/seed{seed}"]
+        assert train.deps == ("data",) and train.spec["config"].get("control") is None  # the owner's config
+        assert [r["row"] for r in train.spec["rows"]] == ["cdface", "cdface-lips"]
+        for row, owns in (("cdface", True), ("cdface-lips", False)):
+            score = by_key[f"score/{row}/seed{seed}"]
+            assert score.deps == ("data", "expert", f"train/cdface/seed{seed}")
+            assert score.spec["owns_training"] is owns and score.spec["training"] == "cdface"
+    assert sum(k.startswith("train/") for k in keys) == 3  # one training per seed for both rows
+    assert by_key["store/cdface-lips"].deps == ("data", "expert", *(f"score/cdface-lips/seed{s}" for s in (0, 1, 2)))
+    assert by_key["store/cdface-lips"].spec["seeds"] == [0, 1, 2]
+    assert by_key["row/mean"].spec["seeds"] is None  # a reference row runs once
+    assert by_key["score/cdface/seed0"].resources.cpus == 2 and by_key["data"].resources.cpus == 2
+    # a step cap lowers every row's budget (quick runs), never raises it
+    capped = {t.key: t for t in plan_tasks(tmp_path / "w", tmp_path / "r", only=["regression"], max_steps=40,
+                                           seeds=(0,), cpus_per_task=1)}
+    assert capped["store/regression"].spec["max_steps"] == 40 and "train/regression/seed1" not in capped
+    assert capped["train/regression/seed0"].resources.cpus == 1
+
+
+def test_the_sequential_executor_imports_no_ray():
+    import subprocess
+    import sys
+
+    code = ("import sys, leaderboard.reproduce, leaderboard.executors.stages\n"
+            "from leaderboard.executors import Task, run_sequential\n"
+            "assert run_sequential([Task('a', 'data', lambda spec: (1, None), {})], log=print) == {'a': 1}\n"
+            "assert 'ray' not in sys.modules, 'ray imported'\n")
+    subprocess.run([sys.executable, "-c", code], check=True)
+
+
+def _value(spec, *values):
+    return spec["value"] + sum(values), None
+
+
+def test_the_sequential_executor_hands_values_down_in_dependency_order():
+    import pytest
+
+    from leaderboard.executors import Task, run_tasks
+
+    tasks = [Task("a", "data", _value, {"value": 1}), Task("b", "expert", _value, {"value": 10}, deps=("a",)),
+             Task("c", "store", _value, {"value": 100}, deps=("a", "b"))]
+    assert run_tasks(tasks, log=lambda m: None) == {"a": 1, "b": 11, "c": 112}
+    with pytest.raises(ValueError, match="depends on"):
+        run_tasks(tasks[::-1], log=lambda m: None)
+
+
+def test_archive_moves_the_old_results_out_of_the_tables_reach(tmp_path):
+    import pytest
+
+    from blendvoca.errors import UserError
+    from leaderboard.reproduce import archive_results
+
+    results = tmp_path / "results"
+    (results / "mean__abc__s1__seed0").mkdir(parents=True)
+    (results / "mean__abc__s1__seed0" / "t.csv").write_text("x")
+    (results / "mean__abc__s1__seed0.json").write_text("{}")
+    (results / "said__abc__s5__seed0.json").write_text("{}")
+    archive = tmp_path / "results-archive" / "v2"
+    (archive).mkdir(parents=True)
+    (archive / "said__abc__s5__seed0.json").write_text("{}")
+    with pytest.raises(UserError, match="nothing was moved"):
+        archive_results(results, archive)
+    assert len(list(results.iterdir())) == 3
+    (archive / "said__abc__s5__seed0.json").unlink()
+    moved = archive_results(results, archive)
+    assert [p.name for p in moved] == ["mean__abc__s1__seed0.json", "said__abc__s5__seed0.json"]
+    assert not list(results.iterdir()) and (archive / "mean__abc__s1__seed0" / "t.csv").is_file()
+
+
+def test_address_needs_the_ray_executor(tmp_path, capsys):
+    from leaderboard.reproduce import main
+
+    assert main(["--work", str(tmp_path / "w"), "--results", str(tmp_path / "r"), "--tables", str(tmp_path / "t"),
+                 "--only", "mean", "--address", "auto", "--quiet"]) == 2
+    assert "--address: only with --executor ray" in capsys.readouterr().err
+    assert not (tmp_path / "w").exists()
+
+
+def test_timings_are_tabled_per_row_and_stage(tmp_path, capsys):
+    import json
+
+    from leaderboard.reproduce import main
+
+    folder = tmp_path / "w" / "stages" / "timings"
+    folder.mkdir(parents=True)
+    records = [{"key": "train/cdface/seed0", "stage": "train", "row": "cdface", "seed": 0, "wall_s": 600.0},
+               {"key": "score/cdface/seed0", "stage": "score", "row": "cdface", "seed": 0, "wall_s": 300.0,
+                "generate_s": 120.0, "evaluate_s": 150.0},
+               {"key": "row/mean", "stage": "single", "row": "mean", "seed": None, "wall_s": 60.0,
+                "generate_s": 6.0, "evaluate_s": 48.0, "train_s": 0.0}]
+    for record in records:
+        (folder / (record["key"].replace("/", "__") + ".json")).write_text(json.dumps(record))
+    assert main(["--work", str(tmp_path / "w"), "--timings"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert "| cdface | 0 | 10.0 | 2.0 | 2.5 | 0.5 | 15.0 |" in lines
+    assert "| mean | - | 0.0 | 0.1 | 0.8 | 0.1 | 1.0 |" in lines
+
+
+def test_tasks_no_node_can_hold_are_found_before_ray_waits_for_them():
+    from leaderboard.executors import Resources, Task
+    from leaderboard.executors.ray_executor import _unplaceable
+
+    nodes = [{"Alive": True, "Resources": {"CPU": 2.0, "memory": 8 * 2**30}},
+             {"Alive": False, "Resources": {"CPU": 16.0, "GPU": 1.0, "memory": 64 * 2**30}}]
+    tasks = [Task("fits", "train", _value, {}, resources=Resources(cpus=2, memory_gb=4)),
+             Task("gpu", "train", _value, {}, resources=Resources(cpus=1, gpus=1)),
+             Task("big", "train", _value, {}, resources=Resources(cpus=4))]
+    assert [t.split(" ")[0] for t in _unplaceable(tasks, nodes)] == ["gpu", "big"]
+
+
+def test_a_training_that_fails_leaves_no_trained_method_and_no_record(tmp_path):
+    import pytest
+
+    from benchmark.protocol import default_data_root
+    from blendvoca.errors import UserError
+    from leaderboard.executors.stages import train_stage
+    from leaderboard.reproduce import plan_tasks
+
+    root = default_data_root(progress=False)
+    task = next(t for t in plan_tasks(tmp_path / "w", tmp_path / "r", only=["regression"], seeds=(0,), max_steps=4,
+                                      progress=False) if t.stage == "train")
+    spec = {**task.spec, "config": {"no_such_option": 1}}  # refused by the run's checks, after the folder is made
+    with pytest.raises(UserError):
+        train_stage(spec, str(root))
+    assert list((tmp_path / "w" / "trained" / "regression").iterdir()) == []
+    assert not (tmp_path / "w" / "stages" / "train").exists()

@@ -1,0 +1,209 @@
+"""The executors' common part: tasks, their resources, running one task
+(:func:`execute`), the sequential executor and the stage timing records (see
+:mod:`leaderboard.executors`)."""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import socket
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+__all__ = ["EXECUTORS", "Resources", "Task", "check_order", "execute", "record_timing", "run_sequential",
+           "timing_records", "timing_table"]
+
+#: The executors ``--executor`` accepts.
+EXECUTORS = ("sequential", "ray")
+
+
+@dataclass(frozen=True)
+class Resources:
+    """What one task needs of a machine (Ray schedules on it; the sequential executor
+    uses ``cpus`` as the task's thread count).
+
+    Attributes
+    ----------
+    cpus : int
+        CPU cores (also the task's torch and BLAS threads).
+    gpus : float
+        GPUs (0: none; a fraction shares one).
+    memory_gb : float or None
+        Memory reserved on the node, GiB (None: no reservation).
+    """
+
+    cpus: int = 1
+    gpus: float = 0.0
+    memory_gb: float | None = None
+
+
+@dataclass(frozen=True)
+class Task:
+    """One stage of one plan entry.
+
+    Attributes
+    ----------
+    key : str
+        Unique name, e.g. ``"train/regression/seed0"``; also its timing record's name.
+    stage : str
+        ``"data"``, ``"expert"``, ``"single"``, ``"train"``, ``"score"`` or ``"store"``.
+    function : callable
+        A module-level function ``function(spec, *dependency_values)`` returning
+        ``(value, details)``: ``value`` goes to the tasks that depend on this one,
+        ``details`` (a dict, or None when the stage found its outputs done and did
+        nothing) to the timing record.
+    spec : dict
+        Plain, picklable arguments of the stage.
+    deps : tuple of str
+        Keys of the tasks whose values ``function`` takes, in this order.
+    resources : Resources
+    outputs : tuple of str
+        What the stage writes (documentation and logs; each stage checks its own).
+    row, seed : optional
+        The plan row and training seed the stage belongs to (timing tables).
+    """
+
+    key: str
+    stage: str
+    function: object
+    spec: dict
+    deps: tuple = ()
+    resources: Resources = field(default_factory=Resources)
+    outputs: tuple = ()
+    row: str | None = None
+    seed: int | None = None
+
+
+@contextlib.contextmanager
+def _threads(cpus: int):
+    """torch's and the BLAS libraries' threads limited to ``cpus`` while the body runs:
+    a stage's floats then do not depend on where it runs (a Ray worker starts with
+    one thread per reserved CPU; this process with as many as the machine has)."""
+    from threadpoolctl import threadpool_limits
+
+    torch = None
+    with contextlib.suppress(ImportError):
+        import torch
+    before = torch.get_num_threads() if torch is not None else None
+    if torch is not None:
+        torch.set_num_threads(max(1, int(cpus)))
+    try:
+        with threadpool_limits(limits=max(1, int(cpus))):
+            yield
+    finally:
+        if torch is not None:
+            torch.set_num_threads(before)
+
+
+def record_timing(work, task: Task, details: dict, wall_s: float) -> Path:
+    """Write ``<work>/stages/timings/<key>.json``: the stage's wall time and where it ran
+    (replaced atomically; a stage that did nothing writes none)."""
+    from blendvoca.io.atomic import atomic_write
+
+    path = Path(work) / "stages" / "timings" / (task.key.replace("/", "__") + ".json")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    record = {"key": task.key, "stage": task.stage, "row": task.row, "seed": task.seed,
+              "wall_s": round(float(wall_s), 3), "host": socket.gethostname(), "pid": os.getpid(),
+              "finished": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+              "resources": {"cpus": task.resources.cpus, "gpus": task.resources.gpus,
+                            "memory_gb": task.resources.memory_gb},
+              **{k: (round(float(v), 3) if isinstance(v, float) else v) for k, v in details.items()}}
+    with atomic_write(path, "w") as handle:
+        json.dump(record, handle, indent=1)
+    return path
+
+
+def execute(task: Task, *values):
+    """Run ``task`` with its dependencies' ``values`` (both executors call this).
+
+    Returns
+    -------
+    object
+        The stage's value, for the tasks that depend on it.
+    """
+    start = time.perf_counter()
+    with _threads(task.resources.cpus):
+        value, details = task.function(task.spec, *values)
+    if details is not None and task.spec.get("work"):
+        record_timing(task.spec["work"], task, details, time.perf_counter() - start)
+    return value
+
+
+def _log(message: str) -> None:
+    import sys
+
+    print(f"[reproduce] {message}", file=sys.stderr, flush=True)
+
+
+def run_sequential(tasks, *, log=_log) -> dict:
+    """Run ``tasks`` (in dependency order) one after the other in this process.
+
+    Returns
+    -------
+    dict
+        ``{key: value}`` of every task. The first task that raises stops the run (its
+        error is raised; what earlier tasks wrote stays and is reused by the next run).
+    """
+    values = {}
+    for task in tasks:
+        log(f"{task.key}")
+        values[task.key] = execute(task, *(values[d] for d in task.deps))
+    return values
+
+
+def check_order(tasks) -> None:
+    """ValueError unless every task's dependencies come before it and keys are unique."""
+    seen = set()
+    for task in tasks:
+        missing = [d for d in task.deps if d not in seen]
+        if missing:
+            raise ValueError(f"task {task.key!r} depends on {missing}, which do not come before it")
+        if task.key in seen:
+            raise ValueError(f"task {task.key!r} is planned twice")
+        seen.add(task.key)
+
+
+def timing_records(work) -> list:
+    """The stage timing records under ``<work>/stages/timings`` (:func:`record_timing`)."""
+    folder = Path(work) / "stages" / "timings"
+    if not folder.is_dir():
+        return []
+    return [json.loads(p.read_text()) for p in sorted(folder.glob("*.json"))]
+
+
+def timing_table(work) -> str:
+    """A Markdown table of the wall time per row and stage (minutes), summed over seeds,
+    from the work folder's timing records: train, generate, score (the ``score`` task's
+    generation and evaluation seconds apart) and the single-run rows' whole run."""
+    rows = {}
+    shared = {}
+    for r in timing_records(work):
+        name = r.get("row") or r["stage"]
+        entry = rows.setdefault(name, {"train": 0.0, "generate": 0.0, "score": 0.0, "other": 0.0, "seeds": set()})
+        if r.get("seed") is not None:
+            entry["seeds"].add(r["seed"])
+        if r["stage"] == "train":
+            entry["train"] += r["wall_s"]
+            shared.setdefault(name, r.get("training"))
+        elif r["stage"] == "score":
+            entry["generate"] += r.get("generate_s") or 0.0
+            entry["score"] += r.get("evaluate_s") or 0.0
+            entry["other"] += max(0.0, r["wall_s"] - (r.get("generate_s") or 0.0) - (r.get("evaluate_s") or 0.0))
+        elif r["stage"] == "single":
+            entry["generate"] += r.get("generate_s") or 0.0
+            entry["score"] += r.get("evaluate_s") or 0.0
+            entry["train"] += r.get("train_s") or 0.0
+            entry["other"] += max(0.0, r["wall_s"] - sum(r.get(k) or 0.0 for k in ("generate_s", "evaluate_s",
+                                                                                   "train_s")))
+        else:
+            entry["other"] += r["wall_s"]
+    lines = ["| row | seeds | train (min) | generate (min) | score (min) | other (min) | total (min) |",
+             "|---|---|---:|---:|---:|---:|---:|"]
+    for name, e in rows.items():
+        total = e["train"] + e["generate"] + e["score"] + e["other"]
+        seeds = ",".join(str(s) for s in sorted(e["seeds"])) or "-"
+        lines.append(f"| {name} | {seeds} | {e['train'] / 60:.1f} | {e['generate'] / 60:.1f} | "
+                     f"{e['score'] / 60:.1f} | {e['other'] / 60:.1f} | {total / 60:.1f} |")
+    return "\n".join(lines)

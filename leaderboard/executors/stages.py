@@ -1,0 +1,370 @@
+"""The stages of the leaderboard's plan, as functions of plain data.
+
+Each function takes the stage's ``spec`` (a dict of paths and settings made by
+:func:`leaderboard.reproduce.plan_tasks`) and its dependencies' values, and returns
+``(value, details)`` (:class:`~leaderboard.executors.Task`). Each writes its outputs
+atomically (a temporary name renamed into place) and returns ``details=None`` when
+they are already there, so a stage cut short leaves nothing that a rerun would take
+for done. The work folder holds::
+
+    <work>/trained/<training>/seed<k>/          a trained method (its save())
+    <work>/stages/train/<training>-seed<k>.json  the training's timings and half-budget values
+    <work>/stages/rows/<row>/seed<k>.pkl         one seed's scores (SeedRun)
+    <work>/stages/rows/<row>/tracks-seed<k>/     the tracks those scores were computed on
+    <work>/stages/timings/<task>.json           wall time of every stage that ran
+
+A trained row's result is what ``benchmark.run --seeds`` writes for it: the seeds'
+scores combined by :func:`benchmark.protocol.seeds.combined_seed_scores` and stored
+by :func:`benchmark.protocol.storing.store_seeds` (only the timings, the provenance
+and where the checkpoints were differ). The half-budget check runs during training
+and its values travel in the training's record to the row that owns the training;
+a row that reuses another's training (``shared_training``) is recorded as loaded
+from a checkpoint, as a run with ``--checkpoint`` would be.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+import pickle
+import shutil
+import socket
+import time
+from pathlib import Path
+
+__all__ = ["built_corpus", "data_stage", "expert_stage", "row_result_path", "score_stage", "single_stage",
+           "store_stage", "train_stage"]
+
+
+def _log(message: str) -> None:
+    import sys
+
+    print(f"[reproduce] {message}", file=sys.stderr, flush=True)
+
+
+def _host_tag() -> str:
+    return f"{socket.gethostname()}-{os.getpid()}"
+
+
+def _pid_alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def _remove_dead_partials(folder: Path, prefix: str) -> None:
+    """Remove ``<prefix>.<this host>-<pid>.partial`` folders of processes of this host
+    that are gone (a killed worker's half-trained method); other hosts' stay."""
+    if not folder.is_dir():
+        return
+    head = f"{prefix}.{socket.gethostname()}-"
+    for path in folder.iterdir():
+        name = path.name
+        if name.startswith(head) and name.endswith(".partial"):
+            pid = name[len(head):-len(".partial")]
+            if pid.isdigit() and not _pid_alive(int(pid)):
+                shutil.rmtree(path, ignore_errors=True)
+
+
+def _write_json(path: Path, record: dict) -> None:
+    from blendvoca.io.atomic import atomic_write
+
+    with atomic_write(path, "w") as handle:
+        json.dump(record, handle, indent=1)
+
+
+# --------------------------------------------------------------------------- data
+
+
+def data_stage(spec):
+    """The build the rows are scored on: ``spec["data"]`` when given, else the plan's
+    corpus generated and built under ``spec["work"]`` (each made when missing)."""
+    if spec.get("data"):
+        from blendvoca.errors import UserError
+        from blendvoca.format import manifest_path
+
+        root = Path(spec["data"]).expanduser().resolve()
+        if not manifest_path(root).is_file():
+            raise UserError(f"--data {root}: not a BlendVOCA build (no manifest.json)")
+        return str(root), None
+    work = Path(spec["work"])
+    done = (work / spec["build_name"] / "manifest.json").is_file()
+    root = built_corpus(work, spec["corpus"], corpus_name=spec["corpus_name"], build_name=spec["build_name"],
+                        progress=spec["progress"])
+    return str(root), (None if done else {})
+
+
+def built_corpus(work, corpus: dict, *, corpus_name: str, build_name: str, workers: int = 2,
+                 progress: bool = True) -> Path:
+    """The synthetic corpus ``generate_corpus(**corpus)`` in ``<work>/<corpus_name>`` and
+    its BlendVOCA build in ``<work>/<build_name>``, each made when missing (both resumable)."""
+    from blendvoca.build import build_dataset
+    from blendvoca.synthetic import generate_corpus
+
+    work = Path(work)
+    source = work / corpus_name
+    if not (source / "synthetic.json").is_file():
+        _log(f"generating the synthetic corpus into {source}")
+        generate_corpus(source, progress=progress, **corpus)
+    root = work / build_name
+    summary = build_dataset(root, source, workers=workers, progress=progress)
+    if summary.failures:
+        raise RuntimeError(f"build of {root} had {len(summary.failures)} failure(s), e.g. {summary.failures[0]}")
+    return root
+
+
+def expert_stage(spec, root):
+    """The learned lip-sync expert scoring every row, trained once on the build's
+    training split (a step budget: deterministic) and cached; its checkpoint path."""
+    from benchmark.lipsync.expert_training import cached_expert
+
+    started = time.time()
+    _, path = cached_expert(root, max_seconds=None, max_steps=int(spec["expert_steps"]), progress=spec["progress"])
+    # trained now (a new checkpoint), or loaded from the cache: then nothing to time
+    return str(path), ({} if Path(path).stat().st_mtime >= started - 1.0 else None)
+
+
+# --------------------------------------------------------------------------- rows
+
+
+def _method_and_config(spec):
+    """The registered method and config a row runs (``corpus-meshes``: the mesh adapter
+    on the corpus's exported meshes)."""
+    name, config = spec["method"], dict(spec["config"])
+    if name == "corpus-meshes":
+        meshes = Path(spec["work"]) / "corpus-meshes-60fps"
+        name, config = "mesh-adapter", {"config": str(meshes / "adapter.yaml")}
+    return name, config
+
+
+def row_result_path(spec, root) -> Path:
+    """Where the row's result file goes (its name: method label, build, samples, seeds)."""
+    from benchmark.data import open_blendvoca
+    from benchmark.methods import get_method
+    from benchmark.protocol.storing import dataset_identity
+    from benchmark.results import result_filename
+
+    name, config = _method_and_config(spec)
+    cls = get_method(name)
+    method = cls(**config)
+    # the label may depend on the config (mesh-adapter's source, cdface's control)
+    label = getattr(method, "label", None) or name
+    samples = spec["samples"] if cls.stochastic else 1
+    seeds = spec.get("seeds")
+    protocol = {"samples": samples, "seed": int(seeds[0]) if seeds else 0}
+    if seeds:
+        protocol["seeds"] = [int(s) for s in seeds]
+    return Path(spec["results"]) / result_filename({"method": {"name": name, "label": label},
+                                                    "dataset": dataset_identity(open_blendvoca(root)),
+                                                    "protocol": protocol})
+
+
+def _row_done(spec, root) -> Path | None:
+    path = row_result_path(spec, root)
+    return path if path.is_file() and not spec["force"] else None
+
+
+def single_stage(spec, root, expert):
+    """A row scored in one run (a reference row, or one without training seeds):
+    :func:`benchmark.protocol.run_method` with seed 0, as ``benchmark.run`` does."""
+    from benchmark.methods.base import Budget
+    from benchmark.protocol import run_method
+
+    if spec["method"] == "corpus-meshes":
+        _exported_meshes(spec)  # first: the row's label (and so its file name) names the exported meshes
+    done = _row_done(spec, root)
+    if done is not None:
+        _log(f"{spec['row']}: {done} exists, kept (--force rescores)")
+        return str(done), None
+    name, config = _method_and_config(spec)
+    _log(f"{spec['row']}: {spec['note']}")
+    path = run_method(name, root, samples=spec["samples"], seed=0, budget=Budget(max_steps=spec["max_steps"]),
+                      results_dir=spec["results"], config=config, progress=spec["progress"], sync_expert=expert)
+    timings = json.loads(Path(path).read_text()).get("timings", {})
+    return str(path), {k: timings.get(k) for k in ("train_s", "load_s", "generate_s", "evaluate_s")}
+
+
+def _exported_meshes(spec) -> None:
+    """The corpus's meshes at 60 fps for the ``corpus-meshes`` row (made when missing)."""
+    from baselines.mesh_adapter.export import exported_corpus_meshes
+    from blendvoca.errors import UserError
+
+    work = Path(spec["work"])
+    meshes = work / "corpus-meshes-60fps"
+    if (meshes / "adapter.yaml").is_file():
+        return
+    corpus = work / spec["corpus_name"]
+    if not (corpus / "synthetic.json").is_file():
+        raise UserError(f"corpus-meshes: exports the synthetic corpus's meshes, but {corpus} holds none "
+                        "(with --data, leave this row out or generate the corpus there)")
+    exported_corpus_meshes(corpus, meshes, fps=60, progress=spec["progress"])
+
+
+def _run_spec(spec, root, *, seed, checkpoint, expert=None, seeds=None):
+    from benchmark.methods.base import Budget
+    from benchmark.protocol import RunSpec
+
+    name, config = _method_and_config(spec)
+    return RunSpec(method=name, config=config, data_root=root, samples=spec["samples"], seed=int(seed),
+                   seeds=seeds, budget=Budget(max_steps=spec["max_steps"]), checkpoint=checkpoint,
+                   sync_expert=expert, results_dir=spec["results"], progress=spec["progress"])
+
+
+def _checkpoint(spec, seed: int) -> Path:
+    return Path(spec["work"]) / "trained" / spec["training"] / f"seed{int(seed)}"
+
+
+def _train_record(spec, seed: int) -> Path:
+    return Path(spec["work"]) / "stages" / "train" / f"{spec['training']}-seed{int(seed)}.json"
+
+
+def train_stage(spec, root):
+    """Train the row's method with seed ``spec["seed"]`` under its step budget and save it
+    into ``<work>/trained/<training>/seed<k>``, with the half-budget check; returns the
+    training record (timings, the check's values)."""
+    from benchmark.protocol import check_inputs, half_budget_check, train
+
+    seed = int(spec["seed"])
+    final, record_path = _checkpoint(spec, seed), _train_record(spec, seed)
+    if record_path.is_file() and final.is_dir() and any(final.iterdir()):
+        return json.loads(record_path.read_text()), None
+    if all(_row_done(row, root) is not None for row in spec["rows"]):
+        return {"seed": seed, "stored": True}, None  # every row of this training is stored: nothing to train for
+    final.parent.mkdir(parents=True, exist_ok=True)
+    _remove_dead_partials(final.parent, f".{final.name}")
+    # trained into a folder of this process, renamed once saved: a worker killed while
+    # training leaves no folder that a rerun would load as a trained method
+    partial = final.parent / f".{final.name}.{_host_tag()}.partial"
+    shutil.rmtree(partial, ignore_errors=True)
+    partial.mkdir()
+    try:
+        run = _run_spec(spec, root, seed=seed, checkpoint=partial)
+        inputs = check_inputs(run)
+        check, reason = half_budget_check(run, inputs)
+        _log(f"{spec['row']}: training seed {seed}, {spec['max_steps']} steps ({spec['note']})")
+        trained = train(run, inputs.dataset, check=check)
+        half = dataclasses.asdict(check.result) if check is not None and check.called else None
+        record = {"seed": seed, "training": spec["training"], "train_s": trained.train_s,
+                  "convergence_s": trained.convergence_s, "checked": check is not None, "reason": reason,
+                  "half_budget": half, "host": socket.gethostname()}
+        _write_json(record_path, record)
+        if final.exists():  # an earlier try finished after all (a lost node's): keep one
+            shutil.rmtree(final)
+        os.replace(partial, final)
+    finally:
+        shutil.rmtree(partial, ignore_errors=True)
+    return record, {"train_s": trained.train_s, "convergence_s": trained.convergence_s,
+                    "training": spec["training"]}
+
+
+class _Half:
+    """The half-budget check as the training saw it, for ``checked_convergence``."""
+
+    def __init__(self, record: dict):
+        from benchmark.protocol.convergence import HalfBudget
+
+        half = record.get("half_budget")
+        self.result = None if half is None else HalfBudget(**half)
+
+    @property
+    def called(self) -> bool:
+        return self.result is not None
+
+
+def _seed_paths(spec, seed: int):
+    folder = Path(spec["work"]) / "stages" / "rows" / spec["row"]
+    return folder / f"seed{int(seed)}.pkl", folder / f"tracks-seed{int(seed)}"
+
+
+def score_stage(spec, root, expert, record):
+    """Generate and score the test split with the row's method trained with seed
+    ``spec["seed"]`` (loaded from its checkpoint, with the row's sampling options);
+    writes the seed's scores and tracks under ``<work>/stages/rows/<row>``."""
+    from benchmark.methods.contract import COEFFICIENT_NAMES
+    from benchmark.protocol import SeedRun, check_inputs, generate, score, train
+    from benchmark.protocol.convergence import NOT_CHECKED, checked_convergence
+    from benchmark.runs import TrackWriter
+    from blendvoca.io.atomic import atomic_write
+
+    seed = int(spec["seed"])
+    scores_path, tracks = _seed_paths(spec, seed)
+    if scores_path.is_file() and tracks.is_dir() and not spec["force"]:
+        return str(scores_path), None
+    if record.get("stored") or _row_done(spec, root) is not None:
+        return str(scores_path), None  # the row's result exists: the store stage keeps it
+    run = _run_spec(spec, root, seed=seed, checkpoint=_checkpoint(spec, seed), expert=expert)
+    inputs = check_inputs(run)
+    trained = train(run, inputs.dataset)  # loaded: the checkpoint holds the trained method
+    names = tuple(getattr(inputs.dataset, "names", ()) or COEFFICIENT_NAMES)
+    writer = TrackWriter(tracks, names)
+    try:
+        generated = generate(run, inputs.dataset, trained, store=writer)
+        scored = score(run, inputs.dataset, generated)
+    except BaseException:
+        writer.discard()
+        raise
+    if spec["owns_training"] and record.get("checked"):
+        convergence, reason = checked_convergence(_Half(record), None, scored.metrics)
+    elif spec["owns_training"]:
+        convergence, reason = None, record.get("reason")
+    else:
+        convergence, reason = None, NOT_CHECKED["loaded"]
+    seed_run = SeedRun(
+        seed=seed, metrics=dict(scored.metrics), per_sentence=list(scored.per_sentence),
+        replicates=dict(getattr(scored.metrics, "replicates", {}) or {}), convergence=convergence,
+        evaluation=dict(getattr(scored.metrics, "protocol", {}) or {}), n_clipped=generated.n_clipped,
+        num_subjects=len({s for s, _ in generated.tracks}), num_sentences=len(generated.tracks),
+        timings={"train_s": record.get("train_s") if spec["owns_training"] else None, "load_s": trained.load_s,
+                 "convergence_s": record.get("convergence_s") if spec["owns_training"] else None,
+                 "generate_s": generated.seconds, "evaluate_s": scored.seconds})
+    writer.commit()
+    with atomic_write(scores_path, "wb") as handle:
+        pickle.dump({"run": seed_run, "reason": reason, "label": trained.label}, handle)
+    return str(scores_path), {"generate_s": generated.seconds, "evaluate_s": scored.seconds,
+                              "load_s": trained.load_s}
+
+
+def store_stage(spec, root, expert, *scores_paths):
+    """The row's result file from its seeds' scores: combined over the seeds and stored
+    with every seed's tracks, as ``benchmark.run --seeds`` stores a run."""
+    from benchmark.protocol import CHECKED, check_inputs, train
+    from benchmark.protocol.seeds import combined_seed_scores, seed_stream
+    from benchmark.protocol.storing import store_seeds, track_writer
+    from benchmark.results import current_provenance
+
+    done = _row_done(spec, root)
+    if done is not None:
+        _log(f"{spec['row']}: {done} exists, kept (--force rescores)")
+        return str(done), None
+    seeds = [int(s) for s in spec["seeds"]]
+    provenance = current_provenance()
+    loaded = [pickle.loads(Path(p).read_bytes()) for p in scores_paths]
+    runs = [item["run"] for item in loaded]
+    run = _run_spec(spec, root, seed=seeds[0], seeds=tuple(seeds), expert=expert,
+                    checkpoint=Path(spec["work"]) / "trained" / spec["training"])
+    # a run over seeds refuses a checkpoint folder that holds trained methods (it would
+    # train them again); here they are trained, so the inputs are checked without it
+    inputs = check_inputs(dataclasses.replace(run, checkpoint=None))
+    first = train(dataclasses.replace(run, seeds=None, checkpoint=_checkpoint(spec, seeds[0])), inputs.dataset)
+    combined = combined_seed_scores(runs, stream=seed_stream(first.label))
+    writer = track_writer(run, inputs, first)
+    try:
+        for seed in seeds:
+            shutil.copytree(_seed_paths(spec, seed)[1], writer.staging / f"seed{seed}")
+        timings = {}
+        for key in ("train_s", "load_s", "generate_s", "evaluate_s", "convergence_s"):
+            values = [r.timings.get(key) for r in runs]
+            timings[key] = None if all(v is None for v in values) else float(sum(v for v in values if v is not None))
+        timings["total_s"] = sum(v for v in timings.values() if v is not None)
+        reason = next((item["reason"] for item in loaded if item["reason"] != CHECKED), CHECKED)
+        path = store_seeds(run, inputs, first, runs, combined, writer=writer, timings=timings,
+                           provenance=provenance, convergence_check=reason)
+    except BaseException:
+        writer.discard()
+        raise
+    return str(path), {}

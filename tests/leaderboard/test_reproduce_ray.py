@@ -1,0 +1,141 @@
+"""``leaderboard.reproduce --executor ray``: the same result files as the sequential
+executor, and a task whose worker is killed runs again.
+
+A local Ray instance with 2 CPUs serves the module; the rows are the bundled default's
+``mean`` (one run) and ``regression`` (trained with two seeds, a small step budget).
+"""
+
+import json
+import os
+import signal
+import socket
+import threading
+import time
+from pathlib import Path
+
+import pytest
+
+ray = pytest.importorskip("ray", reason="Ray is not installed (pip install -e '.[cluster]')")
+
+#: Small budgets: the comparison, not the numbers, is under test; one CPU per task, so
+#: that the two seeds run side by side on Ray.
+RUN = dict(only=["mean", "regression"], seeds=(0, 1), max_steps=40, expert_steps=20, cpus_per_task=1,
+           progress=False)
+
+pytestmark = pytest.mark.slow
+
+
+@pytest.fixture(scope="module")
+def bundled_default():
+    from benchmark.protocol import default_data_root
+
+    return default_data_root(progress=False)
+
+
+@pytest.fixture(scope="module")
+def local_ray():
+    ray.init(num_cpus=2, include_dashboard=False, logging_level="ERROR", log_to_driver=False)
+    yield
+    ray.shutdown()
+
+
+@pytest.fixture(scope="module")
+def sequential(tmp_path_factory, bundled_default):
+    """The sequential executor's results of RUN."""
+    from leaderboard.reproduce import reproduce
+
+    root = tmp_path_factory.mktemp("sequential")
+    reproduce(root / "work", root / "results", root / "tables", data=bundled_default, **RUN)
+    return root / "results"
+
+
+def _results(folder: Path) -> dict:
+    return {p.name: json.loads(p.read_text()) for p in sorted(folder.glob("*.json"))}
+
+
+def _same_scores(a: dict, b: dict) -> None:
+    assert a.keys() == b.keys()
+    for name in a:
+        assert a[name]["metrics"] == b[name]["metrics"], name
+        assert a[name]["per_sentence"] == b[name]["per_sentence"], name
+        assert a[name].get("convergence") == b[name].get("convergence"), name
+        assert a[name].get("seeds") == b[name].get("seeds"), name
+
+
+def _tracks(folder: Path) -> dict:
+    return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*.csv"))}
+
+
+def test_ray_writes_the_results_of_the_sequential_executor(tmp_path, local_ray, sequential, bundled_default):
+    from leaderboard.reproduce import reproduce
+
+    paths = reproduce(tmp_path / "work", tmp_path / "results", tmp_path / "tables", executor="ray",
+                      data=bundled_default, **RUN)
+    assert [json.loads(p.read_text())["method"]["name"] for p in paths] == ["mean", "regression"]
+    ray_results, seq_results = _results(tmp_path / "results"), _results(sequential)
+    _same_scores(ray_results, seq_results)
+    trained = next(r for r in ray_results.values() if r["method"]["name"] == "regression")
+    assert trained["seeds"] == [0, 1] and [s["seed"] for s in trained["per_seed"]] == [0, 1]
+    assert trained["protocol"]["convergence_check"] == "checked"
+    assert _tracks(tmp_path / "results") == _tracks(sequential)
+    assert (tmp_path / "tables" / "leaderboard.md").is_file()
+    # every stage that ran left its wall time; a rerun finds everything done and runs nothing again
+    timings = tmp_path / "work" / "stages" / "timings"
+    before = {p.name: p.stat().st_mtime_ns for p in timings.glob("*.json")}
+    assert {"train__regression__seed0.json", "score__regression__seed1.json", "store__regression.json",
+            "row__mean.json"} <= set(before)
+    reproduce(tmp_path / "work", tmp_path / "results", tmp_path / "tables", executor="ray",
+              data=bundled_default, **RUN)
+    after = {p.name: p.stat().st_mtime_ns for p in timings.glob("*.json")}
+    assert after == before
+
+
+def _training_worker(folder: Path, timeout: float = 120.0) -> int:
+    """The pid of the Ray worker training into ``folder`` (its partial checkpoint's name)."""
+    head = f".seed0.{socket.gethostname()}-"
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if folder.is_dir():
+            for path in folder.iterdir():
+                if path.name.startswith(head) and path.name.endswith(".partial"):
+                    return int(path.name[len(head):-len(".partial")])
+        time.sleep(0.02)
+    raise AssertionError(f"no training started in {folder} within {timeout} s")
+
+
+def test_a_killed_worker_s_entry_runs_again(tmp_path, local_ray, sequential, bundled_default):
+    from leaderboard.reproduce import reproduce
+
+    run = {**RUN, "only": ["regression"], "seeds": (0,)}  # one seed: its scores are seed 0's of RUN
+    outcome = {}
+
+    def target():
+        try:
+            outcome["paths"] = reproduce(tmp_path / "work", tmp_path / "results", tmp_path / "tables",
+                                         executor="ray", data=bundled_default, **run)
+        except BaseException as exc:  # handed to the test's thread
+            outcome["error"] = exc
+
+    started = time.monotonic()
+    thread = threading.Thread(target=target)
+    thread.start()
+    pid = _training_worker(tmp_path / "work" / "trained" / "regression")
+    assert pid != os.getpid()
+    os.kill(pid, signal.SIGKILL)
+    thread.join(timeout=300)
+    assert not thread.is_alive()
+    assert "error" not in outcome, outcome.get("error")
+    wall = time.monotonic() - started
+    print(f"killed worker {pid}; the run finished in {wall:.1f} s")
+
+    # the training ran again in another worker, and the killed one's half-trained folder is gone
+    record = json.loads((tmp_path / "work" / "stages" / "timings" / "train__regression__seed0.json").read_text())
+    assert record["pid"] != pid
+    leftovers = [p.name for p in (tmp_path / "work" / "trained" / "regression").iterdir()]
+    assert leftovers == ["seed0"]
+    # and its scores are seed 0's of the sequential executor's run
+    (ours,) = _results(tmp_path / "results").values()
+    (theirs,) = [r for name, r in _results(sequential).items() if name.startswith("regression")]
+    assert ours["seeds"] == [0]
+    for key in ("metrics", "per_sentence", "convergence"):
+        assert ours["per_seed"][0][key] == theirs["per_seed"][0][key], key
