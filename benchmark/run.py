@@ -11,6 +11,10 @@ as the sentences (:mod:`benchmark.protocol.seeds`). A method that trains in step
 also scored at half its step budget on ``lve_rig`` and ``fd`` (settled or not:
 :mod:`benchmark.protocol.convergence`).
 
+``--device cuda`` (default ``cpu``) trains and generates on a GPU: the device is handed
+to every ``Method.train`` that takes it, and the trained or loaded method is moved there
+before it generates (docs/gpu.md).
+
 The command line over :mod:`benchmark.protocol` (which holds the steps and
 :func:`run_method`), on the project's CLI layer :mod:`blendvoca.cli`: a mistake in
 what was asked or a build file that is missing is exit status 2, a method that
@@ -25,6 +29,8 @@ import sys
 from pathlib import Path
 
 from benchmark.methods import Budget
+from benchmark.methods import method_schema
+from benchmark.protocol.training import checked_device
 from benchmark.protocol import (
     DEFAULT_GENERATE_LIMIT,
     TRAIN_GRACE_S,
@@ -120,11 +126,19 @@ def _parser() -> argparse.ArgumentParser:
                    help="SyncNet weights: adds the SyncNet AV offset/confidence (renders every sentence)")
     p.add_argument("--sync-expert", default=None, metavar="PATH",
                    help="learned sync expert (benchmark.lipsync.load_expert): adds av_offset/confidence_expert")
+    p.add_argument("--vae", default=None, metavar="PATH",
+                   help="the VAE of the latent metrics (fd, wind, energy_latent): a checkpoint in the published "
+                        "format; default the published one (asset said-vae). Needed for a dataset whose "
+                        "coefficients are not the BlendVOCA 32 (docs/datasets.md)")
     p.add_argument("--list", action="store_true", help="list the available methods and exit")
+    p.add_argument("--list-config", action="store_true",
+                   help="list the --config options of --method (name, type, default) and exit")
     cli.add_data_option(p)
     cli.add_results_option(p)
     cli.add_budget_options(p)
     cli.add_config_options(p)
+    # the CPU unless asked: a run's numbers then do not depend on the machine it lands on
+    cli.add_device_option(p, default="cpu")
     cli.add_quiet_option(p)
     return p
 
@@ -161,15 +175,22 @@ def main(argv=None) -> int:
     for flag, value in (("--data", args.data), ("--vocaset", args.vocaset)):
         if value is not None and not Path(value).expanduser().is_dir():
             parser.error(f"{flag} {value}: no such folder")
+    # checked against the method's declaration before any corpus or training work (exit 2)
+    schema = method_schema(args.method)
+    if args.list_config:
+        print(schema.describe() if schema is not None else
+              f"{args.method} declares no config options; --config values are passed on as JSON")
+        return cli.EXIT_OK
     max_steps, max_seconds = cli.budget_limits(args)
-    config = cli.parse_config(args.config, preset=args.preset)
+    config = cli.parse_config(args.config, preset=args.preset, schema=schema, method=args.method)
     seeds = None if args.seeds is None else parse_seeds(args.seeds)
+    device = checked_device(args.device)  # a GPU that is not there: exit 2 before anything is read
     path = run_method(args.method, args.data, samples=args.samples, seed=args.seed, seeds=seeds,
                       budget=Budget(max_steps=max_steps, max_seconds=max_seconds), results_dir=args.results,
                       config=config, split=args.split, checkpoint=args.checkpoint, clip=args.clip,
                       progress=not args.quiet, generate_time_limit=args.generate_time_limit, vocaset=args.vocaset,
                       syncnet=args.syncnet_weights, sync_expert=args.sync_expert, sentence_batch=args.sentence_batch,
-                      verify=args.verify)
+                      verify=args.verify, device=device, vae=args.vae)
     if not args.quiet:
         _print_summary(path)
     print(path)

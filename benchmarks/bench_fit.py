@@ -10,11 +10,16 @@ out-of-range targets so that all three constraint kinds are active.
     python benchmarks/bench_fit.py --frames 240 --skip-published
     python benchmarks/bench_fit.py --floor-only       # ratio to the least-squares floor
 
-The floor section times (the measurements taking turns, minimum of 7 each), in one
-process with one BLAS thread, the unconstrained
-least-squares fit of the same problem (``solve(B^T B, B^T (p - b0))`` for all
-frames, through the same entry point) and the constrained fit, and prints their
-ratio with a breakdown (normal equations, QP solve, banded factorizations).
+The floor section times (the measurements taking turns, minimum of 7 each, three
+runs), in one process with one BLAS thread, two floors and the constrained fit:
+
+* the raw floor: ``numpy.linalg.solve(B.T @ B, B.T @ R)`` with ``R`` the (3V, T)
+  offsets of all frames, both products formed, no checks, not through the library;
+* the entry-point floor: the unconstrained least-squares fit of the same problem
+  through ``fit_coefficients(..., bounds=False, rate=False)`` (its checks included);
+
+and prints the fit's ratio to each, with a breakdown (normal equations, QP solve,
+banded factorizations).
 CPU time (``time.process_time``) and wall time are both shown: on a shared
 machine the CPU-time ratio is the steadier one.
 """
@@ -94,8 +99,15 @@ def _best_interleaved(functions, repeats):
     return [(min(c), min(w)) for c, w in zip(cpu, wall)]
 
 
+def raw_floor(neutral, deltas, frames):
+    """``solve(B^T B, B^T R)`` for all frames: the unconstrained fit with nothing around it."""
+    basis = deltas.reshape(deltas.shape[0], -1).T  # (3V, K)
+    offsets = (frames - neutral[None]).reshape(frames.shape[0], -1).T  # (3V, T)
+    return np.linalg.solve(basis.T @ basis, basis.T @ offsets).T
+
+
 def floor_ratio(num_frames, repeats=7):
-    """Print the constrained fit against the least-squares floor, with a breakdown."""
+    """Print the constrained fit against both least-squares floors, with a breakdown."""
     from threadpoolctl import threadpool_limits
 
     from blendvoca.fit import banded_qp, fit_coefficients, normal_equations, solve_banded_qp
@@ -114,7 +126,8 @@ def floor_ratio(num_frames, repeats=7):
 
     with threadpool_limits(1):
         system = normal_equations(neutral, deltas, frames)
-        floor, fit, normal, qp = _best_interleaved([
+        raw, floor, fit, normal, qp = _best_interleaved([
+            lambda: raw_floor(neutral, deltas, frames),
             lambda: fit_coefficients(neutral, deltas, frames, bounds=False, rate=False),
             lambda: fit_coefficients(neutral, deltas, frames, delta=0.1),
             lambda: normal_equations(neutral, deltas, frames),
@@ -125,9 +138,11 @@ def floor_ratio(num_frames, repeats=7):
             sol = solve_banded_qp(system.gram, system.rhs, delta=0.1)
         finally:
             banded_qp._Problem.factor, banded_qp._Problem.solve = factor, solve
-    print(f"{num_frames:>6} frames  floor {1e3 * floor[0]:7.1f} ms cpu ({1e3 * floor[1]:7.1f} wall)  "
-          f"fit {1e3 * fit[0]:7.1f} ms cpu ({1e3 * fit[1]:7.1f} wall)  "
-          f"ratio {fit[0] / floor[0]:.2f} cpu / {fit[1] / floor[1]:.2f} wall")
+    print(f"{num_frames:>6} frames  raw floor {1e3 * raw[0]:7.1f} ms cpu ({1e3 * raw[1]:7.1f} wall)  "
+          f"entry-point floor {1e3 * floor[0]:7.1f} ms cpu ({1e3 * floor[1]:7.1f} wall)  "
+          f"fit {1e3 * fit[0]:7.1f} ms cpu ({1e3 * fit[1]:7.1f} wall)")
+    print(f"        ratio to the raw floor {fit[0] / raw[0]:.2f} cpu / {fit[1] / raw[1]:.2f} wall; "
+          f"to the entry-point floor {fit[0] / floor[0]:.2f} cpu / {fit[1] / floor[1]:.2f} wall")
     print(f"        breakdown: normal equations {1e3 * normal[0]:.1f} ms, QP solve {1e3 * qp[0]:.1f} ms "
           f"({sol.solver}, {sol.iterations} interior-point iterations, {counts['factor']} banded "
           f"factorizations, {counts['solve']} banded solves)")
@@ -143,6 +158,7 @@ def main():
                         help="frame counts for the linear-growth check of the banded method")
     parser.add_argument("--floor-frames", type=int, nargs="+", default=[240, 960],
                         help="frame counts of the ratio to the least-squares floor")
+    parser.add_argument("--floor-runs", type=int, default=3, help="runs of the floor section")
     parser.add_argument("--floor-only", action="store_true", help="only the floor section")
     parser.add_argument("--child", default=None, help=argparse.SUPPRESS)
     args = parser.parse_args()
@@ -151,8 +167,10 @@ def main():
         return
     print(f"problem: 4580 vertices, 32 shapes, delta 0.1; BLAS threads {args.threads}")
     print("\nconstrained fit / unconstrained least squares of the same problem (one BLAS thread, same process)")
-    for num_frames in args.floor_frames:
-        floor_ratio(num_frames)
+    for run in range(args.floor_runs):
+        print(f"run {run + 1} of {args.floor_runs}")
+        for num_frames in args.floor_frames:
+            floor_ratio(num_frames)
     if args.floor_only:
         return
     for num_frames in args.frames:

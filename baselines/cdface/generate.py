@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from baselines.cdface.pipeline import CDFace
+from baselines.common.chunking import chunk_plan, generate_in_chunks
 from benchmark.methods.contract import AUDIO_RATE, FPS
 from blendvoca import cli
 from blendvoca.errors import DataError, UserError
@@ -44,6 +45,16 @@ def checkpoint_file(path: str | os.PathLike) -> Path:
     if not path.is_file():
         raise UserError(f"--checkpoint: expected cdface.pt or a directory holding it, got {path} (not found)")
     return path
+
+
+def chunk_lengths(config: dict) -> tuple[int, int]:
+    """``(chunk_frames, chunk_overlap)`` of a CDFace config: ``chunk_frames`` and ``chunk_overlap`` where it
+    sets them, by default 10 training windows (480 frames, 8 s, for ``cpu-demo``; 600 for ``paper``, which
+    trains on whole sentences) and one window, the context a chunk's autoregressive queries saw in training."""
+    from baselines.common.chunking import chunk_setting
+
+    window = int(config.get("training", {}).get("window") or 60)
+    return chunk_setting(config, "chunk_frames", 10 * window), chunk_setting(config, "chunk_overlap", window)
 
 
 def reference_motion(path: str | os.PathLike) -> np.ndarray:
@@ -95,8 +106,15 @@ def generate_file(audio_path: str | os.PathLike, out_path: str | os.PathLike, *,
     ref = None
     if reference is not None:
         ref = reference_motion(reference)
-    verts = cdface.generate(audio, num_frames, subject=subject, template=template, samples=samples, seed=seed,
-                            control=control, reference=ref, style=style, progress=progress)
+    options = {"subject": subject, "template": template, "samples": samples, "seed": seed, "control": control,
+               "style": style, "progress": progress}
+    chunk_frames, overlap = chunk_lengths(cdface.config)
+    plan = chunk_plan(num_frames, chunk_frames, overlap)
+    if plan.chunked and ref is None:  # a long WAV: chunk by chunk (a reference fixes the lips of the whole track)
+        verts = generate_in_chunks(lambda wav, frames, _index: cdface.generate(wav, frames, **options),
+                                   audio, num_frames, plan)
+    else:
+        verts = cdface.generate(audio, num_frames, reference=ref, **options)
     out_path = Path(os.fspath(out_path))
     with atomic_write(out_path, "wb") as fh:
         np.save(fh, verts.astype(np.float32))

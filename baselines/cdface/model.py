@@ -14,6 +14,7 @@ from torch import nn
 
 from baselines.cdface.query import AudioProjection, PartQuery, shift_right
 from baselines.cdface.vqvae import PartVQVAE
+from baselines.common.device import module_device
 from blendvoca.errors import UserError
 
 __all__ = ["CDFaceModel", "sample_pairs"]
@@ -125,12 +126,13 @@ class CDFaceModel(nn.Module):
         """
         b, w, _ = lips.shape
         nl, nu = self.num_lip_samples, self.num_upper_samples
-        offset = torch.zeros(b, dtype=torch.int64) if offset is None else offset
+        offset = torch.zeros(b, dtype=torch.int64, device=lips.device) if offset is None else offset
         memory = self.audio(features)
         st = self.style(style)
-        keep = torch.ones(b, w, 1)
+        keep = torch.ones(b, w, 1, device=lips.device)
         if past_dropout > 0:
-            keep = (torch.rand(b, w, 1) >= past_dropout).to(lips.dtype)
+            # drawn on the CPU generator on every device: a seed drops the same frames everywhere
+            keep = (torch.rand(b, w, 1) >= past_dropout).to(device=lips.device, dtype=lips.dtype)
         z_l = self.lip_query(shift_right(lips, first_lips) * keep, memory, st, offset=offset)  # (N^l, B, W, C)
         q_l, _, _ = self.lip_vq.quantized(z_l)
         x_l = self.lip_vq.decode(q_l.flatten(0, 1), offset=offset.repeat(nl)).view(nl, b, w, -1)
@@ -171,34 +173,37 @@ class CDFaceModel(nn.Module):
 
         Returns
         -------
-        lips : (S, T, 3 V_l) Tensor; upper : (S, T, 3 V_u) Tensor (model units).
+        lips : (S, T, 3 V_l) Tensor; upper : (S, T, 3 V_u) Tensor (model units), on the device of
+            ``features`` (the network runs on its own device: a GPU samples for CPU callers).
         """
+        home, device = features.device, module_device(self)
+        features = features.to(device)
         t_total = features.shape[1]
         memory = self.audio(features)
-        st = self.style(torch.as_tensor([int(style)]))
+        st = self.style(torch.as_tensor([int(style)], device=device))
         lip_heads = list(dict.fromkeys(i for i, _ in pairs)) if lip_codes is None else [0]
         stream = [lip_heads.index(i) if lip_codes is None else 0 for i, _ in pairs]
         nl, nu = len(lip_heads), len(pairs)
         dim_l, dim_u = self.lip_query.motion_dim, self.upper_query.motion_dim
-        lip_past = torch.zeros(nl, t_total, dim_l)
-        upper_past = torch.zeros(nu, t_total, dim_u)
-        codes_l = torch.zeros(nl, t_total, self.lip_vq.latent_dim)
+        lip_past = torch.zeros(nl, t_total, dim_l, device=device)
+        upper_past = torch.zeros(nu, t_total, dim_u, device=device)
+        codes_l = torch.zeros(nl, t_total, self.lip_vq.latent_dim, device=device)
         if lip_codes is not None:
-            codes_l[0] = torch.as_tensor(lip_codes, dtype=codes_l.dtype)
-        codes_u = torch.zeros(nu, t_total, self.upper_vq.latent_dim)
-        heads_l = torch.as_tensor(lip_heads)
-        heads_u = torch.as_tensor([j for _, j in pairs])
-        stream_t = torch.as_tensor(stream)
+            codes_l[0] = torch.as_tensor(lip_codes, dtype=codes_l.dtype).to(device)
+        codes_u = torch.zeros(nu, t_total, self.upper_vq.latent_dim, device=device)
+        heads_l = torch.as_tensor(lip_heads, device=device)
+        heads_u = torch.as_tensor([j for _, j in pairs], device=device)
+        stream_t = torch.as_tensor(stream, device=device)
 
         def window_start(t, field):
             return 0 if field is None else max(0, t - field)
 
         # motion tokens of the past frames, embedded once per frame
-        tok_l = torch.zeros(nl, t_total, self.lip_query.width)
+        tok_l = torch.zeros(nl, t_total, self.lip_query.width, device=device)
         tok_l[:, 0] = self.lip_query.embed(lip_past[:, :1])[:, 0]
-        tok_u = torch.zeros(nu, t_total, self.upper_query.width)
+        tok_u = torch.zeros(nu, t_total, self.upper_query.width, device=device)
         tok_u[:, 0] = self.upper_query.embed(upper_past[:, :1], lip_past[stream_t, :1])[:, 0]
-        rows_l, rows_u = torch.arange(nl), torch.arange(nu)
+        rows_l, rows_u = torch.arange(nl, device=device), torch.arange(nu, device=device)
         for t in range(t_total):
             if lip_codes is None:
                 lo = window_start(t, self.lip_query.receptive_field)
@@ -222,10 +227,11 @@ class CDFaceModel(nn.Module):
                 progress(t)
         lips = self.lip_vq.decode(codes_l)
         upper = self.upper_vq.decode(codes_u)
-        return lips[stream_t], upper
+        return lips[stream_t].to(home), upper.to(home)
 
     @torch.no_grad()
     def encode_lips(self, lips) -> torch.Tensor:
         """Quantized lip codes ``(T, C_l)`` of a reference lip motion ``(T, 3 V_l)`` (model units)."""
-        q, _, _ = self.lip_vq.quantized(self.lip_vq.encode(torch.as_tensor(lips, dtype=torch.float32)[None]))
+        lips = torch.as_tensor(lips, dtype=torch.float32).to(module_device(self))
+        q, _, _ = self.lip_vq.quantized(self.lip_vq.encode(lips[None]))
         return q[0]

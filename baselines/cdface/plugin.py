@@ -62,14 +62,28 @@ class CDFaceMethod(Method):
     output = OUTPUT_VERTICES
     sampling_options = ("control", "style")
 
+    @classmethod
+    def config_schema(cls):
+        """The constructor's keys plus every flat key of the presets, typed from their values."""
+        from baselines.common.chunking import chunk_options
+        from baselines.common.device import precision_option
+        from benchmark.methods.config import Option
+        from baselines.cdface.presets import DEFAULT_PRESET, PRESETS
+
+        wav2vec2 = Option("wav2vec2_path", (str, type(None)), None, "local directory of the wav2vec2 encoder")
+        return super().config_schema().with_presets(PRESETS, default=DEFAULT_PRESET, extra=(wav2vec2, precision_option(), *chunk_options()))
+
     def __init__(self, preset: str = "cpu-demo", control: str = "none", style: str | None = None,
-                 resolved: dict | None = None, **overrides):
+                 resolved: dict | None = None, mixed_precision: str = "off", **overrides):
         from baselines.cdface.pipeline import CONTROL_MODES
         from baselines.cdface.presets import resolve_config
+        from baselines.common.device import checked_precision, precision_config
 
         if control not in CONTROL_MODES:
             raise UserError(f"cdface: expected control in {CONTROL_MODES}, got {control!r}")
-        kwargs = {"preset": preset, "control": control, **overrides}
+        #: autocast of the training losses on a GPU (docs/gpu.md); nothing on the CPU
+        self.mixed_precision = checked_precision(mixed_precision)
+        kwargs = {"preset": preset, "control": control, **precision_config(mixed_precision), **overrides}
         if style is not None:
             kwargs["style"] = style
         super().__init__(**kwargs)
@@ -82,13 +96,17 @@ class CDFaceMethod(Method):
         """Constructor arguments plus the resolved nested config."""
         return {**super().config(), "resolved": self.resolved}
 
-    def train(self, dataset, *, seed: int, budget: Budget, on_checkpoint=None) -> None:
+    def train(self, dataset, *, seed: int, budget: Budget, on_checkpoint=None, device=None) -> None:
         """Train the two part priors and the querying model on the train split within ``budget``;
         ``on_checkpoint``: the runner's half-budget call, made at half of the querying stage
-        (the last one) when it has a step limit (:func:`baselines.cdface.train.train_cdface`)."""
+        (the last one) when it has a step limit (:func:`baselines.cdface.train.train_cdface`).
+        ``device``: where the networks train and then sample (None: the CPU); they are built
+        and the frozen audio features computed on the CPU first, so a seed gives the same
+        initial weights and inputs on every device."""
         from baselines.cdface.closure import lip_pair_for
         from baselines.cdface.pipeline import CDFace
         from baselines.cdface.train import load_sentences, moving_vertices, prepare_sentences, train_cdface
+        from baselines.common.device import method_device
 
         train = list(dataset.split("train"))
         if not train:
@@ -104,15 +122,55 @@ class CDFaceMethod(Method):
         sentences = prepare_sentences(self.cdface, loaded, epsilon=self.resolved["loss"]["epsilon"],
                                       lip_pair=lip_pair_for(dataset.template(train[0]), dataset_lips(dataset, train)))
         del loaded
+        self.cdface.model.to(method_device(device))
         train_cdface(self.cdface, sentences, seed=seed, max_steps=budget.max_steps, max_seconds=budget.max_seconds,
-                     progress=show_progress(), on_checkpoint=on_checkpoint)
+                     progress=show_progress(), on_checkpoint=on_checkpoint, mixed_precision=self.mixed_precision)
+
+    def to(self, device):
+        """This method with its networks on ``device`` (sampling runs there; the frozen audio encoder
+        stays on the CPU); returns self."""
+        from baselines.common.device import method_device
+
+        if self.cdface is not None:
+            self.cdface.model.to(method_device(device))
+        return self
+
+    @property
+    def chunk_frames(self) -> int:
+        """Frames per chunk of a long utterance (:func:`baselines.cdface.generate.chunk_lengths`)."""
+        from baselines.cdface.generate import chunk_lengths
+
+        return chunk_lengths(self.resolved)[0]
+
+    @property
+    def chunk_overlap(self) -> int:
+        """Frames two chunks share (:func:`baselines.cdface.generate.chunk_lengths`)."""
+        from baselines.cdface.generate import chunk_lengths
+
+        return chunk_lengths(self.resolved)[1]
+
+    @property
+    def lookahead_s(self) -> float:
+        """Audio after frame ``t`` that frame ``t`` needs, in seconds, at worst: one chunk (the audio
+        encoder sees the chunk as a whole before the first frame is queried)."""
+        from baselines.common.chunking import FPS
+
+        return self.chunk_frames / FPS
 
     def generate(self, utterance, *, samples=1, seed=0):
-        """``(S, T, 5023, 3)`` vertices in metres on the speaker's template."""
+        """``(S, T, 5023, 3)`` vertices in metres on the speaker's template; a long utterance chunk by chunk,
+        each chunk restarting with its overlap as context (:mod:`baselines.common.chunking`)."""
+        from baselines.common.chunking import generate_utterance_in_chunks
+
         if self.cdface is None:
             raise RuntimeError("cdface: train or load the method before generate")
-        return self.cdface.generate(utterance.audio, utterance.num_frames, subject=utterance.subject,
-                                    samples=int(samples), seed=int(seed), control=self.control, style=self.style)
+
+        def whole(part, *, samples, seed):
+            return self.cdface.generate(part.audio, part.num_frames, subject=part.subject, samples=samples, seed=seed,
+                                        control=self.control, style=self.style)
+
+        return generate_utterance_in_chunks(whole, utterance, samples=int(samples), seed=int(seed),
+                                            chunk_frames=self.chunk_frames, overlap_frames=self.chunk_overlap)
 
     def with_sampling_options(self, **options) -> CDFaceMethod:
         """The same trained model sampling with another ``control`` or ``style``."""

@@ -21,6 +21,7 @@ from baselines.cdface.closure import closure_mask
 from baselines.cdface.losses import lip_losses, upper_face_losses
 from baselines.cdface.vqvae import vq_loss
 from baselines.common.dataset import sentence_audio
+from baselines.common.device import MixedPrecision, module_device
 from baselines.common.threads import torch_threads
 from baselines.common.training import call_checkpoint
 from benchmark.methods.base import checkpoint_step
@@ -141,12 +142,14 @@ def cosine_lr(lr: float, step: int, steps=None, elapsed: float = 0.0, seconds=No
     return float(lr) * 0.5 * (1.0 + math.cos(math.pi * f))
 
 
-def _run_stage(name, params, loss_fn, sampler, steps, seconds, training, progress, at_half=None) -> list:
+def _run_stage(name, params, loss_fn, sampler, steps, seconds, training, progress, at_half=None, amp=None) -> list:
     """Optimise ``params`` on ``loss_fn`` of ``sampler``'s batches for ``steps`` steps and/or
     ``seconds``; ``at_half(step)`` is called once after half the steps (a stage with a
-    step limit)."""
+    step limit). ``amp`` (:class:`~baselines.common.device.MixedPrecision`) says where the
+    batches go and whether the losses are autocast (default: the CPU, plain)."""
     from tqdm import tqdm
 
+    amp = amp or MixedPrecision(None, "cpu")
     params = [p for p in params if p.requires_grad]
     opt = torch.optim.AdamW(params, lr=training["lr"], weight_decay=training["weight_decay"])
     schedule = training.get("lr_schedule", "constant")
@@ -162,12 +165,15 @@ def _run_stage(name, params, loss_fn, sampler, steps, seconds, training, progres
             if schedule == "cosine":
                 for group in opt.param_groups:
                     group["lr"] = cosine_lr(training["lr"], step, steps, time.perf_counter() - started, seconds)
-            losses = loss_fn(sampler.batch())
+            batch = {key: value.to(amp.device) for key, value in sampler.batch().items()}  # the CPU: no copy
+            with amp.autocast():
+                losses = loss_fn(batch)
             opt.zero_grad(set_to_none=True)
-            losses["total"].backward()
+            amp.backward(losses["total"])
             if training["grad_clip"]:
+                amp.unscale(opt)
                 torch.nn.utils.clip_grad_norm_(params, training["grad_clip"])
-            opt.step()
+            amp.step(opt)
             history.append({k: float(v.detach()) for k, v in losses.items()})
             step += 1
             bar.update(1)
@@ -223,7 +229,7 @@ def prepare_sentences(cdface, sentences, *, epsilon: float, lip_pair) -> list:
 
 
 def train_cdface(cdface, sentences, *, seed: int = 0, max_steps=None, max_seconds=None, progress: bool = True,
-                 on_checkpoint=None) -> dict:
+                 on_checkpoint=None, mixed_precision=None) -> dict:
     """Train ``cdface`` in place on ``sentences`` (list of :class:`SentenceData`).
 
     ``on_checkpoint``: the runner's half-budget call (``Method.train``), made once after
@@ -232,6 +238,10 @@ def train_cdface(cdface, sentences, *, seed: int = 0, max_steps=None, max_second
     ``on_checkpoint(step, total_steps=...)`` with the steps of the two VQ stages counted
     in; ``cdface`` generates during the call (eval mode, no gradients) and training then
     goes on exactly as without it.
+
+    It trains on the device ``cdface.model`` is on: the windows are drawn on the CPU (the
+    same windows for a seed on every device) and moved there; ``mixed_precision``
+    (``"off"``, ``"bf16"``, ``"fp16"``) autocasts the losses when that device is a GPU.
 
     Returns
     -------
@@ -243,6 +253,7 @@ def train_cdface(cdface, sentences, *, seed: int = 0, max_steps=None, max_second
     torch.manual_seed(int(seed))
     model = cdface.model
     model.requires_grad_(True)
+    amp = MixedPrecision(mixed_precision, module_device(model))
     history = {}
     with torch_threads(training["num_threads"]):
         for key, vq, part in (("lip_vq", model.lip_vq, "lips"), ("upper_vq", model.upper_vq, "upper")):
@@ -250,7 +261,7 @@ def train_cdface(cdface, sentences, *, seed: int = 0, max_steps=None, max_second
             sampler = WindowSampler(sentences, training["window"], training["vq_batch_size"], rng)
             steps, seconds = limits[0 if key == "lip_vq" else 1]
             history[key] = _run_stage(key, vq.parameters(), lambda b, vq=vq, part=part: vq_loss(vq, b[part], b["offset"]),
-                                      sampler, steps, seconds, training, progress)
+                                      sampler, steps, seconds, training, progress, amp=amp)
         for vq in (model.lip_vq, model.upper_vq):
             vq.eval()
             vq.requires_grad_(False)
@@ -280,7 +291,7 @@ def train_cdface(cdface, sentences, *, seed: int = 0, max_steps=None, max_second
 
         checked = on_checkpoint is not None and query_steps is not None
         history["query"] = _run_stage("query", model.query_parameters(), query_loss, sampler, *limits[2], training,
-                                      progress, at_half=at_half if checked else None)
+                                      progress, at_half=at_half if checked else None, amp=amp)
         model.eval()
         model.requires_grad_(False)  # trained: inference only, as after CDFace.load
     return history

@@ -17,6 +17,7 @@ import torch
 from torch import nn
 
 from baselines.codetalker.vqvae import VQAutoEncoder
+from baselines.common.device import module_device
 from baselines.common.encoders.trainable import build_audio_encoder, motion_audio_features
 from baselines.common.motion_decoder import decode_step, decode_teacher_forced, motion_decoder
 from baselines.common.positional import PeriodicPositionalEncoding
@@ -141,7 +142,13 @@ class CodeTalker(nn.Module):
         VQ-VAE decoder and feeds the last decoded frame back (frame 0 is decoded
         from itself twice, as the authors do). The result is the decoding of all
         frames' quantized features. ``one_hot2`` / ``weight_of_one_hot`` blend two styles.
+        The inputs may be on any device: they move to the network's, and the result comes
+        back on ``audio``'s (a network on a GPU predicts for CPU callers).
         """
+        home, device = audio.device, module_device(self)
+        audio, template, one_hot = audio.to(device), template.to(device), one_hot.to(device)
+        if one_hot2 is not None:
+            one_hot2 = one_hot2.to(device)
         template = template.unsqueeze(1)
         style = self.learnable_style_emb(torch.argmax(one_hot, dim=1))
         if one_hot2 is not None and weight_of_one_hot is not None:
@@ -164,4 +171,4 @@ class CodeTalker(nn.Module):
             else:
                 decoded = self.autoencoder.decode_frame(torch.cat(quantized, dim=-1), -1)
             token = self.vertice_map(decoded) + style
-        return self.autoencoder.decode(torch.cat(quantized, dim=-1)) + template
+        return (self.autoencoder.decode(torch.cat(quantized, dim=-1)) + template).to(home)

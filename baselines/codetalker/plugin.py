@@ -14,6 +14,8 @@ from baselines.codetalker.model import CodeTalker
 from baselines.codetalker.official import load_official
 from baselines.codetalker.presets import resolve_config
 from baselines.codetalker.train import split_budget, train_stage1, train_stage2
+from baselines.common.chunking import ChunkedDecoder
+from baselines.common.device import checked_precision, method_device, precision_config
 from baselines.common.encoders.trainable import load_pretrained_wav2vec2
 from baselines.common.vertex_method import StyleVertexMethod, official_style_names, training_limits
 from benchmark.methods import show_progress
@@ -22,7 +24,7 @@ from blendvoca.errors import UserError
 __all__ = ["CodeTalkerMethod"]
 
 
-class CodeTalkerMethod(StyleVertexMethod):
+class CodeTalkerMethod(ChunkedDecoder, StyleVertexMethod):
     """CodeTalker (vertex output, one sample per training-speaker style).
 
     Parameters
@@ -46,14 +48,27 @@ class CodeTalkerMethod(StyleVertexMethod):
     # each style is predicted alone, at position 0, as the authors do.
     batch_styles = False
 
+    @classmethod
+    def config_schema(cls):
+        """The constructor's keys plus every flat key of the presets, typed from their values."""
+        from baselines.common.chunking import chunk_options
+        from baselines.common.device import precision_option
+        from baselines.codetalker.presets import PRESETS
+
+        return super().config_schema().with_presets(PRESETS, default="cpu-demo", prefixes={"stage1": "vq_"},
+                                                    extra=(precision_option(), *chunk_options()))
+
     def __init__(self, preset: str = "cpu-demo", official: str | os.PathLike | None = None,
                  official_stage1: str | os.PathLike | None = None, official_wav2vec2="base", resolved: dict | None = None,
-                 **overrides):
+                 mixed_precision: str = "off", **overrides):
         # recorded in the JSON config
         official = None if official is None else os.fspath(official)
         official_stage1 = None if official_stage1 is None else os.fspath(official_stage1)
         super().__init__(preset=preset, official=official, official_stage1=official_stage1,
-                         official_wav2vec2=official_wav2vec2, **overrides)
+                         official_wav2vec2=official_wav2vec2, **precision_config(mixed_precision), **overrides)
+        #: autocast on a GPU (docs/gpu.md); nothing on the CPU
+        self.mixed_precision = checked_precision(mixed_precision)
+        self.device = method_device(None)
         self.settings = resolve_config(preset, **overrides)
         self.motion_scale = float(self.settings["training"]["motion_scale"])
         if (official is None) != (official_stage1 is None):
@@ -98,17 +113,18 @@ class CodeTalkerMethod(StyleVertexMethod):
         t = self.settings["training"]
         steps, seconds = training_limits(budget, t["max_steps"], t["max_seconds"])
         (s1, t1), (s2, t2) = split_budget(steps, seconds, t["stage1_fraction"])
+        self.network.to(self.device)  # built on the CPU from the seed, then moved
         vq = self.network.autoencoder
         for p in vq.parameters():
             p.requires_grad_(True)
         h1 = train_stage1(vq, train, val, training=t, seed=seed, max_steps=s1, max_seconds=t1,
-                          progress=show_progress())
+                          progress=show_progress(), mixed_precision=self.mixed_precision)
         for p in vq.parameters():
             p.requires_grad_(False)
         # the half-budget call (``on_checkpoint``) comes in stage 2, the stage that makes the animation
         h2 = train_stage2(self.network, train, val, self.subjects, training=t, seed=seed + 1, max_steps=s2,
                           max_seconds=t2, progress=show_progress(), on_checkpoint=on_checkpoint,
-                          step_offset=int(h1["steps"]))
+                          step_offset=int(h1["steps"]), mixed_precision=self.mixed_precision)
         return {"stage1": h1, "stage2": h2, "steps": h1["steps"] + h2["steps"], "seconds": h1["seconds"] + h2["seconds"]}
 
     def network_state(self) -> dict:

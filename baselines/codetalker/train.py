@@ -23,6 +23,7 @@ import math
 
 import torch
 
+from baselines.common.device import module_device
 from baselines.common.sequences import sequence_tensors
 from baselines.common.training import epochs_to_steps, fit_sequences
 
@@ -41,11 +42,19 @@ def split_budget(max_steps: float, max_seconds: float, fraction) -> tuple[tuple,
     return (s1, t1), (s2, t2)
 
 
-def train_stage1(vq, train, val, *, training: dict, seed: int, max_steps: float, max_seconds: float, progress=True) -> dict:
-    """Train the VQ-VAE ``vq`` in place on displacement sequences."""
+def _moved(tensors, device) -> tuple:
+    """``tensors`` on ``device`` (on the CPU: the same tensors, not copies)."""
+    return tuple(x.to(device) for x in tensors)
+
+
+def train_stage1(vq, train, val, *, training: dict, seed: int, max_steps: float, max_seconds: float, progress=True,
+                 mixed_precision=None) -> dict:
+    """Train the VQ-VAE ``vq`` in place on displacement sequences, on the device ``vq`` is on
+    (``mixed_precision`` there when it is a GPU)."""
     scale = float(training["motion_scale"])
-    items = [sequence_tensors(s, scale=scale, normalise_audio=False)[1:] for s in train]
-    val_items = [sequence_tensors(s, scale=scale, normalise_audio=False)[1:] for s in val]
+    device = module_device(vq)
+    items = [_moved(sequence_tensors(s, scale=scale, normalise_audio=False)[1:], device) for s in train]
+    val_items = [_moved(sequence_tensors(s, scale=scale, normalise_audio=False)[1:], device) for s in val]
     w = float(training["quant_loss_weight"])
 
     def loss(item):
@@ -63,21 +72,28 @@ def train_stage1(vq, train, val, *, training: dict, seed: int, max_steps: float,
                          num_threads=training.get("num_threads"), grad_clip=training.get("grad_clip"),
                          desc="CodeTalker stage 1 (VQ-VAE)", progress=progress, loss_scale=scale,
                          lr_step_every=(int(training["stage1_step_epochs"]) * len(items)
-                                        if training.get("stage1_step_epochs") else None))
+                                        if training.get("stage1_step_epochs") else None),
+                         mixed_precision=mixed_precision)
 
 
 def train_stage2(model, train, val, subjects, *, training: dict, seed: int, max_steps: float, max_seconds: float,
-                 progress=True, on_checkpoint=None, step_offset: int = 0) -> dict:
+                 progress=True, on_checkpoint=None, step_offset: int = 0, mixed_precision=None) -> dict:
     """Train the stage-2 parts of ``model`` (a :class:`~baselines.codetalker.model.CodeTalker`) in place.
 
     ``on_checkpoint``: the runner's half-budget call, made at half of this (the last)
     stage, the stage-1 steps ``step_offset`` counted in (:func:`~baselines.common.training.fit_sequences`).
+    It trains on the device ``model`` is on (``mixed_precision`` there when it is a GPU); the
+    scheduled-sampling draws stay on a CPU generator, so that a seed feeds back the same frames
+    on every device.
     """
     scale = float(training["motion_scale"])
     w2v = model.config["audio"]["kind"] == "wav2vec2"
     n = len(subjects)
-    items = [(sequence_tensors(s, scale=scale, normalise_audio=w2v), subjects.index(s.subject)) for s in train]
-    val_items = [sequence_tensors(s, scale=scale, normalise_audio=w2v) for s in val]
+    device = module_device(model)
+    items = [(_moved(sequence_tensors(s, scale=scale, normalise_audio=w2v), device), subjects.index(s.subject))
+             for s in train]
+    val_items = [_moved(sequence_tensors(s, scale=scale, normalise_audio=w2v), device) for s in val]
+    eye = torch.eye(n, device=device)
 
     steps = epochs_to_steps(training, len(items), max_steps, max_seconds)
     own_prob = float(training.get("own_input_prob") or 0.0)
@@ -87,27 +103,28 @@ def train_stage2(model, train, val, subjects, *, training: dict, seed: int, max_
 
     def loss(item):
         (audio, template, verts), k = item
-        one_hot = torch.eye(n)[k : k + 1]
+        one_hot = eye[k : k + 1]
         fed = None
         p = own_prob if ramp is None else own_prob * min(1.0, count[0] / ramp)
         count[0] += 1
         if p > 0:
             with torch.no_grad():
                 own = model(audio, template, verts, one_hot)[0]
-            pick = (torch.rand(verts.shape[1], generator=gen) < p).view(1, -1, 1)
+            pick = (torch.rand(verts.shape[1], generator=gen) < p).view(1, -1, 1).to(device)
             fed = torch.where(pick, own, verts)
         return model.loss(audio, template, verts, one_hot, fed)
 
     def val_loss():
         if training.get("val_free_running"):
-            out = [float(torch.mean((model.predict(a, t, torch.eye(n)[k : k + 1], v.shape[1]) - v) ** 2))
+            out = [float(torch.mean((model.predict(a, t, eye[k : k + 1], v.shape[1]) - v) ** 2))
                    for a, t, v in val_items for k in range(min(n, 2))]
         else:
-            out = [float(model(a, t, v, torch.eye(n)[k : k + 1])[1]) for a, t, v in val_items for k in range(min(n, 2))]
+            out = [float(model(a, t, v, eye[k : k + 1])[1]) for a, t, v in val_items for k in range(min(n, 2))]
         return sum(out) / len(out)
 
     return fit_sequences(model, loss, items, val_loss if val_items else None, lr=training["lr"], seed=seed,
                          max_steps=steps,
                          max_seconds=max_seconds, num_threads=training.get("num_threads"),
                          grad_clip=training.get("grad_clip"), desc="CodeTalker stage 2", progress=progress,
-                         loss_scale=scale**2, on_checkpoint=on_checkpoint, step_offset=step_offset)
+                         loss_scale=scale**2, on_checkpoint=on_checkpoint, step_offset=step_offset,
+                         mixed_precision=mixed_precision)

@@ -14,6 +14,7 @@ import numpy as np
 import torch
 from tqdm.auto import tqdm
 
+from baselines.common.device import MixedPrecision, module_device
 from baselines.common.threads import torch_threads
 from benchmark.methods.base import checkpoint_step
 from blendvoca.errors import UserError
@@ -85,7 +86,7 @@ def fit_sequences(model, step_loss, items, val_loss=None, *, lr: float, seed: in
                   max_seconds: float, optimizer: str = "adam", num_threads=None, grad_clip=None,
                   desc: str = "training", progress: bool = True, loss_scale: float = 1.0,
                   lr_step_every: int | None = None, lr_gamma: float = 0.5, on_checkpoint=None,
-                  step_offset: int = 0) -> dict:
+                  step_offset: int = 0, mixed_precision=None) -> dict:
     """Optimise ``model``'s trainable parameters, one item per step in shuffled epochs.
 
     Parameters
@@ -113,6 +114,11 @@ def fit_sequences(model, step_loss, items, val_loss=None, *, lr: float, seed: in
         run goes on exactly as without the call).
     step_offset : int
         Steps of earlier training stages, added to the steps reported to ``on_checkpoint``.
+    mixed_precision : {"off", "bf16", "fp16"}, optional
+        Autocast of ``step_loss`` (and loss scaling under ``fp16``) when ``model`` is on a
+        GPU (:class:`~baselines.common.device.MixedPrecision`); nothing on the CPU.
+        Validation runs in full precision. ``step_loss`` moves its item to the model's
+        device itself.
 
     Returns
     -------
@@ -124,6 +130,7 @@ def fit_sequences(model, step_loss, items, val_loss=None, *, lr: float, seed: in
     rng = np.random.default_rng(seed)
     params = [p for p in model.parameters() if p.requires_grad]
     opt = (torch.optim.AdamW if optimizer == "adamw" else torch.optim.Adam)(params, lr=lr)
+    amp = MixedPrecision(mixed_precision, module_device(model))
     sched = torch.optim.lr_scheduler.StepLR(opt, int(lr_step_every), lr_gamma) if lr_step_every else None
     check_every = max(1, int(max_steps // 10)) if not math.isinf(max_steps) else 200
     half = checkpoint_step(max_steps) if on_checkpoint is not None and math.isinf(max_seconds) else None
@@ -158,12 +165,14 @@ def fit_sequences(model, step_loss, items, val_loss=None, *, lr: float, seed: in
         while step < max_steps and time.perf_counter() - start < max_seconds:
             if not order:
                 order = list(rng.permutation(len(items)))
-            loss = step_loss(items[order.pop()])
+            with amp.autocast():
+                loss = step_loss(items[order.pop()])
             opt.zero_grad(set_to_none=True)
-            loss.backward()
+            amp.backward(loss)
             if grad_clip:
+                amp.unscale(opt)
                 torch.nn.utils.clip_grad_norm_(params, grad_clip)
-            opt.step()
+            amp.step(opt)
             if sched is not None:
                 sched.step()
             step += 1

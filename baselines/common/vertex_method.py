@@ -17,6 +17,7 @@ import numpy as np
 import torch
 
 from baselines.common.checkpoint import load_checkpoint_file, old_format_hint, safe_payload, save_checkpoint_file
+from baselines.common.device import method_device
 from baselines.common.sequences import (
     MotionSequence,
     motion_frames,
@@ -128,22 +129,32 @@ class StyleVertexMethod(Method):
         self.network.load_state_dict(payload["state_dict"])
 
     # -- the contract -------------------------------------------------------------------
-    def train(self, dataset, *, seed: int, budget: Budget, on_checkpoint=None) -> None:
-        """Train on the train split's vertex sequences (styles = its speakers); the
-        authors' weights (given to the constructor) train nothing and make no
-        ``on_checkpoint`` call."""
+    def train(self, dataset, *, seed: int, budget: Budget, on_checkpoint=None, device=None) -> None:
+        """Train on the train split's vertex sequences (styles = its speakers) on ``device``
+        (None: the CPU; ``"cuda"``: the network and the sentences move there, the plug-in's
+        ``mixed_precision`` applies); the network is built on the CPU from the seed, so its
+        initial weights are the same on every device. The authors' weights (given to the
+        constructor) train nothing, make no ``on_checkpoint`` call and move to ``device``."""
+        self.device = method_device(device)
         self.templates = speaker_templates(dataset)
-        if self.network is not None and self.subjects:
-            return  # weights given (e.g. the authors' checkpoint): nothing to train
-        self.subjects = list(dataset.split("train"))
-        if not self.subjects:
-            raise DataError(f"{type(self).__name__}.train: the dataset has no training speakers")
-        train = motion_sequences(dataset, "train")
-        val = motion_sequences(dataset, "val") if dataset.split("val") else []
-        torch.manual_seed(int(seed))  # the initial weights too: a step budget then trains the same network in every process
-        self.build_network(len(self.subjects), int(train[0].template.size))
-        hook = {"on_checkpoint": on_checkpoint} if on_checkpoint is not None and takes_checkpoint_hook(self.fit) else {}
-        self.history = self.fit(train, val, seed=int(seed), budget=budget, **hook)
+        if self.network is None or not self.subjects:
+            self.subjects = list(dataset.split("train"))
+            if not self.subjects:
+                raise DataError(f"{type(self).__name__}.train: the dataset has no training speakers")
+            train = motion_sequences(dataset, "train")
+            val = motion_sequences(dataset, "val") if dataset.split("val") else []
+            torch.manual_seed(int(seed))  # the initial weights too: a step budget then trains the same network in every process
+            self.build_network(len(self.subjects), int(train[0].template.size))
+            hook = {"on_checkpoint": on_checkpoint} if on_checkpoint is not None and takes_checkpoint_hook(self.fit) else {}
+            self.history = self.fit(train, val, seed=int(seed), budget=budget, **hook)
+        self.to(self.device)
+
+    def to(self, device):
+        """This method with its network on ``device`` (generation runs there); returns self."""
+        self.device = method_device(device)
+        if self.network is not None:
+            self.network.to(self.device)
+        return self
 
     def style_index(self, subject: str) -> int:
         """One-hot index of a training speaker."""

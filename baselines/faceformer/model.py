@@ -15,6 +15,7 @@ import copy
 import torch
 from torch import nn
 
+from baselines.common.device import module_device
 from baselines.common.encoders.trainable import build_audio_encoder, motion_audio_features
 from baselines.common.motion_decoder import decode_step, decode_teacher_forced, motion_decoder
 from baselines.common.positional import PeriodicPositionalEncoding
@@ -125,7 +126,12 @@ class Faceformer(nn.Module):
         one_hot : (B, num_subjects) Tensor
         num_frames : int, optional
             Default (the authors'): ``int(cnn_frames / 50 * 30)``.
+
+        The inputs may be on any device: they move to the network's, and the result
+        comes back on ``audio``'s (a network on a GPU predicts for CPU callers).
         """
+        home, device = audio.device, module_device(self)
+        audio, template, one_hot = audio.to(device), template.to(device), one_hot.to(device)
         template = template.unsqueeze(1)
         style = self.obj_vector(one_hot).unsqueeze(1)
         memory = self.audio_features(audio, num_frames)
@@ -137,4 +143,4 @@ class Faceformer(nn.Module):
             out = self.vertice_map_r(decode_step(self.transformer_decoder, x, memory, cache, **self._decode_kwargs()))
             outputs.append(out)
             token = self.vertice_map(out) + style
-        return torch.cat(outputs, dim=1) + template
+        return (torch.cat(outputs, dim=1) + template).to(home)

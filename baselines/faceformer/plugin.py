@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import os
 
+from baselines.common.chunking import ChunkedDecoder
+from baselines.common.device import checked_precision, method_device, precision_config
 from baselines.common.encoders.trainable import load_pretrained_wav2vec2
 from baselines.common.vertex_method import StyleVertexMethod, official_style_names, training_limits
 from baselines.faceformer.model import Faceformer
@@ -20,7 +22,7 @@ from benchmark.methods import show_progress
 __all__ = ["FaceFormerMethod"]
 
 
-class FaceFormerMethod(StyleVertexMethod):
+class FaceFormerMethod(ChunkedDecoder, StyleVertexMethod):
     """FaceFormer (vertex output, one sample per training-speaker style).
 
     Parameters
@@ -40,10 +42,24 @@ class FaceFormerMethod(StyleVertexMethod):
     label = "FaceFormer"
     checkpoint_file = "faceformer.pt"
 
+    @classmethod
+    def config_schema(cls):
+        """The constructor's keys plus every flat key of the presets, typed from their values."""
+        from baselines.common.chunking import chunk_options
+        from baselines.common.device import precision_option
+        from baselines.faceformer.presets import PRESETS
+
+        return super().config_schema().with_presets(PRESETS, default="cpu-demo",
+                                                    extra=(precision_option(), *chunk_options()))
+
     def __init__(self, preset: str = "cpu-demo", official: str | os.PathLike | None = None, official_wav2vec2="base",
-                 resolved: dict | None = None, **overrides):
+                 resolved: dict | None = None, mixed_precision: str = "off", **overrides):
         official = None if official is None else os.fspath(official)  # recorded in the JSON config
-        super().__init__(preset=preset, official=official, official_wav2vec2=official_wav2vec2, **overrides)
+        super().__init__(preset=preset, official=official, official_wav2vec2=official_wav2vec2,
+                         **precision_config(mixed_precision), **overrides)
+        #: autocast on a GPU (docs/gpu.md); nothing on the CPU
+        self.mixed_precision = checked_precision(mixed_precision)
+        self.device = method_device(None)
         self.settings = resolve_config(preset, **overrides)
         self.motion_scale = float(self.settings["training"]["motion_scale"])
         if official is not None:
@@ -69,9 +85,10 @@ class FaceFormerMethod(StyleVertexMethod):
     def fit(self, train, val, *, seed, budget, on_checkpoint=None):
         t = self.settings["training"]
         steps, seconds = training_limits(budget, t["max_steps"], t["max_seconds"])
+        self.network.to(self.device)  # built on the CPU from the seed, then moved
         return train_faceformer(self.network, train, val, self.subjects, training=t, seed=seed,
                                 max_steps=steps, max_seconds=seconds, progress=show_progress(),
-                                on_checkpoint=on_checkpoint)
+                                on_checkpoint=on_checkpoint, mixed_precision=self.mixed_precision)
 
     def network_state(self) -> dict:
         return {"state_dict": self.network.state_dict(), "model_config": self.network.config,

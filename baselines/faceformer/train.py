@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import torch
 
+from baselines.common.device import module_device
 from baselines.common.sequences import sequence_tensors
 from baselines.common.training import epochs_to_steps, fit_sequences
 
@@ -11,26 +12,34 @@ __all__ = ["train_faceformer"]
 
 
 def train_faceformer(model, train, val, subjects, *, training: dict, seed: int, max_steps: float, max_seconds: float,
-                     progress: bool = True, on_checkpoint=None) -> dict:
+                     progress: bool = True, on_checkpoint=None, mixed_precision=None) -> dict:
     """Train ``model`` (a :class:`~baselines.faceformer.model.Faceformer`) in place.
 
     One sentence per step (batch 1, as the authors), teacher-forced MSE on the
     vertices, Adam; keeps the weights with the lowest validation MSE (teacher-forced,
     averaged over two styles since validation speakers are unseen) when ``val`` is given.
     ``on_checkpoint``: the runner's half-budget call (:func:`~baselines.common.training.fit_sequences`).
+    The sentences move once to the device ``model`` is on; ``mixed_precision``
+    (``"off"``, ``"bf16"``, ``"fp16"``) applies there when it is a GPU.
     """
     scale = float(training["motion_scale"])
     w2v = model.config["audio"]["kind"] == "wav2vec2"
     n_sub = len(subjects)
-    items = [(sequence_tensors(s, scale=scale, normalise_audio=w2v), subjects.index(s.subject)) for s in train]
-    val_items = [sequence_tensors(s, scale=scale, normalise_audio=w2v) for s in val]
+    device = module_device(model)
+
+    def moved(tensors):  # the CPU: the same tensors, not copies
+        return tuple(x.to(device) for x in tensors)
+
+    items = [(moved(sequence_tensors(s, scale=scale, normalise_audio=w2v)), subjects.index(s.subject)) for s in train]
+    val_items = [moved(sequence_tensors(s, scale=scale, normalise_audio=w2v)) for s in val]
+    eye = torch.eye(n_sub, device=device)
 
     def step_loss(item):
         (audio, template, verts), k = item
-        return torch.mean((model(audio, template, verts, torch.eye(n_sub)[k : k + 1]) - verts) ** 2)
+        return torch.mean((model(audio, template, verts, eye[k : k + 1]) - verts) ** 2)
 
     def val_loss():
-        losses = [torch.mean((model(a, t, v, torch.eye(n_sub)[k : k + 1]) - v) ** 2)
+        losses = [torch.mean((model(a, t, v, eye[k : k + 1]) - v) ** 2)
                   for a, t, v in val_items for k in range(min(n_sub, 2))]
         return float(sum(losses) / len(losses))
 
@@ -38,4 +47,4 @@ def train_faceformer(model, train, val, subjects, *, training: dict, seed: int, 
                          max_steps=epochs_to_steps(training, len(items), max_steps, max_seconds),
                          max_seconds=max_seconds, num_threads=training.get("num_threads"),
                          grad_clip=training.get("grad_clip"), desc="FaceFormer training", progress=progress,
-                         loss_scale=scale**2, on_checkpoint=on_checkpoint)
+                         loss_scale=scale**2, on_checkpoint=on_checkpoint, mixed_precision=mixed_precision)

@@ -40,6 +40,9 @@ class AudioToCoefficients(nn.Module):
         self.head = nn.Linear(2 * hidden, num_coeffs)
 
     def forward(self, features: torch.Tensor) -> torch.Tensor:
-        x = self.cnn(features.transpose(1, 2))  # (B, C, T)
+        """``(B, T, K)`` coefficients in (0, 1) of ``(B, T, n_mels)`` features, on the device of
+        ``features`` (which move to the network's first: a GPU network serves CPU callers)."""
+        home, device = features.device, self.head.weight.device
+        x = self.cnn(features.to(device).transpose(1, 2))  # (B, C, T)
         x, _ = self.gru(x.transpose(1, 2))  # (B, T, 2H)
-        return torch.sigmoid(self.head(x))
+        return torch.sigmoid(self.head(x)).to(home)

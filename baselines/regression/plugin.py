@@ -41,9 +41,14 @@ class RegressionMethod(Method):
     stochastic = False
 
     def __init__(self, steps: int = 1200, n_mels: int = 40, channels: int = 64, hidden: int = 64,
-                 batch: int = 16, window: int = 60, lr: float = 2e-3, threads: int | None = 1):
+                 batch: int = 16, window: int = 60, lr: float = 2e-3, threads: int | None = 1,
+                 mixed_precision: str = "off"):
+        from baselines.common.device import checked_precision, precision_config
+
         super().__init__(steps=steps, n_mels=n_mels, channels=channels, hidden=hidden, batch=batch, window=window,
-                         lr=lr, threads=threads)
+                         lr=lr, threads=threads, **precision_config(mixed_precision))
+        #: autocast of the training loss on a GPU (docs/gpu.md); nothing on the CPU
+        self.mixed_precision = checked_precision(mixed_precision)
         self.model = None
         self.stats = None
         self.history = None
@@ -61,10 +66,11 @@ class RegressionMethod(Method):
                 targets.append(coeffs)
         return feats, targets
 
-    def train(self, dataset, *, seed: int, budget: Budget, on_checkpoint=None) -> None:
+    def train(self, dataset, *, seed: int, budget: Budget, on_checkpoint=None, device=None) -> None:
         """Train on the train split (the val split picks the kept weights); ``on_checkpoint``:
         the runner's half-budget call, made when a run without a time limit has done half
-        its steps, the network then being the one training would keep at that point."""
+        its steps, the network then being the one training would keep at that point.
+        ``device``: where the network trains and then predicts (None: the CPU)."""
         from baselines.common.threads import torch_threads
 
         from .training import feature_statistics, trained_regressor
@@ -93,8 +99,17 @@ class RegressionMethod(Method):
                 norm(feats), targets, val_features=norm(val_feats), val_targets=val_targets, seed=seed,
                 budget=budget, default_steps=cfg["steps"], batch=cfg["batch"], window=cfg["window"], lr=cfg["lr"],
                 model_kwargs={"channels": cfg["channels"], "hidden": cfg["hidden"]}, progress=show_progress(),
-                on_checkpoint=None if on_checkpoint is None else at_half,
+                on_checkpoint=None if on_checkpoint is None else at_half, device=device,
+                mixed_precision=self.mixed_precision,
             )
+
+    def to(self, device):
+        """This method with its network on ``device`` (prediction runs there); returns self."""
+        from baselines.common.device import method_device
+
+        if self.model is not None:
+            self.model.to(method_device(device))
+        return self
 
     def generate(self, utterance, *, samples=1, seed=0):
         import torch

@@ -9,6 +9,7 @@ import time
 import numpy as np
 import torch
 
+from baselines.common.device import MixedPrecision, method_device
 from baselines.common.training import kept_state, paused_training
 from benchmark.methods.base import Budget, checkpoint_step
 
@@ -66,8 +67,10 @@ def window_batch(rng: np.random.Generator, features, targets, *, batch: int, win
 
 def _mse(model, features, targets) -> float:
     model.eval()
+    device = model.head.weight.device
     with torch.no_grad():
-        errors = [float(((model(torch.from_numpy(f[None])) - torch.from_numpy(c[None].astype(np.float32))) ** 2)
+        errors = [float(((model(torch.from_numpy(f[None]).to(device))
+                          - torch.from_numpy(c[None].astype(np.float32)).to(device)) ** 2)
                         .mean()) * f.shape[0] for f, c in zip(features, targets)]
     model.train()
     return sum(errors) / sum(f.shape[0] for f in features)
@@ -76,7 +79,7 @@ def _mse(model, features, targets) -> float:
 def trained_regressor(features, targets, *, val_features=(), val_targets=(), seed: int = 0,
                       budget: Budget | None = None, default_steps: int = 1500, batch: int = 16, window: int = 120,
                       lr: float = 2e-3, eval_every: int = 250, model_kwargs=None, progress: bool = True,
-                      on_checkpoint=None):
+                      on_checkpoint=None, device=None, mixed_precision=None):
     """Train an :class:`AudioToCoefficients` with MSE on random windows.
 
     Parameters
@@ -98,6 +101,12 @@ def trained_regressor(features, targets, *, val_features=(), val_targets=(), see
         weights this function would return if it stopped there (the best on validation,
         a validation at that step included, not recorded), in eval mode without
         gradients; afterwards training goes on exactly as without the call.
+    device : str or torch.device, optional
+        Where it trains (None: the CPU). The network is initialised and the windows drawn
+        on the CPU, so a seed trains on the same batches from the same weights everywhere.
+    mixed_precision : {"off", "bf16", "fp16"}, optional
+        Autocast of the loss on a GPU (:class:`~baselines.common.device.MixedPrecision`);
+        nothing on the CPU.
 
     Returns
     -------
@@ -124,6 +133,9 @@ def trained_regressor(features, targets, *, val_features=(), val_targets=(), see
     with torch.no_grad():
         model.head.bias.copy_(torch.from_numpy(np.log(mean / (1 - mean)).astype(np.float32)))
         model.head.weight.mul_(0.1)
+    device = method_device(device)
+    model.to(device)
+    amp = MixedPrecision(mixed_precision, device)
     optimiser = torch.optim.Adam(model.parameters(), lr=lr)
     steps = budget.steps(default_steps)
     started = time.perf_counter()
@@ -138,10 +150,11 @@ def trained_regressor(features, targets, *, val_features=(), val_targets=(), see
     step = 0
     while not budget.exhausted(step, started) and step < steps:
         x, y = window_batch(rng, features, targets, batch=batch, window=window)
-        loss = torch.nn.functional.mse_loss(model(torch.from_numpy(x)), torch.from_numpy(y))
+        with amp.autocast():
+            loss = torch.nn.functional.mse_loss(model(torch.from_numpy(x).to(device)), torch.from_numpy(y).to(device))
         optimiser.zero_grad()
-        loss.backward()
-        optimiser.step()
+        amp.backward(loss)
+        amp.step(optimiser)
         losses.append(loss.item())
         step += 1
         if bar is not None:

@@ -219,12 +219,15 @@ def cached_expert(data, *, max_seconds: float | None = 240.0, max_steps: int | N
         cache_dir = user_cache()
     dataset = open_blendvoca(data)
     budget = f"{max_steps}steps" if max_steps is not None else f"{max_seconds:g}s"
-    path = Path(cache_dir).expanduser() / "sync-expert" / f"{dataset.manifest_hash[:16]}-{budget}-seed{seed}.pt"
+    # Keyed by the dataset's recipe id: the same name for the same dataset on any machine.
+    key = getattr(dataset, "recipe_id", dataset.manifest_hash)
+    path = Path(cache_dir).expanduser() / "sync-expert" / f"{key[:16]}-{budget}-seed{seed}.pt"
     if path.is_file():
         return load_expert(path), path
     expert = train_expert(dataset_items(dataset, "train"), max_steps=max_steps, max_seconds=max_seconds, seed=seed,
                           progress=progress,
                           trained_on={"data": str(Path(data).expanduser().resolve()), "split": "train",
-                                      "subjects": dataset.split("train"), "manifest_hash": dataset.manifest_hash})
+                                      "subjects": dataset.split("train"), "recipe_id": key,
+                                      "manifest_hash": dataset.manifest_hash})
     save_expert(expert, path)
     return expert, path

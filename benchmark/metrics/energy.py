@@ -23,7 +23,10 @@ import numpy as np
 
 from benchmark.metrics.vertex import MM
 
-__all__ = ["energy_scores", "vertex_energy_score"]
+__all__ = ["BLOCK_FRAMES", "energy_scores", "vertex_energy_score"]
+
+#: Frames per block of :func:`vertex_energy_score` (S x 16 x 3V floats: a few MB at S = 10).
+BLOCK_FRAMES = 16
 
 
 def energy_scores(samples, truth) -> np.ndarray:
@@ -86,6 +89,12 @@ def vertex_energy_score(samples, truth) -> float:
     if t == 0:
         raise ValueError("vertex_energy_score: empty sequence")
     v = samples.shape[2]
-    # RMS over the V vertices = Euclidean distance of the flattened frame / sqrt(V)
-    flat = samples[:, :t].reshape(samples.shape[0], t, 3 * v)
-    return float(energy_scores(flat, truth[:t].reshape(t, 3 * v)).mean() * MM / np.sqrt(v))
+    # RMS over the V vertices = Euclidean distance of the flattened frame / sqrt(V). The frames'
+    # scores are independent: computed BLOCK_FRAMES at a time, the temporaries of the pairwise
+    # distances (several copies of S x frames x 3V positions, hundreds of MB for ten samples of
+    # a sentence) stay small, which is most of the time; the mean over all frames is the same.
+    per_frame = np.concatenate([
+        energy_scores(samples[:, i:min(i + BLOCK_FRAMES, t)].reshape(samples.shape[0], -1, 3 * v),
+                      truth[i:min(i + BLOCK_FRAMES, t)].reshape(-1, 3 * v))
+        for i in range(0, t, BLOCK_FRAMES)])
+    return float(per_frame.mean() * MM / np.sqrt(v))

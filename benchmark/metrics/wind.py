@@ -15,7 +15,7 @@ from scipy.optimize import linprog
 from benchmark.metrics.frechet import _as_features, frechet_distance_from_stats
 
 
-def gmm_components(x, n_components: int = 5, seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def gmm_components(x, n_components: int = 5, seed: int = 0, init=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Fit a full-covariance Gaussian mixture to features.
 
     Parameters
@@ -24,6 +24,11 @@ def gmm_components(x, n_components: int = 5, seed: int = 0) -> tuple[np.ndarray,
     n_components : int
     seed : int
         ``random_state`` of the k-means initialisation.
+    init : tuple (weights (K,), means (K, D), covariances (K, D, D)), optional
+        A mixture to start EM from instead of the k-means initialisation (a warm
+        start: EM from a mixture already fitted to similar features converges in a
+        few iterations). ``seed`` is then unused, unless scikit-learn rejects the
+        start (a covariance too close to singular): the k-means start of ``seed``.
 
     Returns
     -------
@@ -39,8 +44,28 @@ def gmm_components(x, n_components: int = 5, seed: int = 0) -> tuple[np.ndarray,
         raise ValueError(f"gmm_components: n_components must be in [1, N={len(x)}], got {n_components}")
     # EM on a few thousand 64-d points is small work: with BLAS/OpenMP threads on a
     # shared CPU the thread hand-offs cost 10x more than the arithmetic (measured)
+    start = {}
+    if init is not None:
+        weights, means, covariances = (np.asarray(a, dtype=np.float64) for a in init)
+        if len(weights) != n_components or means.shape != (n_components, x.shape[1]):
+            raise ValueError(f"gmm_components: init has {len(weights)} components of dimension "
+                             f"{means.shape[1:]}, expected {n_components} of ({x.shape[1]},)")
+        # precisions through the Cholesky factors, symmetrised: a plain inverse of a
+        # nearly singular covariance need not pass scikit-learn's symmetry check
+        inv_chol = np.linalg.inv(np.linalg.cholesky(covariances))
+        precisions = np.swapaxes(inv_chol, 1, 2) @ inv_chol
+        start = {"weights_init": weights / weights.sum(), "means_init": means,
+                 "precisions_init": 0.5 * (precisions + np.swapaxes(precisions, 1, 2))}
     with threadpool_limits(limits=1):
-        gmm = GaussianMixture(n_components=n_components, covariance_type="full", random_state=seed).fit(x)
+        try:
+            gmm = GaussianMixture(n_components=n_components, covariance_type="full", random_state=seed,
+                                  **start).fit(x)
+        except ValueError:
+            if not start:
+                raise
+            # a start scikit-learn rejects (precisions not positive definite in its
+            # check): the cold, k-means start of this seed
+            gmm = GaussianMixture(n_components=n_components, covariance_type="full", random_state=seed).fit(x)
     return gmm.weights_.copy(), gmm.means_.copy(), gmm.covariances_.copy()
 
 
@@ -57,7 +82,8 @@ def gmm_components_many(jobs, workers: int = 1, progress=None) -> list:
 
     Parameters
     ----------
-    jobs : sequence of ((N, D) array_like, int, int)
+    jobs : sequence of ((N, D) array_like, int, int) or of ((N, D), int, int, init)
+        The arguments of `gmm_components`.
     workers : int
     progress : callable, optional
         Wraps the iterator of results (e.g. ``tqdm`` with ``total``).

@@ -176,6 +176,8 @@ def run_method(
     sync_expert=None,
     sentence_batch: int = 1,
     verify: bool = True,
+    device: str | None = None,
+    vae=None,
 ) -> Path:
     """Train or load ``method_name``, generate on ``split``, score it and write the result.
 
@@ -226,6 +228,11 @@ def run_method(
     verify : bool, default True
         Check the split's files against the build's manifest digests first
         (:class:`~blendvoca.errors.CheckFailed` for one that changed).
+    device : str, optional
+        ``"cpu"``, ``"cuda"``, ``"cuda:N"`` or ``"auto"``: where the method trains and
+        generates (``RunSpec.device``); a GPU run records ``protocol.device``.
+    vae : path-like, optional
+        The VAE of the latent metrics (``RunSpec.vae``); default the published one.
 
     Notes
     -----
@@ -251,5 +258,6 @@ def run_method(
     spec = RunSpec(method=method_name, config=config, data_root=data_root, split=split, samples=samples,
                    seed=0 if seed is None else seed, seeds=seeds, budget=budget, checkpoint=checkpoint, clip=clip,
                    generate_time_limit=generate_time_limit, sentence_batch=sentence_batch, vocaset=vocaset,
-                   syncnet=syncnet, sync_expert=sync_expert, results_dir=results_dir, verify=verify, progress=progress)
+                   syncnet=syncnet, sync_expert=sync_expert, results_dir=results_dir, verify=verify, progress=progress,
+                   device=device, vae=vae)
     return run(spec, evaluate=evaluate, open_dataset=open_dataset)

@@ -110,6 +110,8 @@ def score(spec, dataset, generated, *, evaluate=None) -> Scored:
         if spec.evaluates_lipsync_models:
             syncnet, sync_expert = loaded_lipsync_models(spec.syncnet, spec.sync_expert)
             extra.update(syncnet=syncnet, sync_expert=sync_expert)
+        if getattr(spec, "vae", None) is not None:  # a VAE trained on this dataset (benchmark.features.train)
+            extra["extractor"] = str(spec.vae)
         metrics = _evaluate_default(generated.tracks, dataset, split=spec.split, progress=spec.progress, **extra)
     else:
         metrics = evaluate(generated.tracks, dataset, split=spec.split, **extra)

@@ -102,6 +102,8 @@ class SeedRun:
     n_clipped, num_subjects, num_sentences : int
     timings : dict
         Seconds per step of this seed.
+    latency : dict or None
+        The seed's :func:`~benchmark.protocol.generation.measure_latency` record.
     """
 
     seed: int
@@ -114,6 +116,7 @@ class SeedRun:
     num_subjects: int = 0
     num_sentences: int = 0
     timings: dict = field(default_factory=dict)
+    latency: dict | None = None
 
 
 @dataclass(frozen=True)
@@ -335,7 +338,8 @@ def run_seeds(spec, inputs, *, evaluate=None, provenance: dict, started: float |
                 replicates=dict(getattr(scored.metrics, "replicates", {}) or {}), convergence=convergence,
                 evaluation=dict(getattr(scored.metrics, "protocol", {}) or {}), n_clipped=generated.n_clipped,
                 num_subjects=len({s for s, _ in generated.tracks}), num_sentences=len(generated.tracks),
-                timings={**trained.timings, "generate_s": generated.seconds, "evaluate_s": scored.seconds}))
+                timings={**trained.timings, "generate_s": generated.seconds, "evaluate_s": scored.seconds},
+                latency=getattr(generated, "latency", None)))
             del generated, scored  # the tracks are on disk; keep one seed's in memory at a time
         combined = combined_seed_scores(runs, stream=seed_stream(first_trained.label))
         timings = {}

@@ -121,6 +121,14 @@ class RunSpec:
     verify : bool, default True
         Check the files of the split against the build's ``manifest.json`` digests
         before anything runs (``--no-verify`` turns it off; recorded in the result).
+    vae : path-like, optional
+        A VAE state dict for the latent metrics (``--vae``; e.g. one trained on the
+        dataset with ``python -m benchmark.features.train``); None: the published VAE
+        (asset ``said-vae``), trained on BlendVOCA: out of domain on other corpora.
+    device : str, optional
+        ``"cpu"``, ``"cuda"``, ``"cuda:N"`` or ``"auto"`` (``--device``): handed to the
+        method's ``train`` and where the trained method generates; None: each method's
+        own choice (the CPU for every built-in one). Checked when the spec is made.
     progress : bool, default True
         Progress bars, the plug-ins' own included.
     """
@@ -143,6 +151,8 @@ class RunSpec:
     results_dir: object = None
     verify: bool = True
     progress: bool = True
+    device: str | None = None
+    vae: object = None
 
     def __post_init__(self):
         if not _is_count(self.samples):
@@ -157,6 +167,12 @@ class RunSpec:
         object.__setattr__(self, "budget", self.budget or Budget())
         object.__setattr__(self, "samples", int(self.samples))
         object.__setattr__(self, "sentence_batch", int(self.sentence_batch))
+        if self.vae is not None and not Path(self.vae).expanduser().is_file():
+            raise UsageError(f"--vae {self.vae}: no such file (a VAE state dict, python -m benchmark.features.train)")
+        if self.device is not None:
+            from benchmark.protocol.training import checked_device  # torch only for a GPU name
+
+            object.__setattr__(self, "device", checked_device(self.device))
         if self.seeds is not None:
             seeds = checked_seeds(self.seeds)
             object.__setattr__(self, "seeds", seeds)

@@ -12,17 +12,71 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from benchmark.methods import OUTPUT_COEFFICIENTS, Budget, get_method
-from benchmark.methods.base import CONFIG_FILE, progress_bars, takes_checkpoint_hook
+from benchmark.methods.base import CONFIG_FILE, progress_bars, takes_checkpoint_hook, takes_device
 from benchmark.protocol.limits import TimeLimit
 from blendvoca.errors import DataError, MethodError, MethodTimeout, UserError
 
-__all__ = ["TRAIN_GRACE_S", "Trained", "make_method", "prepared_method", "train"]
+__all__ = ["TRAIN_GRACE_S", "Trained", "checked_device", "make_method", "moved_to", "prepared_method",
+           "train"]
 
 #: Extra seconds over ``Budget.max_seconds`` before the runner stops a training run.
 TRAIN_GRACE_S = 60.0
 
 #: What reading a file that is no checkpoint at all raises (pickle, zip and text readers).
 _NOT_A_CHECKPOINT = (pickle.UnpicklingError, EOFError, zipfile.BadZipFile, UnicodeDecodeError)
+
+def checked_device(name) -> str | None:
+    """The torch device ``--device`` names, as a string the methods read: ``"cpu"``,
+    ``"cuda"`` or ``"cuda:N"``; ``"auto"`` is ``"cuda"`` when torch sees a GPU, else
+    ``"cpu"``; None stays None (each method's own choice).
+
+    Raises
+    ------
+    UserError
+        A name that is no such device, or a CUDA device torch does not see here (one
+        ``error:`` line, exit status 2, before anything is read or trained).
+    """
+    if name is None:
+        return None
+    text = str(name).strip().lower()
+    kind, sep, index = text.partition(":")
+    if text != "auto" and (kind not in ("cpu", "cuda") or (sep and (kind != "cuda" or not index.isdigit()))):
+        raise UserError(f"--device: expected auto, cpu, cuda or cuda:N, got {name!r}")
+    if text == "cpu":
+        return "cpu"  # torch is not even imported for the CPU
+    import torch  # only for a GPU: whether torch sees one
+
+    available = torch.cuda.is_available()
+    if text == "auto":
+        return "cuda" if available else "cpu"
+    if not available:
+        raise UserError(f"--device {name}: torch sees no CUDA device here (torch {torch.__version__}, "
+                        f"CUDA build {torch.version.cuda or 'none'}); use --device cpu")
+    if sep and int(index) >= torch.cuda.device_count():
+        raise UserError(f"--device {name}: there are {torch.cuda.device_count()} CUDA devices (cuda:0 .. "
+                        f"cuda:{torch.cuda.device_count() - 1})")
+    return text
+
+
+def moved_to(method, device):
+    """``method`` ready to generate on ``device``: ``method.to(device)`` when the method
+    has a ``to`` (it returns the moved method, or None for itself); a method without one
+    generates where it is. None changes nothing.
+
+    Raises
+    ------
+    MethodError
+        The method's ``to`` raised.
+    """
+    mover = getattr(method, "to", None)
+    if device is None or not callable(mover):
+        return method
+    try:
+        moved = mover(device)
+    except Exception as exc:
+        raise MethodError(f"method {getattr(method, 'name', type(method).__name__)!r}: moving it to {device} "
+                          f"failed: {type(exc).__name__}: {exc}") from exc
+    return method if moved is None else moved
 
 
 @dataclass(frozen=True)
@@ -79,13 +133,17 @@ def train(spec, dataset, *, check=None) -> Trained:
         The half-budget check, handed to the method's ``train`` as ``on_checkpoint``;
         its seconds are counted in ``convergence_s``, not ``train_s``.
 
+    The device is ``spec.device`` (``benchmark.run --device``); None leaves it to each
+    method.
+
     Returns
     -------
     Trained
     """
+    device = getattr(spec, "device", None)
     with progress_bars(spec.progress):
         method, timings = prepared_method(spec.method, spec.config, dataset, seed=spec.seed, budget=spec.budget,
-                                          checkpoint=spec.checkpoint, checkpoint_hook=check)
+                                          checkpoint=spec.checkpoint, checkpoint_hook=check, device=device)
     train_s, convergence_s = timings["train_s"], None
     if check is not None and check.called:
         convergence_s = check.seconds
@@ -111,7 +169,7 @@ def make_method(name: str, config: dict | None = None):
 
 
 def prepared_method(name: str, config: dict, dataset, *, seed: int, budget: Budget, checkpoint=None,
-                    checkpoint_hook=None):
+                    checkpoint_hook=None, device=None):
     """The method ready to generate: loaded from ``checkpoint`` when it holds one,
     otherwise built and trained (and saved to ``checkpoint`` when given).
 
@@ -132,6 +190,11 @@ def prepared_method(name: str, config: dict, dataset, *, seed: int, budget: Budg
         trained (not loaded) and whose ``train`` takes ``on_checkpoint`` as
         ``on_checkpoint(step, total_steps=None)`` (``Method.train``). What the hook
         raises leaves ``train`` unchanged (not wrapped as the method's failure).
+    device : str, optional
+        ``"cpu"``, ``"cuda"`` or ``"cuda:N"`` (:func:`checked_device`): handed to a
+        ``train`` that takes ``device`` (``Method.train``), and the trained or loaded
+        method is then moved there (:func:`moved_to`) to generate. None: nothing is
+        passed or moved, each method trains and generates where it always did.
 
     Returns
     -------
@@ -160,11 +223,12 @@ def prepared_method(name: str, config: dict, dataset, *, seed: int, budget: Budg
     if path is not None and path.is_file():
         start = time.perf_counter()
         method = _from_released_file(cls, name, config, dataset, seed=seed, budget=budget, path=path)
+        method = moved_to(method, device)
         timings["load_s"] = time.perf_counter() - start
         return method, timings
     if path is not None and path.is_dir() and any(path.iterdir()):
         start = time.perf_counter()
-        method = _with_config(_from_folder(cls, name, path), config, name, path)
+        method = moved_to(_with_config(_from_folder(cls, name, path), config, name, path), device)
         timings["load_s"] = time.perf_counter() - start
         return method, timings
     if path is not None:
@@ -182,6 +246,8 @@ def prepared_method(name: str, config: dict, dataset, *, seed: int, budget: Budg
                 raise
 
         hook = {"on_checkpoint": on_checkpoint}
+    if device is not None and takes_device(method.train):
+        hook["device"] = device  # older plug-ins are called as they always were
     try:
         with TimeLimit(limit, f"method {name!r}: train (budget {budget.max_seconds:g} s + grace)"
                        if limit else ""):
@@ -194,6 +260,7 @@ def prepared_method(name: str, config: dict, dataset, *, seed: int, budget: Budg
             if _caused_by(exc, error):
                 raise error from None
         raise MethodError(f"method {name!r}: train failed: {type(exc).__name__}: {exc}") from exc
+    method = moved_to(method, device)
     timings["train_s"] = time.perf_counter() - start
     if path is not None:
         try:

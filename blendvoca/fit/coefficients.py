@@ -254,7 +254,8 @@ def fit_coefficients(
         frames = resample_sequence(frames, fps, 60.0)
     lower, upper = (0.0, 1.0) if bounds else (None, None)
     with _one_blas_thread():
-        system = normal_equations_of_checked(neutral, deltas, frames)
+        # only the minimiser is returned: no objective, so no ||p_t - n||^2 pass
+        system = normal_equations_of_checked(neutral, deltas, frames, offset_sq=False)
         if framewise:
             if not bounds:
                 raise UserError(f"{where}: framewise mode needs bounds=True")

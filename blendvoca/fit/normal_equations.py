@@ -30,8 +30,8 @@ class NormalEquations:
         ``B^T B`` over the fitted vertices.
     rhs : (T, K) ndarray
         ``c_t = B^T (p_t - n)``.
-    offset_sq : (T,) ndarray
-        ``r_t = ||p_t - n||^2``.
+    offset_sq : (T,) ndarray or None
+        ``r_t = ||p_t - n||^2`` (None when not computed: no :meth:`objective`).
     num_vertices : int
         Number of fitted vertices (for RMSE).
     """
@@ -132,12 +132,15 @@ def normal_equations(neutral, deltas, frames, *, vertex_subset=None) -> NormalEq
     return normal_equations_of_checked(neutral, deltas, frames)
 
 
-def normal_equations_of_checked(neutral, deltas, frames) -> NormalEquations:
+def normal_equations_of_checked(neutral, deltas, frames, *, offset_sq: bool = True) -> NormalEquations:
     """:func:`normal_equations` of arrays :func:`check_rig_and_frames` returned (no second check).
 
     ``frames`` may be a :class:`FrameCrop`: the products are then made chunk by
-    chunk of frames (the same rows, bit for bit).
+    chunk of frames (the same rows, bit for bit). ``offset_sq=False`` leaves
+    ``offset_sq`` None (no objective value): a caller that only needs the
+    minimiser saves a pass over the frames.
     """
+    want_offset_sq = offset_sq
     num_shapes = deltas.shape[0]
     basis = deltas.reshape(num_shapes, -1)  # (K, 3S)
     gram = basis @ basis.T
@@ -148,11 +151,13 @@ def normal_equations_of_checked(neutral, deltas, frames) -> NormalEquations:
             crop -= neutral[None]  # the chunk is ours: the offsets in place
             offsets = crop.reshape(crop.shape[0], -1)
             rhs[start:start + crop.shape[0]] = offsets @ basis.T
-            offset_sq[start:start + crop.shape[0]] = np.einsum("ij,ij->i", offsets, offsets)
+            if want_offset_sq:
+                offset_sq[start:start + crop.shape[0]] = np.einsum("ij,ij->i", offsets, offsets)
     else:
         offsets = (frames - neutral[None]).reshape(frames.shape[0], -1)  # (T, 3S)
         rhs = offsets @ basis.T
-        offset_sq = np.einsum("ij,ij->i", offsets, offsets)
+        offset_sq = np.einsum("ij,ij->i", offsets, offsets) if want_offset_sq else None
     return NormalEquations(
-        gram=0.5 * (gram + gram.T), rhs=rhs, offset_sq=offset_sq, num_vertices=neutral.shape[0]
+        gram=0.5 * (gram + gram.T), rhs=rhs, offset_sq=offset_sq if want_offset_sq else None,
+        num_vertices=neutral.shape[0]
     )

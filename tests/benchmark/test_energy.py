@@ -62,3 +62,17 @@ def test_vertex_energy_is_rms_distance_in_mm():
     assert vertex_energy_score(one, truth) == pytest.approx(np.sqrt(3))
     with pytest.raises(ValueError, match=r"\(S, T, V, 3\)"):
         vertex_energy_score(truth, truth)
+
+
+
+@pytest.mark.parametrize("shape", [(10, 259, 40), (10, 37, 50), (1, 20, 30), (3, 16, 8), (3, 17, 5), (2, 1, 4)])
+def test_vertex_energy_in_blocks_of_frames_is_the_whole_sequence_score_bit_for_bit(shape):
+    from benchmark.metrics.energy import energy_scores, vertex_energy_score
+    from benchmark.metrics.vertex import MM
+
+    s, t, v = shape
+    rng = np.random.default_rng(t)
+    truth = rng.normal(size=(t + 3, v, 3)) * 0.01
+    samples = truth[None, :t] + rng.normal(size=(s, t, v, 3)) * 0.002
+    whole = energy_scores(samples.reshape(s, t, 3 * v), truth[:t].reshape(t, 3 * v))
+    assert vertex_energy_score(samples, truth) == float(whole.mean() * MM / np.sqrt(v))

@@ -74,3 +74,29 @@ def test_parallel_fits_are_bit_identical_to_sequential():
             np.testing.assert_array_equal(a, b)
     np.testing.assert_array_equal(wind_scores(x, y, 3, repeats=4, seed=2, workers=2),
                                   wind_scores(x, y, 3, repeats=4, seed=2, workers=1))
+
+
+def _clustered(seed, n=400, dim=6):
+    rng = np.random.default_rng(seed)
+    centres = rng.normal(size=(5, dim)) * 3.0
+    return centres[rng.integers(0, 5, n)] + rng.normal(size=(n, dim))
+
+
+def test_warm_start_rejects_a_mixture_of_another_size():
+    x = _clustered(0)
+    fit = gmm_components(x, 3, seed=0)
+    with pytest.raises(ValueError, match="init has 3 components"):
+        gmm_components(x, 5, seed=0, init=fit)
+
+
+def test_warm_start_error_within_a_quarter_of_the_refit_spread():
+    # The documented bound (docs/metrics.md "WInD cost"): a refit warm-started from
+    # a mixture already fitted to the same windows moves WInD by at most 0.25 x the
+    # spread of WInD over seeded cold fits (its std over repeats).
+    x, y = _clustered(1), _clustered(2) + 0.5
+    spread = np.std(wind_scores(x, y, n_components=5, repeats=6, seed=0), ddof=1)
+    assert spread > 0
+    cold_x, cold_y = gmm_components(x, 5, seed=0), gmm_components(y, 5, seed=0)
+    warm_x = gmm_components(x, 5, seed=0, init=cold_x)
+    change = abs(wind_from_gmms(warm_x, cold_y) - wind_from_gmms(cold_x, cold_y))
+    assert change <= 0.25 * spread
