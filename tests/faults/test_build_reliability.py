@@ -171,6 +171,24 @@ sys.exit(main())
 """
 
 
+def _ends_itself_with_ctrl_c(i):
+    """A build task whose worker gets Ctrl-C's SIGINT (and dies of it) while its parent gets none."""
+    if i == 0:
+        os.kill(os.getpid(), signal.SIGINT)
+        time.sleep(30)
+    return i
+
+
+def test_a_worker_ended_by_ctrl_c_is_an_interruption_even_before_the_parent_sees_it(monkeypatch):
+    # under load the pool can report its dead workers before the build process runs its
+    # own SIGINT handler: the workers' exit status then says it was Ctrl-C
+    from blendvoca.builder import pipeline
+
+    monkeypatch.setattr(pipeline, "_worker_init", lambda *args: None)
+    with pytest.raises(KeyboardInterrupt):
+        pipeline._run([0, 1, 2], _ends_itself_with_ctrl_c, workers=2, initargs=(), desc="tasks", progress=False)
+
+
 def test_ctrl_c_ends_busy_and_idle_workers_without_a_traceback():
     process = subprocess.Popen([sys.executable, "-c", _BUSY_AND_IDLE_POOL], env=dict(os.environ, PYTHONPATH=str(ROOT)),
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)

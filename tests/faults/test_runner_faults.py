@@ -108,7 +108,7 @@ def test_ctrl_c_in_a_run_is_one_line_exit_130_and_leaves_nothing(build, tmp_path
     monkeypatch.setattr(scoring, "_evaluate_default", interrupted)
     assert threading.current_thread() is threading.main_thread()
     code, out = _run(capsys, build, tmp_path / "r")
-    assert code == 130
+    assert code == 130, out.err
     lines = [line for line in out.err.splitlines() if line.strip()]
     assert lines == ["interrupted: rerun the same command to continue"]
     assert "Traceback" not in out.err and "KeyboardInterrupt" not in out.err
