@@ -5,8 +5,10 @@ The corpus knows p(motion | audio, speaker): ``oracle-sample`` draws from it,
 forecast that is spread but cannot see the outcome. A distribution metric (FD, WInD)
 or an energy score that does not prefer ``oracle-sample`` to ``oracle-mean`` (and to
 the noisy mean, for the energy score), or an LVE that does not prefer ``oracle-mean``,
-is broken on the corpus. This script scores the three rows on one split, in one
-process, through ``benchmark.evaluate.evaluate_split`` (the runner's scoring), and
+is broken on the corpus. "Prefer" is strict (means ordered, 95 % intervals apart)
+except against the noisy mean, which must only not beat ``oracle-sample``. This
+script scores the three rows on one split, in one process, through
+``benchmark.evaluate.evaluate_split`` (the runner's scoring), and
 prints each metric's value and 95 % interval per row, whether the intervals overlap,
 and the probability of improvement over paired bootstrap resamples. It also prints
 the share of the split's coefficient variance that ``oracle-mean`` and a linear ridge
@@ -38,15 +40,18 @@ from benchmark.methods import Budget  # noqa: E402
 from benchmark.metrics.bootstrap import probability_of_improvement  # noqa: E402
 from benchmark.protocol.generation import generated_tracks  # noqa: E402
 
-#: What each metric must prefer: (better row, worse row).
+#: What each metric must prefer: (better row, worse row, strict). Strict: the better row's
+#: mean is better and the two 95 % intervals do not overlap; not strict: the worse row
+#: does not beat the better one (its mean is not better), the test of a forecast that
+#: cannot see the outcome (the noisy mean) against the oracle sampler.
 EXPECTED = {
-    "fd": [("oracle-sample", "oracle-mean")],
-    "wind": [("oracle-sample", "oracle-mean")],
-    "energy_rig": [("oracle-sample", "oracle-mean"), ("oracle-sample", "oracle-mean+noise")],
-    "energy_mesh": [("oracle-sample", "oracle-mean"), ("oracle-sample", "oracle-mean+noise")],
-    "energy_latent": [("oracle-sample", "oracle-mean"), ("oracle-sample", "oracle-mean+noise")],
-    "lve_rig": [("oracle-mean", "oracle-sample")],
-    "lve_mesh": [("oracle-mean", "oracle-sample")],
+    "fd": [("oracle-sample", "oracle-mean", True)],
+    "wind": [("oracle-sample", "oracle-mean", True)],
+    "energy_rig": [("oracle-sample", "oracle-mean", True), ("oracle-sample", "oracle-mean+noise", False)],
+    "energy_mesh": [("oracle-sample", "oracle-mean", True), ("oracle-sample", "oracle-mean+noise", False)],
+    "energy_latent": [("oracle-sample", "oracle-mean", True), ("oracle-sample", "oracle-mean+noise", False)],
+    "lve_rig": [("oracle-mean", "oracle-sample", True)],
+    "lve_mesh": [("oracle-mean", "oracle-sample", True)],
 }
 #: Reported without an expected order (multimodality is read against the sampler's own value).
 REPORTED = ("multimodality", "mve_rig", "apd_rig", "lpd_rig")
@@ -114,7 +119,7 @@ def main(argv=None) -> int:
     print()
     failed = 0
     for metric, pairs in EXPECTED.items():
-        for better, worse in pairs:
+        for better, worse, strict in pairs:
             if metric not in scores[better] or metric not in scores[worse]:
                 continue
             a, b = scores[better][metric], scores[worse][metric]
@@ -123,11 +128,13 @@ def main(argv=None) -> int:
                                               higher_is_better=higher)
             ordered = a["mean"] > b["mean"] if higher else a["mean"] < b["mean"]
             apart = a["ci95"][0] > b["ci95"][1] if higher else a["ci95"][1] < b["ci95"][0]
-            ok = ordered and apart
+            ok = ordered and (apart or not strict)
             failed += not ok
-            figures["checks"].append({"metric": metric, "better": better, "worse": worse, "ordered": ordered,
-                                      "intervals_apart": apart, "probability_of_improvement": prob})
-            print(f"{'ok  ' if ok else 'FAIL'} {metric:<14} {better} better than {worse}: "
+            figures["checks"].append({"metric": metric, "better": better, "worse": worse, "strict": strict,
+                                      "ordered": ordered, "intervals_apart": apart, "ok": ok,
+                                      "probability_of_improvement": prob})
+            claim = "better than" if strict else "not beaten by"
+            print(f"{'ok  ' if ok else 'FAIL'} {metric:<14} {better} {claim} {worse}: "
                   f"{'ordered' if ordered else 'NOT ordered'}, intervals {'apart' if apart else 'overlap'}, "
                   f"P(improvement) = {prob:.3f}")
     share_mean = explained(rows["oracle-mean"], dataset)
