@@ -11,9 +11,7 @@ another corpus, tool or parameter set, or one whose numbers moved further, does 
 
 from __future__ import annotations
 
-import io
 import os
-import pickle
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -55,19 +53,6 @@ class Comparison:
     max_difference: dict = field(default_factory=dict)
 
 
-class _ArrayUnpickler(pickle.Unpickler):
-    """Loads only plain containers and numpy arrays: a build's residuals pickle, never code."""
-
-    _ALLOWED = {("numpy.core.multiarray", "_reconstruct"), ("numpy._core.multiarray", "_reconstruct"),
-                ("numpy", "ndarray"), ("numpy", "dtype"), ("numpy.core.multiarray", "scalar"),
-                ("numpy._core.multiarray", "scalar")}
-
-    def find_class(self, module, name):
-        if (module, name) not in self._ALLOWED:
-            raise pickle.UnpicklingError(f"{module}.{name} is not an array")
-        return super().find_class(module, name)
-
-
 def _flatten(value, prefix="") -> dict:
     """``{path: leaf}`` of nested dicts and lists (the structure must match exactly, the leaves are compared)."""
     if isinstance(value, dict):
@@ -100,8 +85,9 @@ def _read_arrays(path: Path) -> dict:
         vertices, faces = read_obj(path)
         return {"vertices": vertices, "faces": faces}
     if suffix in (".pickle", ".pkl"):
-        with open(path, "rb") as f:
-            return _flatten(_ArrayUnpickler(io.BytesIO(f.read())).load())
+        from blendvoca.io.pickle_file import load_data_pickle
+
+        return _flatten(load_data_pickle(path))
     raise DataError(f"{path}: no reader for {suffix!r} files; such files are compared byte for byte")
 
 
@@ -121,7 +107,7 @@ def file_difference(a, b) -> float:
     """
     try:
         parts_a, parts_b = _read_arrays(Path(a)), _read_arrays(Path(b))
-    except (ValueError, OSError, pickle.UnpicklingError, EOFError) as error:
+    except (ValueError, OSError, EOFError) as error:
         raise DataError(f"compare {a} / {b}: cannot read as arrays ({error})") from None
     if sorted(parts_a) != sorted(parts_b):
         return float("inf")

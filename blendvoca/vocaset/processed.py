@@ -29,7 +29,6 @@ are read when asked for.
 from __future__ import annotations
 
 import math
-import pickle
 import tokenize
 from pathlib import Path
 
@@ -37,6 +36,7 @@ import numpy as np
 
 from blendvoca.errors import DataError
 from blendvoca.io.mesh import read_ply
+from blendvoca.io.pickle_file import UnsafePickleError, load_data_pickle
 from blendvoca.vocaset.base import VocasetCorpus
 from blendvoca.vocaset.checks import frame_gaps
 from blendvoca.vocaset.errors import Problem, VocasetError, check_safe_name
@@ -99,64 +99,6 @@ def open_rows(path) -> tuple[np.ndarray, int]:
     except (ValueError, OverflowError) as error:  # a row larger than numpy can address
         raise DataError(f"{path}: the header declares shape {shape}, which numpy cannot map ({error})") from None
     return rows, shape[0]
-
-
-class UnsafePickleError(DataError):
-    """A pickle that is not plain data (names a class or function outside the allowed list) or does not parse."""
-
-
-#: The only globals a processed-layout pickle may name: numpy's array and scalar
-#: reconstruction (numpy 1 and 2 module paths), plain containers and the bytes codec.
-_ALLOWED_GLOBALS = {
-    ("numpy.core.multiarray", "_reconstruct"), ("numpy._core.multiarray", "_reconstruct"),
-    ("numpy.core.multiarray", "scalar"), ("numpy._core.multiarray", "scalar"),
-    ("numpy", "ndarray"), ("numpy", "dtype"),
-    ("collections", "OrderedDict"), ("builtins", "set"), ("builtins", "frozenset"), ("builtins", "complex"),
-    ("copy_reg", "_reconstructor"), ("copyreg", "_reconstructor"),
-    ("builtins", "object"), ("__builtin__", "object"),
-    ("_codecs", "encode"),  # how protocol 2 stores bytes (an array's buffer)
-}
-
-
-class _DataUnpickler(pickle.Unpickler):
-    def __init__(self, file, where):
-        super().__init__(file, encoding="latin1")
-        self._where = where
-
-    def find_class(self, module, name):
-        if (module, name) not in _ALLOWED_GLOBALS:
-            raise UnsafePickleError(
-                f"{self._where}: refusing to load {module}.{name}: the processed VOCASET pickles hold only dicts, "
-                "lists, numbers, strings and numpy arrays (a pickle naming other classes or functions could run code)"
-            )
-        if module in ("copy_reg", "copyreg"):
-            import copyreg
-
-            return copyreg._reconstructor
-        if module in ("builtins", "__builtin__"):
-            import builtins
-
-            return getattr(builtins, name)
-        return super().find_class(module, name)
-
-
-def load_data_pickle(path):
-    """Load a processed-layout pickle allowing only plain data (see :data:`_ALLOWED_GLOBALS`).
-
-    Raises
-    ------
-    UnsafePickleError
-        The pickle names anything else, or is truncated or corrupted (naming the file).
-    """
-    path = Path(path)
-    with open(path, "rb") as f:
-        try:
-            obj = _DataUnpickler(f, path).load()
-        except UnsafePickleError:
-            raise
-        except Exception as error:  # truncated / corrupted: EOFError, UnpicklingError, ValueError, ...
-            raise UnsafePickleError(f"{path}: not a readable pickle ({type(error).__name__}: {error})") from None
-    return obj
 
 
 def _load_pickle(path: Path, expected=dict):
