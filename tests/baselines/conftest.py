@@ -1,12 +1,3 @@
-"""Tests of the shared baseline machinery run torch on one thread (other jobs share the 2 cores)."""
+"""The shared baseline machinery's tests run torch on one thread (tests/torch_threads.py)."""
 
-import pytest
-import torch
-
-
-@pytest.fixture(autouse=True)
-def _one_torch_thread():
-    before = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(before)
+from tests.torch_threads import one_torch_thread  # noqa: F401 - an autouse fixture

@@ -1,12 +1,3 @@
-"""FaceFormer/CodeTalker tests run torch on one thread (the 2 CI cores are shared)."""
+"""The CodeTalker tests run torch on one thread (tests/torch_threads.py)."""
 
-import pytest
-import torch
-
-
-@pytest.fixture(autouse=True)
-def _one_torch_thread():
-    before = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(before)
+from tests.torch_threads import one_torch_thread  # noqa: F401 - an autouse fixture
