@@ -77,4 +77,5 @@ def leave_interrupts_to_the_parent() -> None:
     shuts the pool down; the temporaries a killed write leaves are removed by the
     next build (:func:`blendvoca.builder.outdir.remove_stale_temporaries`).
     """
-    signal.signal(signal.SIGINT, signal.SIG_DFL)
+    if signal.getsignal(signal.SIGINT) is not signal.SIG_IGN:  # a build started with SIGINT ignored
+        signal.signal(signal.SIGINT, signal.SIG_DFL)              # (nohup, a background job) keeps it ignored

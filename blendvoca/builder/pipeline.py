@@ -535,15 +535,11 @@ def _run(tasks, function, *, workers, initargs, desc, progress):
             context = multiprocessing.get_context("fork" if sys.platform.startswith("linux") else "spawn")
             pool = ProcessPoolExecutor(min(workers, len(tasks)), mp_context=context, initializer=_pool_worker_init,
                                        initargs=(os.getpid(), *initargs))
-            workers_of_pool = pool._processes  # the pool's {pid: Process}, for their exit codes once it broke
             try:
                 for result in pool.map(functools.partial(_guarded_call, function), tasks):
                     results.append(result)
                     bar.update()
             except BrokenProcessPool:
-                pool.shutdown(wait=True, cancel_futures=True)
-                if _ended_by_ctrl_c(workers_of_pool):
-                    raise KeyboardInterrupt from None
                 raise WorkerStartError(f"{desc}: a worker process died (killed, or out of memory); "
                                        "rerun the same command to continue") from None
             finally:
@@ -551,16 +547,6 @@ def _run(tasks, function, *, workers, initargs, desc, progress):
     finally:
         bar.close()
     return results
-
-
-def _ended_by_ctrl_c(workers) -> bool:
-    """Whether a worker of a broken pool ended from SIGINT: Ctrl-C reaches the whole process
-    group, the workers die of it at once (:func:`.lifetime.leave_interrupts_to_the_parent`),
-    and the pool may report their death before this process raises its own
-    KeyboardInterrupt (CPython runs signal handlers late when another thread was running)."""
-    import signal
-
-    return any(process.exitcode == -signal.SIGINT for process in dict(workers or {}).values())
 
 
 def default_output_dir() -> Path:

@@ -66,11 +66,17 @@ def _alive(pid: int) -> bool:
         return False
 
 
+def _sigint_as_in_a_terminal() -> None:
+    """In a child before it runs: SIGINT's default action, as a command typed at a terminal has it
+    (a test session started in the background, nohup or ``&``, would hand its children SIGINT ignored)."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def _start_build(corpus, out, *extra, **popen) -> subprocess.Popen:
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     return subprocess.Popen([sys.executable, "-m", "blendvoca.build", "--vocaset", str(corpus), "--out", str(out),
                              "--workers", "2", "--quiet", *extra], env=env, stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True, **popen)
+                            stderr=subprocess.PIPE, text=True, preexec_fn=_sigint_as_in_a_terminal, **popen)
 
 
 def _wait_for_fit_stage(process, out, timeout=300.0) -> set[int]:
@@ -171,27 +177,23 @@ sys.exit(main())
 """
 
 
-def _ends_itself_with_ctrl_c(i):
-    """A build task whose worker gets Ctrl-C's SIGINT (and dies of it) while its parent gets none."""
-    if i == 0:
-        os.kill(os.getpid(), signal.SIGINT)
-        time.sleep(30)
-    return i
-
-
-def test_a_worker_ended_by_ctrl_c_is_an_interruption_even_before_the_parent_sees_it(monkeypatch):
-    # under load the pool can report its dead workers before the build process runs its
-    # own SIGINT handler: the workers' exit status then says it was Ctrl-C
-    from blendvoca.builder import pipeline
-
-    monkeypatch.setattr(pipeline, "_worker_init", lambda *args: None)
-    with pytest.raises(KeyboardInterrupt):
-        pipeline._run([0, 1, 2], _ends_itself_with_ctrl_c, workers=2, initargs=(), desc="tasks", progress=False)
+@pytest.mark.parametrize("ignored", [False, True])
+def test_build_workers_leave_ctrl_c_to_the_parent_unless_the_build_ignores_it(ignored):
+    # a build started with SIGINT ignored (nohup, a background job) must not have its workers die of it
+    script = ("import signal\n"
+              "from blendvoca.builder.lifetime import leave_interrupts_to_the_parent\n"
+              f"signal.signal(signal.SIGINT, signal.SIG_IGN if {ignored} else signal.default_int_handler)\n"
+              "leave_interrupts_to_the_parent()\n"
+              "print(signal.getsignal(signal.SIGINT).name)\n")
+    out = subprocess.run([sys.executable, "-c", script], env=dict(os.environ, PYTHONPATH=str(ROOT)),
+                         capture_output=True, text=True, check=True).stdout.strip()
+    assert out == ("SIG_IGN" if ignored else "SIG_DFL")
 
 
 def test_ctrl_c_ends_busy_and_idle_workers_without_a_traceback():
     process = subprocess.Popen([sys.executable, "-c", _BUSY_AND_IDLE_POOL], env=dict(os.environ, PYTHONPATH=str(ROOT)),
-                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
+                               preexec_fn=_sigint_as_in_a_terminal)
     assert process.stdout.readline().strip() == "busy"
     time.sleep(0.5)  # the other worker has done tasks 1 and 2 and waits for more
     workers = _children(process.pid)

@@ -98,7 +98,16 @@ def test_a_listed_file_that_is_gone_is_a_data_error(build, tmp_path, capsys, fas
     assert_one_error_line(out.err, str(gone), "missing")
 
 
-def test_ctrl_c_in_a_run_is_one_line_exit_130_and_leaves_nothing(build, tmp_path, capsys, monkeypatch):
+@pytest.fixture
+def sigint_raises():
+    """SIGINT raising KeyboardInterrupt in this process, as in a terminal (a test session started
+    in the background, nohup or ``&``, has SIGINT ignored)."""
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, previous)
+
+
+def test_ctrl_c_in_a_run_is_one_line_exit_130_and_leaves_nothing(build, tmp_path, capsys, monkeypatch, sigint_raises):
     from benchmark.protocol import scoring
 
     def interrupted(*args, **kwargs):
