@@ -204,11 +204,8 @@ def build_vertex_corpus(reader: str, root, out, *, workers: int | None = None, s
     sentences fitted with their head pose (``pose_fit``), the same layout, splits and
     manifest.
     """
-    import importlib
+    from blendvoca.builder.pipeline import build_dataset, open_corpus
 
-    from blendvoca.builder.pipeline import build_dataset
-
-    module, _, function = reader.partition(":")
-    getattr(importlib.import_module(module), function)(root)
+    open_corpus(root, reader)
     return build_dataset(out, root, workers=workers, shapes=shapes, delta=delta, report=report, progress=progress,
                          reader=reader, pose_fit=pose_fit)

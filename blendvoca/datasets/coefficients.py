@@ -18,7 +18,6 @@ only). ``splits.json`` splits by speaker; ``manifest.json`` records the dataset
 
 from __future__ import annotations
 
-import json
 import re
 import time
 import warnings
@@ -28,14 +27,13 @@ from pathlib import Path
 
 import numpy as np
 
-import blendvoca
 from blendvoca import format as fmt
 from blendvoca.builder.outdir import build_lock, check_output_dir, claim_output_dir, unwritable
 from blendvoca.builder.pipeline import BuildInputError, BuildSummary
 from blendvoca.builder.report import coeffs_std
 from blendvoca.errors import BlendVOCAError, DataError, UserError
 from blendvoca.fit.resample import resample_sequence
-from blendvoca.format.manifest import BUILD_TOOL
+from blendvoca.format.manifest import write_dataset_manifest
 from blendvoca.io.atomic import atomic_write
 from blendvoca.names import ARKIT_FACE_ORDER, BLENDVOCA_NAMES, MissingShapesWarning, arkit_name, remap
 
@@ -235,28 +233,6 @@ def coefficient_recipe(root: Path, dataset: str) -> dict:
     return fmt.make_recipe(fmt.corpus_files(root), {"dataset": dataset, "fps": fmt.FPS}, root=root,
                            assets={"arkit-reference-rig": fmt.file_digest(resolve("arkit-reference-rig"))},
                            format_version=COEFFICIENT_FORMAT)
-
-
-def write_dataset_manifest(out: Path, *, files, dataset: dict, params: dict, failures: list,
-                           recipe: dict | None = None) -> Path:
-    """Write ``manifest.json`` of a coefficient build: the files with their sha256, the dataset record,
-    the recipe (the dataset's identity, :func:`coefficient_recipe`) and the per-file tolerances."""
-    listed = sorted(set(files))
-    data = {
-        "tool": BUILD_TOOL,
-        "version": blendvoca.__version__,
-        "parameters": params,
-        "dataset": dataset,
-        "failures": failures,
-        "files": {rel: fmt.file_digest(out / rel) for rel in listed},
-        "tolerances": fmt.default_tolerances(listed),
-    }
-    if recipe is not None:
-        data["recipe"] = recipe
-    path = fmt.manifest_path(out)
-    with atomic_write(path, "w", encoding="utf-8") as f:
-        f.write(json.dumps(data, indent=1, sort_keys=True) + "\n")
-    return path
 
 
 def _report(out: Path, dataset: dict, summary: BuildSummary, splits: dict, notes: list[str]) -> str:

@@ -56,6 +56,7 @@ __all__ = [
     "remove_manifest",
     "write_folder_manifest",
     "write_manifest",
+    "write_dataset_manifest",
     "written_by_build",
 ]
 
@@ -293,6 +294,29 @@ def _write(path: Path, data: dict) -> Path:
 def write_manifest(out, **kwargs) -> Path:
     """Write ``<out>/manifest.json`` atomically (see :func:`manifest_dict`) and return its path."""
     return _write(manifest_path(out), manifest_dict(out, **kwargs))
+
+
+def write_dataset_manifest(out, *, files, dataset: dict, params: dict, failures: list,
+                           recipe: dict | None = None) -> Path:
+    """Write ``<out>/manifest.json`` of a build from a coefficient corpus (``blendvoca.datasets``:
+    BEAT, UniTalker, 3D-ETF) atomically: the files with their sha256, the dataset record, the
+    recipe (the dataset's identity) and the per-file tolerances; return its path."""
+    import blendvoca
+
+    out = _root(out)
+    listed = sorted(set(files))
+    data = {
+        "tool": BUILD_TOOL,
+        "version": blendvoca.__version__,
+        "parameters": params,
+        "dataset": dataset,
+        "failures": failures,
+        "files": {rel: file_digest(out / rel) for rel in listed},
+        "tolerances": default_tolerances(listed),
+    }
+    if recipe is not None:
+        data["recipe"] = recipe
+    return _write(manifest_path(out), data)
 
 
 def folder_files(root) -> list[str]:

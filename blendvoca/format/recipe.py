@@ -142,7 +142,7 @@ def _listing_digest(digests: dict) -> str:
 
 
 def make_recipe(files, params: dict, *, root=None, assets: Mapping[str, str] | None = None,
-           format_version: str = FORMAT_VERSION) -> dict:
+                format_version: str = FORMAT_VERSION) -> dict:
     """The record a recipe id is the digest of, as stored in ``manifest.json`` (``recipe``).
 
     Parameters
