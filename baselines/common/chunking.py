@@ -27,10 +27,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from benchmark.methods import AUDIO_RATE, FPS
+
 __all__ = [
     "FPS",
     "RATE_BOUND",
-    "SAMPLE_RATE",
     "Chunk",
     "ChunkedDecoder",
     "ChunkPlan",
@@ -46,15 +47,11 @@ __all__ = [
     "seam_report",
 ]
 
-#: Coefficient frame rate of the benchmark.
-FPS = 60
-#: Audio sample rate the methods take.
-SAMPLE_RATE = 16000
 #: The fit's rate bound: the largest change of a coefficient per frame at 60 fps.
 RATE_BOUND = 0.1
 
 
-def frame_sample(frame: int, *, fps: int = FPS, sample_rate: int = SAMPLE_RATE) -> int:
+def frame_sample(frame: int, *, fps: int = FPS, sample_rate: int = AUDIO_RATE) -> int:
     """The first audio sample of frame ``frame`` (``round(frame * sample_rate / fps)``)."""
     return int(round(int(frame) * sample_rate / fps))
 
