@@ -38,7 +38,7 @@ from pathlib import Path
 
 from blendvoca import cli
 from blendvoca.errors import UserError
-from leaderboard.executors import EXECUTORS
+from leaderboard.executors import EXECUTORS, log_progress
 
 __all__ = ["CORPUS", "PLAN", "SEEDS", "PlanEntry", "archive_results", "main", "plan_tasks", "reproduce"]
 
@@ -129,10 +129,6 @@ PLAN = (
               shared_training="cdface", name="cdface-lips",
               note="CDFace lips fixed, upper face varied (the paper's Table III setting; the model of the row above)"),
 )
-
-
-def _log(message: str) -> None:
-    print(f"[reproduce] {message}", file=sys.stderr, flush=True)
 
 
 def built_dataset(work: Path, *, workers: int = 2, progress: bool = True) -> Path:
@@ -336,11 +332,11 @@ def reproduce(work, results_dir, tables_dir, *, only=None, force: bool = False, 
                        expert_steps=expert_steps, cpus_per_task=cpus_per_task, force=force, progress=progress)
     if archive is not None:
         for path in archive_results(results_dir, archive):
-            _log(f"archived {path}")
+            log_progress(f"archived {path}")
     values = run_tasks(tasks, executor=executor, address=address, max_retries=max_retries)
     paths = [Path(values[t.key]) for t in tasks if t.stage in ("single", "store")]
     for path in build_leaderboard(results_dir, tables_dir):
-        _log(f"wrote {path}")
+        log_progress(f"wrote {path}")
     return paths
 
 

@@ -27,24 +27,19 @@ from leaderboard.executors.core import (
     Task,
     check_order,
     execute,
+    log_progress,
     record_timing,
     run_sequential,
     timing_records,
     timing_table,
 )
 
-__all__ = ["EXECUTORS", "Resources", "Task", "check_order", "execute", "record_timing", "run_sequential",
-           "run_tasks", "timing_records", "timing_table"]
-
-
-def _log(message: str) -> None:
-    import sys
-
-    print(f"[reproduce] {message}", file=sys.stderr, flush=True)
+__all__ = ["EXECUTORS", "Resources", "Task", "check_order", "execute", "log_progress", "record_timing",
+           "run_sequential", "run_tasks", "timing_records", "timing_table"]
 
 
 def run_tasks(tasks, *, executor: str = "sequential", address: str | None = None, max_retries: int = 3,
-              log=_log) -> dict:
+              log=log_progress) -> dict:
     """Run ``tasks`` on ``executor`` (:data:`EXECUTORS`); see :func:`run_sequential` and
     :func:`leaderboard.executors.ray_executor.run_ray`."""
     tasks = list(tasks)

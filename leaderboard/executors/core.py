@@ -12,8 +12,8 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-__all__ = ["EXECUTORS", "Resources", "Task", "check_order", "execute", "record_timing", "run_sequential",
-           "timing_records", "timing_table"]
+__all__ = ["EXECUTORS", "Resources", "Task", "check_order", "execute", "log_progress", "record_timing",
+           "run_sequential", "timing_records", "timing_table"]
 
 #: The executors ``--executor`` accepts.
 EXECUTORS = ("sequential", "ray")
@@ -83,18 +83,11 @@ def _threads(cpus: int):
     one thread per reserved CPU; this process with as many as the machine has)."""
     from threadpoolctl import threadpool_limits
 
-    torch = None
-    with contextlib.suppress(ImportError):
-        import torch
-    before = torch.get_num_threads() if torch is not None else None
-    if torch is not None:
-        torch.set_num_threads(max(1, int(cpus)))
-    try:
-        with threadpool_limits(limits=max(1, int(cpus))):
-            yield
-    finally:
-        if torch is not None:
-            torch.set_num_threads(before)
+    from baselines.common.threads import torch_threads
+
+    threads = max(1, int(cpus))
+    with torch_threads(threads), threadpool_limits(limits=threads):
+        yield
 
 
 def record_timing(work, task: Task, details: dict, wall_s: float) -> Path:
@@ -131,13 +124,14 @@ def execute(task: Task, *values):
     return value
 
 
-def _log(message: str) -> None:
+def log_progress(message: str) -> None:
+    """A progress line of ``leaderboard.reproduce`` on stderr."""
     import sys
 
     print(f"[reproduce] {message}", file=sys.stderr, flush=True)
 
 
-def run_sequential(tasks, *, log=_log) -> dict:
+def run_sequential(tasks, *, log=log_progress) -> dict:
     """Run ``tasks`` (in dependency order) one after the other in this process.
 
     Returns

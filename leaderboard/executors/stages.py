@@ -33,28 +33,15 @@ import socket
 import time
 from pathlib import Path
 
+from blendvoca.builder.outdir import is_running
+from leaderboard.executors.core import log_progress
+
 __all__ = ["built_corpus", "data_stage", "expert_stage", "row_result_path", "score_stage", "single_stage",
            "store_stage", "train_stage"]
 
 
-def _log(message: str) -> None:
-    import sys
-
-    print(f"[reproduce] {message}", file=sys.stderr, flush=True)
-
-
 def _host_tag() -> str:
     return f"{socket.gethostname()}-{os.getpid()}"
-
-
-def _pid_alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        return True
-    return True
 
 
 def _remove_dead_partials(folder: Path, prefix: str) -> None:
@@ -67,7 +54,7 @@ def _remove_dead_partials(folder: Path, prefix: str) -> None:
         name = path.name
         if name.startswith(head) and name.endswith(".partial"):
             pid = name[len(head):-len(".partial")]
-            if pid.isdigit() and not _pid_alive(int(pid)):
+            if pid.isdigit() and not is_running(int(pid)):
                 shutil.rmtree(path, ignore_errors=True)
 
 
@@ -109,7 +96,7 @@ def built_corpus(work, corpus: dict, *, corpus_name: str, build_name: str, worke
     work = Path(work)
     source = work / corpus_name
     if not (source / "synthetic.json").is_file():
-        _log(f"generating the synthetic corpus into {source}")
+        log_progress(f"generating the synthetic corpus into {source}")
         generate_corpus(source, progress=progress, **corpus)
     root = work / build_name
     summary = build_dataset(root, source, workers=workers, progress=progress)
@@ -179,10 +166,10 @@ def single_stage(spec, root, expert):
         _exported_meshes(spec)  # first: the row's label (and so its file name) names the exported meshes
     done = _row_done(spec, root)
     if done is not None:
-        _log(f"{spec['row']}: {done} exists, kept (--force rescores)")
+        log_progress(f"{spec['row']}: {done} exists, kept (--force rescores)")
         return str(done), None
     name, config = _method_and_config(spec)
-    _log(f"{spec['row']}: {spec['note']}")
+    log_progress(f"{spec['row']}: {spec['note']}")
     path = run_method(name, root, samples=spec["samples"], seed=0, budget=Budget(max_steps=spec["max_steps"]),
                       results_dir=spec["results"], config=config, progress=spec["progress"], sync_expert=expert)
     timings = json.loads(Path(path).read_text()).get("timings", {})
@@ -246,7 +233,7 @@ def train_stage(spec, root):
         run = _run_spec(spec, root, seed=seed, checkpoint=partial)
         inputs = check_inputs(run)
         check, reason = half_budget_check(run, inputs)
-        _log(f"{spec['row']}: training seed {seed}, {spec['max_steps']} steps ({spec['note']})")
+        log_progress(f"{spec['row']}: training seed {seed}, {spec['max_steps']} steps ({spec['note']})")
         trained = train(run, inputs.dataset, check=check)
         half = dataclasses.asdict(check.result) if check is not None and check.called else None
         record = {"seed": seed, "training": spec["training"], "train_s": trained.train_s,
@@ -339,7 +326,7 @@ def store_stage(spec, root, expert, *scores_paths):
 
     done = _row_done(spec, root)
     if done is not None:
-        _log(f"{spec['row']}: {done} exists, kept (--force rescores)")
+        log_progress(f"{spec['row']}: {done} exists, kept (--force rescores)")
         return str(done), None
     seeds = [int(s) for s in spec["seeds"]]
     provenance = current_provenance()
