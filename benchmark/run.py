@@ -30,7 +30,7 @@ from pathlib import Path
 
 from benchmark.methods import Budget
 from benchmark.methods import method_schema
-from benchmark.protocol.training import checked_device
+from blendvoca.cli import checked_device
 from benchmark.protocol import (
     DEFAULT_GENERATE_LIMIT,
     TRAIN_GRACE_S,

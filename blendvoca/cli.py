@@ -57,6 +57,7 @@ __all__ = [
     "add_quiet_option",
     "add_results_option",
     "budget_limits",
+    "checked_device",
     "command",
     "exit_code_of",
     "parse_budget_text",
@@ -271,6 +272,39 @@ def add_device_option(p: argparse.ArgumentParser, *, default: str = "auto") -> N
     shared_options(p).add_argument("--device", default=default, metavar="DEVICE",
                                    help="torch device: auto (a GPU when there is one), cpu, cuda or cuda:N "
                                         f"(default {default})")
+
+
+def checked_device(name) -> str | None:
+    """The torch device ``--device`` names, as a string the methods read: ``"cpu"``,
+    ``"cuda"`` or ``"cuda:N"``; ``"auto"`` is ``"cuda"`` when torch sees a GPU, else
+    ``"cpu"``; None stays None (each method's own choice).
+
+    Raises
+    ------
+    UserError
+        A name that is no such device, or a CUDA device torch does not see here (one
+        ``error:`` line, exit status 2, before anything is read or trained).
+    """
+    if name is None:
+        return None
+    text = str(name).strip().lower()
+    kind, sep, index = text.partition(":")
+    if text != "auto" and (kind not in ("cpu", "cuda") or (sep and (kind != "cuda" or not index.isdigit()))):
+        raise UserError(f"--device: expected auto, cpu, cuda or cuda:N, got {name!r}")
+    if text == "cpu":
+        return "cpu"  # torch is not even imported for the CPU
+    import torch  # only for a GPU: whether torch sees one
+
+    available = torch.cuda.is_available()
+    if text == "auto":
+        return "cuda" if available else "cpu"
+    if not available:
+        raise UserError(f"--device {name}: torch sees no CUDA device here (torch {torch.__version__}, "
+                        f"CUDA build {torch.version.cuda or 'none'}); use --device cpu")
+    if sep and int(index) >= torch.cuda.device_count():
+        raise UserError(f"--device {name}: there are {torch.cuda.device_count()} CUDA devices (cuda:0 .. "
+                        f"cuda:{torch.cuda.device_count() - 1})")
+    return text
 
 
 def add_quiet_option(p: argparse.ArgumentParser) -> None:

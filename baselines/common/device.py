@@ -17,6 +17,7 @@ import contextlib
 
 import torch
 
+from blendvoca.cli import checked_device
 from blendvoca.errors import UserError
 
 __all__ = ["PRECISIONS", "MixedPrecision", "checked_precision", "in_float32", "method_device", "module_device",
@@ -56,29 +57,16 @@ def precision_config(value) -> dict:
 
 
 def torch_device(name) -> torch.device:
-    """``auto`` (a GPU when there is one, else the CPU), ``cpu``, ``cuda`` or ``cuda:N`` as a ``torch.device``
-    (a ``torch.device`` is checked the same way).
+    """``auto`` (a GPU when there is one, else the CPU), ``cpu``, ``cuda`` or ``cuda:N`` as a
+    ``torch.device`` (a ``torch.device`` is checked the same way), as
+    :func:`blendvoca.cli.checked_device` reads a ``--device`` name.
 
     Raises
     ------
     UserError
-        A name torch does not know, or a CUDA device on a machine without one.
+        A name that is no such device, or a CUDA device torch does not see here.
     """
-    if isinstance(name, torch.device):
-        name = str(name)
-    if name == "auto":
-        return torch.device("cuda" if torch.cuda.is_available() else "cpu")
-    try:
-        device = torch.device(name)
-    except RuntimeError as exc:  # torch's "Expected one of cpu, cuda, ... device type"
-        raise UserError(f"--device: expected auto, cpu, cuda or cuda:N, got {name!r}") from exc
-    if device.type == "cuda" and not torch.cuda.is_available():
-        raise UserError(f"--device {name}: torch sees no CUDA device here; use --device cpu")
-    if device.type == "cuda" and device.index is not None and device.index >= torch.cuda.device_count():
-        raise UserError(f"--device {name}: there are {torch.cuda.device_count()} CUDA devices")
-    if device.type not in ("cpu", "cuda"):
-        raise UserError(f"--device: expected auto, cpu, cuda or cuda:N, got {name!r}")
-    return device
+    return torch.device(checked_device(str(name)))
 
 
 def method_device(device) -> torch.device:

@@ -170,7 +170,7 @@ class RunSpec:
         if self.vae is not None and not Path(self.vae).expanduser().is_file():
             raise UsageError(f"--vae {self.vae}: no such file (a VAE state dict, python -m benchmark.features.train)")
         if self.device is not None:
-            from benchmark.protocol.training import checked_device  # torch only for a GPU name
+            from blendvoca.cli import checked_device  # torch only for a GPU name
 
             object.__setattr__(self, "device", checked_device(self.device))
         if self.seeds is not None:

@@ -16,7 +16,7 @@ from benchmark.methods.base import CONFIG_FILE, progress_bars, takes_checkpoint_
 from benchmark.protocol.limits import TimeLimit
 from blendvoca.errors import DataError, MethodError, MethodTimeout, UserError
 
-__all__ = ["TRAIN_GRACE_S", "Trained", "checked_device", "make_method", "moved_to", "prepared_method",
+__all__ = ["TRAIN_GRACE_S", "Trained", "make_method", "moved_to", "prepared_method",
            "train"]
 
 #: Extra seconds over ``Budget.max_seconds`` before the runner stops a training run.
@@ -24,39 +24,6 @@ TRAIN_GRACE_S = 60.0
 
 #: What reading a file that is no checkpoint at all raises (pickle, zip and text readers).
 _NOT_A_CHECKPOINT = (pickle.UnpicklingError, EOFError, zipfile.BadZipFile, UnicodeDecodeError)
-
-def checked_device(name) -> str | None:
-    """The torch device ``--device`` names, as a string the methods read: ``"cpu"``,
-    ``"cuda"`` or ``"cuda:N"``; ``"auto"`` is ``"cuda"`` when torch sees a GPU, else
-    ``"cpu"``; None stays None (each method's own choice).
-
-    Raises
-    ------
-    UserError
-        A name that is no such device, or a CUDA device torch does not see here (one
-        ``error:`` line, exit status 2, before anything is read or trained).
-    """
-    if name is None:
-        return None
-    text = str(name).strip().lower()
-    kind, sep, index = text.partition(":")
-    if text != "auto" and (kind not in ("cpu", "cuda") or (sep and (kind != "cuda" or not index.isdigit()))):
-        raise UserError(f"--device: expected auto, cpu, cuda or cuda:N, got {name!r}")
-    if text == "cpu":
-        return "cpu"  # torch is not even imported for the CPU
-    import torch  # only for a GPU: whether torch sees one
-
-    available = torch.cuda.is_available()
-    if text == "auto":
-        return "cuda" if available else "cpu"
-    if not available:
-        raise UserError(f"--device {name}: torch sees no CUDA device here (torch {torch.__version__}, "
-                        f"CUDA build {torch.version.cuda or 'none'}); use --device cpu")
-    if sep and int(index) >= torch.cuda.device_count():
-        raise UserError(f"--device {name}: there are {torch.cuda.device_count()} CUDA devices (cuda:0 .. "
-                        f"cuda:{torch.cuda.device_count() - 1})")
-    return text
-
 
 def moved_to(method, device):
     """``method`` ready to generate on ``device``: ``method.to(device)`` when the method
@@ -191,7 +158,7 @@ def prepared_method(name: str, config: dict, dataset, *, seed: int, budget: Budg
         ``on_checkpoint(step, total_steps=None)`` (``Method.train``). What the hook
         raises leaves ``train`` unchanged (not wrapped as the method's failure).
     device : str, optional
-        ``"cpu"``, ``"cuda"`` or ``"cuda:N"`` (:func:`checked_device`): handed to a
+        ``"cpu"``, ``"cuda"`` or ``"cuda:N"`` (:func:`blendvoca.cli.checked_device`): handed to a
         ``train`` that takes ``device`` (``Method.train``), and the trained or loaded
         method is then moved there (:func:`moved_to`) to generate. None: nothing is
         passed or moved, each method trains and generates where it always did.

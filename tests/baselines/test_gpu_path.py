@@ -22,7 +22,8 @@ import pytest
 import torch
 
 from benchmark.methods.base import Budget, Method, takes_device
-from benchmark.protocol.training import checked_device, moved_to, prepared_method
+from benchmark.protocol.training import moved_to, prepared_method
+from blendvoca.cli import checked_device
 from benchmark.run import main
 from benchmark.testing import FakeBlendVOCA
 from blendvoca.errors import UserError
