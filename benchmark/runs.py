@@ -35,6 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
+from blendvoca.builder.outdir import is_running
 from blendvoca.errors import DataError
 
 __all__ = [
@@ -148,19 +149,6 @@ def _process_tag(pid: int) -> str:
     return f"{_host()}-{pid}"
 
 
-def _process_alive(pid: int) -> bool:
-    """Whether a process of this id runs on this host (True where that cannot be told)."""
-    if os.name != "posix":
-        return True
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:  # someone else's process
-        return True
-    return True
-
-
 class TrackWriter:
     """Writes a run's tracks folder; files land in ``.<final>.<host>-<pid>.partial`` until :meth:`commit`.
 
@@ -195,7 +183,7 @@ class TrackWriter:
             if not (name.startswith(prefix) and name.endswith(suffix) and path.is_dir()):
                 continue
             pid = name[len(prefix):-len(suffix)]
-            if pid.isdigit() and not _process_alive(int(pid)):
+            if pid.isdigit() and not is_running(int(pid)):
                 shutil.rmtree(path, ignore_errors=True)
 
     def write_tracks(self, subject: str, sentence: str, tracks) -> list[Path]:

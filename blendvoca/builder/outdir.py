@@ -213,9 +213,12 @@ def drop_inherited_locks() -> None:
 
 
 def is_running(pid: int) -> bool:
-    """True when a process ``pid`` exists (and is not a zombie) on this machine."""
+    """True when a process ``pid`` exists (and is not a zombie) on this machine; True
+    where that cannot be told (not a POSIX system: ``os.kill`` would end the process)."""
     if pid <= 0:
         return False
+    if os.name != "posix":
+        return True
     try:
         os.kill(pid, 0)
     except ProcessLookupError:
