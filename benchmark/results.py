@@ -108,9 +108,10 @@ def package_versions(packages=VERSIONED_PACKAGES) -> dict:
     return dict(sorted(versions.items()))
 
 
-#: Folders of the checkout that hold outputs (the committed results and tables), not code:
-#: changes there do not make a run's code dirty (rows of one reproduce run are written in turn).
-OUTPUT_FOLDERS = ("leaderboard/results", "leaderboard/tables")
+#: Folders of the checkout that hold outputs (the committed results, their archive and the
+#: tables), not code: changes there do not make a run's code dirty (rows of one reproduce
+#: run are written in turn, after ``--archive`` moved the old ones).
+OUTPUT_FOLDERS = ("leaderboard/results", "leaderboard/results-archive", "leaderboard/tables")
 
 
 def git_revision(directory=None) -> dict:

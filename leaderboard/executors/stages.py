@@ -151,6 +151,16 @@ def row_result_path(spec, root) -> Path:
                                                     "protocol": protocol})
 
 
+def _source_corpus(spec, root) -> str | None:
+    """The corpus whose meshes the mesh-space metrics read: the plan's own corpus when
+    ``root`` is the plan's build under ``--work`` (so a work folder that was moved or
+    copied still finds it), else None (the corpus the build recorded)."""
+    corpus = Path(spec["work"]) / spec["corpus_name"]
+    if Path(root).resolve().parent == Path(spec["work"]).resolve() and (corpus / "synthetic.json").is_file():
+        return str(corpus)
+    return None
+
+
 def _row_done(spec, root) -> Path | None:
     path = row_result_path(spec, root)
     return path if path.is_file() and not spec["force"] else None
@@ -171,7 +181,8 @@ def single_stage(spec, root, expert):
     name, config = _method_and_config(spec)
     log_progress(f"{spec['row']}: {spec['note']}")
     path = run_method(name, root, samples=spec["samples"], seed=0, budget=Budget(max_steps=spec["max_steps"]),
-                      results_dir=spec["results"], config=config, progress=spec["progress"], sync_expert=expert)
+                      results_dir=spec["results"], config=config, progress=spec["progress"], sync_expert=expert,
+                      vocaset=_source_corpus(spec, root))
     timings = json.loads(Path(path).read_text()).get("timings", {})
     return str(path), {k: timings.get(k) for k in ("train_s", "load_s", "generate_s", "evaluate_s")}
 
@@ -199,7 +210,8 @@ def _run_spec(spec, root, *, seed, checkpoint, expert=None, seeds=None):
     name, config = _method_and_config(spec)
     return RunSpec(method=name, config=config, data_root=root, samples=spec["samples"], seed=int(seed),
                    seeds=seeds, budget=Budget(max_steps=spec["max_steps"]), checkpoint=checkpoint,
-                   sync_expert=expert, results_dir=spec["results"], progress=spec["progress"])
+                   sync_expert=expert, results_dir=spec["results"], progress=spec["progress"],
+                   vocaset=_source_corpus(spec, root))
 
 
 def _checkpoint(spec, seed: int) -> Path:

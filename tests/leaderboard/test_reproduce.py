@@ -185,3 +185,19 @@ def test_a_training_that_fails_leaves_no_trained_method_and_no_record(tmp_path):
         train_stage(spec, str(root))
     assert list((tmp_path / "w" / "trained" / "regression").iterdir()) == []
     assert not (tmp_path / "w" / "stages" / "train").exists()
+
+
+def test_rows_read_the_meshes_of_the_plans_own_corpus_where_the_work_folder_now_is(tmp_path):
+    """A work folder moved after its build (the build recorded the old corpus path)
+    still gives the rows their mesh-space metrics: they read ``<work>/<corpus>``."""
+    from leaderboard.executors import stages
+    from leaderboard.reproduce import BUILD_NAME, CORPUS_NAME, plan_tasks
+
+    work = tmp_path / "moved-work"
+    (work / CORPUS_NAME).mkdir(parents=True)
+    spec = {t.key: t for t in plan_tasks(work, tmp_path / "r", only=["mean"])}["row/mean"].spec
+    build = work / BUILD_NAME
+    assert stages._source_corpus(spec, build) is None  # no corpus there: the build's recorded one
+    (work / CORPUS_NAME / "synthetic.json").write_text("{}")
+    assert stages._source_corpus(spec, build) == str((work / CORPUS_NAME).resolve())
+    assert stages._source_corpus(spec, tmp_path / "elsewhere" / "build") is None  # --data: its own record

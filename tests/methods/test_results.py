@@ -79,6 +79,8 @@ def test_git_dirty_ignores_the_committed_output_folders(tmp_path):
     (tmp_path / "leaderboard/results/a.json").write_text("1\n")
     (tmp_path / "leaderboard/results/b.json").write_text("new\n")
     (tmp_path / "leaderboard/tables/leaderboard.md").write_text("1\n")
+    (tmp_path / "leaderboard/results-archive/old").mkdir(parents=True)
+    (tmp_path / "leaderboard/results-archive/old/a.json").write_text("0\n")  # reproduce --archive
     state = git_revision(tmp_path / "benchmark")
     assert state["dirty"] is False and len(state["revision"]) == 40
     (tmp_path / "benchmark/code.py").write_text("1\n")
