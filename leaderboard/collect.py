@@ -48,6 +48,7 @@ __all__ = [
     "best_mark",
     "best_rows",
     "check_schema_versions",
+    "check_scoring_models",
     "column_decimals",
     "load_results",
     "pair_replicates",
@@ -162,7 +163,9 @@ def load_results(results_dir) -> list[dict]:
         ``results_dir`` is not a folder.
     DataError
         A file that is not a result (not JSON, off the schema, or holding a field the
-        tables read with the wrong type); the message names the file.
+        tables read with the wrong type); the message names the file. Results of one
+        dataset with different schema versions or lip-sync models
+        (:func:`check_schema_versions`, :func:`check_scoring_models`).
     """
     results_dir = Path(results_dir)
     if not results_dir.is_dir():
@@ -170,6 +173,7 @@ def load_results(results_dir) -> list[dict]:
     paths = sorted(results_dir.glob("*.json"))
     results = [tabulable(read_result(path), path) for path in paths]
     check_schema_versions(results, paths)
+    check_scoring_models(results, paths)
     return results
 
 
@@ -199,6 +203,40 @@ def check_schema_versions(results: list, paths: list) -> None:
     if problems:
         raise DataError("results of different schema versions cannot share a table (rescore the older rows with "
                         "the current benchmark, or keep them in another --results folder): " + " | ".join(problems))
+
+
+def check_scoring_models(results: list, paths: list) -> None:
+    """Refuse results on one dataset manifest (one table) scored by different learned
+    models of the same name (``protocol.lipsync_models``: the lip-sync expert, SyncNet).
+
+    The expert is trained on the build and cached; one trained by other code, or with
+    another budget under the same name, scores every row differently (its AV columns
+    are not comparable), so the rows of one table must name one digest: the weights'
+    (``weights_sha256``) where recorded, else the checkpoint file's.
+
+    Raises
+    ------
+    DataError
+        Naming, for each digest of a model, the files scored with it.
+    """
+    by_manifest: dict = {}
+    for result, path in zip(results, paths):
+        models = (result.get("protocol") or {}).get("lipsync_models") or {}
+        for name, record in models.items():
+            # the weights' digest where recorded: a file's names its path and training time too
+            digest = (record.get("weights_sha256") or record.get("sha256")) if isinstance(record, dict) else None
+            if digest:
+                by_model = by_manifest.setdefault((dataset_key(result), name), {})
+                by_model.setdefault(digest, []).append(str(path))
+    problems = []
+    for (manifest, name), digests in sorted(by_manifest.items()):
+        if len(digests) > 1:
+            listed = "; ".join(f"{digest[:12]}: {', '.join(files)}" for digest, files in sorted(digests.items()))
+            problems.append(f"dataset {manifest[:12]}, {name}: {listed}")
+    if problems:
+        raise DataError("results scored by different lip-sync models cannot share a table (rescore the rows of "
+                        "the other checkpoint with one model, or keep them in another --results folder): "
+                        + " | ".join(problems))
 
 
 def _is_number(value) -> bool:

@@ -198,6 +198,25 @@ class SyncExpert:
                 "coeff_std": torch.as_tensor(self.coeff_std, dtype=torch.float64),
                 "names": list(self.names), "trained_on": dict(self.trained_on)}
 
+    def weights_digest(self) -> str:
+        """SHA-256 of what decides the expert's scores: its config, network weights,
+        coefficient normalisation and names. Unlike the checkpoint file's digest it
+        leaves out ``trained_on`` (the data path, the wall seconds), so the same
+        training repeated elsewhere gives the same digest."""
+        import hashlib
+        import json
+
+        digest = hashlib.sha256(json.dumps({"config": self.config, "names": list(self.names)}, sort_keys=True,
+                                           default=list).encode())
+        tensors = {**{f"net.{k}": v for k, v in self.net.state_dict().items()},
+                   "coeff_mean": torch.as_tensor(self.coeff_mean, dtype=torch.float64),
+                   "coeff_std": torch.as_tensor(self.coeff_std, dtype=torch.float64)}
+        for name in sorted(tensors):
+            value = tensors[name].detach().cpu().contiguous()
+            digest.update(f"{name}:{value.dtype}:{tuple(value.shape)}".encode())
+            digest.update(value.numpy().tobytes())
+        return digest.hexdigest()
+
 
 def build_expert(config: dict, coeff_mean, coeff_std, names, trained_on=None) -> SyncExpert:
     """An expert with a freshly initialised network."""

@@ -46,7 +46,8 @@ def track_writer(spec, inputs, trained) -> TrackWriter:
 
 def lipsync_models_provenance(syncnet=None, sync_expert=None) -> dict:
     """What a result records of the lip-sync models it was scored with: the files and,
-    for the learned expert, the data it was trained on."""
+    for the learned expert, the digest of its weights (the same for the same training
+    on another machine or path, which the file's is not) and the data it was trained on."""
 
     def model_file(model) -> dict:
         """``{"path", "sha256"}`` of a model given as a path; ``{"path": None}`` for a loaded one."""
@@ -61,7 +62,9 @@ def lipsync_models_provenance(syncnet=None, sync_expert=None) -> dict:
         from benchmark.lipsync.expert import load_expert
 
         expert = load_expert(sync_expert) if isinstance(sync_expert, (str, os.PathLike)) else sync_expert
-        out["sync_expert"] = {**model_file(sync_expert), "trained_on": dict(getattr(expert, "trained_on", {}) or {})}
+        weights = {"weights_sha256": expert.weights_digest()} if hasattr(expert, "weights_digest") else {}
+        out["sync_expert"] = {**model_file(sync_expert), **weights,
+                              "trained_on": dict(getattr(expert, "trained_on", {}) or {})}
     return out
 
 

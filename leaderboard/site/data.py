@@ -84,11 +84,12 @@ def load_site_runs(results_dir) -> list[SiteRun]:
     UserError
         No such folder, or no result in it.
     DataError
-        A file that is not a result, or results of different schema versions on one
-        dataset (``leaderboard.collect.check_schema_versions``).
+        A file that is not a result, or results of different schema versions or
+        lip-sync models on one dataset (``leaderboard.collect.check_schema_versions``,
+        ``check_scoring_models``).
     """
     from benchmark.results import read_result
-    from leaderboard.collect import check_schema_versions, tabulable
+    from leaderboard.collect import check_schema_versions, check_scoring_models, tabulable
 
     results_dir = Path(results_dir)
     if not results_dir.is_dir():
@@ -98,6 +99,7 @@ def load_site_runs(results_dir) -> list[SiteRun]:
     if not runs:
         raise UserError(f"leaderboard.site: {results_dir} holds no result *.json files")
     check_schema_versions([run.result for run in runs], paths)
+    check_scoring_models([run.result for run in runs], paths)
     return runs
 
 

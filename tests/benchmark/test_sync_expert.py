@@ -80,6 +80,28 @@ def test_checkpoint_round_trip_and_bad_files(tmp_path):
         loaded.sync(np.zeros((10, 31)), item.audio)
 
 
+def test_the_weights_digest_names_the_weights_not_the_file(tmp_path):
+    import hashlib
+
+    from benchmark.protocol import lipsync_models_provenance
+
+    torch.manual_seed(0)
+    names = [f"c{i}" for i in range(32)]
+    expert = build_expert({}, np.zeros(32), np.ones(32), names, {"data": "/a", "seconds": 46.4})
+    first, again = tmp_path / "a.pt", tmp_path / "b.pt"
+    save_expert(expert, first)
+    expert.trained_on = {"data": "/elsewhere", "seconds": 61.6}  # the same training, another place and time
+    save_expert(expert, again)
+    files = [hashlib.sha256(p.read_bytes()).hexdigest() for p in (first, again)]
+    digests = [load_expert(p).weights_digest() for p in (first, again)]
+    assert files[0] != files[1] and digests[0] == digests[1] == expert.weights_digest()
+    record = lipsync_models_provenance(sync_expert=again)["sync_expert"]
+    assert record["sha256"] == files[1] and record["weights_sha256"] == digests[0]
+    with torch.no_grad():
+        next(expert.net.parameters()).view(-1)[0] += 1e-6  # one weight moved: another expert
+    assert expert.weights_digest() != digests[0]
+
+
 @pytest.mark.slow
 def test_short_training_learns_the_offset_sign():
     lag = 3  # the motion 3 frames after the sound

@@ -416,6 +416,40 @@ def test_schema_versions_are_not_mixed_in_one_table(tmp_path, capsys):
     assert [c.name for c in tables[1].columns] == ["lve_mesh"]
 
 
+def test_rows_scored_by_different_lip_sync_experts_are_not_mixed_in_one_table(tmp_path, capsys):
+    folder = tmp_path / "results"
+
+    def scored_by(label, digest, manifest="h1", file_digest=None):
+        result = _result(label, manifest, {"av_confidence_expert": (0.5, 0.1, True, "distance", (0.4, 0.6))})
+        record = {"path": "/cache/expert.pt", "sha256": file_digest or digest}
+        if file_digest:
+            record["weights_sha256"] = digest
+        result["protocol"]["lipsync_models"] = {"sync_expert": record}
+        return write_result(result, folder)
+
+    first = scored_by("alpha", "a" * 64)
+    scored_by("beta", "a" * 64)
+    assert [r.label for r in tables_by_manifest(load_results(folder))[0].rows] == ["alpha", "beta"]
+    # the same weights trained again elsewhere: another file digest, one table
+    (folder / "beta__h1__s1__seed0.json").unlink()
+    first.unlink()
+    first = scored_by("alpha", "c" * 64, file_digest="1" * 64)
+    scored_by("beta", "c" * 64, file_digest="2" * 64)
+    assert [r.label for r in tables_by_manifest(load_results(folder))[0].rows] == ["alpha", "beta"]
+    other = scored_by("gamma", "b" * 64)  # the same expert name, another checkpoint
+    code, line = _cli_error(capsys, folder, tmp_path)
+    assert code == 2 and "different lip-sync models" in line and "sync_expert" in line
+    assert f"bbbbbbbbbbbb: {other}" in line and str(first) in line
+    from leaderboard.site.data import load_site_runs
+
+    with pytest.raises(ValueError, match="different lip-sync models"):
+        load_site_runs(folder)
+    # on other data it is another table: fine
+    other.unlink()
+    scored_by("gamma", "b" * 64, manifest="h2")
+    assert [t.manifest_hash for t in tables_by_manifest(load_results(folder))] == ["h1", "h2"]
+
+
 @pytest.mark.parametrize("edit, fragment", [
     (lambda r: {**r, "seeds": [0, "1"]}, "seeds: expected a list of integers"),
     (lambda r: {**r, "per_seed": {"seed": 0}}, "per_seed: expected a list of objects"),
