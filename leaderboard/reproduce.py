@@ -26,7 +26,8 @@ result file is reused (``--force`` rescores, reusing trained models). ``--only N
 the build a few minutes on 2 cores. ``--archive DIR`` first moves the result files
 already in ``--results`` (and their tracks) into ``DIR``, which the tables do not
 read. Wall times per stage are kept under ``<work>/stages/timings``;
-``--timings`` prints them per row and stage.
+``--timings`` prints them per row and stage (with ``--results``, also those of the
+result files there, which outlive the work folder).
 """
 
 from __future__ import annotations
@@ -366,7 +367,8 @@ def main(argv=None) -> int:
                         help="first move the result files in --results (and their tracks) into DIR, "
                              "which the tables do not read")
     parser.add_argument("--timings", action="store_true",
-                        help="print the wall time per row and stage recorded under --work, and exit")
+                        help="print the wall time per row and stage recorded under --work (and, with "
+                             "--results, in that folder's result files), and exit")
     cli.add_data_option(parser, help="score this BlendVOCA build instead of generating and building the "
                                      "12 x 40 corpus")
     cli.add_results_option(parser, help="result folder (the committed one: leaderboard/results)")
@@ -375,9 +377,12 @@ def main(argv=None) -> int:
     cli.add_quiet_option(parser)
     args = parser.parse_args(argv)
     if args.timings:
-        from leaderboard.executors import timing_table
+        from leaderboard.executors import result_timing_table, timing_table
 
         print(timing_table(args.work))
+        if args.results is not None:
+            print(f"\nFrom the result files in {args.results}:\n")
+            print(result_timing_table(args.results))
         return cli.EXIT_OK
     for flag, value in (("--results", args.results), ("--tables", args.tables)):
         if value is None:

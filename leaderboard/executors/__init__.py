@@ -29,13 +29,14 @@ from leaderboard.executors.core import (
     execute,
     log_progress,
     record_timing,
+    result_timing_table,
     run_sequential,
     timing_records,
     timing_table,
 )
 
 __all__ = ["EXECUTORS", "Resources", "Task", "check_order", "execute", "log_progress", "record_timing",
-           "run_sequential", "run_tasks", "timing_records", "timing_table"]
+           "result_timing_table", "run_sequential", "run_tasks", "timing_records", "timing_table"]
 
 
 def run_tasks(tasks, *, executor: str = "sequential", address: str | None = None, max_retries: int = 3,

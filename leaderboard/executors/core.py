@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 __all__ = ["EXECUTORS", "Resources", "Task", "check_order", "execute", "log_progress", "record_timing",
-           "run_sequential", "timing_records", "timing_table"]
+           "result_timing_table", "run_sequential", "timing_records", "timing_table"]
 
 #: The executors ``--executor`` accepts.
 EXECUTORS = ("sequential", "ray")
@@ -167,37 +167,69 @@ def timing_records(work) -> list:
     return [json.loads(p.read_text()) for p in sorted(folder.glob("*.json"))]
 
 
+def _new_timing_entry() -> dict:
+    return {"train": 0.0, "check": 0.0, "generate": 0.0, "score": 0.0, "other": 0.0, "seeds": set()}
+
+
+def _minutes_table(rows: dict) -> str:
+    lines = ["| row | seeds | train (min) | half-budget check (min) | generate (min) | score (min) | other (min) "
+             "| total (min) |",
+             "|---|---|---:|---:|---:|---:|---:|---:|"]
+    for name, e in rows.items():
+        total = e["train"] + e["check"] + e["generate"] + e["score"] + e["other"]
+        seeds = ",".join(str(s) for s in sorted(e["seeds"])) or "-"
+        lines.append(f"| {name} | {seeds} | {e['train'] / 60:.1f} | {e['check'] / 60:.1f} | "
+                     f"{e['generate'] / 60:.1f} | {e['score'] / 60:.1f} | {e['other'] / 60:.1f} | {total / 60:.1f} |")
+    return "\n".join(lines)
+
+
 def timing_table(work) -> str:
     """A Markdown table of the wall time per row and stage (minutes), summed over seeds,
-    from the work folder's timing records: train, generate, score (the ``score`` task's
-    generation and evaluation seconds apart) and the single-run rows' whole run."""
+    from the work folder's timing records: train, the half-budget check (generating and
+    scoring at half budget, during the training task), generate, score (the ``score``
+    task's generation and evaluation seconds apart) and the single-run rows' whole run."""
     rows = {}
     shared = {}
     for r in timing_records(work):
         name = r.get("row") or r["stage"]
-        entry = rows.setdefault(name, {"train": 0.0, "generate": 0.0, "score": 0.0, "other": 0.0, "seeds": set()})
+        entry = rows.setdefault(name, _new_timing_entry())
         if r.get("seed") is not None:
             entry["seeds"].add(r["seed"])
         if r["stage"] == "train":
-            entry["train"] += r["wall_s"]
+            check = min(r.get("convergence_s") or 0.0, r["wall_s"])
+            entry["check"] += check
+            entry["train"] += r["wall_s"] - check
             shared.setdefault(name, r.get("training"))
         elif r["stage"] == "score":
             entry["generate"] += r.get("generate_s") or 0.0
             entry["score"] += r.get("evaluate_s") or 0.0
-            entry["other"] += max(0.0, r["wall_s"] - (r.get("generate_s") or 0.0) - (r.get("evaluate_s") or 0.0))
+            entry["other"] += r["wall_s"] - (r.get("generate_s") or 0.0) - (r.get("evaluate_s") or 0.0)
         elif r["stage"] == "single":
             entry["generate"] += r.get("generate_s") or 0.0
             entry["score"] += r.get("evaluate_s") or 0.0
             entry["train"] += r.get("train_s") or 0.0
-            entry["other"] += max(0.0, r["wall_s"] - sum(r.get(k) or 0.0 for k in ("generate_s", "evaluate_s",
-                                                                                   "train_s")))
+            entry["other"] += r["wall_s"] - sum(r.get(k) or 0.0 for k in ("generate_s", "evaluate_s",
+                                                                                   "train_s"))
         else:
             entry["other"] += r["wall_s"]
-    lines = ["| row | seeds | train (min) | generate (min) | score (min) | other (min) | total (min) |",
-             "|---|---|---:|---:|---:|---:|---:|"]
-    for name, e in rows.items():
-        total = e["train"] + e["generate"] + e["score"] + e["other"]
-        seeds = ",".join(str(s) for s in sorted(e["seeds"])) or "-"
-        lines.append(f"| {name} | {seeds} | {e['train'] / 60:.1f} | {e['generate'] / 60:.1f} | "
-                     f"{e['score'] / 60:.1f} | {e['other'] / 60:.1f} | {total / 60:.1f} |")
-    return "\n".join(lines)
+    return _minutes_table(rows)
+
+
+def result_timing_table(results) -> str:
+    """The table of :func:`timing_table` from the result files directly in ``results``
+    (each file's ``timings``, the whole row over its seeds): the record that stays with
+    committed results when their work folder is gone. ``other`` is what the run spent
+    outside training, the check, generation and scoring (loading, writing)."""
+    from benchmark.results import read_result
+
+    rows = {}
+    for path in sorted(Path(results).glob("*.json")):
+        result = read_result(path)
+        t = result.get("timings") or {}
+        entry = rows.setdefault(result["method"].get("label") or result["method"]["name"], _new_timing_entry())
+        entry["seeds"].update(result.get("seeds") or ())
+        stages = {"train": "train_s", "check": "convergence_s", "generate": "generate_s", "score": "evaluate_s"}
+        for stage, key in stages.items():
+            entry[stage] += t.get(key) or 0.0
+        entry["other"] += max((t.get("total_s") or 0.0) - sum(t.get(key) or 0.0 for key in stages.values()), 0.0)
+    return _minutes_table(rows)

@@ -144,7 +144,8 @@ def test_timings_are_tabled_per_row_and_stage(tmp_path, capsys):
 
     folder = tmp_path / "w" / "stages" / "timings"
     folder.mkdir(parents=True)
-    records = [{"key": "train/cdface/seed0", "stage": "train", "row": "cdface", "seed": 0, "wall_s": 600.0},
+    records = [{"key": "train/cdface/seed0", "stage": "train", "row": "cdface", "seed": 0, "wall_s": 600.0,
+                "train_s": 420.0, "convergence_s": 180.0},
                {"key": "score/cdface/seed0", "stage": "score", "row": "cdface", "seed": 0, "wall_s": 300.0,
                 "generate_s": 120.0, "evaluate_s": 150.0},
                {"key": "row/mean", "stage": "single", "row": "mean", "seed": None, "wall_s": 60.0,
@@ -153,8 +154,33 @@ def test_timings_are_tabled_per_row_and_stage(tmp_path, capsys):
         (folder / (record["key"].replace("/", "__") + ".json")).write_text(json.dumps(record))
     assert main(["--work", str(tmp_path / "w"), "--timings"]) == 0
     lines = capsys.readouterr().out.splitlines()
-    assert "| cdface | 0 | 10.0 | 2.0 | 2.5 | 0.5 | 15.0 |" in lines
-    assert "| mean | - | 0.0 | 0.1 | 0.8 | 0.1 | 1.0 |" in lines
+    assert "| cdface | 0 | 7.0 | 3.0 | 2.0 | 2.5 | 0.5 | 15.0 |" in lines  # the half-budget check apart
+    assert "| mean | - | 0.0 | 0.0 | 0.1 | 0.8 | 0.1 | 1.0 |" in lines
+
+
+def test_timings_of_committed_rows_come_from_their_result_files(tmp_path, capsys):
+    from benchmark.results import build_result, write_result
+    from leaderboard.reproduce import main
+
+    prov = {"date": "2026-01-01T00:00:00+00:00", "git_revision": None, "versions": {}, "hardware": {}}
+    for label, seeds, timings in (
+            ("said", [0, 1, 2], {"train_s": 270.0, "convergence_s": 660.0, "generate_s": 510.0,
+                                 "evaluate_s": 420.0, "load_s": 0.1, "total_s": 1866.0}),
+            ("mean", None, {"train_s": 0.6, "convergence_s": None, "generate_s": 0.3, "evaluate_s": 21.0,
+                            "total_s": 22.5})):
+        result = build_result(method={"name": label, "label": label, "reference": seeds is None, "config": {}},
+                              dataset={"manifest_hash": "h1", "split": "test", "num_sentences": 80},
+                              protocol={"samples": 1, "seed": 0},
+                              metrics={"fd": {"mean": 1.0, "std": 0.1, "higher_is_better": False, "unit": "latent^2"}},
+                              timings=timings, provenance=prov)
+        if seeds:
+            result["seeds"] = seeds
+        write_result(result, tmp_path / "results")
+    # no work folder left: the result files still give every row's stages (minutes)
+    assert main(["--work", str(tmp_path / "gone"), "--results", str(tmp_path / "results"), "--timings"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert "| said | 0,1,2 | 4.5 | 11.0 | 8.5 | 7.0 | 0.1 | 31.1 |" in lines
+    assert "| mean | - | 0.0 | 0.0 | 0.0 | 0.3 | 0.0 | 0.4 |" in lines
 
 
 def test_tasks_no_node_can_hold_are_found_before_ray_waits_for_them():
