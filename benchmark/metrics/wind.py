@@ -9,6 +9,8 @@ and standard deviation.
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 from scipy.optimize import linprog
 
@@ -36,6 +38,7 @@ def gmm_components(x, n_components: int = 5, seed: int = 0, init=None) -> tuple[
     means : (K, D) ndarray
     covariances : (K, D, D) ndarray
     """
+    from sklearn.exceptions import ConvergenceWarning
     from sklearn.mixture import GaussianMixture
     from threadpoolctl import threadpool_limits
 
@@ -56,7 +59,10 @@ def gmm_components(x, n_components: int = 5, seed: int = 0, init=None) -> tuple[
         precisions = np.swapaxes(inv_chol, 1, 2) @ inv_chol
         start = {"weights_init": weights / weights.sum(), "means_init": means,
                  "precisions_init": 0.5 * (precisions + np.swapaxes(precisions, 1, 2))}
-    with threadpool_limits(limits=1):
+    with threadpool_limits(limits=1), warnings.catch_warnings():
+        # a generator with fewer distinct outputs than components (a constant row: one)
+        # makes the k-means start warn; the fit of such points is what WInD scores
+        warnings.filterwarnings("ignore", message="Number of distinct clusters", category=ConvergenceWarning)
         try:
             gmm = GaussianMixture(n_components=n_components, covariance_type="full", random_state=seed,
                                   **start).fit(x)

@@ -100,3 +100,16 @@ def test_warm_start_error_within_a_quarter_of_the_refit_spread():
     warm_x = gmm_components(x, 5, seed=0, init=cold_x)
     change = abs(wind_from_gmms(warm_x, cold_y) - wind_from_gmms(cold_x, cold_y))
     assert change <= 0.25 * spread
+
+
+def test_a_constant_generator_is_fitted_without_warnings():
+    import warnings
+
+    from benchmark.metrics.wind import gmm_components
+
+    x = np.tile(np.linspace(0.0, 1.0, 8), (200, 1))  # one distinct point, as a constant row's features
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        weights, means, _ = gmm_components(x, 5, seed=0)
+    # all the weight on the one point; the other components are empty
+    assert np.isclose(weights.max(), 1.0) and np.allclose(means[np.argmax(weights)], x[0])
