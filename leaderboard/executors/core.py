@@ -203,13 +203,13 @@ def timing_table(work) -> str:
         elif r["stage"] == "score":
             entry["generate"] += r.get("generate_s") or 0.0
             entry["score"] += r.get("evaluate_s") or 0.0
-            entry["other"] += r["wall_s"] - (r.get("generate_s") or 0.0) - (r.get("evaluate_s") or 0.0)
+            entry["other"] += max(0.0, r["wall_s"] - (r.get("generate_s") or 0.0) - (r.get("evaluate_s") or 0.0))
         elif r["stage"] == "single":
             entry["generate"] += r.get("generate_s") or 0.0
             entry["score"] += r.get("evaluate_s") or 0.0
             entry["train"] += r.get("train_s") or 0.0
-            entry["other"] += r["wall_s"] - sum(r.get(k) or 0.0 for k in ("generate_s", "evaluate_s",
-                                                                                   "train_s"))
+            entry["other"] += max(0.0, r["wall_s"] - sum(r.get(k) or 0.0 for k in ("generate_s", "evaluate_s",
+                                                                                   "train_s")))
         else:
             entry["other"] += r["wall_s"]
     return _minutes_table(rows)
