@@ -177,6 +177,18 @@ def load_results(results_dir) -> list[dict]:
     return results
 
 
+def _disagreements(results: list, paths: list, values_of) -> list:
+    """``(dataset key, name, {value: [files]})`` for every dataset whose results give
+    more than one value under one name; ``values_of(result)`` yields ``(name, value)``
+    pairs (a value of None is not compared). Sorted by dataset and name."""
+    groups: dict = {}
+    for result, path in zip(results, paths):
+        for name, value in values_of(result):
+            if value is not None:
+                groups.setdefault((dataset_key(result), name), {}).setdefault(value, []).append(str(path))
+    return [(manifest, name, values) for (manifest, name), values in sorted(groups.items()) if len(values) > 1]
+
+
 def check_schema_versions(results: list, paths: list) -> None:
     """Refuse results of different ``schema_version`` on one dataset manifest (one table).
 
@@ -190,19 +202,24 @@ def check_schema_versions(results: list, paths: list) -> None:
     DataError
         Naming, for each version, the files that have it.
     """
-    by_manifest: dict = {}
-    for result, path in zip(results, paths):
-        versions = by_manifest.setdefault(dataset_key(result), {})
-        versions.setdefault(result.get("schema_version"), []).append(str(path))
-    problems = []
-    for manifest, versions in sorted(by_manifest.items()):
-        if len(versions) > 1:
-            listed = "; ".join(f"version {v}: {', '.join(files)}"
-                               for v, files in sorted(versions.items(), key=lambda item: str(item[0])))
-            problems.append(f"dataset {manifest[:12]}: {listed}")
+    # the version is compared as text, so a file without one ("None") still counts
+    mixed = _disagreements(results, paths, lambda r: [("", str(r.get("schema_version")))])
+    problems = ["dataset {}: {}".format(manifest[:12], "; ".join(f"version {v}: {', '.join(files)}"
+                                                                  for v, files in sorted(versions.items())))
+                for manifest, _, versions in mixed]
     if problems:
         raise DataError("results of different schema versions cannot share a table (rescore the older rows with "
                         "the current benchmark, or keep them in another --results folder): " + " | ".join(problems))
+
+
+def _model_digests(result: dict):
+    """``(model name, digest)`` of each lip-sync model a result names: the weights'
+    digest where recorded (a file's also covers its path and training time), else the
+    checkpoint file's."""
+    models = (result.get("protocol") or {}).get("lipsync_models") or {}
+    for name, record in models.items():
+        if isinstance(record, dict):
+            yield name, record.get("weights_sha256") or record.get("sha256") or None
 
 
 def check_scoring_models(results: list, paths: list) -> None:
@@ -219,20 +236,9 @@ def check_scoring_models(results: list, paths: list) -> None:
     DataError
         Naming, for each digest of a model, the files scored with it.
     """
-    by_manifest: dict = {}
-    for result, path in zip(results, paths):
-        models = (result.get("protocol") or {}).get("lipsync_models") or {}
-        for name, record in models.items():
-            # the weights' digest where recorded: a file's names its path and training time too
-            digest = (record.get("weights_sha256") or record.get("sha256")) if isinstance(record, dict) else None
-            if digest:
-                by_model = by_manifest.setdefault((dataset_key(result), name), {})
-                by_model.setdefault(digest, []).append(str(path))
-    problems = []
-    for (manifest, name), digests in sorted(by_manifest.items()):
-        if len(digests) > 1:
-            listed = "; ".join(f"{digest[:12]}: {', '.join(files)}" for digest, files in sorted(digests.items()))
-            problems.append(f"dataset {manifest[:12]}, {name}: {listed}")
+    problems = ["dataset {}, {}: {}".format(manifest[:12], name, "; ".join(f"{digest[:12]}: {', '.join(files)}"
+                                                                          for digest, files in sorted(digests.items())))
+                for manifest, name, digests in _disagreements(results, paths, _model_digests)]
     if problems:
         raise DataError("results scored by different lip-sync models cannot share a table (rescore the rows of "
                         "the other checkpoint with one model, or keep them in another --results folder): "
