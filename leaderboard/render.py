@@ -100,8 +100,11 @@ def _metric_label(name: str) -> str:
 
 def not_settled_text(row: Row) -> str:
     """``"<label>: <metric> <at half> → <at full> (half-width <w>) between steps <B/2> and <B>"``
-    for a row whose ``convergence.settled`` is false."""
+    for a row whose ``convergence.settled`` is false (for a row scoring another row's
+    training, ``convergence.shared_with``: which row's training it is)."""
     conv = row.convergence or {}
+    if conv.get("shared_with"):  # scored with another row's training: that training's verdict
+        return f"{row.label}: row {conv['shared_with']}'s training, not settled there"
     half, full = conv.get("checked_at_step"), conv.get("total_steps")
     steps = f"steps {half} and {full}" if half is not None and full is not None else "half and full budget"
     moved = []

@@ -252,8 +252,12 @@ def plan_tasks(work, results_dir, *, only=None, data=None, seeds=SEEDS, max_step
                               {**spec, "seed": seed, "owns_training": owner.row == entry.row},
                               deps=("data", "expert", key), resources=resources, row=entry.row, seed=seed,
                               outputs=(str(Path(base["work"]) / "stages" / "rows" / entry.row),)))
-        tasks.append(Task(f"store/{entry.row}", "store", stages.store_stage, spec,
-                          deps=("data", "expert", *(f"score/{entry.row}/seed{s}" for s in seeds)),
+        # a row scoring another row's training carries that row's half-budget verdict
+        shares = owner.row != entry.row
+        store_deps = (f"store/{owner.row}",) if shares and owner in entries else ()
+        tasks.append(Task(f"store/{entry.row}", "store", stages.store_stage,
+                          {**spec, "training_owner": row_spec(owner, True) if shares else None},
+                          deps=("data", "expert", *(f"score/{entry.row}/seed{s}" for s in seeds), *store_deps),
                           resources=Resources(cpus=1, memory_gb=entry.memory_gb), row=entry.row,
                           outputs=(base["results"],)))
     return tasks

@@ -16,6 +16,11 @@ place. The result records::
 
 ``protocol.convergence_check`` says ``"checked"`` or why there was no check (and then
 there is no ``convergence``): :data:`NOT_CHECKED` lists the reasons.
+
+A row scored with another row's training (the board's CDFace rows share one training
+per seed) has no half-budget state of its own; it carries that row's verdict,
+:func:`shared_convergence`: ``{"shared_with": <row>, "checked_at_step", "total_steps",
+"metrics": {}, "settled"}``.
 """
 
 from __future__ import annotations
@@ -49,6 +54,7 @@ __all__ = [
     "convergence_record",
     "half_budget_check",
     "not_checked_reason",
+    "shared_convergence",
     "preserved_random_state",
 ]
 
@@ -273,6 +279,17 @@ def checked_convergence(check: HalfBudgetCheck | None, reason: str | None, metri
     if not check.called:
         return record, NOT_CHECKED["no_call"]
     return record, NOT_CHECKED["no_metrics"] if record is None else CHECKED
+
+
+def shared_convergence(owner, owner_row: str) -> dict | None:
+    """The ``convergence`` record of a row scored with the training of ``owner_row``,
+    whose own record (a seed's or the row's) is ``owner``: that training's verdict and
+    budget, no metrics of its own (its half-budget model generated only ``owner_row``'s
+    samples). None when ``owner`` is None (that training was not checked)."""
+    if owner is None:
+        return None
+    return {"shared_with": str(owner_row), "checked_at_step": owner.get("checked_at_step"),
+            "total_steps": owner.get("total_steps"), "metrics": {}, "settled": bool(owner["settled"])}
 
 
 def combined_convergence(per_seed, metrics) -> dict | None:

@@ -18,8 +18,9 @@ scores combined by :func:`benchmark.protocol.seeds.combined_seed_scores` and sto
 by :func:`benchmark.protocol.storing.store_seeds` (only the timings, the provenance
 and where the checkpoints were differ). The half-budget check runs during training
 and its values travel in the training's record to the row that owns the training;
-a row that reuses another's training (``shared_training``) is recorded as loaded
-from a checkpoint, as a run with ``--checkpoint`` would be.
+a row that reuses another's training (``shared_training``) scores it as loaded from a
+checkpoint, as a run with ``--checkpoint`` would, and its result carries the owner's
+verdict (``convergence.shared_with``), read from the owner's result file.
 """
 
 from __future__ import annotations
@@ -328,6 +329,36 @@ def score_stage(spec, root, expert, record):
                               "load_s": trained.load_s}
 
 
+def _with_shared_verdict(spec, root, combined, reason):
+    """``(combined, reason)`` of a row that scores another row's training
+    (``spec["training_owner"]``, that row's spec): each seed and the row carry the
+    owner's half-budget verdict (:func:`benchmark.protocol.convergence.shared_convergence`),
+    read from the owner's result file; unchanged when that file is missing or holds
+    other seeds."""
+    from benchmark.protocol.convergence import shared_convergence
+
+    owner = spec["training_owner"]
+    path = row_result_path(owner, root)
+    if not path.is_file():
+        log_progress(f"{spec['row']}: {path} not found: its training's half-budget check is not recorded")
+        return combined, reason
+    result = json.loads(path.read_text())
+    by_seed = {int(record["seed"]): record.get("convergence") for record in result.get("per_seed") or []}
+    if sorted(by_seed) != sorted(int(record["seed"]) for record in combined.per_seed):
+        log_progress(f"{spec['row']}: {path} holds seeds {sorted(by_seed)}: its training's check is not recorded")
+        return combined, reason
+    per_seed = []
+    for record in combined.per_seed:
+        verdict = shared_convergence(by_seed[int(record["seed"])], owner["row"])
+        record = {k: v for k, v in record.items() if k != "convergence"}
+        per_seed.append({**record, "convergence": verdict} if verdict is not None else record)
+    convergence = shared_convergence(result.get("convergence"), owner["row"])
+    if convergence is None:
+        return dataclasses.replace(combined, per_seed=per_seed), reason
+    return (dataclasses.replace(combined, per_seed=per_seed, convergence=convergence),
+            f"shared training: checked on row {owner['row']}")
+
+
 def store_stage(spec, root, expert, *scores_paths):
     """The row's result file from its seeds' scores: combined over the seeds and stored
     with every seed's tracks, as ``benchmark.run --seeds`` stores a run."""
@@ -342,7 +373,9 @@ def store_stage(spec, root, expert, *scores_paths):
         return str(done), None
     seeds = [int(s) for s in spec["seeds"]]
     provenance = current_provenance()
-    loaded = [pickle.loads(Path(p).read_bytes()) for p in scores_paths]
+    # the seeds' scores; after them, a row sharing a training gets the owner's stored result
+    # (a dependency only: its verdict is read from the owner's result file)
+    loaded = [pickle.loads(Path(p).read_bytes()) for p in scores_paths[:len(seeds)]]
     runs = [item["run"] for item in loaded]
     run = _run_spec(spec, root, seed=seeds[0], seeds=tuple(seeds), expert=expert,
                     checkpoint=Path(spec["work"]) / "trained" / spec["training"])
@@ -351,6 +384,9 @@ def store_stage(spec, root, expert, *scores_paths):
     inputs = check_inputs(dataclasses.replace(run, checkpoint=None))
     first = train(dataclasses.replace(run, seeds=None, checkpoint=_checkpoint(spec, seeds[0])), inputs.dataset)
     combined = combined_seed_scores(runs, stream=seed_stream(first.label))
+    reason = next((item["reason"] for item in loaded if item["reason"] != CHECKED), CHECKED)
+    if spec.get("training_owner") is not None:
+        combined, reason = _with_shared_verdict(spec, root, combined, reason)
     writer = track_writer(run, inputs, first)
     try:
         for seed in seeds:
@@ -360,7 +396,6 @@ def store_stage(spec, root, expert, *scores_paths):
             values = [r.timings.get(key) for r in runs]
             timings[key] = None if all(v is None for v in values) else float(sum(v for v in values if v is not None))
         timings["total_s"] = sum(v for v in timings.values() if v is not None)
-        reason = next((item["reason"] for item in loaded if item["reason"] != CHECKED), CHECKED)
         path = store_seeds(run, inputs, first, runs, combined, writer=writer, timings=timings,
                            provenance=provenance, convergence_check=reason)
     except BaseException:

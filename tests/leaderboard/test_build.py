@@ -368,6 +368,24 @@ def test_not_settled_rows_are_marked_with_a_line_under_the_table():
     assert NOT_SETTLED_MARK not in _section(rendered_tables(results[1:])["leaderboard.md"], "Vertex")
 
 
+def test_a_row_scoring_another_rows_training_carries_its_verdict_under_the_table():
+    from benchmark.protocol.convergence import shared_convergence
+
+    base = np.linspace(1.0, 2.0, len(SENTENCES))
+    owner = {"checked_at_step": 3750, "total_steps": 4500, "settled": False,
+             "metrics": {"fd": {"half_budget": 9.0, "full_budget": 3.0, "half_width": 0.5, "settled": False}}}
+    shared = shared_convergence(owner, "owner")
+    assert shared == {"shared_with": "owner", "checked_at_step": 3750, "total_steps": 4500, "metrics": {},
+                      "settled": False}
+    assert shared_convergence(None, "owner") is None  # an unchecked training passes nothing on
+    md = rendered_tables([_sentence_result("owner", base, convergence=owner),
+                          _sentence_result("variant", base + 1.0, convergence=shared)])["leaderboard.md"]
+    vertex = _section(md, "Vertex")
+    assert f"| variant {NOT_SETTLED_MARK} | " in vertex
+    assert "owner: FD 9 → 3 (half-width 0.5) between steps 3750 and 4500; variant: row owner's training, " \
+           "not settled there." in vertex
+
+
 def test_av_offset_columns_carry_the_ground_truth_lag_note():
     results = [_result("a", "h", {"av_offset_geometric": (0.1, 0.1, False, "frames@60fps", (0.0, 0.2)),
                                   "av_lag_bias_geometric": (0.2, 0.1, None, "frames@60fps", (0.1, 0.3))}),

@@ -67,7 +67,11 @@ def test_trained_rows_run_per_seed_and_the_cdface_rows_share_their_trainings(tmp
             assert score.deps == ("data", "expert", f"train/cdface/seed{seed}")
             assert score.spec["owns_training"] is owns and score.spec["training"] == "cdface"
     assert sum(k.startswith("train/") for k in keys) == 3  # one training per seed for both rows
-    assert by_key["store/cdface-lips"].deps == ("data", "expert", *(f"score/cdface-lips/seed{s}" for s in (0, 1, 2)))
+    # the lips-fixed row's result waits for the owner's, whose half-budget verdict it carries
+    assert by_key["store/cdface-lips"].deps == ("data", "expert", *(f"score/cdface-lips/seed{s}" for s in (0, 1, 2)),
+                                                "store/cdface")
+    assert by_key["store/cdface-lips"].spec["training_owner"]["row"] == "cdface"
+    assert by_key["store/cdface"].spec["training_owner"] is None
     assert by_key["store/cdface-lips"].spec["seeds"] == [0, 1, 2]
     assert by_key["row/mean"].spec["seeds"] is None  # a reference row runs once
     assert by_key["score/cdface/seed0"].resources.cpus == 2 and by_key["data"].resources.cpus == 2
@@ -227,3 +231,33 @@ def test_rows_read_the_meshes_of_the_plans_own_corpus_where_the_work_folder_now_
     (work / CORPUS_NAME / "synthetic.json").write_text("{}")
     assert stages._source_corpus(spec, build) == str((work / CORPUS_NAME).resolve())
     assert stages._source_corpus(spec, tmp_path / "elsewhere" / "build") is None  # --data: its own record
+
+
+def test_a_row_sharing_a_training_stores_the_owners_verdict_per_seed(tmp_path, monkeypatch):
+    import json
+
+    from benchmark.protocol.seeds import CombinedScores
+    from leaderboard.executors import stages
+
+    def verdict(settled, step=3750):
+        return {"checked_at_step": step, "total_steps": 4500, "settled": settled,
+                "metrics": {"fd": {"half_budget": 9.0, "full_budget": 3.0, "half_width": 0.5, "settled": settled}}}
+
+    owner_file = tmp_path / "owner.json"
+    owner_file.write_text(json.dumps({"convergence": verdict(False),
+                                      "per_seed": [{"seed": 0, "convergence": verdict(True)},
+                                                   {"seed": 1, "convergence": verdict(False)}]}))
+    monkeypatch.setattr(stages, "row_result_path", lambda spec, root: owner_file if spec["row"] == "cdface" else None)
+    combined = CombinedScores(metrics={}, per_sentence=[], per_seed=[{"seed": 0, "metrics": {}},
+                                                                     {"seed": 1, "metrics": {}}])
+    spec = {"row": "cdface-lips", "training_owner": {"row": "cdface"}}
+    stored, reason = stages._with_shared_verdict(spec, tmp_path, combined, "not checked: loaded")
+    assert stored.convergence == {"shared_with": "cdface", "checked_at_step": 3750, "total_steps": 4500,
+                                  "metrics": {}, "settled": False}
+    assert [r["convergence"]["settled"] for r in stored.per_seed] == [True, False]
+    assert reason == "shared training: checked on row cdface"
+    # the owner's file holding other seeds, or missing: nothing is claimed
+    owner_file.write_text(json.dumps({"convergence": verdict(False), "per_seed": [{"seed": 0}]}))
+    assert stages._with_shared_verdict(spec, tmp_path, combined, "r") == (combined, "r")
+    owner_file.unlink()
+    assert stages._with_shared_verdict(spec, tmp_path, combined, "r") == (combined, "r")
