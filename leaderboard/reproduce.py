@@ -124,9 +124,9 @@ PLAN = (
     PlanEntry("codetalker", config={"preset": "cpu-demo"}, samples=8, max_steps=2000,
               note="CodeTalker cpu-demo (VQ-VAE 64 = 4 x 16, 128 codes), 800 + 1200 steps (stage 1 + 2), "
                    "8 samples = 8 training-speaker styles"),
-    PlanEntry("cdface", config=CDFACE_STEPS_ONLY, samples=5, max_steps=1500, shared_training="cdface",
-              note="CDFace cpu-demo preset, 1500 steps per stage, 5 samples (the paper's S)"),
-    PlanEntry("cdface", config={**CDFACE_STEPS_ONLY, "control": "lips"}, samples=5, max_steps=1500,
+    PlanEntry("cdface", config=CDFACE_STEPS_ONLY, samples=5, max_steps=4000, shared_training="cdface",
+              note="CDFace cpu-demo preset, 4000 steps per stage (the preset's), 5 samples (the paper's S)"),
+    PlanEntry("cdface", config={**CDFACE_STEPS_ONLY, "control": "lips"}, samples=5, max_steps=4000,
               shared_training="cdface", name="cdface-lips",
               note="CDFace lips fixed, upper face varied (the paper's Table III setting; the model of the row above)"),
 )
