@@ -101,7 +101,9 @@ def _metric_label(name: str) -> str:
 def not_settled_text(row: Row) -> str:
     """``"<label>: <metric> <at half> → <at full> (half-width <w>) between steps <B/2> and <B>"``
     for a row whose ``convergence.settled`` is false (for a row scoring another row's
-    training, ``convergence.shared_with``: which row's training it is)."""
+    training, ``convergence.shared_with``: which row's training it is). A metric whose
+    seed mean stayed within its half-width failed on some seeds: those are named instead,
+    ``"<metric> on seed <k> <at half> → <at full> (half-width <w>)"``."""
     conv = row.convergence or {}
     if conv.get("shared_with"):  # scored with another row's training: that training's verdict
         return f"{row.label}: row {conv['shared_with']}'s training, not settled there"
@@ -109,12 +111,34 @@ def not_settled_text(row: Row) -> str:
     steps = f"steps {half} and {full}" if half is not None and full is not None else "half and full budget"
     moved = []
     for name, at_half, at_full, half_width in row.unsettled_metrics():
-        if at_half is not None and at_full is not None:
-            text = f"{_metric_label(name)} {at_half:.3g} → {at_full:.3g}"
-            moved.append(text + (f" (half-width {half_width:.3g})" if half_width is not None else ""))
+        seeds = _unsettled_seeds(row, name)
+        if seeds and at_half is not None and at_full is not None and half_width is not None \
+                and abs(at_full - at_half) <= half_width:
+            # the seed mean stayed within its half-width: the seeds that moved are the reason
+            moved.append(f"{_metric_label(name)} on " + " and ".join(
+                f"seed {seed} {_move_text(*values)}" for seed, values in seeds))
+        elif at_half is not None and at_full is not None:
+            moved.append(f"{_metric_label(name)} {_move_text(at_half, at_full, half_width)}")
         else:
             moved.append(_metric_label(name))
     return f"{row.label}: " + (", ".join(moved) + f" between {steps}" if moved else f"moved between {steps}")
+
+
+def _move_text(at_half: float, at_full: float, half_width: float | None) -> str:
+    return f"{at_half:.3g} → {at_full:.3g}" + (f" (half-width {half_width:.3g})" if half_width is not None else "")
+
+
+def _unsettled_seeds(row: Row, name: str) -> list:
+    """``[(seed, (half_budget, full_budget, half_width))]`` of the row's seeds whose own check
+    of ``name`` failed (the result's ``per_seed[k].convergence``), in seed order."""
+    records = row.result.get("per_seed") if isinstance(row.result, dict) else None
+    out = []
+    for record in records if isinstance(records, list) else []:
+        entry = ((record.get("convergence") or {}).get("metrics") or {}).get(name) if isinstance(record, dict) else None
+        if isinstance(entry, dict) and entry.get("settled") is False \
+                and entry.get("half_budget") is not None and entry.get("full_budget") is not None:
+            out.append((record.get("seed"), (entry["half_budget"], entry["full_budget"], entry.get("half_width"))))
+    return out
 
 
 def group_notes(table: Table, columns: list, marks: list) -> list:

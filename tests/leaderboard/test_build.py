@@ -368,6 +368,28 @@ def test_not_settled_rows_are_marked_with_a_line_under_the_table():
     assert NOT_SETTLED_MARK not in _section(rendered_tables(results[1:])["leaderboard.md"], "Vertex")
 
 
+def test_a_metric_settled_on_the_seed_mean_names_the_seeds_that_moved():
+    base = np.linspace(1.0, 2.0, len(SENTENCES))
+
+    def check(half, full, width, settled):
+        return {"half_budget": half, "full_budget": full, "half_width": width, "settled": settled}
+
+    # the seed mean moves 3.10 -> 3.09 within 0.26, but seeds 1 and 2 moved by more than their own half-widths
+    convergence = {"checked_at_step": 10000, "total_steps": 12000, "settled": False,
+                   "metrics": {"lve_rig": check(3.10, 3.09, 0.26, False), "fd": check(3.2, 14.2, 8.3, False)}}
+    per_seed = [{"seed": 0, "convergence": {"metrics": {"lve_rig": check(2.88, 2.84, 0.10, True)}}},
+                {"seed": 1, "convergence": {"metrics": {"lve_rig": check(3.25, 2.95, 0.086, False)}}},
+                {"seed": 2, "convergence": {"metrics": {"lve_rig": check(3.18, 3.46, 0.079, False)}}}]
+    result = _sentence_result("seeded", base, convergence=convergence)
+    result["per_seed"] = per_seed
+    md = rendered_tables([result])["leaderboard.md"]
+    assert ("seeded: LVE rig on seed 1 3.25 → 2.95 (half-width 0.086) and seed 2 3.18 → 3.46 (half-width 0.079), "
+            "FD 3.2 → 14.2 (half-width 8.3) between steps 10000 and 12000.") in md
+    # without per-seed records the seed mean's move is all there is to show
+    del result["per_seed"]
+    assert "seeded: LVE rig 3.1 → 3.09 (half-width 0.26), FD" in rendered_tables([result])["leaderboard.md"]
+
+
 def test_a_row_scoring_another_rows_training_carries_its_verdict_under_the_table():
     from benchmark.protocol.convergence import shared_convergence
 
