@@ -120,6 +120,20 @@ class Row:
                 out.append((name, entry.get("half_budget"), entry.get("full_budget"), entry.get("half_width")))
         return out
 
+    def unsettled_seeds(self, name: str) -> list:
+        """``[(seed, half_budget, full_budget, half_width)]`` of the seeds whose own check of
+        ``name`` failed (the result's ``per_seed[k].convergence``), in the result's seed order;
+        empty for a row without per-seed checks."""
+        records = self.result.get("per_seed") if isinstance(self.result, dict) else None
+        out = []
+        for record in records if isinstance(records, list) else []:
+            convergence = record.get("convergence") if isinstance(record, dict) else None
+            entry = ((convergence or {}).get("metrics") or {}).get(name)
+            if isinstance(entry, dict) and entry.get("settled") is False \
+                    and entry.get("half_budget") is not None and entry.get("full_budget") is not None:
+                out.append((record.get("seed"), entry["half_budget"], entry["full_budget"], entry.get("half_width")))
+        return out
+
 
 @dataclass
 class Table:

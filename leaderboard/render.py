@@ -111,34 +111,21 @@ def not_settled_text(row: Row) -> str:
     steps = f"steps {half} and {full}" if half is not None and full is not None else "half and full budget"
     moved = []
     for name, at_half, at_full, half_width in row.unsettled_metrics():
-        seeds = _unsettled_seeds(row, name)
-        if seeds and at_half is not None and at_full is not None and half_width is not None \
-                and abs(at_full - at_half) <= half_width:
+        if at_half is None or at_full is None:
+            moved.append(_metric_label(name))
+            continue
+        seeds = row.unsettled_seeds(name)
+        if seeds and half_width is not None and abs(at_full - at_half) <= half_width:
             # the seed mean stayed within its half-width: the seeds that moved are the reason
             moved.append(f"{_metric_label(name)} on " + " and ".join(
-                f"seed {seed} {_move_text(*values)}" for seed, values in seeds))
-        elif at_half is not None and at_full is not None:
-            moved.append(f"{_metric_label(name)} {_move_text(at_half, at_full, half_width)}")
+                f"seed {seed} {_move_text(*values)}" for seed, *values in seeds))
         else:
-            moved.append(_metric_label(name))
+            moved.append(f"{_metric_label(name)} {_move_text(at_half, at_full, half_width)}")
     return f"{row.label}: " + (", ".join(moved) + f" between {steps}" if moved else f"moved between {steps}")
 
 
 def _move_text(at_half: float, at_full: float, half_width: float | None) -> str:
     return f"{at_half:.3g} → {at_full:.3g}" + (f" (half-width {half_width:.3g})" if half_width is not None else "")
-
-
-def _unsettled_seeds(row: Row, name: str) -> list:
-    """``[(seed, (half_budget, full_budget, half_width))]`` of the row's seeds whose own check
-    of ``name`` failed (the result's ``per_seed[k].convergence``), in seed order."""
-    records = row.result.get("per_seed") if isinstance(row.result, dict) else None
-    out = []
-    for record in records if isinstance(records, list) else []:
-        entry = ((record.get("convergence") or {}).get("metrics") or {}).get(name) if isinstance(record, dict) else None
-        if isinstance(entry, dict) and entry.get("settled") is False \
-                and entry.get("half_budget") is not None and entry.get("full_budget") is not None:
-            out.append((record.get("seed"), (entry["half_budget"], entry["full_budget"], entry.get("half_width"))))
-    return out
 
 
 def group_notes(table: Table, columns: list, marks: list) -> list:
