@@ -10,8 +10,6 @@ under a :class:`Budget`, and it can save and reload its trained state.
 from __future__ import annotations
 
 import abc
-import contextlib
-import contextvars
 import inspect
 import json
 import math
@@ -21,6 +19,8 @@ from pathlib import Path
 
 import numpy as np
 
+from blendvoca.runtime.progress import progress_bars, show_progress
+
 from .contract import OUTPUT_COEFFICIENTS, OUTPUT_KINDS
 
 __all__ = ["CONFIG_FILE", "Budget", "Method", "checkpoint_step", "progress_bars", "show_progress",
@@ -28,30 +28,6 @@ __all__ = ["CONFIG_FILE", "Budget", "Method", "checkpoint_step", "progress_bars"
 
 #: File in which :meth:`Method.save` stores the constructor config.
 CONFIG_FILE = "method_config.json"
-
-_SHOW_PROGRESS = contextvars.ContextVar("blendvoca_show_progress", default=True)
-
-
-def show_progress() -> bool:
-    """Whether a method should draw its own progress bars now.
-
-    True unless the caller is inside ``progress_bars(False)``, which
-    ``benchmark.run --quiet`` enters around training and generation. Plug-ins pass it
-    to their loops (``tqdm(..., disable=not show_progress())``): the contract's
-    ``train`` and ``generate`` take no progress flag.
-    """
-    return _SHOW_PROGRESS.get()
-
-
-@contextlib.contextmanager
-def progress_bars(enabled: bool):
-    """Within the block, :func:`show_progress` returns ``enabled``."""
-    token = _SHOW_PROGRESS.set(bool(enabled))
-    try:
-        yield
-    finally:
-        _SHOW_PROGRESS.reset(token)
-
 
 @dataclass(frozen=True)
 class Budget:
