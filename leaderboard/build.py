@@ -1,6 +1,7 @@
 """Render every stored result into Markdown and LaTeX tables.
 
-``python -m leaderboard.build [--results DIR] [--out DIR]``.
+``python -m leaderboard.build [--results DIR] [--out DIR] [--docs PAGE]``; ``--docs`` rewrites the
+generated rows of PAGE (docs/leaderboard.md) from the tables just written (leaderboard.docs_rows).
 """
 
 from __future__ import annotations
@@ -12,6 +13,7 @@ from blendvoca import cli
 from blendvoca.io.atomic import atomic_write
 
 from .collect import load_results, tables_by_manifest
+from .docs_rows import refresh_page
 from .render import latex_tables, markdown_tables
 
 __all__ = ["DEFAULT_OUT_DIR", "DEFAULT_RESULTS_DIR", "build_leaderboard", "main", "rendered_tables"]
@@ -58,9 +60,12 @@ def main(argv=None) -> int:
     parser.add_argument("--out", default=str(DEFAULT_OUT_DIR), help="directory for leaderboard.md / leaderboard.tex")
     cli.add_results_option(parser, default=str(DEFAULT_RESULTS_DIR),
                            help="directory of result JSON files (default: the committed leaderboard/results)")
+    parser.add_argument("--docs", help="a page with a generated rows block (docs/leaderboard.md) to rewrite from the tables")
     args = parser.parse_args(argv)
     for path in build_leaderboard(args.results, args.out):
         print(path)
+    if args.docs and refresh_page(args.docs, Path(args.out) / "leaderboard.md"):
+        print(args.docs)
     return cli.EXIT_OK
 
 
