@@ -12,7 +12,7 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-from blendvoca.errors import DataError
+from blendvoca.errors import DataError, UserError
 from blendvoca.io.atomic import atomic_write
 
 __all__ = ["BEGIN", "COLUMNS", "END", "check_page", "refresh_page", "rows_block"]
@@ -94,8 +94,20 @@ def _split(page_text: str, page: Path) -> tuple[str, str]:
 
 
 def refresh_page(page, tables) -> bool:
-    """Rewrite the generated block of ``page`` from the tables file ``tables``; True when it changed."""
-    page, text = Path(page), Path(page).read_text(encoding="utf-8")
+    """Rewrite the generated block of ``page`` from the tables file ``tables``; True when it changed.
+
+    Raises
+    ------
+    UserError
+        ``page`` does not exist.
+    DataError
+        ``page`` has no (or more than one) generated block, or the tables lack a column.
+    """
+    page = Path(page)
+    if not page.is_file():
+        raise UserError(f"--docs {page}: expected a Markdown page with a generated rows block "
+                        f"({BEGIN!r} ... {END!r}); no such file")
+    text = page.read_text(encoding="utf-8")
     head, tail = _split(text, page)
     new = head + rows_block(Path(tables).read_text(encoding="utf-8")) + tail
     if new == text:

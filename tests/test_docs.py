@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from blendvoca.errors import DataError
+from blendvoca.errors import DataError, UserError
 from leaderboard.build import main as build_main
 from leaderboard.docs_rows import BEGIN, END, check_page, refresh_page, rows_block
 
@@ -179,6 +179,8 @@ def test_a_page_without_the_block_or_tables_without_a_column_are_refused(tmp_pat
     page.write_text("# no block\n")
     with pytest.raises(DataError, match="expected one generated block"):
         refresh_page(page, TABLES)
+    with pytest.raises(UserError, match="no such file"):
+        refresh_page(tmp_path / "missing.md", TABLES)
     with pytest.raises(DataError, match="expected a '### Vertex' section"):
         rows_block(TABLES.read_text().replace("### Vertex", "### Vertices"))
 
