@@ -49,27 +49,44 @@ def _sections(text: str):
     yield heading, lines
 
 
+def _tables(lines):
+    """The Markdown tables among ``lines``: lists of consecutive (line number, row), header first."""
+    tables, current = [], []
+    for n, line in lines:
+        if line.lstrip().startswith("|"):
+            current.append((n, line))
+        elif current:
+            tables.append(current)
+            current = []
+    return tables + ([current] if current else [])
+
+
+def _figures(table) -> bool:
+    """Whether a table's body holds a decimal figure (a measured value, not a count or a default)."""
+    return any(NUMBER_CELL.match(c) or TIMING_CELL.match(c) for _, row in table[2:] for c in _cells(row))
+
+
 def measurements(text: str) -> list[str]:
     """Where a page carries a measurement (the rules of docs/results/README.md), one
     'line N (section): rule: excerpt' per finding; empty for a manual page."""
     found = []
     for heading, lines in _sections(text):
-        table = [(n, line) for n, line in lines if line.lstrip().startswith("|")]
-        numbers = [(n, line) for n, line in table
-                   if not set(line.replace("|", "").strip()) <= set("-: ")
-                   and any(NUMBER_CELL.match(c) or TIMING_CELL.match(c) for c in _cells(line))]
+        where = lambda n, rule, line: f"line {n} ({heading}): {rule}: {line.strip()[:80]}"  # noqa: E731
+        tables = _tables(lines)
+        with_figures = [table for table in tables if _figures(table)]
         for n, line in lines:
             if MARKER.search(line):
-                found.append(f"line {n} ({heading}): measurement marker: {line.strip()[:80]}")
-            if DATE.search(line) and numbers:
-                found.append(f"line {n} ({heading}): a date beside a table of figures "
-                             f"(line {numbers[0][0]}): {line.strip()[:80]}")
-        for n, line in table:
-            cells = _cells(line)
-            if any(TIMING_CELL.match(c) for c in cells):
-                found.append(f"line {n} ({heading}): a timing or memory figure in a table: {line.strip()[:80]}")
-            elif TIMING_HEADER.search(line) and table and n == table[0][0] and numbers:
-                found.append(f"line {n} ({heading}): a table of timings: {line.strip()[:80]}")
+                found.append(where(n, "measurement marker", line))
+            if DATE.search(line) and with_figures:
+                found.append(where(n, f"a date beside a table of figures (line {with_figures[0][0][0]})", line))
+        for table in tables:
+            (header_n, header), timed = table[0], False
+            for n, row in table[2:]:
+                if any(TIMING_CELL.match(c) for c in _cells(row)):
+                    found.append(where(n, "a timing or memory figure in a table", row))
+                    timed = True
+            if not timed and TIMING_HEADER.search(header) and _figures(table):
+                found.append(where(header_n, "a table of timings", header))
     return found
 
 
@@ -118,7 +135,7 @@ def test_a_reinserted_timing_table_is_refused():
 
 def test_a_dated_table_of_figures_is_refused():
     page = MANUAL + "\n## Results\n\nOn 4 December 2026:\n\n| row | LVE |\n|---|---|\n| said | 2.84 |\n"
-    assert measurements(page) == ["line 17 (Results): a date beside a table of figures (line 21): On 4 December 2026:"]
+    assert measurements(page) == ["line 17 (Results): a date beside a table of figures (line 19): On 4 December 2026:"]
     # the same table undated is a table of the manual (e.g. defaults)
     assert measurements(page.replace("On 4 December 2026:", "Defaults:")) == []
 
