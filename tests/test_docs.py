@@ -212,3 +212,25 @@ def test_every_results_section_would_be_refused_in_a_reference_page():
         assert sections, page
         for section in sections:
             assert measurements(MANUAL + "\n" + section), f"{page.name}: {section.splitlines()[0]} is not dated"
+
+
+def _anchor(heading: str) -> str:
+    """GitHub's anchor of a heading: lower case, punctuation dropped, spaces to hyphens."""
+    return re.sub(r"[^\w\- ]", "", heading.strip().lower()).replace(" ", "-")
+
+
+def test_relative_links_resolve():
+    """Moving sections between pages must not leave a link to a page or heading that is gone."""
+    pages = sorted(DOCS.rglob("*.md")) + [ROOT / "README.md"]
+    anchors = {page: {_anchor(heading) for heading, _ in _sections(page.read_text()) if heading != "(top)"}
+               for page in pages}
+    broken = []
+    for page in pages:
+        for target in re.findall(r"\]\(([^)\s]+)\)", page.read_text()):
+            if target.startswith(("http:", "https:", "mailto:")):
+                continue
+            path, _, anchor = target.partition("#")
+            resolved = (page.parent / path).resolve() if path else page
+            if not resolved.exists() or (anchor and resolved.suffix == ".md" and anchor not in anchors.get(resolved, ())):
+                broken.append(f"{page.relative_to(ROOT)}: {target}")
+    assert not broken, "links to nothing: " + "; ".join(broken)
