@@ -60,7 +60,8 @@ def main(argv=None) -> int:
     parser.add_argument("--out", default=str(DEFAULT_OUT_DIR), help="directory for leaderboard.md / leaderboard.tex")
     cli.add_results_option(parser, default=str(DEFAULT_RESULTS_DIR),
                            help="directory of result JSON files (default: the committed leaderboard/results)")
-    parser.add_argument("--docs", help="a page with a generated rows block (docs/leaderboard.md) to rewrite from the tables")
+    parser.add_argument("--docs", help="a page with a generated rows block (docs/leaderboard.md) "
+                                       "to rewrite from the tables")
     args = parser.parse_args(argv)
     for path in build_leaderboard(args.results, args.out):
         print(path)

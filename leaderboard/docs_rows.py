@@ -65,7 +65,8 @@ def rows_block(tables_md: str) -> str:
             if section not in subs:
                 raise DataError(f"leaderboard tables, {dataset}: expected a '### {section}' section, "
                                 f"found {sorted(subs)}")
-            row_labels, cells, section_note = _column(subs[section], header, f"leaderboard tables, {dataset}, {section}")
+            where = f"leaderboard tables, {dataset}, {section}"
+            row_labels, cells, section_note = _column(subs[section], header, where)
             labels = labels or row_labels
             columns.append(cells)
             note = note or section_note
