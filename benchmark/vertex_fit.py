@@ -58,7 +58,7 @@ def adapted_coefficients(frames, neutral, deltas, *, fps: float = 60.0, template
     unposed : bool or None
         Whether the output is known to carry no head pose; None (default): the
         head pose is removed for FLAME-topology outputs
-        (:func:`blendvoca.fit.remove_head_pose`), see :func:`blendvoca.fit.fit_sequence`.
+        (:func:`blendvoca.fit.remove_head_pose`), see :func:`blendvoca.fit.fit_sequence` (``pose_fit="remove"``).
     poses : list, optional
         When given, the removed :class:`blendvoca.fit.HeadPose` (or None) is
         appended to it, so callers can report it (``pose.summary()``: degrees, mm).
@@ -82,11 +82,12 @@ def adapted_coefficients(frames, neutral, deltas, *, fps: float = 60.0, template
         raise ValueError(f"adapted_coefficients: template must be 'absolute' or 'offsets', got {template!r}")
     if fps != 60.0:
         frames = resample_sequence(frames, fps, 60.0)
-    kwargs = {"vertex_subset": vertex_subset, "unposed": unposed}
+    # the benchmark's protocol: posed outputs are rigidly unposed first (pose_fit="remove")
+    kwargs = {"vertex_subset": vertex_subset, "unposed": unposed, "pose_fit": "remove"}
     if delta is None:
         kwargs["rate"] = False
     else:
-        kwargs["delta"] = delta
+        kwargs["rate_bound"] = delta
     result = fit_sequence(neutral, deltas, frames, **kwargs)
     if poses is not None:
         poses.append(result.pose)

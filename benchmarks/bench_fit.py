@@ -69,9 +69,9 @@ def child(method, num_frames, threads):
         before = _rss_now_kb()
         start = time.perf_counter()
         if method == "published":
-            coeffs = solve_published_qp(neutral, deltas, frames, delta=0.1)
+            coeffs = solve_published_qp(neutral, deltas, frames, rate_bound=0.1)
         else:
-            coeffs = fit_coefficients(neutral, deltas, frames, delta=0.1, method=method)
+            coeffs = fit_coefficients(neutral, deltas, frames, rate_bound=0.1, solver=method)
         elapsed = time.perf_counter() - start
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     objective = normal_equations(neutral, deltas, frames).objective(coeffs)
@@ -129,13 +129,13 @@ def floor_ratio(num_frames, repeats=7):
         raw, floor, fit, normal, qp = _best_interleaved([
             lambda: raw_floor(neutral, deltas, frames),
             lambda: fit_coefficients(neutral, deltas, frames, bounds=False, rate=False),
-            lambda: fit_coefficients(neutral, deltas, frames, delta=0.1),
+            lambda: fit_coefficients(neutral, deltas, frames, rate_bound=0.1),
             lambda: normal_equations(neutral, deltas, frames),
-            lambda: solve_banded_qp(system.gram, system.rhs, delta=0.1),
+            lambda: solve_banded_qp(system.gram, system.rhs, rate_bound=0.1),
         ], repeats)
         banded_qp._Problem.factor, banded_qp._Problem.solve = counted_factor, counted_solve
         try:
-            sol = solve_banded_qp(system.gram, system.rhs, delta=0.1)
+            sol = solve_banded_qp(system.gram, system.rhs, rate_bound=0.1)
         finally:
             banded_qp._Problem.factor, banded_qp._Problem.solve = factor, solve
     print(f"{num_frames:>6} frames  raw floor {1e3 * raw[0]:7.1f} ms cpu ({1e3 * raw[1]:7.1f} wall)  "

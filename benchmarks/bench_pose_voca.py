@@ -11,13 +11,15 @@ never committed here.
 
 The ARKit reference rig is transferred onto a FLAME head as the build does
 (``blendvoca.builder.speaker_rig``: 68-landmark correspondence, 4580-vertex head crop),
-and the frames are unposed and fitted three ways, each measured on that head crop:
+and the frames are unposed and fitted four ways, each measured on that head crop:
 
-(a) pose removal on FLAME's stable region, then the fit (``fit_sequence``'s default
-    for FLAME meshes);
+(a) pose removal on FLAME's stable region, then the fit (``fit_sequence(...,
+    pose_fit="remove")``, the default for FLAME meshes before (c) became it);
 (b) plain Kabsch on the upper head (the head crop above the nose base, FLAME landmark
     33, unweighted: ``remove_head_pose(..., iterations=0)``), then the same fit;
-(c) the joint fit (``fit_pose_and_coefficients``, defaults).
+(c) the joint fit (``fit_pose_and_coefficients``, defaults);
+(d) ``fit_sequence``'s default on FLAME meshes, which is (c): its residual is printed
+    beside (c)'s, and must be the same.
 
 Two rigs: one on PLY and one on the stream's own frame with the smallest lip aperture
 (the stream's upper head is not PLY's: the first line of each section says by how
@@ -49,19 +51,21 @@ from blendvoca.rig import load_arkit_reference  # noqa: E402
 
 
 def compare(neutral, faces, frames, fps):
-    """The three paths on one rig: {label: (FitResult, HeadPose)}, the rig, the upper-head mismatch (mm)."""
+    """The four paths on one rig: {label: (FitResult, HeadPose)}, the rig, the upper-head mismatch (mm)."""
     landmarks, head = load_index_list("flame-landmarks"), load_index_list("flame-head-idx")
     rig = speaker_rig(load_arkit_reference("speech"), neutral, faces, load_index_list("arkit-landmarks"),
                       landmarks, head)
     delta = 0.1 * 60.0 / fps
     upper = head[neutral[head, 1] > neutral[landmarks[33], 1]]
-    a = fit_sequence(rig.neutral, rig.deltas, frames, vertex_subset=head, delta=delta)
+    a = fit_sequence(rig.neutral, rig.deltas, frames, vertex_subset=head, rate_bound=delta, pose_fit="remove")
     kabsch = remove_head_pose(frames, rig.neutral, stable=upper, iterations=0)
-    b = fit_sequence(rig.neutral, rig.deltas, kabsch.frames, vertex_subset=head, delta=delta, unposed=True)
-    c = fit_pose_and_coefficients(rig.neutral, rig.deltas, frames, vertex_subset=head, delta=delta)
+    b = fit_sequence(rig.neutral, rig.deltas, kabsch.frames, vertex_subset=head, rate_bound=delta, unposed=True)
+    c = fit_pose_and_coefficients(rig.neutral, rig.deltas, frames, vertex_subset=head, rate_bound=delta)
     mismatch = 1000 * np.sqrt(np.mean(np.sum((kabsch.frames[:, upper] - neutral[upper]) ** 2, axis=2)))
     paths = {"(a) pose removal, then fit": (a, a.pose), "(b) plain Kabsch, upper head": (b, kabsch),
              "(c) joint fit": (c.fit, c.pose)}
+    d = fit_sequence(rig.neutral, rig.deltas, frames, vertex_subset=head, rate_bound=delta)
+    paths["(d) fit_sequence's default"] = (d, d.pose)
     return paths, rig, mismatch, c
 
 
@@ -74,7 +78,7 @@ def report(title, paths, rig, mismatch, joint, aperture):
         r = np.corrcoef(fit.coeffs[:, jaw], aperture)[0, 1]
         print(f"| {label} | {1000 * np.sqrt(np.mean(fit.rmse ** 2)):.3f} | {pose.angles_deg.max():.2f} | {r:.3f} |")
     print("\n| frame | lip aperture, mm | rotation (a) | (b) | (c) | jawOpen (c) |\n|---:|---:|---:|---:|---:|---:|")
-    angles = [pose.angles_deg for _, pose in paths.values()]
+    angles = [pose.angles_deg for _, pose in list(paths.values())[:3]]
     for t in range(len(aperture)):
         print(f"| {t} | {1000 * aperture[t]:.2f} | " + " | ".join(f"{a[t]:.2f}" for a in angles)
               + f" | {joint.coeffs[t, jaw]:.3f} |")

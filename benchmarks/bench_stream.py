@@ -169,7 +169,7 @@ def solvers(num_speakers, limit_frames):
 
     def banded():
         for hessian, linear in problems:
-            yield solve_banded_qp(hessian, linear[None], lower=0.0, upper=1.0, delta=None).coeffs[0]
+            yield solve_banded_qp(hessian, linear[None], lower=0.0, upper=1.0, rate_bound=None).coeffs[0]
 
     results = {}
     with threadpool_limits(1):

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from blendvoca.errors import UserError
-from blendvoca.fit import fit_sequence
+from blendvoca.fit import fit_pose_and_coefficients, fit_sequence
 from blendvoca.rig import Rig
 
 #: How posed input is unposed: ``joint`` alternates the rigid alignment and the coefficient fit
@@ -73,18 +73,16 @@ def sentence_fit(rig: Rig, frames: np.ndarray, head_index, *, delta: float = 0.1
     pose = None
     if not posed:
         # VOCASET's unposedcleaneddata (and the synthetic corpus's) carry no head pose.
-        result = fit_sequence(rig.neutral, rig.deltas, frames, delta=delta, vertex_subset=head_index, unposed=True)
+        result = fit_sequence(rig.neutral, rig.deltas, frames, rate_bound=delta, vertex_subset=head_index, unposed=True)
     elif pose_fit == "joint":
-        from blendvoca.fit.joint_pose import fit_pose_and_coefficients
-
-        joint = fit_pose_and_coefficients(rig.neutral, rig.deltas, frames, delta=delta, vertex_subset=head_index,
+        joint = fit_pose_and_coefficients(rig.neutral, rig.deltas, frames, rate_bound=delta, vertex_subset=head_index,
                                           stable=stable)
         result = joint.fit
         pose = {**joint.pose.summary(), "method": "joint", "iterations": joint.iterations,
                 "converged": joint.converged}
     else:
-        result = fit_sequence(rig.neutral, rig.deltas, frames, delta=delta, vertex_subset=head_index,
-                              unposed=False, stable=stable)
+        result = fit_sequence(rig.neutral, rig.deltas, frames, rate_bound=delta, vertex_subset=head_index,
+                              unposed=False, stable=stable, pose_fit="remove")
         pose = {**result.pose.summary(), "method": "remove"}
     activity = result.activity
     stats = {

@@ -41,13 +41,13 @@ def as_float_array(value, name: str, ndim: int, where: str, *, keep_float: bool 
     return array
 
 
-def check_delta(delta, where: str) -> float | None:
+def check_rate_bound(rate_bound, where: str) -> float | None:
     """Return the rate bound as a positive float, or None for no rate constraint."""
-    if delta is None:
+    if rate_bound is None:
         return None
-    if isinstance(delta, (bool, np.bool_)) or not isinstance(delta, numbers.Real):
-        raise TypeError(f"{where}: delta must be a positive number or None, got {delta!r}")
-    delta = float(delta)
-    if not np.isfinite(delta) or delta <= 0.0:
-        raise UserError(f"{where}: delta must be a positive finite number, got {delta}")
-    return delta
+    if isinstance(rate_bound, (bool, np.bool_)) or not isinstance(rate_bound, numbers.Real):
+        raise TypeError(f"{where}: rate_bound must be a positive number or None, got {rate_bound!r}")
+    rate_bound = float(rate_bound)
+    if not np.isfinite(rate_bound) or rate_bound <= 0.0:
+        raise UserError(f"{where}: rate_bound must be a positive finite number, got {rate_bound}")
+    return rate_bound

@@ -3,7 +3,7 @@
 The QP over a whole sentence (n = T K unknowns)::
 
     minimise   sum_t  1/2 u_t^T G u_t - c_t . u_t
-    subject to lower <= u <= upper,  -delta <= u_{t+1} - u_t <= delta
+    subject to lower <= u <= upper,  -rate_bound <= u_{t+1} - u_t <= rate_bound
 
 has a block-diagonal Hessian ``kron(I_T, G)`` and rate constraints that only
 couple a coefficient with itself in the next frame.  In a primal-dual
@@ -31,7 +31,8 @@ from scipy.linalg.lapack import dpbtrf, dpbtrs
 
 from blendvoca.errors import UserError
 
-from ._checks import as_float_array, check_delta
+from ._checks import as_float_array, check_rate_bound
+from ._renamed import renamed_keywords
 
 
 @dataclass(frozen=True)
@@ -49,8 +50,8 @@ class QPSolution:
     lower_multipliers, upper_multipliers : (T, K) ndarray or None
         Lagrange multipliers of the bound constraints (None without bounds).
     rate_multipliers : (T - 1, K) ndarray or None
-        Multipliers of ``u_{t+1} - u_t <= delta`` minus those of
-        ``u_{t+1} - u_t >= -delta`` (None without rate constraints).
+        Multipliers of ``u_{t+1} - u_t <= rate_bound`` minus those of
+        ``u_{t+1} - u_t >= -rate_bound`` (None without rate constraints).
     kkt_residual : float
         Max of the scaled stationarity, feasibility and complementarity residuals.
     solver : str
@@ -101,7 +102,7 @@ class _Problem:
     whole-array numpy calls.
     """
 
-    def __init__(self, gram, rhs, lo, hi, delta):
+    def __init__(self, gram, rhs, lo, hi, rate_bound):
         self.num_frames, self.k = rhs.shape
         self.g = gram
         self.c = rhs
@@ -113,8 +114,8 @@ class _Problem:
         for name, bound, length in (
             ("lower", None if lo is None else -lo, size),
             ("upper", hi, size),
-            ("rate+", None if delta is None or self.num_frames < 2 else delta, rate_size),
-            ("rate-", None if delta is None or self.num_frames < 2 else delta, rate_size),
+            ("rate+", None if rate_bound is None or self.num_frames < 2 else rate_bound, rate_size),
+            ("rate-", None if rate_bound is None or self.num_frames < 2 else rate_bound, rate_size),
         ):
             if bound is None:
                 continue
@@ -406,13 +407,14 @@ def _polish(prob, active, multipliers, *, rho=1e5, max_alm=40, max_rounds=10, fe
     return None, multipliers, max_rounds
 
 
+@renamed_keywords(delta="rate_bound")
 def solve_banded_qp(
     gram,
     rhs,
     *,
     lower=0.0,
     upper=1.0,
-    delta=0.1,
+    rate_bound=0.1,
     warm_start=None,
     tol: float = 1e-8,
     max_iter: int = 60,
@@ -428,7 +430,7 @@ def solve_banded_qp(
         Linear terms ``c_t = B^T (p_t - n)``.
     lower, upper : float or (T, K) array_like or None, optional
         Box bounds on the coefficients; None drops that bound.
-    delta : float or None, optional
+    rate_bound : float or None, optional
         Bound on ``|u_{t+1} - u_t|``; None drops the rate constraints.
     warm_start : (T, K) array_like, optional
         Initial primal point (moved into the interior).
@@ -454,7 +456,7 @@ def solve_banded_qp(
         raise UserError(
             f"{where}: gram must be ({k}, {k}) to match rhs {rhs.shape}, got {gram.shape}"
         )
-    delta = check_delta(delta, where)
+    rate_bound = check_rate_bound(rate_bound, where)
     lo = _broadcast_bound(lower, rhs.shape, "lower")
     hi = _broadcast_bound(upper, rhs.shape, "upper")
     if lo is not None and hi is not None and np.any(lo > hi):
@@ -463,7 +465,7 @@ def solve_banded_qp(
     # Scale the objective so that the Hessian diagonal is at most 1: tolerances
     # are then meaningful whatever the mesh units (metres give ~1e-3 entries).
     scale = float(np.max(np.abs(np.diag(gram)))) or 1.0
-    prob = _Problem(0.5 * (gram + gram.T) / scale, rhs / scale, lo, hi, delta)
+    prob = _Problem(0.5 * (gram + gram.T) / scale, rhs / scale, lo, hi, rate_bound)
 
     # The unconstrained minimiser u_t = G^-1 c_t of every frame, from the one
     # K x K Cholesky factor of G: the warm start and the active-set guess.

@@ -1,120 +1,50 @@
-"""Public entry points: fit a coefficient track to a mesh sequence with a rig."""
+"""Public entry points: fit a coefficient track to a mesh sequence with a rig.
+
+Posed frames (FLAME meshes, unless declared unposed) get their head pose fitted
+first, by default jointly with the coefficients as the build does
+(:mod:`blendvoca.fit.joint_pose`); the fit itself is :func:`blendvoca.fit.qp_fit.fit_unposed`.
+"""
 
 from __future__ import annotations
-
-from dataclasses import dataclass, field
 
 import numpy as np
 
 from blendvoca.errors import UserError
 
-from ._checks import check_delta
-from .banded_qp import solve_banded_qp
-from .diagnostics import constraint_activity, vertex_errors_of_checked
-from .framewise import framewise_coefficients
-from .least_squares import least_squares_coefficients
-from .normal_equations import check_rig_and_frames, normal_equations_of_checked
-from .pose import FLAME_NUM_VERTICES, HeadPose, remove_head_pose
-from .resample import resample_sequence
-from .sparse_qp import SOLVER_OPTIONS, solve_sparse_qp
+from ._renamed import renamed_keywords
+from .joint_pose import fit_pose_and_coefficients
+from .normal_equations import check_rig_and_frames
+from .pose import FLAME_NUM_VERTICES, remove_head_pose
+from .qp_fit import SOLVERS, FitResult, fit_unposed
 
-#: Accepted values of ``method``.
-METHODS = ("banded",) + tuple(SOLVER_OPTIONS)
+__all__ = ["POSE_FITS", "SOLVERS", "FitResult", "fit_coefficients", "fit_rig", "fit_sequence"]
 
-_CONTROLLER = None
+#: How :func:`fit_sequence` unposes posed frames (see its ``pose_fit``).
+POSE_FITS = ("joint", "remove")
 
 
-def _one_blas_thread():
-    """Context limiting BLAS to one thread: the small banded factorizations run
-    several times slower with two threads on these machines (DESIGN.md)."""
-    global _CONTROLLER
-    try:
-        from threadpoolctl import ThreadpoolController
-    except ImportError:  # pragma: no cover - threadpoolctl comes with scikit-learn
-        import contextlib
-
-        return contextlib.nullcontext()
-    if _CONTROLLER is None:
-        _CONTROLLER = ThreadpoolController()
-    return _CONTROLLER.limit(limits=1, user_api="blas")
-
-
-@dataclass(frozen=True)
-class FitResult:
-    """A fitted coefficient track with its diagnostics.
-
-    Attributes
-    ----------
-    coeffs : (T, K) ndarray
-        The coefficients.
-    objective : float
-        ``sum_t ||B u_t - (p_t - n)||^2`` on the fitted vertices (mesh units squared).
-    rmse : (T,) ndarray
-        Per-frame root mean square vertex error (mesh units).
-    max_error : (T,) ndarray
-        Per-frame largest vertex error (mesh units).
-    activity : dict
-        Per-blendshape fraction of frames with the lower / upper / rate
-        constraint active (:func:`constraint_activity`).
-    solver : str
-        What produced the coefficients.
-    iterations : int
-        Solver iterations (0 for closed forms).
-    converged : bool
-        False when the solver stopped without its optimality certificate.
-    pose : HeadPose or None
-        The head pose removed before fitting (``pose.summary()``: degrees, mm);
-        None when the frames were declared unposed.
-    """
-
-    coeffs: np.ndarray
-    objective: float
-    rmse: np.ndarray
-    max_error: np.ndarray
-    activity: dict = field(repr=False)
-    solver: str
-    iterations: int
-    converged: bool
-    pose: HeadPose | None = field(default=None, repr=False)
-
-
-def _checked_frames(neutral, deltas, frames, vertex_subset, unposed, stable, where, fps=60.0):
-    """Validated rig and frames (subset applied), with the head pose removed unless ``unposed``.
-
-    Unposed 60 fps frames with a subset come as a :class:`FrameCrop`, so that the
-    crop is made chunk by chunk from the frames as stored.
-    """
-    if unposed is None:
-        # Auto: FLAME meshes (captures, method outputs) have a known stable
-        # region; other topologies are treated as rig-space data.
-        unposed = np.shape(neutral)[0] != FLAME_NUM_VERTICES
-    if unposed:
-        return check_rig_and_frames(neutral, deltas, frames, vertex_subset, where, lazy=fps == 60.0), None
-    check_rig_and_frames(neutral, deltas, frames, vertex_subset, where)
-    pose = remove_head_pose(frames, neutral, stable=stable)
-    return check_rig_and_frames(neutral, deltas, pose.frames, vertex_subset, where), pose
-
-
+@renamed_keywords(delta="rate_bound", method="solver")
 def fit_sequence(
     neutral,
     deltas,
     frames,
     *,
-    delta=0.1,
+    rate_bound=0.1,
     vertex_subset=None,
     bounds=True,
     rate=True,
-    method="banded",
+    solver="banded",
     warm_start=None,
     framewise=False,
     fps=60.0,
     unposed=None,
     stable=None,
+    pose_fit="joint",
 ) -> FitResult:
     """Fit a coefficient track and return it with its diagnostics.
 
     Solves ``min_u sum_t ||B u_t - (p_t - n)||^2`` subject to ``0 <= u <= 1``
-    (``bounds``) and ``|u_{t+1} - u_t| <= delta`` (``rate``): the temporally
+    (``bounds``) and ``|u_{t+1} - u_t| <= rate_bound`` (``rate``): the temporally
     constrained QP of SAiD (Eq. 2).  ``B^T B`` is positive definite for a rig
     with independent blendshapes, so the optimum is unique; the default solver
     returns it certified by the KKT conditions.
@@ -127,15 +57,16 @@ def fit_sequence(
         Blendshape offsets from the neutral.
     frames : (T, V, 3) array_like
         Mesh sequence (same topology as the rig) at ``fps``.
-    delta : float, optional
-        Rate bound per 60 fps frame.
+    rate_bound : float, optional
+        Rate bound per 60 fps frame (old spelling ``delta=``, removed after 2027-06-30).
     vertex_subset : (S,) array_like of int, optional
         Fit (and measure) on these vertices only, e.g. the 4580-vertex head.
     bounds : bool, optional
         Impose ``0 <= u <= 1``.
     rate : bool, optional
-        Impose ``|u_{t+1} - u_t| <= delta``.
-    method : {"banded", "piqp", "clarabel", "osqp", "cvxopt"}, optional
+        Impose ``|u_{t+1} - u_t| <= rate_bound``.
+    solver : {"banded", "piqp", "clarabel", "osqp", "cvxopt"}, optional
+        The QP solver (old spelling ``method=``, removed after 2027-06-30).
         "banded": the structure-exploiting interior-point method with active-set
         polishing (default, fastest); the others hand the sparse QP to that
         general solver (cvxopt gets dense matrices).
@@ -149,132 +80,93 @@ def fit_sequence(
         and the result is at 60 fps.
     unposed : bool or None, optional
         True: the frames are known to carry no head pose (VOCASET's
-        ``unposedcleaneddata``, rig outputs). False: each frame is first rigidly
-        aligned to ``neutral`` by :func:`remove_head_pose` on stable vertices and
-        the removed pose is returned in ``pose``. None (default): False for
+        ``unposedcleaneddata``, rig outputs). False: the head pose is fitted as
+        ``pose_fit`` says and returned in ``pose``. None (default): False for
         FLAME-topology meshes (5023 vertices, whose stable region is known),
         True for other topologies (rig-space data: with a rig whose shapes move
         every vertex a rigid alignment would absorb part of the expression).
     stable : (S,) array_like of int, optional
-        Stable vertices for the pose removal (full topology indices); default
-        as :func:`remove_head_pose`.
+        Stable vertices for the (starting) rigid alignment (full topology
+        indices); default as :func:`remove_head_pose`.
+    pose_fit : {"joint", "remove"}, optional
+        How posed frames are unposed. "joint" (default, the build's path): the
+        pose and the coefficients fitted together
+        (:func:`blendvoca.fit.joint_pose.fit_pose_and_coefficients` with its
+        defaults, ``warm_start`` unused); "remove": each frame rigidly aligned to
+        ``neutral`` on stable vertices by :func:`remove_head_pose`, then the fit
+        (the only choice with ``framewise``, which sees no frame ahead).
 
     Returns
     -------
     FitResult
     """
-    where = "fit_coefficients"
-    if method not in METHODS:
-        raise UserError(f"{where}: method must be one of {METHODS}, got {method!r}")
-    delta = check_delta(delta, where) if rate else None
-    if rate and delta is None:
-        raise UserError(f"{where}: rate=True needs a delta, got None")
-    (neutral, deltas, frames), pose = _checked_frames(neutral, deltas, frames, vertex_subset, unposed, stable, where, fps)
-    if fps != 60.0:
-        frames = resample_sequence(frames, fps, 60.0)
-    lower, upper = (0.0, 1.0) if bounds else (None, None)
-    with _one_blas_thread():
-        system = normal_equations_of_checked(neutral, deltas, frames)
-        iterations, converged = 0, True
-        if framewise:
-            if not bounds:
-                raise UserError(f"{where}: framewise mode needs bounds=True")
-            coeffs = framewise_coefficients(
-                system.gram, system.rhs, delta=delta, warm_start=warm_start
-            )
-            solver = "framewise"
-        elif not bounds and delta is None:
-            coeffs = least_squares_coefficients(system.gram, system.rhs)
-            solver = "least-squares"
-        elif method == "banded":
-            solution = solve_banded_qp(
-                system.gram, system.rhs, lower=lower, upper=upper, delta=delta,
-                warm_start=warm_start,
-            )
-            coeffs, solver = solution.coeffs, solution.solver
-            iterations, converged = solution.iterations, solution.converged
-        else:
-            coeffs = solve_sparse_qp(
-                system.gram, system.rhs, lower=lower, upper=upper, delta=delta,
-                solver=method, warm_start=warm_start,
-            )
-            if bounds:
-                coeffs = np.clip(coeffs, 0.0, 1.0)
-            solver = method
-        rmse, max_error = vertex_errors_of_checked(neutral, deltas, frames, coeffs)
-    activity = constraint_activity(coeffs, delta=delta if delta is not None else None)
-    return FitResult(
-        coeffs=coeffs,
-        objective=system.objective(coeffs),
-        rmse=rmse,
-        max_error=max_error,
-        activity=activity,
-        solver=solver,
-        iterations=iterations,
-        converged=converged,
-        pose=pose,
-    )
+    return _fit(neutral, deltas, frames, where="fit_sequence", diagnostics=True, **_options(locals()))
 
 
+@renamed_keywords(delta="rate_bound", method="solver")
 def fit_coefficients(
     neutral,
     deltas,
     frames,
     *,
-    delta=0.1,
+    rate_bound=0.1,
     vertex_subset=None,
     bounds=True,
     rate=True,
-    method="banded",
+    solver="banded",
     warm_start=None,
     framewise=False,
     fps=60.0,
     unposed=None,
     stable=None,
+    pose_fit="joint",
 ) -> np.ndarray:
     """Return the coefficient track ``(T, K)`` that best reproduces ``frames``.
 
     Same parameters as :func:`fit_sequence` (which also returns diagnostics):
     ``neutral (V, 3)``, ``deltas (K, V, 3)``, ``frames (T, V, 3)``; by default
     the exact optimum of ``min sum_t ||B u_t - (p_t - n)||^2`` subject to
-    ``0 <= u <= 1`` and ``|u_{t+1} - u_t| <= delta``, after removing the head
-    pose unless ``unposed=True``.
+    ``0 <= u <= 1`` and ``|u_{t+1} - u_t| <= rate_bound``, with the head pose
+    fitted jointly unless ``unposed=True``.
 
     Returns
     -------
     (T, K) ndarray
         Coefficients at 60 fps, columns in the order of ``deltas``.
     """
-    where = "fit_coefficients"
-    if method not in METHODS:
-        raise UserError(f"{where}: method must be one of {METHODS}, got {method!r}")
-    delta = check_delta(delta, where) if rate else None
-    (neutral, deltas, frames), _ = _checked_frames(neutral, deltas, frames, vertex_subset, unposed, stable, where, fps)
-    if fps != 60.0:
-        frames = resample_sequence(frames, fps, 60.0)
-    lower, upper = (0.0, 1.0) if bounds else (None, None)
-    with _one_blas_thread():
-        # only the minimiser is returned: no objective, so no ||p_t - n||^2 pass
-        system = normal_equations_of_checked(neutral, deltas, frames, offset_sq=False)
-        if framewise:
-            if not bounds:
-                raise UserError(f"{where}: framewise mode needs bounds=True")
-            return framewise_coefficients(system.gram, system.rhs, delta=delta, warm_start=warm_start)
-        if not bounds and delta is None:
-            return least_squares_coefficients(system.gram, system.rhs)
-        if method == "banded":
-            return solve_banded_qp(
-                system.gram, system.rhs, lower=lower, upper=upper, delta=delta,
-                warm_start=warm_start,
-            ).coeffs
-        coeffs = solve_sparse_qp(
-            system.gram, system.rhs, lower=lower, upper=upper, delta=delta,
-            solver=method, warm_start=warm_start,
-        )
-        return np.clip(coeffs, 0.0, 1.0) if bounds else coeffs
+    return _fit(neutral, deltas, frames, where="fit_coefficients", diagnostics=False, **_options(locals()))
 
 
 def fit_rig(rig, frames, **kwargs) -> np.ndarray:
     """:func:`fit_coefficients` with a :class:`blendvoca.rig.Rig` (uses its
     ``neutral`` and ``deltas``; columns follow ``rig.names``)."""
     return fit_coefficients(rig.neutral, rig.deltas, frames, **kwargs)
+
+
+def _options(arguments: dict) -> dict:
+    """The keyword arguments of an entry point (its ``locals()`` on entry), rig and frames left out."""
+    return {name: value for name, value in arguments.items() if name not in ("neutral", "deltas", "frames")}
+
+
+def _fit(neutral, deltas, frames, *, where, diagnostics, unposed, stable, pose_fit, **options):
+    """The entry points' fit: the frames unposed as asked (:data:`POSE_FITS`), then :func:`fit_unposed`."""
+    if pose_fit not in POSE_FITS:
+        raise UserError(f"{where}: pose_fit must be one of {POSE_FITS}, got {pose_fit!r}")
+    if unposed is None:
+        # Auto: FLAME meshes (captures, method outputs) have a known stable
+        # region; other topologies are treated as rig-space data.
+        unposed = np.shape(neutral)[0] != FLAME_NUM_VERTICES
+    if unposed:
+        return fit_unposed(neutral, deltas, frames, where=where, diagnostics=diagnostics, **options)
+    if pose_fit == "joint" and not options["framewise"]:
+        joint = fit_pose_and_coefficients(
+            neutral, deltas, frames, vertex_subset=options["vertex_subset"], stable=stable,
+            rate_bound=options["rate_bound"], bounds=options["bounds"], rate=options["rate"],
+            solver=options["solver"], fps=options["fps"])
+        return joint.fit if diagnostics else joint.coeffs
+    if pose_fit == "joint":
+        raise UserError(f"{where}: framewise=True on posed frames needs pose_fit='remove' (the joint pose fit "
+                        f"sees the whole sentence) or unposed=True")
+    check_rig_and_frames(neutral, deltas, frames, options["vertex_subset"], where)
+    pose = remove_head_pose(frames, neutral, stable=stable)
+    return fit_unposed(neutral, deltas, pose.frames, where=where, diagnostics=diagnostics, pose=pose, **options)

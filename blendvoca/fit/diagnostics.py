@@ -6,6 +6,7 @@ import numpy as np
 
 from blendvoca.errors import UserError
 
+from ._renamed import renamed_keywords
 from .frame_crop import FrameCrop
 from .normal_equations import check_rig_and_frames
 
@@ -71,14 +72,15 @@ def _frame_errors(neutral, deltas, frames, coeffs):
     return np.sqrt(dist_sq.mean(axis=1)), np.sqrt(dist_sq.max(axis=1))
 
 
-def constraint_activity(coeffs, *, lower=0.0, upper=1.0, delta=0.1, tol=1e-6):
+@renamed_keywords(delta="rate_bound")
+def constraint_activity(coeffs, *, lower=0.0, upper=1.0, rate_bound=0.1, tol=1e-6):
     """Return, per blendshape, how often each constraint is active.
 
     Parameters
     ----------
     coeffs : (T, K) array_like
     lower, upper : float
-    delta : float or None
+    rate_bound : float or None
     tol : float
         A constraint counts as active within ``tol`` of its bound.
 
@@ -87,7 +89,7 @@ def constraint_activity(coeffs, *, lower=0.0, upper=1.0, delta=0.1, tol=1e-6):
     dict
         ``"lower"``, ``"upper"`` : (K,) fraction of frames at the bound;
         ``"rate"`` : (K,) fraction of frame transitions with
-        ``|u_{t+1} - u_t| >= delta - tol`` (zeros when delta is None or T == 1).
+        ``|u_{t+1} - u_t| >= rate_bound - tol`` (zeros when rate_bound is None or T == 1).
     """
     coeffs = np.asarray(coeffs, dtype=np.float64)
     if coeffs.ndim != 2 or coeffs.shape[0] == 0:
@@ -96,8 +98,8 @@ def constraint_activity(coeffs, *, lower=0.0, upper=1.0, delta=0.1, tol=1e-6):
         "lower": np.mean(coeffs <= lower + tol, axis=0),
         "upper": np.mean(coeffs >= upper - tol, axis=0),
     }
-    if delta is None or coeffs.shape[0] < 2:
+    if rate_bound is None or coeffs.shape[0] < 2:
         out["rate"] = np.zeros(coeffs.shape[1])
     else:
-        out["rate"] = np.mean(np.abs(np.diff(coeffs, axis=0)) >= delta - tol, axis=0)
+        out["rate"] = np.mean(np.abs(np.diff(coeffs, axis=0)) >= rate_bound - tol, axis=0)
     return out

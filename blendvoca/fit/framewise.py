@@ -6,18 +6,20 @@ import numpy as np
 
 from blendvoca.errors import UserError
 
-from ._checks import as_float_array, check_delta
+from ._checks import as_float_array, check_rate_bound
+from ._renamed import renamed_keywords
 from .banded_qp import solve_banded_qp
 
 
-def framewise_coefficients(gram, rhs, *, lower=0.0, upper=1.0, delta=0.1, warm_start=None) -> np.ndarray:
+@renamed_keywords(delta="rate_bound")
+def framewise_coefficients(gram, rhs, *, lower=0.0, upper=1.0, rate_bound=0.1, warm_start=None) -> np.ndarray:
     """Fit frames one after the other, each constrained to the previous frame.
 
     Frame ``t`` solves ``min 1/2 u^T G u - c_t . u`` subject to
-    ``max(lower, u_{t-1} - delta) <= u <= min(upper, u_{t-1} + delta)``: the
+    ``max(lower, u_{t-1} - rate_bound) <= u <= min(upper, u_{t-1} + rate_bound)``: the
     streaming variant (no look-ahead) of the temporally constrained fit.  The
     first frame is bounded by ``lower``/``upper`` only (or by ``warm_start``'s
-    first row +- delta when given, e.g. the last frame of a previous chunk).
+    first row +- rate_bound when given, e.g. the last frame of a previous chunk).
 
     Parameters
     ----------
@@ -25,7 +27,7 @@ def framewise_coefficients(gram, rhs, *, lower=0.0, upper=1.0, delta=0.1, warm_s
     rhs : (T, K) array_like
     lower, upper : float
         Box bounds.
-    delta : float or None
+    rate_bound : float or None
         Per-frame rate bound (None: independent per-frame box QPs).
     warm_start : (1, K) or (K,) array_like, optional
         The frame before the first one.
@@ -37,7 +39,7 @@ def framewise_coefficients(gram, rhs, *, lower=0.0, upper=1.0, delta=0.1, warm_s
     where = "framewise_coefficients"
     gram = as_float_array(gram, "gram", 2, where)
     rhs = as_float_array(rhs, "rhs", 2, where)
-    delta = check_delta(delta, where)
+    rate_bound = check_rate_bound(rate_bound, where)
     lower = float(lower)
     upper = float(upper)
     num_frames, k = rhs.shape
@@ -50,13 +52,13 @@ def framewise_coefficients(gram, rhs, *, lower=0.0, upper=1.0, delta=0.1, warm_s
     for t in range(num_frames):
         lo = np.full((1, k), lower)
         hi = np.full((1, k), upper)
-        if previous is not None and delta is not None:
-            lo = np.maximum(lo, previous - delta)
-            hi = np.minimum(hi, previous + delta)
+        if previous is not None and rate_bound is not None:
+            lo = np.maximum(lo, previous - rate_bound)
+            hi = np.minimum(hi, previous + rate_bound)
             # The previous frame may lie outside [lower, upper] when given by
             # the caller; keep the box non-empty.
             lo = np.minimum(lo, hi)
-        solution = solve_banded_qp(gram, rhs[t : t + 1], lower=lo, upper=hi, delta=None)
+        solution = solve_banded_qp(gram, rhs[t : t + 1], lower=lo, upper=hi, rate_bound=None)
         out[t] = solution.coeffs[0]
         previous = out[t]
     return out

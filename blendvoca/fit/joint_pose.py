@@ -31,8 +31,9 @@ import numpy as np
 from blendvoca.errors import UserError
 
 from ._checks import as_float_array
-from .coefficients import FitResult, fit_sequence
+from ._renamed import renamed_keywords
 from .pose import FLAME_NUM_VERTICES, HeadPose, remove_head_pose
+from .qp_fit import FitResult, fit_unposed
 from .resample import resample_sequence
 
 #: Accepted values of ``robust``.
@@ -141,6 +142,7 @@ def _check_indices(indices, num_vertices: int, name: str, where: str) -> np.ndar
     return indices
 
 
+@renamed_keywords(delta="rate_bound", method="solver")
 def fit_pose_and_coefficients(
     neutral,
     deltas,
@@ -149,10 +151,10 @@ def fit_pose_and_coefficients(
     region=None,
     vertex_subset=None,
     stable=None,
-    delta=0.1,
+    rate_bound=0.1,
     bounds=True,
     rate=True,
-    method="banded",
+    solver="banded",
     fps=60.0,
     robust="geman-mcclure",
     max_iterations: int = 50,
@@ -183,8 +185,8 @@ def fit_pose_and_coefficients(
         Stable vertices for the starting pose (:func:`remove_head_pose`). Default:
         FLAME's stable region for FLAME meshes, else the least-moving 30 % of the
         alignment region.
-    delta, bounds, rate, method
-        As :func:`fit_sequence`.
+    rate_bound, bounds, rate, solver
+        As :func:`blendvoca.fit.fit_sequence` (old spellings ``delta=``, ``method=``: removed after 2027-06-30).
     fps : float
         Frame rate of ``frames``; other rates are resampled to 60 fps first
         (the pose is then per 60 fps frame).
@@ -249,8 +251,7 @@ def fit_pose_and_coefficients(
     coeffs, fit, history, converged = None, None, [], False
     for _ in range(int(max_iterations)):
         unposed = np.matmul(frames - translations[:, None], rotations)
-        fit = fit_sequence(neutral, deltas, unposed, delta=delta, vertex_subset=vertex_subset, bounds=bounds,
-                           rate=rate, method=method, warm_start=coeffs, unposed=True)
+        fit = _fit_step(neutral, deltas, unposed, coeffs, rate_bound, vertex_subset, bounds, rate, solver)
         predicted = neutral_region[None] + (fit.coeffs @ basis_region).reshape(len(frames), -1, 3)
         new_rot, new_trans = rotations, translations
         for _ in range(max(1, int(irls_steps))):
@@ -274,8 +275,14 @@ def fit_pose_and_coefficients(
     # The returned coefficients belong to the returned pose: one last fit when the pose moved after it.
     unposed = np.matmul(frames - translations[:, None], rotations)
     if not converged:
-        fit = fit_sequence(neutral, deltas, unposed, delta=delta, vertex_subset=vertex_subset, bounds=bounds,
-                           rate=rate, method=method, warm_start=coeffs, unposed=True)
+        fit = _fit_step(neutral, deltas, unposed, coeffs, rate_bound, vertex_subset, bounds, rate, solver)
     pose = HeadPose(frames=unposed, rotations=rotations, translations=translations, stable=region, weights=weights)
     return JointFit(coeffs=fit.coeffs, pose=pose, fit=replace(fit, pose=pose), iterations=len(history),
                     converged=converged, history=tuple(history))
+
+
+def _fit_step(neutral, deltas, unposed, coeffs, rate_bound, vertex_subset, bounds, rate, solver) -> FitResult:
+    """The coefficient step of the alternation: the fit of the frames as unposed so far."""
+    return fit_unposed(neutral, deltas, unposed, rate_bound=rate_bound, vertex_subset=vertex_subset, bounds=bounds,
+                       rate=rate, solver=solver, warm_start=coeffs, framewise=False, fps=60.0,
+                       where="fit_pose_and_coefficients")

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from blendvoca.assets import load_index_list
 from blendvoca.errors import UserError
 
 from ._checks import as_float_array
@@ -94,8 +95,6 @@ def flame_stable_vertices(neutral, landmarks=None) -> np.ndarray:
     if V.shape != (FLAME_NUM_VERTICES, 3):
         raise UserError(f"flame_stable_vertices: expected a FLAME neutral ({FLAME_NUM_VERTICES}, 3), got {V.shape}")
     if landmarks is None:
-        from blendvoca.assets import load_index_list
-
         landmarks = load_index_list("flame-landmarks")
     lm = V[np.asarray(landmarks, dtype=np.int64)]
     face = lm[17:68]

@@ -14,7 +14,8 @@ import scipy.sparse as sp
 
 from blendvoca.errors import UserError
 
-from ._checks import as_float_array, check_delta
+from ._checks import as_float_array, check_rate_bound
+from ._renamed import renamed_keywords
 
 #: Solver options that make each general solver's answer match an exact solver.
 SOLVER_OPTIONS = {
@@ -31,7 +32,7 @@ def difference_operator(num_frames: int, num_shapes: int) -> sp.csc_matrix:
     return sp.kron(diff, sp.identity(num_shapes), format="csc")
 
 
-def _qp_matrices(gram, rhs, lower, upper, delta, dense):
+def _qp_matrices(gram, rhs, lower, upper, rate_bound, dense):
     num_frames, k = rhs.shape
     n = num_frames * k
     if dense:
@@ -39,10 +40,10 @@ def _qp_matrices(gram, rhs, lower, upper, delta, dense):
     else:
         hessian = sp.kron(sp.identity(num_frames), sp.csc_matrix(gram), format="csc")
     g_ineq = h_ineq = None
-    if delta is not None and num_frames > 1:
+    if rate_bound is not None and num_frames > 1:
         diff = difference_operator(num_frames, k)
         g_ineq = sp.vstack([diff, -diff], format="csc")
-        h_ineq = np.full(g_ineq.shape[0], delta)
+        h_ineq = np.full(g_ineq.shape[0], rate_bound)
         if dense:
             g_ineq = g_ineq.toarray()
     lb = None if lower is None else np.broadcast_to(np.asarray(lower, float), rhs.shape).ravel().copy()
@@ -52,8 +53,9 @@ def _qp_matrices(gram, rhs, lower, upper, delta, dense):
     return hessian, -rhs.ravel(), g_ineq, h_ineq, lb, ub
 
 
+@renamed_keywords(delta="rate_bound")
 def solve_sparse_qp(
-    gram, rhs, *, lower=0.0, upper=1.0, delta=0.1, solver="piqp", warm_start=None, **options
+    gram, rhs, *, lower=0.0, upper=1.0, rate_bound=0.1, solver="piqp", warm_start=None, **options
 ) -> np.ndarray:
     """Solve the temporally constrained QP with a general solver from qpsolvers.
 
@@ -65,7 +67,7 @@ def solve_sparse_qp(
         ``B^T (p_t - n)``.
     lower, upper : float or (T, K) array_like or None
         Box bounds (None: no bound).
-    delta : float or None
+    rate_bound : float or None
         Rate bound (None: no rate constraints).
     solver : {"piqp", "clarabel", "osqp", "cvxopt"}
         qpsolvers backend; "cvxopt" gets dense matrices.
@@ -83,7 +85,7 @@ def solve_sparse_qp(
     where = "solve_sparse_qp"
     gram = as_float_array(gram, "gram", 2, where)
     rhs = as_float_array(rhs, "rhs", 2, where)
-    delta = check_delta(delta, where)
+    rate_bound = check_rate_bound(rate_bound, where)
     if solver not in SOLVER_OPTIONS:
         raise UserError(f"{where}: solver must be one of {sorted(SOLVER_OPTIONS)}, got {solver!r}")
     if solver not in qpsolvers.available_solvers:
@@ -93,7 +95,7 @@ def solve_sparse_qp(
     # same thing whatever the mesh units.
     scale = float(np.max(np.abs(np.diag(gram)))) or 1.0
     gram, rhs = gram / scale, rhs / scale
-    P, q, G, h, lb, ub = _qp_matrices(gram, rhs, lower, upper, delta, dense=solver == "cvxopt")
+    P, q, G, h, lb, ub = _qp_matrices(gram, rhs, lower, upper, rate_bound, dense=solver == "cvxopt")
     init = None if warm_start is None else np.asarray(warm_start, float).ravel()
     x = qpsolvers.solve_qp(P, q, G, h, lb=lb, ub=ub, solver=solver, initvals=init, **opts)
     if x is None:
@@ -101,7 +103,8 @@ def solve_sparse_qp(
     return x.reshape(rhs.shape)
 
 
-def solve_published_qp(neutral, deltas, frames, *, delta=0.1) -> np.ndarray:
+@renamed_keywords(delta="rate_bound")
+def solve_published_qp(neutral, deltas, frames, *, rate_bound=0.1) -> np.ndarray:
     """The published BlendVOCA formulation, as a reference for benchmarks.
 
     One dense block-diagonal P over all frames (``T K x T K``), q from every
@@ -113,7 +116,7 @@ def solve_published_qp(neutral, deltas, frames, *, delta=0.1) -> np.ndarray:
     neutral : (V, 3) ndarray
     deltas : (K, V, 3) ndarray
     frames : (T, V, 3) ndarray
-    delta : float
+    rate_bound : float
 
     Returns
     -------
@@ -131,7 +134,7 @@ def solve_published_qp(neutral, deltas, frames, *, delta=0.1) -> np.ndarray:
     q = np.vstack([basis.T @ (neutral_vec - f.reshape(-1, 1)) for f in frames]).reshape(-1)
     diff = difference_operator(num_frames, num_shapes)
     g = sp.vstack([diff, -diff], format="csc")
-    h = np.full(g.shape[0], delta)
+    h = np.full(g.shape[0], rate_bound)
     lb = np.zeros(num_shapes * num_frames)
     ub = np.ones(num_shapes * num_frames)
     x = qpsolvers.solve_qp(P=p, q=q, G=g, h=h, lb=lb, ub=ub, solver="cvxopt")

@@ -42,8 +42,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from blendvoca.assets import load_index_list
 from blendvoca.errors import DataError, UserError
 from blendvoca.io.arrays import float_array
+from blendvoca.io.json_file import read_json
 from blendvoca.names import BLENDVOCA_NAMES, arkit_name, mirror_pairs
 
 from ._checks import as_float_array
@@ -51,6 +53,7 @@ from .banded_qp import solve_banded_qp
 from .box_qp import solve_box_qp
 from .framewise import framewise_coefficients
 from .pose import FLAME_NUM_VERTICES
+from .qp_fit import _one_blas_thread
 
 __all__ = [
     "A2F_DEFAULTS",
@@ -294,8 +297,6 @@ class StreamingSolverConfig:
             ``names`` has another length than ``numPoses``.
         """
         if isinstance(source, (str, os.PathLike)):
-            from blendvoca.io.json_file import read_json
-
             where = os.fspath(source)
             data = read_json(source, what="an Audio2Face-3D blendshape solver configuration (JSON)")
         elif isinstance(source, Mapping):
@@ -388,8 +389,6 @@ def _resolve_subset(vertex_subset, num_vertices: int, where: str):
             raise UserError(f"{where}: vertex_subset must be 'auto', None or vertex indices, got {vertex_subset!r}")
         if num_vertices != FLAME_NUM_VERTICES:
             return None
-        from blendvoca.assets import load_index_list
-
         vertex_subset = load_index_list("flame-head-idx")
     if vertex_subset is None:
         return None
@@ -448,7 +447,7 @@ class StreamingSolver:
         if names is not None:
             names = tuple(str(n) for n in names)
             if len(names) != num_shapes or len(set(names)) != num_shapes:
-                raise UserError(f"{where}: names must be {num_shapes} different shape names (one per delta), "
+                raise UserError(f"{where}: names must be {num_shapes} different shape names (one per blendshape), "
                                 f"got {len(names)} ({len(set(names))} different)")
         self.config = config
         self.names = names
@@ -619,7 +618,7 @@ class StreamingSolver:
             if solution.certified:
                 return solution.x, solution.status
             self.fallbacks += 1
-        x = solve_banded_qp(self.hessian, linear[None], lower=lower[None], upper=upper[None], delta=None).coeffs[0]
+        x = solve_banded_qp(self.hessian, linear[None], lower=lower[None], upper=upper[None], rate_bound=None).coeffs[0]
         return x, _status_of(x, lower, upper)
 
     def solve(self, frame) -> np.ndarray:
@@ -639,7 +638,7 @@ class StreamingSolver:
             upper = np.minimum(upper, previous + config.rate_bound)
             lower = np.minimum(lower, upper)  # a caller's previous may lie outside [0, 1]
         if config.backend == "framewise":
-            x = framewise_coefficients(self.hessian, linear[None], delta=config.rate_bound, warm_start=previous)[0]
+            x = framewise_coefficients(self.hessian, linear[None], rate_bound=config.rate_bound, warm_start=previous)[0]
             status = _status_of(x, lower, upper)
         else:
             x, status = self._box(linear, lower, upper, self._status)
@@ -667,8 +666,6 @@ class StreamingSolver:
         if frames.ndim != 3:
             raise UserError(f"StreamingSolver.solve_sequence: expected frames (T, {self.num_vertices}, 3), "
                             f"got shape {frames.shape}")
-        from .coefficients import _one_blas_thread  # small products: extra BLAS threads only wait
-
         out = np.empty((frames.shape[0], self.num_shapes))
         with _one_blas_thread():
             for t in range(frames.shape[0]):

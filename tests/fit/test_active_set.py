@@ -19,7 +19,7 @@ def _speech_like(rng, num_frames=60, num_shapes=8):
 
 def test_active_set_start_is_the_certified_optimum(rng):
     neutral, deltas, frames = _speech_like(rng)
-    result = fit_sequence(neutral, deltas, frames, delta=0.1)
+    result = fit_sequence(neutral, deltas, frames, rate_bound=0.1)
     assert result.solver == "banded-active-set" and result.converged
     assert result.activity["lower"].mean() > 0.2  # the lower bound really binds
     system = normal_equations(neutral, deltas, frames)
@@ -27,7 +27,7 @@ def test_active_set_start_is_the_certified_optimum(rng):
     assert np.abs(result.coeffs - reference).max() < 1e-4
     assert system.objective(result.coeffs) <= system.objective(reference) * (1 + 1e-9)
     # KKT certificate with the returned multipliers.
-    sol = solve_banded_qp(system.gram, system.rhs, delta=0.1)
+    sol = solve_banded_qp(system.gram, system.rhs, rate_bound=0.1)
     u = sol.coeffs
     rate_term = np.zeros_like(u)
     rate_term[1:] += sol.rate_multipliers
@@ -43,7 +43,7 @@ def test_feasible_least_squares_is_returned_as_is(rng):
     truth = 0.5 + 0.2 * np.sin(np.arange(30)[:, None] / 10.0 + np.arange(4))
     frames = drive(neutral, deltas, truth)
     system = normal_equations(neutral, deltas, frames)
-    sol = solve_banded_qp(system.gram, system.rhs, delta=0.1)
+    sol = solve_banded_qp(system.gram, system.rhs, rate_bound=0.1)
     assert sol.solver == "least-squares"
     np.testing.assert_allclose(sol.coeffs, truth, atol=1e-9)
     assert not sol.lower_multipliers.any() and not sol.rate_multipliers.any()

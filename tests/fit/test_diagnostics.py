@@ -18,8 +18,8 @@ def test_vertex_errors_closed_form():
 
 def test_constraint_activity_counts():
     coeffs = np.array([[0.0, 1.0], [0.1, 1.0], [0.15, 0.5]])
-    act = constraint_activity(coeffs, delta=0.1)
+    act = constraint_activity(coeffs, rate_bound=0.1)
     np.testing.assert_allclose(act["lower"], [1 / 3, 0])
     np.testing.assert_allclose(act["upper"], [0, 2 / 3])
     np.testing.assert_allclose(act["rate"], [0.5, 0.5])
-    assert np.all(constraint_activity(coeffs, delta=None)["rate"] == 0)
+    assert np.all(constraint_activity(coeffs, rate_bound=None)["rate"] == 0)

@@ -45,7 +45,7 @@ def test_input_that_is_not_numbers_says_what_is_needed(problem):
         fit_coefficients(neutral, deltas, np.full(frames.shape, "x"), unposed=True)
     with pytest.raises(UserError, match="frames must have 3 dimensions"):
         fit_coefficients(neutral, deltas, frames[0], unposed=True)
-    with pytest.raises(UserError, match="delta must be a positive finite number"):
-        fit_coefficients(neutral, deltas, frames, delta=-1.0, unposed=True)
-    with pytest.raises(UserError, match="method must be one of"):
-        fit_coefficients(neutral, deltas, frames, method="newton", unposed=True)
+    with pytest.raises(UserError, match="rate_bound must be a positive finite number"):
+        fit_coefficients(neutral, deltas, frames, rate_bound=-1.0, unposed=True)
+    with pytest.raises(UserError, match="solver must be one of"):
+        fit_coefficients(neutral, deltas, frames, solver="newton", unposed=True)

@@ -18,7 +18,7 @@ def test_recovers_known_coefficients(rng):
     neutral, deltas = make_rig(rng, 300, 32)
     truth = smooth_track(rng, 120, 32)
     frames = drive(neutral, deltas, truth)
-    coeffs = fit_coefficients(neutral, deltas, frames, delta=0.1)
+    coeffs = fit_coefficients(neutral, deltas, frames, rate_bound=0.1)
     assert coeffs.shape == (120, 32)
     assert np.abs(coeffs - truth).max() < 1e-4
 
@@ -31,7 +31,7 @@ def test_recovers_known_coefficients_at_the_bounds(rng):
     truth[:, 2] = np.minimum(np.arange(30) * 0.1, 1.0)  # exactly at the rate bound
     truth[:, 3] = np.clip(np.sin(np.arange(30) / 5.0), 0, 1) * 0.3
     frames = drive(neutral, deltas, truth)
-    coeffs = fit_coefficients(neutral, deltas, frames, delta=0.1)
+    coeffs = fit_coefficients(neutral, deltas, frames, rate_bound=0.1)
     assert np.abs(coeffs - truth).max() < 1e-4
 
 
@@ -67,7 +67,7 @@ def _dense_reference(system, delta=0.1, bounds=True, solver="cvxopt"):
 
 def test_active_constraints_match_dense_cvxopt(active_problem):
     neutral, deltas, frames = active_problem
-    result = fit_sequence(neutral, deltas, frames, delta=0.1)
+    result = fit_sequence(neutral, deltas, frames, rate_bound=0.1)
     system = normal_equations(neutral, deltas, frames)
     reference = _dense_reference(system)
     coeffs = result.coeffs
@@ -88,7 +88,7 @@ def test_active_constraints_match_dense_cvxopt(active_problem):
 def test_kkt_certificate(active_problem):
     neutral, deltas, frames = active_problem
     system = normal_equations(neutral, deltas, frames)
-    sol = solve_banded_qp(system.gram, system.rhs, delta=0.1)
+    sol = solve_banded_qp(system.gram, system.rhs, rate_bound=0.1)
     u = sol.coeffs
     # Stationarity of 1/2 u^T G u - c.u with multipliers of the three constraint kinds.
     grad = u @ system.gram - system.rhs
@@ -109,7 +109,7 @@ def test_kkt_certificate(active_problem):
 def test_general_solvers_agree(active_problem, solver):
     neutral, deltas, frames = active_problem
     ours = fit_coefficients(neutral, deltas, frames)
-    theirs = fit_coefficients(neutral, deltas, frames, method=solver)
+    theirs = fit_coefficients(neutral, deltas, frames, solver=solver)
     assert np.abs(ours - theirs).max() < 1e-4
 
 
@@ -184,11 +184,38 @@ def test_fit_sequence_diagnostics(rng):
 def test_bad_arguments_raise(rng):
     neutral, deltas = make_rig(rng, 20, 2)
     frames = neutral[None]
-    with pytest.raises(ValueError, match="method"):
-        fit_coefficients(neutral, deltas, frames, method="magic")
-    with pytest.raises(ValueError, match="delta"):
-        fit_coefficients(neutral, deltas, frames, delta=-1.0)
-    with pytest.raises(TypeError, match="delta"):
-        fit_coefficients(neutral, deltas, frames, delta="0.1")
+    with pytest.raises(ValueError, match="solver"):
+        fit_coefficients(neutral, deltas, frames, solver="magic")
+    with pytest.raises(ValueError, match="rate_bound"):
+        fit_coefficients(neutral, deltas, frames, rate_bound=-1.0)
+    with pytest.raises(TypeError, match="rate_bound"):
+        fit_coefficients(neutral, deltas, frames, rate_bound="0.1")
     with pytest.raises(ValueError, match="framewise"):
         fit_coefficients(neutral, deltas, frames, framewise=True, bounds=False)
+
+
+def test_old_keyword_spellings_warn_with_their_end_date_and_give_the_same_fit(rng):
+    from blendvoca.fit import SOLVERS, framewise_coefficients, solve_sparse_qp
+
+    neutral, deltas = make_rig(rng, 40, 3)
+    frames = drive(neutral, deltas, smooth_track(rng, 30, 3))
+    new = fit_sequence(neutral, deltas, frames, rate_bound=0.05, solver="banded")
+    with pytest.warns(DeprecationWarning, match=r"fit_sequence\(delta=\) is now fit_sequence\(rate_bound=\); "
+                                                r"delta= is removed after 2027-06-30"):
+        old = fit_sequence(neutral, deltas, frames, delta=0.05)
+    np.testing.assert_array_equal(old.coeffs, new.coeffs)
+    with pytest.warns(DeprecationWarning, match=r"method= is removed after 2027-06-30"):
+        np.testing.assert_array_equal(fit_coefficients(neutral, deltas, frames, rate_bound=0.05, method="banded"),
+                                      new.coeffs)
+    with pytest.raises(TypeError, match="got both rate_bound= and its old spelling delta="):
+        fit_coefficients(neutral, deltas, frames, rate_bound=0.05, delta=0.05)
+    system = normal_equations(neutral, deltas, frames)
+    with pytest.warns(DeprecationWarning, match="framewise_coefficients"):
+        np.testing.assert_array_equal(framewise_coefficients(system.gram, system.rhs, delta=0.05),
+                                      framewise_coefficients(system.gram, system.rhs, rate_bound=0.05))
+    with pytest.warns(DeprecationWarning, match="solve_banded_qp"):
+        np.testing.assert_array_equal(solve_banded_qp(system.gram, system.rhs, delta=0.05).coeffs, new.coeffs)
+    assert solve_sparse_qp.__name__ == "solve_sparse_qp"
+    with pytest.warns(DeprecationWarning, match="METHODS is now blendvoca.fit.SOLVERS"):
+        from blendvoca.fit import METHODS
+    assert METHODS == SOLVERS

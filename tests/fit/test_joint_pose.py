@@ -76,7 +76,7 @@ def test_rig_generated_posed_frames_give_back_the_true_pose_and_coefficients(pos
     assert np.abs(joint.coeffs - coeffs).max() < 1e-3
     assert joint.fit.pose is joint.pose and joint.fit.rmse.mean() < 1e-6
     # The old path (pose removal on the stable region, then the fit) misses the coefficients by far more.
-    old = fit_sequence(rig.neutral, rig.deltas, posed, vertex_subset=head)
+    old = fit_sequence(rig.neutral, rig.deltas, posed, vertex_subset=head, pose_fit="remove")
     assert np.abs(old.coeffs - coeffs).max() > 0.05
 
 
@@ -89,7 +89,7 @@ def test_on_the_corpus_meshes_the_joint_fit_explains_them_at_least_as_well(posed
     truth = read_npz(posed_corpus / "groundtruth" / SUBJECT / "sentence01.npz")
     posed = corpus.posed_frames(SUBJECT, "sentence01")
     joint = fit_pose_and_coefficients(rig.neutral, rig.deltas, posed, vertex_subset=head)
-    old = fit_sequence(rig.neutral, rig.deltas, posed, vertex_subset=head)
+    old = fit_sequence(rig.neutral, rig.deltas, posed, vertex_subset=head, pose_fit="remove")
     assert _angle_between(joint.pose.rotations, truth["head_rotations"]).max() < 0.3
     assert joint.fit.rmse.mean() <= old.rmse.mean()
 
@@ -153,3 +153,24 @@ def test_sentence_fit_unposes_posed_frames_by_the_chosen_method(posed_corpus, sp
     assert joint["rmse_mm"] <= removed["rmse_mm"] < 0.5 * plain["rmse_mm"]
     with pytest.raises(ValueError, match="--pose-fit: expected one of joint, remove"):
         sentence_fit(rig, posed, head, posed=True, pose_fit="none")
+
+
+def test_fit_sequence_default_on_posed_frames_is_the_builds_joint_fit(posed_corpus, speaker):
+    """The public default and the build give the same coefficients and residual on posed FLAME frames;
+    the rigid removal (the old default) stays one keyword away and leaves more residual."""
+    rig, _, head = speaker
+    posed = open_vocaset(posed_corpus).posed_frames(SUBJECT, "sentence01")
+    built_coeffs, built = sentence_fit(rig, posed, head, posed=True)
+    default = fit_sequence(rig.neutral, rig.deltas, posed, vertex_subset=head)
+    np.testing.assert_array_equal(default.coeffs, built_coeffs)
+    assert float(np.mean(default.rmse) * 1000.0) == built["rmse_mm"]
+    assert built["pose"]["method"] == "joint"
+    np.testing.assert_array_equal(
+        fit_pose_and_coefficients(rig.neutral, rig.deltas, posed, vertex_subset=head).coeffs, default.coeffs)
+    removed = fit_sequence(rig.neutral, rig.deltas, posed, vertex_subset=head, pose_fit="remove")
+    assert default.rmse.mean() <= removed.rmse.mean()
+    assert np.abs(removed.coeffs - default.coeffs).max() > 1e-3
+    with pytest.raises(ValueError, match="framewise=True on posed frames needs pose_fit='remove'"):
+        fit_sequence(rig.neutral, rig.deltas, posed, vertex_subset=head, framewise=True)
+    with pytest.raises(ValueError, match="pose_fit must be one of"):
+        fit_sequence(rig.neutral, rig.deltas, posed, pose_fit="kabsch")

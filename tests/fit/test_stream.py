@@ -143,7 +143,7 @@ def test_rate_bound_without_regularisers_is_the_framewise_fit(active_problem):
     config = StreamingSolverConfig.bounded_least_squares(rate_bound=0.1)
     coeffs = StreamingSolver(neutral, deltas, config).solve_sequence(frames)
     system = normal_equations(neutral, deltas, frames)
-    np.testing.assert_allclose(coeffs, framewise_coefficients(system.gram, system.rhs, delta=0.1), atol=1e-8)
+    np.testing.assert_allclose(coeffs, framewise_coefficients(system.gram, system.rhs, rate_bound=0.1), atol=1e-8)
     assert np.abs(np.diff(coeffs, axis=0)).max() <= 0.1 + 1e-12
 
 

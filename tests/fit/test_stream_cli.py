@@ -1,4 +1,4 @@
-"""``python -m blendvoca.fit.stream``: frames in, coefficient CSV out, one error line on bad input."""
+"""``python -m blendvoca.fit``: frames in, coefficient CSV out, one error line on bad input."""
 
 import json
 import subprocess
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from blendvoca.fit import StreamingSolver, StreamingSolverConfig
-from blendvoca.fit.stream import main
+from blendvoca.fit.__main__ import main
 from blendvoca.io.coeffs import read_coeffs_csv
 from blendvoca.names import BLENDVOCA_NAMES
 from blendvoca.rig import Rig
@@ -150,7 +150,7 @@ def test_bad_config_is_one_error_line(files, capsys):
 
 def test_runs_as_a_module(files):
     folder, _, _ = files
-    done = subprocess.run([sys.executable, "-m", "blendvoca.fit.stream", "--rig", str(folder / "rig.npz"),
+    done = subprocess.run([sys.executable, "-m", "blendvoca.fit", "--rig", str(folder / "rig.npz"),
                            "--frames", str(folder / "frames.npy"), "--out", str(folder / "m.csv")],
                           capture_output=True, text=True)
     assert done.returncode == 0, done.stderr

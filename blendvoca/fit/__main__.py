@@ -1,6 +1,6 @@
 """Fit a mesh sequence with a rig frame by frame, as a stream (Audio2Face-3D's blendshape solve).
 
-``python -m blendvoca.fit.stream --rig RIG --frames FRAMES.npy --out coeffs.csv [--config a2f.json]``
+``python -m blendvoca.fit --rig RIG --frames FRAMES.npy --out coeffs.csv [--config a2f.json]``
 
 Each frame is solved from itself and the previous frame's answer only
 (:class:`blendvoca.fit.StreamingSolver`): bounded least squares with the SDK's L1, L2,
@@ -30,14 +30,14 @@ import numpy as np
 
 from blendvoca import cli
 from blendvoca.errors import DataError, UserError
+from blendvoca.io.coeffs import write_coeffs_csv
+from blendvoca.rig import Rig
 
 from .streaming import StreamingSolver, StreamingSolverConfig
 
 
 def load_rig(path: Path):
     """A rig from a ``.npz`` (``Rig.save``) or a SAiD folder (``Neutral.obj`` + ``<name>.obj``)."""
-    from blendvoca.rig import Rig
-
     if Path(path).is_dir():
         return Rig.load_said_folder(path)
     return Rig.load(path)
@@ -107,7 +107,7 @@ def solver_config(entries, preset: str | None, pose_names: Path | None) -> Strea
 
 @cli.command
 def main(argv=None) -> int:
-    p = cli.parser("blendvoca.fit.stream", __doc__, epilog=(
+    p = cli.parser("blendvoca.fit", __doc__, epilog=(
         "--config FILE reads an Audio2Face-3D blendshape solver configuration (JSON, 'blendshape_params'); "
         f"--config KEY=VALUE sets a solver setting, KEY one of {', '.join(CONFIG_KEYS)} "
         "(e.g. --config rate_bound=0.1 --config objective=a2f). See docs/streaming.md."))
@@ -137,8 +137,6 @@ def main(argv=None) -> int:
     except UserError as error:  # a non-finite vertex: the file's content
         raise DataError(f"--frames {args.frames}: {error}") from None
     elapsed = time.perf_counter() - start
-
-    from blendvoca.io.coeffs import write_coeffs_csv
 
     write_coeffs_csv(args.out, coeffs, rig.names)
     if not args.quiet:
