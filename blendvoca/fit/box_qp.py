@@ -9,7 +9,7 @@ the set of coefficients held at a bound rarely changes, so the set of the previo
 frame is nearly always the answer or close to it: one K x K (or smaller) Cholesky
 solve and a sign check of the gradient certify it.  An interior-point solver (PIQP)
 is as fast per frame at K = 32 but stops inside the box, short of the exact optimum
-(``benchmarks/bench_stream.py --solvers`` and ``docs/streaming.md``); this gives the
+(``perf/bench_stream.py --solvers`` and ``docs/streaming.md``); this gives the
 optimum itself, with its zeros exactly 0.
 
 Two phases, both ending with the KKT conditions checked:

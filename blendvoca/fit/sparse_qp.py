@@ -1,7 +1,7 @@
 """The same QP handed to general-purpose solvers (through qpsolvers).
 
 Used as selectable alternatives to the banded interior point method and as
-references in tests and benchmarks: sparse formulations (``kron(I_T, G)``
+references in tests and the perf/ scripts: sparse formulations (``kron(I_T, G)``
 Hessian, banded difference constraints) for OSQP / Clarabel / PIQP / cvxopt,
 and the published dense formulation (one dense block-diagonal P over all
 frames, cvxopt).
@@ -105,7 +105,7 @@ def solve_sparse_qp(
 
 @renamed_keywords(delta="rate_bound")
 def solve_published_qp(neutral, deltas, frames, *, rate_bound=0.1) -> np.ndarray:
-    """The published BlendVOCA formulation, as a reference for benchmarks.
+    """The published BlendVOCA formulation, as a reference for the perf/ scripts.
 
     One dense block-diagonal P over all frames (``T K x T K``), q from every
     frame's 3V-long offset, sparse difference constraints, bounds, solved by

@@ -4,7 +4,7 @@ Readers are written here rather than taken from trimesh because per-vertex
 correspondence is the whole point of these files: trimesh's OBJ loader splits
 vertices that carry several texture coordinates even with ``process=False``, and
 its PLY loader is 5x slower than reading the binary vertex block with numpy, which
-matters for VOCASET's ~115k per-frame files (see ``benchmarks/bench_ply_read.py``).
+matters for VOCASET's ~115k per-frame files (see ``perf/bench_ply_read.py``).
 Vertices come back as ``(V, 3)`` float64, faces as ``(F, 3)`` int64.
 """
 

@@ -242,12 +242,12 @@ def test_cdface_chunks_long_audio_with_bounded_seams():
 
 @pytest.mark.slow
 def test_said_long_audio_peak_memory_stays_near_a_short_one():
-    # benchmarks/bench_long_audio.py at shorter lengths and 2 DDIM steps (memory does not depend
+    # perf/bench_long_audio.py at shorter lengths and 2 DDIM steps (memory does not depend
     # on the steps): unchunked, the 4-minute utterance peaked at 1.75x the 10-second one's peak
     import importlib.util
     from pathlib import Path
 
-    path = Path(__file__).resolve().parents[2] / "benchmarks" / "bench_long_audio.py"
+    path = Path(__file__).resolve().parents[2] / "perf" / "bench_long_audio.py"
     spec = importlib.util.spec_from_file_location("bench_long_audio", path)
     bench = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(bench)

@@ -1,6 +1,6 @@
 """Time of scoring a test split, by stage, against the sequential uncached evaluation.
 
-    BLENDVOCA_ASSETS=../shared/assets python benchmarks/bench_evaluate.py --data BUILD
+    BLENDVOCA_ASSETS=../shared/assets python perf/bench_evaluate.py --data BUILD
         [--method mean|ground-truth-shifted] [--sync-expert E] [--workers 2]
 
 Scores one deterministic method's tracks on ``BUILD``'s test split (the 12 x 40
@@ -16,7 +16,7 @@ metrics, vertex metrics, lip sync) and whether the three score sets are identica
 ``--method mean`` is the train-split mean track; ``ground-truth-shifted`` the
 ground truth delayed by 5 frames (features that move, so the WInD refits work).
 
-    python benchmarks/bench_evaluate.py --samples 10 [--data BUILD] [--repeats 3]
+    python perf/bench_evaluate.py --samples 10 [--data BUILD] [--repeats 3]
 
 instead times a stochastic row against the ground-truth row of the same split, in
 this process, with a warm ground-truth WInD cache and one process each (``workers=1``):
@@ -130,7 +130,7 @@ def stage_times(generated, dataset, extractor, sync_expert, workers: int, cache)
     return out
 
 
-def main() -> None:
+def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--data", default=None, help="BlendVOCA build (required without --samples)")
     parser.add_argument("--samples", type=int, default=None,
@@ -139,7 +139,7 @@ def main() -> None:
     parser.add_argument("--method", choices=("mean", "ground-truth-shifted"), default="mean")
     parser.add_argument("--sync-expert", default=None, help="learned sync expert (benchmark.lipsync.load_expert)")
     parser.add_argument("--workers", type=int, default=2)
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     if args.samples is not None:
         stochastic_ratio(args)
         return

@@ -1,6 +1,6 @@
 """Time of the WInD mixture fits, sequential against parallel, in one process.
 
-    python benchmarks/bench_wind.py [--windows 1500] [--dim 64] [--workers 2]
+    python perf/bench_wind.py [--windows 1500] [--dim 64] [--workers 2]
 
 The evaluation's WInD work for one method: ``repeats`` (10) pairs of seeded GMM
 fits (generated and ground-truth features) plus ``resamples`` (20) bootstrap
@@ -22,14 +22,14 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 
-def main() -> None:
+def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--windows", type=int, default=1500, help="feature vectors per side")
     parser.add_argument("--dim", type=int, default=64)
     parser.add_argument("--repeats", type=int, default=10)
     parser.add_argument("--resamples", type=int, default=20)
     parser.add_argument("--workers", type=int, default=2)
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
 
     from benchmark.metrics import gmm_components_many
 

@@ -1,14 +1,14 @@
 """Wall time of a whole build and where it goes (rigs, sentence fits, summary).
 
-    python benchmarks/bench_build.py --speakers 12 --sentences 40 --workers 2 --work /tmp/bv12x40
-    python benchmarks/bench_build.py --default --workers 2 --work /tmp/bvdefault
+    python perf/bench_build.py --speakers 12 --sentences 40 --workers 2 --work /tmp/bv12x40
+    python perf/bench_build.py --default --workers 2 --work /tmp/bvdefault
 
 Generates the synthetic corpus (processed layout for the VOCASET-size run, to
 keep disk use sane) unless present, builds, then reruns the finished build
 (which must do nothing) and prints both timings. Also times one sentence's
 stages in-process (read frames, fit, write) against the fit alone.
 
-    python benchmarks/bench_build.py --rig-reuse --speakers 12 --sentences 1 --work /tmp/bv12x1
+    python perf/bench_build.py --rig-reuse --speakers 12 --sentences 1 --work /tmp/bv12x1
 
 ``--rig-reuse`` times the rig stage's computation in this process (one BLAS
 thread, every speaker in turn): one correspondence per speaker (the previous
@@ -26,7 +26,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 
-def main():
+def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--work", required=True, help="folder for the corpus and the build")
     parser.add_argument("--speakers", type=int, default=12)
@@ -36,7 +36,7 @@ def main():
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--rig-reuse", action="store_true",
                         help="only the rig stage, with and without the shared correspondence")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
 
     from blendvoca.builder import build_dataset
     from blendvoca.synthetic import default_corpus, generate_corpus

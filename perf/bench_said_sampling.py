@@ -1,13 +1,13 @@
 """Sampling speed of SAiD: sequences per second for a 4 s clip, per sampler and step count.
 
-    BLENDVOCA_ASSETS=../shared/assets python benchmarks/bench_said_sampling.py [--checkpoint said.pt] [--device cpu|cuda]
+    BLENDVOCA_ASSETS=../shared/assets python perf/bench_said_sampling.py [--checkpoint said.pt] [--device cpu|cuda]
         [--samples 1] [--steps 10 50 100] [--repeats 3] [--threads 1]
 
 Prints one row per (sampler, steps): seconds per call, sequences per second and the
 ratio of that throughput to the reference run (DDIM, 50 steps) measured in the same
 process.
 
-    python benchmarks/bench_said_sampling.py --authors [--samples 5] [--steps 50 1000] [--seconds 4] [--repeats 1]
+    python perf/bench_said_sampling.py --authors [--samples 5] [--steps 50 1000] [--seconds 4] [--repeats 1]
         [--width 192] [--tiny-encoder] [--threads 2] [--device cpu|cuda]
 
 The authors' network (random weights, the published sizes unless ``--width`` /
@@ -17,7 +17,7 @@ keys/values computed once) against the authors' way, a plain diffusers
 ``DDIMScheduler`` loop with classifier-free guidance run once per sequence, from the
 same initial noise (the largest output difference is printed too).
 
-    python benchmarks/bench_said_sampling.py --authors --sentences 6 [--samples 5] [--steps 50] [--seconds 2]
+    python perf/bench_said_sampling.py --authors --sentences 6 [--samples 5] [--steps 50] [--seconds 2]
 
 Utterances of different lengths (``--sentences`` clips from 0.75 to 1.25 times
 ``--seconds``): :meth:`baselines.said.official_pipeline.OfficialSAiD.generate_many`

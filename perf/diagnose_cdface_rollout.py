@@ -1,6 +1,6 @@
 """Where a trained CDFace model's lip error comes from, on a build's test split.
 
-    python benchmarks/diagnose_cdface_rollout.py --checkpoint DIR [--data BUILD] [--samples 5]
+    python perf/diagnose_cdface_rollout.py --checkpoint DIR [--data BUILD] [--samples 5]
 
 ``DIR`` is a ``benchmark.run --checkpoint`` directory (or its ``cdface.pt``);
 ``BUILD`` defaults to the bundled-default build. For every test sentence it

@@ -1,6 +1,6 @@
 """Throughput of the trained baselines on a device, and the projected time of each paper's protocol.
 
-    BLENDVOCA_ASSETS=../shared/assets python benchmarks/bench_gpu.py [--device cuda] [--methods said faceformer ...]
+    BLENDVOCA_ASSETS=../shared/assets python perf/bench_gpu.py [--device cuda] [--methods said faceformer ...]
         [--preset cpu-demo|paper] [--mixed-precision off|bf16|fp16] [--steps 4] [--sample-steps 2 4]
         [--samples 8] [--seconds 4] [--data BUILD] [--threads N] [--config KEY=VALUE ...]
 
@@ -37,8 +37,9 @@ import torch
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # run from a checkout
 
+from blendvoca.cli import checked_device  # noqa: E402
 from benchmark.methods.base import Budget, progress_bars  # noqa: E402
-from benchmark.protocol.training import checked_device, prepared_method  # noqa: E402
+from benchmark.protocol.training import prepared_method  # noqa: E402
 from blendvoca import cli  # noqa: E402
 
 #: Each paper's protocol on BlendVOCA's 8 x 40 training and 2 x 40 test sentences (VOCASET's

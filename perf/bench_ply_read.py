@@ -6,7 +6,7 @@ on frames written like VOCASET's (binary little-endian, float32 vertices, with
 faces by default). Prints frames/s of both and their ratio; checks that both
 give the same vertices.
 
-    python benchmarks/bench_ply_read.py [--frames 240] [--repeats 3] [--no-faces] [--corpus DIR]
+    python perf/bench_ply_read.py [--frames 240] [--repeats 3] [--no-faces] [--corpus DIR]
 
 With ``--corpus`` it reads the sentences of an existing official-layout corpus
 instead of writing a temporary one.

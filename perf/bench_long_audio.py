@@ -8,8 +8,8 @@ read the WAV, sample, write the CSV) in a fresh subprocess, whose peak resident 
 utterance goes chunk by chunk (``baselines.common.chunking``), so the peak should stay
 near the short one's: the ratio printed last is long over short.
 
-    python benchmarks/bench_long_audio.py                           # 10 s and 10 min, 50 DDIM steps (~2-3 min)
-    python benchmarks/bench_long_audio.py --seconds 10 60 --num-steps 2   # quicker
+    python perf/bench_long_audio.py                           # 10 s and 10 min, 50 DDIM steps (~2-3 min)
+    python perf/bench_long_audio.py --seconds 10 60 --num-steps 2   # quicker
 """
 
 from __future__ import annotations

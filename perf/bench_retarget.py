@@ -1,4 +1,4 @@
-"""Time one speaker's rig build and a 12-speaker build (python benchmarks/bench_retarget.py).
+"""Time one speaker's rig build and a 12-speaker build (python perf/bench_retarget.py).
 
 Prints seconds per stage (correspondence, factorization, 32 solves, re-attach, all
 51 shapes) and the 12-speaker total with the correspondence computed once on the
@@ -8,6 +8,7 @@ same process. Speakers are the template under random smooth identity changes.
 
 from __future__ import annotations
 
+import argparse
 import time
 
 import numpy as np
@@ -31,7 +32,8 @@ def timed(fn, *args, **kwargs):
     return out, time.perf_counter() - t
 
 
-def main() -> None:
+def main(argv=None) -> None:
+    argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter).parse_args(argv)
     source = load_arkit_reference("all")
     speech = load_arkit_reference("speech")
     V, F = read_mesh(resolve("flame-sample"))

@@ -1,6 +1,6 @@
 """Time the metric layer and the renderers.
 
-    BLENDVOCA_ASSETS=../shared/assets python benchmarks/bench_metrics.py [--frames 60]
+    BLENDVOCA_ASSETS=../shared/assets python perf/bench_metrics.py [--frames 60]
 
 Prints (1) the time of ``evaluate_split`` over a fabricated test split (2 speakers
 x 5 sentences, 3 samples each, FLAME-size rigs) split into its latent, vertex and
@@ -32,11 +32,11 @@ def timed(fn, *args, repeat: int = 1, **kwargs):
     return best, out
 
 
-def main() -> None:
+def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--frames", type=int, default=60, help="frames rendered per backend")
     parser.add_argument("--assets", default=os.environ.get("BLENDVOCA_ASSETS", "../shared/assets"))
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     assets = Path(args.assets)
 
     from scipy import linalg

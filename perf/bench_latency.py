@@ -6,8 +6,8 @@ sentences: the look-ahead it declares, the time to its first frame, CPU seconds 
 wall seconds (the real-time factor) per second of audio. ``benchmark.run`` stores the
 same record in every result (``latency``) after scoring.
 
-    BLENDVOCA_CACHE=... python benchmarks/bench_latency.py                       # said faceformer codetalker cdface
-    python benchmarks/bench_latency.py --methods said --max-steps 50 --sentences 3
+    BLENDVOCA_CACHE=... python perf/bench_latency.py                       # said faceformer codetalker cdface
+    python perf/bench_latency.py --methods said --max-steps 50 --sentences 3
 """
 
 from __future__ import annotations

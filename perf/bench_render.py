@@ -1,6 +1,6 @@
 """Time and memory of ``benchmark.render``: the old path against the new one, in one run.
 
-    BLENDVOCA_ASSETS=../shared/assets python benchmarks/bench_render.py [--quick]
+    BLENDVOCA_ASSETS=../shared/assets python perf/bench_render.py [--quick]
 
 1. Rasteriser (in process): ms per 512 px view of a FLAME-size head for the former numpy
    rasteriser (``software.reference_rasterize``) and ``SoftwareRenderer``, and whether their
@@ -203,7 +203,7 @@ def rasteriser_part(frames: int) -> None:
               f"largest pixel difference {diff.max()} ({(diff.max(axis=-1) > 0).mean():.1e} of pixels differ)")
 
 
-def main() -> None:
+def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--data", help="BlendVOCA build (default: the bundled default)")
     parser.add_argument("--subject", help="subject to cut the clips from (default: the first)")
@@ -212,7 +212,7 @@ def main() -> None:
     parser.add_argument("--quick", action="store_true", help="leave out the old path")
     parser.add_argument("--frames", type=int, default=20, help="frames of the rasteriser comparison (part 1)")
     parser.add_argument("--jobs", type=int, help="--jobs of the new path (default: its own)")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
 
     from benchmark.protocol import default_data_root
 

@@ -1,6 +1,6 @@
 """The joint pose fit on a real VOCA output stream (docs/pose.md, "On a real VOCA output stream").
 
-    python benchmarks/bench_pose_voca.py --meshes DIR --template PLY
+    python perf/bench_pose_voca.py --meshes DIR --template PLY
 
 DIR holds the 25 frames ``00000.obj`` ... ``00024.obj`` of
 ``generated_animations/stream/meshes`` and PLY is ``template/FLAME_sample.ply``, both

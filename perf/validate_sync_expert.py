@@ -11,7 +11,7 @@ then on every validation and test sentence checks:
 
 and prints the geometric (weight-free) score of the same tracks beside it.
 
-    python benchmarks/validate_sync_expert.py --max-seconds 240 [--data DIR] [--out expert.pt]
+    python perf/validate_sync_expert.py --max-seconds 240 [--data DIR] [--out expert.pt]
 """
 
 from __future__ import annotations

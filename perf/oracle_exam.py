@@ -17,7 +17,7 @@ on log-mel (+-20 frames) explain::
     python -m blendvoca.synthetic --out SYNTH --speakers 12 --sentences 40 --seed 0 \\
         --layout processed --oracle-samples 8
     python -m blendvoca.build --vocaset SYNTH --out BUILD
-    BLENDVOCA_ASSETS=... python benchmarks/oracle_exam.py --data BUILD --samples 8 --out exam.json
+    BLENDVOCA_ASSETS=... python perf/oracle_exam.py --data BUILD --samples 8 --out exam.json
 """
 
 from __future__ import annotations

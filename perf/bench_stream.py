@@ -5,9 +5,9 @@ the 4580-vertex head crop; the 60 fps meshes of the bundled synthetic corpus, fu
 topology, unposed); both are made on first use (``BLENDVOCA_ASSETS`` must point at the
 assets). Everything runs in one process with one BLAS thread (threadpoolctl).
 
-    python benchmarks/bench_stream.py                  # per-frame times: streaming vs offline QP
-    python benchmarks/bench_stream.py --solvers        # the per-frame box QP by other solvers
-    python benchmarks/bench_stream.py --compare        # tracks: streaming against the offline QP
+    python perf/bench_stream.py                  # per-frame times: streaming vs offline QP
+    python perf/bench_stream.py --solvers        # the per-frame box QP by other solvers
+    python perf/bench_stream.py --compare        # tracks: streaming against the offline QP
 
 Default section: every frame of every sentence of ``--speakers`` speakers is solved by
 :class:`blendvoca.fit.StreamingSolver` and timed alone (wall clock and this thread's CPU
@@ -236,14 +236,14 @@ def compare(num_speakers):
         print(f"| {name} | " + " | ".join(cells) + " |")
 
 
-def main():
+def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--speakers", type=int, default=None, help="speakers of the bundled default (default all)")
     parser.add_argument("--crop", action="store_true", help="time with frames already cropped to the head")
     parser.add_argument("--solvers", action="store_true", help="the box QP by other solvers")
     parser.add_argument("--solver-frames", type=int, default=1000, help="frames of the --solvers section")
     parser.add_argument("--compare", action="store_true", help="streaming against the offline QP")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     os.environ.setdefault("BLENDVOCA_ASSETS", str(ROOT.parent / "shared" / "assets"))
     if args.solvers:
         solvers(args.speakers, args.solver_frames)

@@ -6,9 +6,9 @@ tracemalloc cannot see) belongs to that method alone.  Problems: FLAME head
 size (4580 vertices), 32 shapes, T frames of a smooth track with noise and
 out-of-range targets so that all three constraint kinds are active.
 
-    python benchmarks/bench_fit.py                    # 120 and 240 frames, all methods
-    python benchmarks/bench_fit.py --frames 240 --skip-published
-    python benchmarks/bench_fit.py --floor-only       # ratio to the least-squares floor
+    python perf/bench_fit.py                    # 120 and 240 frames, all methods
+    python perf/bench_fit.py --frames 240 --skip-published
+    python perf/bench_fit.py --floor-only       # ratio to the least-squares floor
 
 The floor section times (the measurements taking turns, minimum of 7 each, three
 runs), in one process with one BLAS thread, two floors and the constrained fit:
@@ -148,7 +148,7 @@ def floor_ratio(num_frames, repeats=7):
           f"factorizations, {counts['solve']} banded solves)")
 
 
-def main():
+def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--frames", type=int, nargs="+", default=[120, 240])
     parser.add_argument("--methods", nargs="+", default=["banded", "piqp", "clarabel", "osqp"])
@@ -161,7 +161,7 @@ def main():
     parser.add_argument("--floor-runs", type=int, default=3, help="runs of the floor section")
     parser.add_argument("--floor-only", action="store_true", help="only the floor section")
     parser.add_argument("--child", default=None, help=argparse.SUPPRESS)
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     if args.child:
         child(args.child, args.frames[0], args.threads)
         return

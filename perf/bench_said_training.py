@@ -1,6 +1,6 @@
 """Training speed of SAiD's cpu-demo networks: milliseconds per training step, by part.
 
-    python benchmarks/bench_said_training.py [--steps 40] [--rounds 3] [--threads 1] [--batch 16] [--window 60]
+    python perf/bench_said_training.py [--steps 40] [--rounds 3] [--threads 1] [--batch 16] [--window 60]
 
 Times the steps that ``train_said`` makes: one batch of ``--batch`` random windows of
 ``--window`` frames with their audio, the diffusion loss (log-mel features included),

@@ -1,8 +1,8 @@
 """Generation plus the default build of a synthetic corpus: this code against the code before the
 undetermined components of the one-to-many corpus, and the cost of an oracle sample.
 
-    python benchmarks/bench_synthetic.py --work /tmp/bench-synth
-    python benchmarks/bench_synthetic.py --work /tmp/bench-synth --speakers 6 --sentences 4 --repeats 3
+    python perf/bench_synthetic.py --work /tmp/bench-synth
+    python perf/bench_synthetic.py --work /tmp/bench-synth --speakers 6 --sentences 4 --repeats 3
 
 In one run, alternating the variants ``--repeats`` times (so a busy machine slows
 them alike), each in a fresh interpreter and into fresh folders:

@@ -1,6 +1,6 @@
 """Cost of checking a build before scoring it, as a fraction of the scoring itself.
 
-    BLENDVOCA_ASSETS=../shared/assets python benchmarks/bench_verify.py [--data BUILD] [--split test]
+    BLENDVOCA_ASSETS=../shared/assets python perf/bench_verify.py [--data BUILD] [--split test]
 
 ``benchmark.run`` checks the files of the split it scores (coefficient tracks, audio,
 rigs) against the digests of the build's ``manifest.json`` before anything runs
