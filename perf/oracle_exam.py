@@ -32,7 +32,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from baselines.reference.oracle import OracleMeanMethod, OracleSampleMethod  # noqa: E402
+from baselines.bounds.oracle import OracleMeanMethod, OracleSampleMethod  # noqa: E402
 from baselines.regression.ridge import ridge_explained  # noqa: E402
 from benchmark.data import open_blendvoca  # noqa: E402
 from benchmark.evaluate import evaluate_split  # noqa: E402

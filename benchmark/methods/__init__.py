@@ -60,13 +60,13 @@ __all__ = [
 
 #: Methods shipped with the project, as lazy ``"module:Class"`` targets.
 BUILTIN_METHODS = {
-    "ground-truth": "baselines.reference.ground_truth:GroundTruthMethod",
-    "mean": "baselines.reference.mean:MeanMethod",
-    "static": "baselines.reference.static:StaticMethod",
-    "random": "baselines.reference.random_walk:RandomWalkMethod",
-    "corpus-meshes": "baselines.reference.corpus_meshes:CorpusMeshesMethod",
-    "oracle-sample": "baselines.reference.oracle:OracleSampleMethod",
-    "oracle-mean": "baselines.reference.oracle:OracleMeanMethod",
+    "ground-truth": "baselines.bounds.ground_truth:GroundTruthMethod",
+    "mean": "baselines.bounds.mean:MeanMethod",
+    "static": "baselines.bounds.static:StaticMethod",
+    "random": "baselines.bounds.random_walk:RandomWalkMethod",
+    "corpus-meshes": "baselines.bounds.corpus_meshes:CorpusMeshesMethod",
+    "oracle-sample": "baselines.bounds.oracle:OracleSampleMethod",
+    "oracle-mean": "baselines.bounds.oracle:OracleMeanMethod",
     "regression": "baselines.regression.plugin:RegressionMethod",
     "mesh-adapter": "baselines.mesh_adapter.plugin:MeshAdapterMethod",
     "said": "baselines.said.plugin:SAiDMethod",

@@ -2,8 +2,8 @@ import numpy as np
 import pytest
 
 from baselines.common.track_lookup import fit_track_length
-from baselines.reference.mean import mean_coefficients
-from baselines.reference.random_walk import random_tracks
+from baselines.bounds.mean import mean_coefficients
+from baselines.bounds.random_walk import random_tracks
 from benchmark.methods import Budget, Utterance, get_method
 from benchmark.run import generated_tracks
 

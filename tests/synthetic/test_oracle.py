@@ -6,7 +6,7 @@ import json
 import numpy as np
 import pytest
 
-from baselines.reference.oracle import OracleMeanMethod, OracleSampleMethod
+from baselines.bounds.oracle import OracleMeanMethod, OracleSampleMethod
 from baselines.regression.ridge import context_frames, ridge_explained
 from benchmark.data import open_blendvoca
 from benchmark.methods import Budget
