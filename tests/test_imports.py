@@ -12,6 +12,7 @@ re-exporting its own modules, not a dependency of the importer).
 from __future__ import annotations
 
 import ast
+import re
 import sys
 from pathlib import Path
 
@@ -159,3 +160,123 @@ def test_no_import_cycle_in_blendvoca_benchmark_and_leaderboard():
 def test_no_import_cycle_through_baselines():
     cycles = [c for c in import_cycles() if any(m.split(".")[0] == "baselines" for m in c)]
     assert not cycles, "import cycles:\n" + "\n".join(describe(c) for c in cycles)
+
+
+# --- The layering: docs/architecture.md, "Who may import whom" -------------------------------------
+
+#: Every import may go to the rooms of the rows above its own (all of them, or only the listed
+#: ones) and to the rooms before it in its own row. Row by row as docs/architecture.md's table,
+#: which mirrors this one (:func:`test_the_architecture_table_lists_the_rooms_of_the_test`).
+ABOVE = ("*",)
+ROOMS = (
+    (("blendvoca.runtime",), ()),  # the standard library and third-party libraries only
+    (("blendvoca.errors", "blendvoca.cli"), ABOVE),
+    (("blendvoca.registry", "blendvoca.names", "blendvoca.io", "blendvoca.assets", "blendvoca.rig"), ABOVE),
+    (("blendvoca.format",), ABOVE),
+    (("blendvoca.vocaset", "blendvoca.synthetic", "blendvoca.retarget", "blendvoca.fit", "blendvoca.export",
+      "blendvoca.blender"), ABOVE),
+    (("blendvoca.builder", "blendvoca.build"), ABOVE),
+    (("blendvoca.datasets",), ABOVE),
+    (("benchmark.methods",), ("blendvoca",)),
+    (("benchmark.data", "benchmark.metrics", "benchmark.features", "benchmark.results", "benchmark.runs",
+      "benchmark.render", "benchmark.lipsync", "benchmark.vertex_fit", "benchmark.evaluate"),
+     ("blendvoca", "benchmark.methods")),
+    (("benchmark.protocol",), ABOVE),
+    (("benchmark.run", "benchmark.rescore", "benchmark.sanity", "benchmark.testing"), ABOVE),
+    (("baselines.wav2vec2", "baselines.vq", "baselines.common"), ("blendvoca", "benchmark.methods")),
+    (("baselines.*",), ("blendvoca", "benchmark.methods", "baselines.wav2vec2", "baselines.vq", "baselines.common")),
+    (("leaderboard",), ABOVE),
+)
+
+#: Imports the table allows by name (each is named in its row of docs/architecture.md): importer, imported.
+EXCEPTIONS = {
+    ("blendvoca.synthetic.calibrate", "blendvoca.builder"): "the calibration builds the corpus it generates",
+    ("blendvoca.builder.__main__", "blendvoca.datasets"): "the build command's --dataset",
+    ("baselines.said.train", "benchmark.data"): "the SAiD training command opens a build",
+    ("baselines.cdface", "benchmark.metrics.regions"): "the lip and upper-face vertex sets",
+    ("baselines.mesh_adapter", "benchmark.vertex_fit"): "the vertex fit it shares with the runner",
+}
+
+
+def _within(module: str, prefix: str) -> bool:
+    return module == prefix or module.startswith(prefix + ".")
+
+
+def room_of(module: str) -> tuple[int, int, str] | None:
+    """``(row, position in the flattened table, room)`` of a module (the most specific room), None
+    for the four packages' own ``__init__``."""
+    best, position = None, 0
+    for row, (rooms, _) in enumerate(ROOMS):
+        for room in rooms:
+            if room.endswith(".*"):  # one room per subpackage: baselines.said, baselines.cdface, ...
+                parent = room[:-2]
+                if module.startswith(parent + ".") and (best is None or best[3] <= len(parent)):
+                    best = (row, position, ".".join(module.split(".")[:2]), len(parent))
+            elif _within(module, room) and (best is None or best[3] < len(room) + 1):
+                best = (row, position, room, len(room) + 1)
+            position += 1
+    return None if best is None else best[:3]
+
+
+def layering_violations(packages=PACKAGES) -> list[str]:
+    """``importer:line -> imported`` for every import (module or function level) against :data:`ROOMS`."""
+    modules = project_modules(packages)
+    found = []
+    for name in sorted(modules):
+        importer = room_of(name)
+        if importer is None:
+            continue
+        row, position, room = importer
+        allowed = ROOMS[row][1]
+        for target, sites in sorted(imported_modules(name, modules).items()):
+            imported = room_of(target)
+            if imported is None or imported[2] == room:
+                continue
+            down = imported[1] < position and (
+                imported[0] == row or allowed == ABOVE or any(_within(target, p) for p in allowed))
+            excused = any(_within(name, a) and _within(target, b) for a, b in EXCEPTIONS)
+            if not (down or excused):
+                found += [f"{name}:{line} -> {target}{' (in a function)' if inner else ''}" for line, inner in sites]
+    return found
+
+
+def test_every_module_has_a_room():
+    modules = project_modules()
+    homeless = [name for name in modules if room_of(name) is None and name not in PACKAGES]
+    assert not homeless, f"modules in no room of ROOMS (add them to it and to docs/architecture.md): {homeless}"
+
+
+def test_imports_only_go_down_the_architecture_table():
+    violations = layering_violations()
+    assert not violations, "imports against docs/architecture.md's table:\n" + "\n".join(violations)
+
+
+def test_the_layering_check_catches_an_upward_import(tmp_path, monkeypatch):
+    for package, files in {"blendvoca": {"fit/__init__.py": "", "fit/a.py": "def f():\n    import benchmark.run\n",
+                                         "names.py": "from blendvoca.fit import a\n"},
+                           "benchmark": {"run.py": "", "methods.py": "import blendvoca.names\n"},
+                           "baselines": {"said/__init__.py": "from baselines.cdface import x\n",
+                                         "cdface/__init__.py": "", "cdface/x.py": "from baselines.common import y\n",
+                                         "common/__init__.py": "", "common/y.py": "from benchmark import run\n"},
+                           "leaderboard": {}}.items():
+        for path, text in {"__init__.py": "", **files}.items():
+            (tmp_path / package / path).parent.mkdir(parents=True, exist_ok=True)
+            (tmp_path / package / path).write_text(text)
+    monkeypatch.setattr(sys.modules[__name__], "ROOT", tmp_path)
+    assert layering_violations() == [
+        "baselines.common.y:1 -> benchmark.run",
+        "baselines.said:1 -> baselines.cdface.x",
+        "blendvoca.fit.a:2 -> benchmark.run (in a function)",
+        "blendvoca.names:1 -> blendvoca.fit.a",
+    ]
+
+
+def test_the_architecture_table_lists_the_rooms_of_the_test():
+    text = (ROOT / "docs" / "architecture.md").read_text(encoding="utf-8")
+    section = text.split("## Who may import whom", 1)[1].split("\n## ", 1)[0]
+    rows = [line for line in section.splitlines() if line.startswith("| `")]
+    documented = [tuple(name.replace("<method>", "*") for name in re.findall(r"`([^`]+)`", row.split(" | ")[0]))
+                  for row in rows]
+    assert documented == [rooms for rooms, _ in ROOMS]
+    for importer, imported in EXCEPTIONS:
+        assert f"`{importer}`" in section and f"`{imported}`" in section, (importer, imported)
