@@ -46,7 +46,6 @@ __all__ = [
     "Row",
     "Table",
     "best_mark",
-    "best_rows",
     "check_schema_versions",
     "check_scoring_models",
     "column_decimals",
@@ -686,11 +685,6 @@ def best_mark(rows: list, column: Column, *, resamples: int = ORDER_RESAMPLES) -
         return BestMark(best=best, runner_up=runner_up)
     separated = ci_best[0] > ci_next[1] if column.higher_is_better else ci_best[1] < ci_next[0]
     return BestMark(frozenset({best}) if separated else frozenset(), "intervals", None, best, runner_up)
-
-
-def best_rows(rows: list, column: Column) -> set:
-    """Indices of the rows marked best in ``column`` (:func:`best_mark`)."""
-    return set(best_mark(rows, column).rows)
 
 
 def pairwise_probabilities(rows: list, column: Column, *, resamples: int = ORDER_RESAMPLES) -> list:

@@ -132,14 +132,6 @@ PLAN = (
 )
 
 
-def built_dataset(work: Path, *, workers: int = 2, progress: bool = True) -> Path:
-    """The plan's synthetic corpus and its BlendVOCA build under ``work`` (made when missing)."""
-    from leaderboard.executors.stages import built_corpus
-
-    return built_corpus(work, CORPUS, corpus_name=CORPUS_NAME, build_name=BUILD_NAME, workers=workers,
-                        progress=progress)
-
-
 def _entries(only) -> list:
     from benchmark.methods import BUILTIN_METHODS
 

@@ -20,10 +20,6 @@ __all__ = ["MotionSequence", "motion_frames", "motion_sequences", "sequence_tens
 
 #: Motion frame rate of both methods on VOCASET.
 MOTION_FPS = 30
-#: Frame rate of the benchmark and of the BlendVOCA corpus.
-BENCHMARK_FPS = 60
-
-
 @dataclass(frozen=True)
 class MotionSequence:
     """One training sentence.

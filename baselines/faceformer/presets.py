@@ -35,9 +35,6 @@ PRESETS = {
 }
 
 _MODEL_KEYS = ("feature_dim", "period", "n_head", "num_layers", "dropout", "audio")
-_TRAIN_KEYS = ("lr", "max_steps", "max_seconds", "max_epochs", "motion_scale", "num_threads", "grad_clip")
-
-
 def resolve_config(preset: str, presets: dict = PRESETS, **overrides) -> dict:
     """The nested config of ``preset`` with flat ``overrides`` (model, training or top-level keys)."""
     if preset not in presets:

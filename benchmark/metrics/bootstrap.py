@@ -31,8 +31,6 @@ __all__ = [
     "mean_ci",
     "mean_replicates",
     "probability_of_improvement",
-    "statistic_ci",
-    "statistics_ci",
     "two_level_mean_replicates",
     "two_level_replicates",
 ]
@@ -278,54 +276,3 @@ def mean_ci(values, *, resamples: int = BOOTSTRAP_RESAMPLES, seed: int = 0, leve
         return [point, point]
     idx = bootstrap_indices(values.size, resamples, seed)  # = interval(mean_replicates(values, ...), point)
     return _interval(values[idx].mean(axis=1), point, level)
-
-
-def statistic_ci(statistic, n: int, point: float, *, resamples: int, seed: int = 0, level: float = 0.95,
-                 progress=None) -> list[float]:
-    """Percentile bootstrap interval of ``statistic(indices)`` over resampled sentence indices.
-
-    Parameters
-    ----------
-    statistic : callable ((n,) int ndarray) -> float
-        The metric recomputed on the sentences ``indices`` (with repeats).
-    n : int
-        Number of sentences.
-    point : float
-        The metric on the full set (always inside the interval).
-    resamples : int
-    progress : callable, optional
-        Wraps the resample iterator (e.g. ``tqdm``).
-
-    Returns
-    -------
-    [low, high] : list of float
-    """
-    if n < 2:
-        return [float(point), float(point)]
-    rows = bootstrap_indices(n, resamples, seed)
-    iterator = progress(rows) if progress is not None else rows
-    return _interval([statistic(row) for row in iterator], float(point), level)
-
-
-def statistics_ci(statistics, n: int, point: float, *, resamples: int, seed: int = 0,
-                  level: float = 0.95) -> list[float]:
-    """`statistic_ci` with all resamples handed over at once (e.g. to compute them in parallel).
-
-    Parameters
-    ----------
-    statistics : callable ((resamples, n) int ndarray) -> (resamples,) floats
-        The metric recomputed on every row of sentence indices, in row order.
-    n, point, resamples, seed, level
-        As in `statistic_ci` (same rows for the same ``seed``, so the same interval).
-
-    Returns
-    -------
-    [low, high] : list of float
-    """
-    if n < 2:
-        return [float(point), float(point)]
-    rows = bootstrap_indices(n, resamples, seed)
-    values = list(statistics(rows))
-    if len(values) != len(rows):
-        raise ValueError(f"statistics_ci: expected {len(rows)} values, one per resample, got {len(values)}")
-    return _interval(values, float(point), level)

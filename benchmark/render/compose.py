@@ -3,8 +3,6 @@ scrolling waveform strip under them with the current instant marked."""
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-
 import numpy as np
 
 WAVE_COLOUR = np.array([70, 90, 140], dtype=np.uint8)
@@ -60,29 +58,6 @@ class Waveform:
         return strip
 
 
-def waveform_strip(audio, rate: int, num_frames: int, fps: float, width: int, height: int,
-                   window: float = 2.0) -> np.ndarray:
-    """All the strips of :class:`Waveform` at once.
-
-    Parameters
-    ----------
-    audio : (N,) float array_like in [-1, 1]
-    rate : int, samples per second
-    num_frames : int, fps : float
-    width, height : int, the strip's size in pixels
-    window : float, seconds shown
-
-    Returns
-    -------
-    (num_frames, height, width, 3) uint8 ndarray
-    """
-    wave = Waveform(audio, rate, fps, width, height, window)
-    strips = np.empty((num_frames, height, width, 3), dtype=np.uint8)
-    for t in range(num_frames):
-        wave.frame(t, out=strips[t])
-    return strips
-
-
 def label_mask(text: str, scale: int = 2) -> np.ndarray:
     """Pixels of ``text`` in PIL's built-in font, ``scale`` times enlarged: ``(h, w)`` bool."""
     from PIL import Image, ImageDraw
@@ -110,15 +85,3 @@ def label(frames, text: str, scale: int = 2) -> np.ndarray:
     region = out[:, 4:4 + h, 4:4 + w]
     region[:, stamp[:h, :w]] = 0
     return out
-
-
-def side_by_side(panels: Sequence[np.ndarray], strip: np.ndarray | None = None) -> np.ndarray:
-    """Panels ``(T, H, W_i, 3)`` next to one another, the strip ``(T, h, W, 3)`` (resized to
-    the total width by nearest column) under them; the shortest length wins."""
-    count = min(len(p) for p in panels)
-    top = np.concatenate([p[:count] for p in panels], axis=2)
-    if strip is None:
-        return top
-    width = top.shape[2]
-    columns = np.minimum((np.arange(width) * strip.shape[2] / width).astype(np.int64), strip.shape[2] - 1)
-    return np.concatenate([top, strip[:count][:, :, columns]], axis=1)

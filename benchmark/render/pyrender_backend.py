@@ -76,29 +76,6 @@ class PyrenderRenderer:
         self.close()
 
 
-def render_pyrender(vertices, faces, pose, yfov: float, width: int = 256, height: int = 256,
-                    progress: bool = False) -> np.ndarray:
-    """Render a mesh sequence with one :class:`PyrenderRenderer`.
-
-    Parameters
-    ----------
-    vertices : (T, V, 3), faces : (F, 3), pose : (4, 4), yfov : float
-    progress : bool, a tqdm bar over frames
-
-    Returns
-    -------
-    (T, height, width, 3) uint8 ndarray
-    """
-    from tqdm import tqdm
-
-    vertices = np.asarray(vertices, dtype=np.float64)
-    frames = np.empty((len(vertices), height, width, 3), dtype=np.uint8)
-    with PyrenderRenderer(faces, pose, yfov, width, height) as renderer:
-        for t, v in enumerate(tqdm(vertices, desc="render (pyrender)", unit="frame", disable=not progress)):
-            renderer.render(v, out=frames[t])
-    return frames
-
-
 def egl_renderer_name() -> str | None:
     """The OpenGL renderer string of a headless EGL context (e.g. ``"llvmpipe (LLVM 15.0.6,
     256 bits)"`` or an NVIDIA GPU's name), ``None`` when none opens here."""
@@ -116,11 +93,6 @@ def egl_renderer_name() -> str | None:
             r.delete()
     except Exception:  # noqa: BLE001 - any failure means: not available
         return None
-
-
-def egl_available() -> bool:
-    """Whether pyrender can open a headless EGL context here."""
-    return egl_renderer_name() is not None
 
 
 def is_software_gl(name: str | None) -> bool:

@@ -208,15 +208,6 @@ def write_video(path: str | PathLike, frames, fps: float, audio=None, rate: int 
     return Path(path)
 
 
-def match_audio_length(frames, fps: float, num_samples: int, rate: int) -> np.ndarray:
-    """Frames cut or extended (holding the last) to ``round(num_samples / rate * fps)``."""
-    frames = np.asarray(frames)
-    count = frame_count(fps, num_samples, rate)
-    if len(frames) >= count:
-        return frames[:count]
-    return np.concatenate([frames, np.repeat(frames[-1:], count - len(frames), axis=0)])
-
-
 def read_video(path: str | PathLike, rate: int = 16000):
     """Frames and mono audio of a video file.
 

@@ -62,7 +62,6 @@ __all__ = [
     "listed_oracle_samples",
     "listed_subjects",
     "manifest_path",
-    "oracle_coeffs_path",
     "oracle_coeffs_relpath",
     "report_dir",
     "residuals_path",
@@ -172,11 +171,6 @@ def coeffs_dir(root, subject: str) -> Path:
 def coeffs_path(root, subject: str, sentence: str, sample: int | None = None) -> Path:
     """``<root>/blendshape_coeffs/<subject>/<sentence>.csv`` (or ``<sentence>-<sample>.csv``)."""
     return _root(root) / coeffs_relpath(subject, sentence, sample)
-
-
-def oracle_coeffs_path(root, subject: str, sentence: str, sample: int) -> Path:
-    """``<root>/oracle_coeffs/<subject>/<sentence>-<sample>.csv``."""
-    return _root(root) / oracle_coeffs_relpath(subject, sentence, sample)
 
 
 def audio_path(root, subject: str, sentence: str) -> Path:

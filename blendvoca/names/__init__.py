@@ -252,9 +252,3 @@ def remap(coeffs, src, dst, *, missing: str = "zero") -> np.ndarray:
         warnings.warn(f"{where}: {len(absent)} shape(s) the source lacks are 0: "
                       + ", ".join(absent), MissingShapesWarning, stacklevel=2)
     return out
-
-
-def conventions_table() -> list[dict]:
-    """One row per convention: name, count, lacks (of ARKit's 52), title, and whether all was verified."""
-    return [{"name": c.name, "count": c.count, "lacks": None if c.lacks is None else list(c.lacks),
-             "title": c.title, "verified": not c.unverified} for c in CONVENTIONS.values()]
