@@ -13,11 +13,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from blendvoca.assets import load_index_list
+from blendvoca.fit import fit_sequence, resample_sequence
+from blendvoca.fit.pose import FLAME_NUM_VERTICES
+
 __all__ = ["FLAME_NUM_VERTICES", "adapted_coefficients", "fitted_sample_tracks", "rig_fit_vertices"]
-
-#: Vertices of the FLAME topology (VOCASET meshes).
-FLAME_NUM_VERTICES = 5023
-
 
 def rig_fit_vertices(num_vertices: int):
     """Vertices a fit on a rig with ``num_vertices`` uses: the FLAME head crop on a
@@ -29,8 +29,6 @@ def rig_fit_vertices(num_vertices: int):
     """
     if int(num_vertices) != FLAME_NUM_VERTICES:
         return None
-    from blendvoca.assets import load_index_list
-
     return load_index_list("flame-head-idx")
 
 
@@ -67,8 +65,6 @@ def adapted_coefficients(frames, neutral, deltas, *, fps: float = 60.0, template
     -------
     (T60, K) float64 ndarray in [0, 1]
     """
-    from blendvoca.fit import fit_sequence, resample_sequence
-
     frames = np.asarray(frames, dtype=np.float64)
     neutral = np.asarray(neutral, dtype=np.float64)
     if frames.ndim != 3 or frames.shape[1:] != neutral.shape:
