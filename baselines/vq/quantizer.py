@@ -28,33 +28,13 @@ __all__ = ["VectorQuantizer", "nearest_code_indices"]
 
 
 def squared_distances(z_flat: torch.Tensor, codebook: torch.Tensor) -> torch.Tensor:
-    """``||z_i - e_k||^2`` for every vector and code.
-
-    Parameters
-    ----------
-    z_flat : (M, D) Tensor
-    codebook : (K, D) Tensor
-
-    Returns
-    -------
-    (M, K) Tensor
-    """
+    """``||z_i - e_k||^2`` of every row of ``z_flat`` ``(M, D)`` and code of ``codebook`` ``(K, D)``: ``(M, K)``."""
     return (z_flat.pow(2).sum(dim=1, keepdim=True) + codebook.pow(2).sum(dim=1)
             - 2.0 * z_flat @ codebook.t())
 
 
 def nearest_code_indices(z_flat: torch.Tensor, codebook: torch.Tensor) -> torch.Tensor:
-    """Index of the nearest codebook entry (squared Euclidean distance) of each row.
-
-    Parameters
-    ----------
-    z_flat : (M, D) Tensor
-    codebook : (K, D) Tensor
-
-    Returns
-    -------
-    (M,) int64 Tensor
-    """
+    """Index of the nearest codebook entry (:func:`squared_distances`) of each row: ``(M,) int64``."""
     return torch.argmin(squared_distances(z_flat, codebook), dim=1)
 
 

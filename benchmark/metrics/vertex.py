@@ -229,17 +229,7 @@ def minimum_pairwise_distance(samples, idx=None) -> float:
 
     ``min_{i != j} d(X_i, X_j)``: the distance of the two most similar samples
     (lower means two samples nearly repeat each other), with ``d`` as in
-    :func:`sequence_distance`.
-
-    Parameters
-    ----------
-    samples : (S, T, V, 3) array_like, metres, S >= 2
-    idx : (N,) int array_like, optional
-        Vertex subset (default all V).
-
-    Returns
-    -------
-    float, mm
+    :func:`sequence_distance`. Parameters and return as in :func:`average_pairwise_distance`.
     """
     dists = pairwise_distances(_check_samples(samples, "minimum_pairwise_distance"), idx)
     return float(dists[np.triu_indices(len(dists), 1)].min())

@@ -180,10 +180,8 @@ def reattached_deltas(
 
     Parameters
     ----------
-    deltas_cropped : (K, Vc, 3) float ndarray
-        Displacements of the cropped vertices.
-    vertex_index : (Vc,) int ndarray
-        Full-mesh index of each cropped vertex.
+    deltas_cropped, vertex_index
+        As in `reattach_deltas`.
     vertices : (V, 3) float ndarray
         Full mesh rest shape.
     faces : (F, 3) int ndarray

@@ -41,12 +41,7 @@ def fourth_vertices(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
 
 
 def triangle_frames(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """Edge frames ``[v2-v1, v3-v1, v4-v1]`` (as columns) of every triangle.
-
-    Parameters
-    ----------
-    vertices : (V, 3) float ndarray
-    faces : (F, 3) int ndarray
+    """Edge frames ``[v2-v1, v3-v1, v4-v1]`` (as columns) of every triangle (parameters as in `fourth_vertices`).
 
     Returns
     -------

@@ -127,12 +127,16 @@ class VocasetCorpus:
         return self.problems
 
     # -- shared interface --------------------------------------------------
+    # Subclasses fill ``_subjects`` (sorted names) and ``_sentences`` ({subject: sorted names}).
     @property
     def subjects(self) -> list[str]:
-        raise NotImplementedError
+        """The corpus's speakers, sorted."""
+        return list(self._subjects)
 
     def sentences(self, subject: str) -> list[str]:
-        raise NotImplementedError
+        """Sentences of ``subject`` that have frames, sorted."""
+        self._check_subject(subject)
+        return list(self._sentences[subject])
 
     def template(self, subject: str) -> np.ndarray:
         raise NotImplementedError

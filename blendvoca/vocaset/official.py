@@ -94,15 +94,6 @@ class OfficialVocaset(VocasetCorpus):
                                      f"{mesh_root / subject / sentence}: no frames ({why})"))
         self._faces = None
 
-    @property
-    def subjects(self) -> list[str]:
-        return list(self._subjects)
-
-    def sentences(self, subject: str) -> list[str]:
-        """Sentences of ``subject`` that have mesh frames, sorted (``sentence01`` ...)."""
-        self._check_subject(subject)
-        return list(self._sentences[subject])
-
     def frame_paths(self, subject: str, sentence: str) -> list[Path]:
         """The PLY files of one sentence in frame order."""
         self._check_subject(subject)

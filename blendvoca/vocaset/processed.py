@@ -254,15 +254,6 @@ class ProcessedVocaset(VocasetCorpus):
                                          f"{verts_path}: header declares {self._declared} frames, "
                                          f"the file holds {len(self._rows)}"))
 
-    @property
-    def subjects(self) -> list[str]:
-        return list(self._subjects)
-
-    def sentences(self, subject: str) -> list[str]:
-        """Sentences of ``subject`` that have frames, sorted."""
-        self._check_subject(subject)
-        return list(self._sentences[subject])
-
     def frame_rows(self, subject: str, sentence: str) -> np.ndarray:
         """Rows of ``data_verts.npy`` holding the sentence's frames, ``(T,) int64`` in frame order."""
         self._check_subject(subject)
