@@ -16,6 +16,7 @@ See docs/site.md.
 from __future__ import annotations
 
 import os
+import re
 import shutil
 import tempfile
 from pathlib import Path
@@ -31,6 +32,16 @@ __all__ = ["SITE_MARKER", "build_site"]
 #: File that marks a folder as a site written by this tool (only such a folder is replaced).
 SITE_MARKER = ".blendvoca-site"
 _STATIC = Path(__file__).resolve().parent / "static"
+#: What every page shares (doctype, stylesheet, file notice, navigation); ``{head}`` and ``{body}`` are the page's own.
+_FRAME = Path(__file__).resolve().parent / "page.html"
+
+
+def framed_page(page: Path) -> str:
+    """The HTML of a page of ``static/`` (its own ``<head>`` and ``<body>`` lines) inside ``page.html``."""
+    parts = re.fullmatch(r"<head>\n(.*)</head>\n<body>\n(.*)</body>\n", page.read_text(encoding="utf-8"), re.S)
+    if parts is None:
+        raise ValueError(f"{page}: expected a <head> block and a <body> block, each opening and closing on a line")
+    return _FRAME.read_text(encoding="utf-8").format(head=parts[1], body=parts[2])
 
 
 def _check_out(out: Path) -> None:
@@ -80,7 +91,10 @@ def build_site(results_dir, out, *, data=None, max_samples: int = 3, node_module
             if page.is_file():
                 target = tmp / ("assets" if page.suffix in (".js", ".css") else "") / page.name
                 target.parent.mkdir(parents=True, exist_ok=True)
-                shutil.copyfile(page, target)
+                if page.suffix == ".html":
+                    target.write_text(framed_page(page), encoding="utf-8")
+                else:
+                    shutil.copyfile(page, target)
         write_site_data(runs, tmp / "data", max_samples=max_samples, progress=progress)
         (tmp / SITE_MARKER).write_text("written by python -m leaderboard.site\n")
         os.chmod(tmp, permissions_for(out, directory=True))  # not mkdtemp's 0700: a web server reads it

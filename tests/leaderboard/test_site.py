@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from leaderboard.site import SITE_MARKER, build_site
+from leaderboard.site import SITE_MARKER, build_site, framed_page
 from leaderboard.site.serve import serve_site
 
 from .browser import chromium_driver, open_page, require_three_js
@@ -126,6 +126,28 @@ def test_out_folder_is_never_a_users(tmp_path, results_dir, three_js):
     again = build_site(results_dir, tmp_path / "site", progress=False)
     build_site(results_dir, again, progress=False)  # a previous site is replaced
     assert not list(tmp_path.glob(".*.tmp"))
+
+
+@pytest.mark.parametrize("name, title", [("index", "BlendVOCA leaderboard"), ("method", "BlendVOCA run"),
+                                         ("play", "BlendVOCA playback")])
+def test_pages_share_one_frame(name, title):
+    """Each page of static/ holds only its own head and body lines; the built page has the shared frame once."""
+    page = framed_page(Path(__file__).resolve().parents[2] / "leaderboard" / "site" / "static" / f"{name}.html")
+    assert page.startswith('<!doctype html>\n<html lang="en">\n<head>\n<meta charset="utf-8">\n'
+                           f"<title>{title}</title>\n")
+    assert page.endswith(f'<script type="module" src="assets/{"leaderboard" if name == "index" else name}.js">'
+                         "</script>\n</body>\n</html>\n")
+    for line in ("<head>", "</head>", "<body>", "</body>", '<link rel="stylesheet" href="assets/site.css">',
+                 '<script src="assets/file-notice.js"></script>', '<nav><a href="index.html">Leaderboard</a></nav>'):
+        assert page.count(line + "\n") == 1, line
+    assert page.index("</head>") < page.index("<body>") < page.index("<nav>") < page.index("<h1")
+
+
+def test_a_page_without_its_head_and_body_blocks_is_refused(tmp_path):
+    page = tmp_path / "broken.html"
+    page.write_text("<h1>no head</h1>\n")
+    with pytest.raises(ValueError, match="broken.html: expected a <head> block and a <body> block"):
+        framed_page(page)
 
 
 def test_cli_errors_are_one_line(tmp_path, capsys):
