@@ -107,7 +107,13 @@ class RetargetPlan:
     falloff: float
 
 
-def _cropped_target(target_vertices, target_faces, target_landmarks, crop, where):
+def _checked_inputs(source_neutral, source_faces, source_landmarks, target_vertices, target_faces, target_landmarks,
+                    crop, where):
+    """``(Vs, Fs, lm_s, V, F, lm_t, crop, lm_c, transferred)``: the checked source and full target, the
+    `Crop`, the target landmarks in the crop and the cropped vertices that deform."""
+    Vs = as_vertices(source_neutral, where, name="source_neutral")
+    Fs = as_faces(source_faces, len(Vs), where, name="source_faces")
+    lm_s = as_indices(source_landmarks, len(Vs), where, name="source_landmarks")
     V = as_vertices(target_vertices, where, name="target_vertices")
     F = as_faces(target_faces, len(V), where, name="target_faces")
     lm = as_indices(target_landmarks, len(V), where, name="target_landmarks")
@@ -122,7 +128,9 @@ def _cropped_target(target_vertices, target_faces, target_landmarks, crop, where
     # pieces without a landmark (eyeballs of FLAME) have no known counterpart on the
     # source face mask: they are carried at rest
     transferred = np.isin(pieces, np.unique(pieces[lm_c]))
-    return V, F, lm, c, lm_c, transferred
+    if len(lm_s) != len(lm):
+        raise UserError(f"{where}: {len(lm_s)} source landmarks but {len(lm)} target landmarks")
+    return Vs, Fs, lm_s, V, F, lm, c, lm_c, transferred
 
 
 def _default_max_distance(points: np.ndarray) -> float:
@@ -169,13 +177,9 @@ def correspondence_for_target(
     Correspondence
         Valid for any target with the same topology, crop and landmarks.
     """
-    where = "correspondence_for_target"
-    Vs = as_vertices(source_neutral, where, name="source_neutral")
-    Fs = as_faces(source_faces, len(Vs), where, name="source_faces")
-    lm_s = as_indices(source_landmarks, len(Vs), where, name="source_landmarks")
-    V, _F, lm_t, c, lm_c, transferred = _cropped_target(target_vertices, target_faces, target_landmarks, crop, where)
-    if len(lm_s) != len(lm_t):
-        raise UserError(f"{where}: {len(lm_s)} source landmarks but {len(lm_t)} target landmarks")
+    Vs, Fs, lm_s, V, _F, lm_t, c, lm_c, transferred = _checked_inputs(
+        source_neutral, source_faces, source_landmarks, target_vertices, target_faces, target_landmarks, crop,
+        "correspondence_for_target")
     sim = similarity_transform(Vs[lm_s], V[lm_t])
     Vc = V[c.vertex_index]
     dist = _default_max_distance(V[lm_t]) if max_distance is None else float(max_distance)
@@ -236,12 +240,8 @@ def plan_retarget(
     RetargetPlan
     """
     where = "plan_retarget"
-    Vs = as_vertices(source_neutral, where, name="source_neutral")
-    Fs = as_faces(source_faces, len(Vs), where, name="source_faces")
-    lm_s = as_indices(source_landmarks, len(Vs), where, name="source_landmarks")
-    V, F, lm_t, c, _, transferred = _cropped_target(target_vertices, target_faces, target_landmarks, crop, where)
-    if len(lm_s) != len(lm_t):
-        raise UserError(f"{where}: {len(lm_s)} source landmarks but {len(lm_t)} target landmarks")
+    Vs, Fs, lm_s, V, F, lm_t, c, _, transferred = _checked_inputs(
+        source_neutral, source_faces, source_landmarks, target_vertices, target_faces, target_landmarks, crop, where)
     if correspondence is None:
         correspondence = correspondence_for_target(
             Vs, Fs, V, F, lm_s, lm_t, crop=crop, max_distance=max_distance
