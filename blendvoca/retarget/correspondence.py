@@ -39,6 +39,14 @@ class VertexCorrespondence:
         return np.einsum("...ijc,ij->...ic", v[..., corner, :], self.barycentric)
 
 
+def _checked_meshes(deformed_source_vertices, source_faces, target_vertices, target_faces, where):
+    """``(Vs, Fs, Vt, Ft)``: the registered source and the target of a correspondence, checked."""
+    Vs = as_vertices(deformed_source_vertices, where, name="deformed_source_vertices")
+    Fs = as_faces(source_faces, len(Vs), where, name="source_faces")
+    Vt = as_vertices(target_vertices, where, name="target_vertices")
+    return Vs, Fs, Vt, as_faces(target_faces, len(Vt), where, name="target_faces")
+
+
 def triangle_correspondence(
     deformed_source_vertices: np.ndarray,
     source_faces: np.ndarray,
@@ -72,10 +80,7 @@ def triangle_correspondence(
         ``(source_face, target_face)`` rows, unique, sorted by target face.
     """
     where = "triangle_correspondence"
-    Vs = as_vertices(deformed_source_vertices, where, name="deformed_source_vertices")
-    Fs = as_faces(source_faces, len(Vs), where, name="source_faces")
-    Vt = as_vertices(target_vertices, where, name="target_vertices")
-    Ft = as_faces(target_faces, len(Vt), where, name="target_faces")
+    Vs, Fs, Vt, Ft = _checked_meshes(deformed_source_vertices, source_faces, target_vertices, target_faces, where)
     if not max_distance > 0:
         raise UserError(f"{where}: expected a positive max_distance, got {max_distance}")
     cs, ct = Vs[Fs].mean(axis=1), Vt[Ft].mean(axis=1)
@@ -116,11 +121,8 @@ def vertex_correspondence(
     -------
     VertexCorrespondence
     """
-    where = "vertex_correspondence"
-    Vs = as_vertices(deformed_source_vertices, where, name="deformed_source_vertices")
-    Fs = as_faces(source_faces, len(Vs), where, name="source_faces")
-    Vt = as_vertices(target_vertices, where, name="target_vertices")
-    Ft = as_faces(target_faces, len(Vt), where, name="target_faces")
+    Vs, Fs, Vt, Ft = _checked_meshes(deformed_source_vertices, source_faces, target_vertices, target_faces,
+                                     "vertex_correspondence")
     sq, face, closest = igl.point_mesh_squared_distance(Vt, Vs, Fs)
     face = face.astype(np.int64)
     a, b, c = (np.ascontiguousarray(Vs[Fs[face, k]]) for k in range(3))
