@@ -9,7 +9,9 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components, dijkstra
 
+from blendvoca import assets
 from blendvoca.errors import UserError
+from blendvoca.io.mesh import read_ply
 
 from ._checks import as_faces, as_indices, as_vertices
 
@@ -230,12 +232,9 @@ def is_flame_topology(faces: np.ndarray, n_vertices: int) -> bool:
     faces = np.asarray(faces, dtype=np.int64)
     if n_vertices != FLAME_VERTEX_COUNT or faces.shape != (FLAME_FACE_COUNT, 3):
         return False
-    from blendvoca.assets import AssetError, resolve
-    from blendvoca.io.mesh import read_ply
-
     try:
-        reference = read_ply(resolve("flame-sample", download_missing=False))[1]
-    except (AssetError, FileNotFoundError, OSError):
+        reference = read_ply(assets.resolve("flame-sample", download_missing=False))[1]
+    except (assets.AssetError, FileNotFoundError, OSError):
         return True
     key = lambda f: np.unique(np.sort(f, axis=1), axis=0)  # noqa: E731 - a one-line helper
     return reference.shape == faces.shape and np.array_equal(key(reference), key(faces))
@@ -254,11 +253,9 @@ def default_crop(faces: np.ndarray, n_vertices: int) -> tuple[np.ndarray | None,
     """
     if not is_flame_topology(faces, n_vertices):
         return None, None
-    from blendvoca.assets import AssetError, load_index_list
-
     try:
-        keep = load_index_list("flame-head-idx")
-    except (AssetError, FileNotFoundError, OSError) as error:
+        keep = assets.load_index_list("flame-head-idx")
+    except (assets.AssetError, FileNotFoundError, OSError) as error:
         return None, ("warning: the target has FLAME's topology but the FLAME head crop (asset flame-head-idx) "
                       f"is unavailable ({error}); jaw shapes will drag the neck. Pass --crop FLAME_head_idx.txt "
                       "(python -m blendvoca.assets fetch flame-head-idx)")

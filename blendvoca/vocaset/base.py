@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
+from blendvoca.assets import load_index_list
 from blendvoca.errors import DataError
 from blendvoca.io.audio import read_wav, to_mono
 from blendvoca.io.json_file import json_kind, read_json
@@ -170,14 +171,10 @@ class VocasetCorpus:
 
     def landmarks(self) -> np.ndarray:
         """The 68 iBUG landmark vertices of the corpus's topology (FLAME's: the asset ``flame-landmarks``)."""
-        from blendvoca.assets import load_index_list
-
         return load_index_list("flame-landmarks")
 
     def head_index(self) -> np.ndarray:
         """The vertices the rig transfer and the fit use (FLAME's head crop: the asset ``flame-head-idx``)."""
-        from blendvoca.assets import load_index_list
-
         return load_index_list("flame-head-idx")
 
     @property

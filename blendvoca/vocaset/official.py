@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
+from blendvoca.assets import resolve
 from blendvoca.io.mesh import MeshFormatError, read_ply, read_ply_sequence, read_ply_vertices
 from blendvoca.vocaset.checks import frame_gaps
 from blendvoca.vocaset.base import VocasetCorpus
@@ -135,8 +136,6 @@ class OfficialVocaset(VocasetCorpus):
                     self._faces = F
                     break
             else:
-                from blendvoca.assets import resolve
-
                 self._faces = read_ply(resolve("flame-sample"))[1]
         return self._faces
 

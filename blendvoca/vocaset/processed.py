@@ -34,6 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
+from blendvoca.assets import resolve
 from blendvoca.errors import DataError
 from blendvoca.io.mesh import read_ply
 from blendvoca.io.pickle_file import UnsafePickleError, load_data_pickle
@@ -290,8 +291,6 @@ class ProcessedVocaset(VocasetCorpus):
     def faces(self) -> np.ndarray:
         """FLAME triangles ``(9976, 3) int64`` (the processed layout stores none: asset ``flame-sample``)."""
         if getattr(self, "_faces", None) is None:
-            from blendvoca.assets import resolve
-
             self._faces = read_ply(resolve("flame-sample"))[1]
         return self._faces
 
