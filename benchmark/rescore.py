@@ -68,7 +68,7 @@ def rescored_result(json_path, *, syncnet=None, sync_expert=None, data=None, pro
         raise UserError("benchmark.rescore: expected --sync-expert and/or --syncnet-weights, got neither")
     json_path = Path(json_path)
     stored = read_run(json_path)
-    result = stored.result
+    result = stored.result.to_json()
     if result.get("seeds") or result["protocol"].get("seeds"):
         # each seed's tracks and intervals would have to be rescored and recombined
         raise UserError(f"benchmark.rescore: {json_path} combines runs over the training seeds "
@@ -114,12 +114,13 @@ def main(argv=None) -> int:
     cli.add_quiet_option(p)
     args = p.parse_args(argv)
     from benchmark.protocol import write_run
+    from benchmark.results import check
 
     for run in args.runs:
         result = rescored_result(run, syncnet=args.syncnet_weights, sync_expert=args.sync_expert,
                                  data=args.data, progress=not args.quiet, verify=args.verify)
         path = Path(run)
-        print(write_run(result, path.parent, path.name))
+        print(write_run(check(result, str(path)), path.parent, path.name))
     return cli.EXIT_OK
 
 

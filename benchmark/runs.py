@@ -35,6 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
+from benchmark.results import Result, read
 from blendvoca.builder.outdir import is_running
 from blendvoca.errors import DataError
 
@@ -263,8 +264,8 @@ class StoredRun:
     Attributes
     ----------
     json_path : Path
-    result : dict
-        The result record (``benchmark.results`` schema).
+    result : benchmark.results.Result
+        The result record.
     tracks_dir : Path
         Absolute tracks folder.
     dataset_root : Path
@@ -272,7 +273,7 @@ class StoredRun:
     """
 
     json_path: Path
-    result: dict
+    result: Result
     tracks_dir: Path
     dataset_root: Path
 
@@ -330,15 +331,13 @@ def read_run(json_path) -> StoredRun:
     FileNotFoundError
         The tracks folder it names is missing.
     """
-    from benchmark.results import read_result
-
     json_path = Path(json_path)
-    result = read_result(json_path)
-    rel = result.get(TRACKS_KEY)
+    result = read(json_path)
+    rel = result.tracks
     if not rel:
         raise DataError(f"{json_path}: no {TRACKS_KEY!r} key; the run stored no tracks (rerun benchmark.run)")
     tracks_dir = (json_path.parent / rel).resolve()
     if not tracks_dir.is_dir():
         raise FileNotFoundError(f"{json_path}: tracks folder {tracks_dir} (key {TRACKS_KEY!r} = {rel!r}) not found")
     return StoredRun(json_path=json_path, result=result, tracks_dir=tracks_dir,
-                     dataset_root=Path(result.get("dataset", {}).get("path", "")))
+                     dataset_root=Path(result.dataset.path or ""))

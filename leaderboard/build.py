@@ -22,8 +22,9 @@ DEFAULT_RESULTS_DIR = Path(__file__).resolve().parent / "results"
 DEFAULT_OUT_DIR = Path(__file__).resolve().parent / "tables"
 
 
-def rendered_tables(results: list[dict]) -> dict[str, str]:
-    """``{"leaderboard.md": text, "leaderboard.tex": text}`` for a list of result records."""
+def rendered_tables(results: list) -> dict[str, str]:
+    """``{"leaderboard.md": text, "leaderboard.tex": text}`` for a list of
+    :class:`benchmark.results.Result`."""
     tables = tables_by_manifest(results)
     return {"leaderboard.md": markdown_tables(tables), "leaderboard.tex": latex_tables(tables)}
 

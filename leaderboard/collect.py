@@ -34,7 +34,7 @@ from benchmark.metrics.bootstrap import (
     two_level_replicates,
 )
 from benchmark.metrics.registry import METRICS, ordered_metrics
-from benchmark.results import dataset_key, read_result
+from benchmark.results import Convergence, MetricEntry, Result, read
 from blendvoca.errors import DataError, UserError
 
 __all__ = [
@@ -46,15 +46,12 @@ __all__ = [
     "Row",
     "Table",
     "best_mark",
-    "check_schema_versions",
     "check_scoring_models",
     "column_decimals",
     "load_results",
     "pair_replicates",
     "pairwise_probabilities",
     "ranks",
-    "result_seeds",
-    "tabulable",
     "tables_by_manifest",
 ]
 
@@ -98,39 +95,29 @@ class Row:
     #: Training seeds of a row trained with several (the result's ``seeds``), else empty.
     seeds: tuple = ()
     #: The result's ``convergence`` record (None for rows that do not train).
-    convergence: dict | None = None
+    convergence: Convergence | None = None
     #: The result record (its per-sentence rows and replicates feed the resampling).
-    result: dict | None = field(default=None, repr=False, compare=False)
+    result: Result | None = field(default=None, repr=False, compare=False)
 
     @property
     def settled(self) -> bool | None:
         """``convergence.settled``: False marks the row "not settled"; None when not checked."""
-        if not self.convergence:
-            return None
-        settled = self.convergence.get("settled")
-        return None if settled is None else bool(settled)
+        return None if self.convergence is None else self.convergence.settled
 
     def unsettled_metrics(self) -> list:
         """``[(metric, half_budget, full_budget, half_width)]`` of the checked metrics that moved
         by more than their interval's half-width between the half and the full budget."""
-        out = []
-        for name, entry in ((self.convergence or {}).get("metrics") or {}).items():
-            if isinstance(entry, dict) and entry.get("settled") is False:
-                out.append((name, entry.get("half_budget"), entry.get("full_budget"), entry.get("half_width")))
-        return out
+        return [] if self.convergence is None else self.convergence.unsettled()
 
     def unsettled_seeds(self, name: str) -> list:
         """``[(seed, half_budget, full_budget, half_width)]`` of the seeds whose own check of
         ``name`` failed (the result's ``per_seed[k].convergence``), in the result's seed order;
         empty for a row without per-seed checks."""
-        records = self.result.get("per_seed") if isinstance(self.result, dict) else None
         out = []
-        for record in records if isinstance(records, list) else []:
-            convergence = record.get("convergence") if isinstance(record, dict) else None
-            entry = ((convergence or {}).get("metrics") or {}).get(name)
-            if isinstance(entry, dict) and entry.get("settled") is False \
-                    and entry.get("half_budget") is not None and entry.get("full_budget") is not None:
-                out.append((record.get("seed"), entry["half_budget"], entry["full_budget"], entry.get("half_width")))
+        for record in (self.result.per_seed if self.result is not None else None) or ():
+            for metric, *values in (record.convergence.unsettled() if record.convergence else ()):
+                if metric == name and values[0] is not None and values[1] is not None:
+                    out.append((record.seed, *values))
         return out
 
 
@@ -167,25 +154,24 @@ class Table:
         return out
 
 
-def load_results(results_dir) -> list[dict]:
-    """Every ``*.json`` result in ``results_dir`` (str or os.PathLike; sorted by file name), schema-checked.
+def load_results(results_dir) -> list[Result]:
+    """Every ``*.json`` result in ``results_dir`` (str or os.PathLike; sorted by file name),
+    read by :func:`benchmark.results.read`.
 
     Raises
     ------
     UserError
         ``results_dir`` is not a folder.
     DataError
-        A file that is not a result (not JSON, off the schema, or holding a field the
-        tables read with the wrong type); the message names the file. Results of one
-        dataset with different schema versions or lip-sync models
-        (:func:`check_schema_versions`, :func:`check_scoring_models`).
+        A file that is not a result (not JSON, off the schema); the message names the
+        file. Results of one dataset scored by different lip-sync models
+        (:func:`check_scoring_models`).
     """
     results_dir = Path(results_dir)
     if not results_dir.is_dir():
         raise UserError(f"results directory {results_dir} does not exist")
     paths = sorted(results_dir.glob("*.json"))
-    results = [tabulable(read_result(path), path) for path in paths]
-    check_schema_versions(results, paths)
+    results = [read(path) for path in paths]
     check_scoring_models(results, paths)
     return results
 
@@ -198,38 +184,15 @@ def _disagreements(results: list, paths: list, values_of) -> list:
     for result, path in zip(results, paths):
         for name, value in values_of(result):
             if value is not None:
-                groups.setdefault((dataset_key(result), name), {}).setdefault(value, []).append(str(path))
+                groups.setdefault((result.key, name), {}).setdefault(value, []).append(str(path))
     return [(manifest, name, values) for (manifest, name), values in sorted(groups.items()) if len(values) > 1]
-
-
-def check_schema_versions(results: list, paths: list) -> None:
-    """Refuse results of different ``schema_version`` on one dataset manifest (one table).
-
-    A version-1 file is read with its metric names mapped (``lve`` -> ``lve_mesh`` or
-    ``lve_rig``), but its numbers come from the older protocol (one reference space per
-    kind of row, one seed, no stored replicates), so it does not share a table with
-    version-2 rows.
-
-    Raises
-    ------
-    DataError
-        Naming, for each version, the files that have it.
-    """
-    # the version is compared as text, so a file without one ("None") still counts
-    mixed = _disagreements(results, paths, lambda r: [("", str(r.get("schema_version")))])
-    problems = ["dataset {}: {}".format(manifest[:12], "; ".join(f"version {v}: {', '.join(files)}"
-                                                                  for v, files in sorted(versions.items())))
-                for manifest, _, versions in mixed]
-    if problems:
-        raise DataError("results of different schema versions cannot share a table (rescore the older rows with "
-                        "the current benchmark, or keep them in another --results folder): " + " | ".join(problems))
 
 
 def _model_digests(result: dict):
     """``(model name, digest)`` of each lip-sync model a result names: the weights'
     digest where recorded (a file's also covers its path and training time), else the
     checkpoint file's."""
-    models = (result.get("protocol") or {}).get("lipsync_models") or {}
+    models = result.protocol.lipsync_models or {}
     for name, record in models.items():
         if isinstance(record, dict):
             yield name, record.get("weights_sha256") or record.get("sha256") or None
@@ -258,140 +221,14 @@ def check_scoring_models(results: list, paths: list) -> None:
                         + " | ".join(problems))
 
 
-def _is_number(value) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
-
-
-def _is_int(value) -> bool:
-    return isinstance(value, int) and not isinstance(value, bool)
-
-
-def _short(value) -> str:
-    text = repr(value)
-    return text if len(text) <= 60 else text[:57] + "..."
-
-
-def _check_rows(rows, where: str, fail) -> None:
-    """Per-sentence rows: a list of objects with string ``subject`` and ``sentence``."""
-    if rows is None:
-        return
-    if not isinstance(rows, list):
-        fail(where, "a list of per-sentence rows", rows)
-    for i, row in enumerate(rows):
-        if not isinstance(row, dict):
-            fail(f"{where}[{i}]", "an object", row)
-        for key in ("subject", "sentence"):
-            if not isinstance(row.get(key), str):
-                fail(f"{where}[{i}].{key}", "a string", row.get(key))
-        if "metrics" in row and not isinstance(row["metrics"], dict):
-            fail(f"{where}[{i}].metrics", "an object", row["metrics"])
-
-
-def _check_replicates(value, where: str, fail) -> None:
-    if not isinstance(value, list) or not value or not all(_is_number(v) for v in value):
-        fail(where, "a non-empty list of finite numbers", value)
-
-
-def _check_v3_fields(result: dict, path: Path) -> None:
-    """Types of the optional protocol-v3 fields the tables read: ``seeds``, ``per_seed``,
-    ``per_sentence``, the metrics' ``seed_range`` and ``replicates``, ``convergence``."""
-
-    def fail(where, expected, value):
-        raise DataError(f"{path}: {where}: expected {expected}, got {_short(value)}")
-
-    for where, seeds in (("seeds", result.get("seeds")), ("protocol.seeds", result["protocol"].get("seeds"))):
-        if seeds is not None and not (isinstance(seeds, list) and all(_is_int(v) for v in seeds)):
-            fail(where, "a list of integers", seeds)
-    _check_rows(result.get("per_sentence"), "per_sentence", fail)
-    per_seed = result.get("per_seed")
-    if per_seed is not None:
-        if not isinstance(per_seed, list):
-            fail("per_seed", "a list of objects", per_seed)
-        for i, entry in enumerate(per_seed):
-            if not isinstance(entry, dict):
-                fail(f"per_seed[{i}]", "an object", entry)
-            if "seed" in entry and not _is_int(entry["seed"]):
-                fail(f"per_seed[{i}].seed", "an integer", entry["seed"])
-            means = entry.get("metrics")
-            if means is not None and not (isinstance(means, dict) and all(
-                    v is None or _is_number(v) for v in means.values())):
-                fail(f"per_seed[{i}].metrics", "an object of metric -> number", means)
-            _check_rows(entry.get("per_sentence"), f"per_seed[{i}].per_sentence", fail)
-            replicates = entry.get("replicates")
-            if replicates is not None:
-                if not isinstance(replicates, dict):
-                    fail(f"per_seed[{i}].replicates", "an object of metric -> list", replicates)
-                for name, values in replicates.items():
-                    _check_replicates(values, f"per_seed[{i}].replicates.{name}", fail)
-    for name, fields in result["metrics"].items():
-        seed_range = fields.get("seed_range")
-        if seed_range is not None and not (isinstance(seed_range, list) and len(seed_range) == 2
-                                           and all(_is_number(v) for v in seed_range)
-                                           and seed_range[0] <= seed_range[1]):
-            fail(f"metrics.{name}.seed_range", "[low, high] of finite numbers", seed_range)
-        if fields.get("replicates") is not None:
-            _check_replicates(fields["replicates"], f"metrics.{name}.replicates", fail)
-    convergence = result.get("convergence")
-    if convergence is not None:
-        if not isinstance(convergence, dict):
-            fail("convergence", "an object", convergence)
-        if convergence.get("settled") is not None and not isinstance(convergence["settled"], bool):
-            fail("convergence.settled", "true or false", convergence["settled"])
-        for key in ("checked_at_step", "total_steps"):
-            if convergence.get(key) is not None and not _is_int(convergence[key]):
-                fail(f"convergence.{key}", "an integer", convergence[key])
-        checked = convergence.get("metrics")
-        if checked is not None:
-            if not isinstance(checked, dict):
-                fail("convergence.metrics", "an object of metric -> check", checked)
-            for name, entry in checked.items():
-                if not isinstance(entry, dict):
-                    fail(f"convergence.metrics.{name}", "an object", entry)
-                for key in ("half_budget", "full_budget", "half_width"):
-                    if entry.get(key) is not None and not _is_number(entry[key]):
-                        fail(f"convergence.metrics.{name}.{key}", "a finite number", entry[key])
-                if entry.get("settled") is not None and not isinstance(entry["settled"], bool):
-                    fail(f"convergence.metrics.{name}.settled", "true or false", entry["settled"])
-
-
-def tabulable(result: dict, path) -> dict:
-    """``result`` unchanged when the fields the tables and the site read have their types
-    (the schema check leaves some free); DataError naming ``path`` and the field otherwise."""
-    path = Path(path)
-    expected = (
-        ("dataset", "manifest_hash", str, True),
-        ("dataset", "recipe_id", str, True),
-        ("dataset", "split", str, True),
-        ("dataset", "num_sentences", int, True),
-        ("method", "name", str, False),
-        ("method", "label", str, True),
-        ("method", "output", str, True),
-        ("protocol", "samples", int, True),
-        ("protocol", "seed", int, True),
-    )
-    for section, key, kind, optional in expected:
-        value = result[section].get(key)
-        if value is None and (optional or key not in result[section]):
-            continue
-        if isinstance(value, bool) or not isinstance(value, kind):
-            raise DataError(f"{path}: {section}.{key}: expected {'an integer' if kind is int else 'a string'}, "
-                            f"got {value!r}")
-    _check_v3_fields(result, path)
-    return result
-
-
-_tabulable = tabulable
-
-
-def _column(name: str, fields: dict) -> Column:
+def _column(name: str, entry: MetricEntry) -> Column:
     info = METRICS.get(name)
     if info is not None:
         return Column(name, info.label, info.unit, info.higher_is_better, info.group)
-    return Column(name, fields.get("label") or name, fields.get("unit") or "", fields["higher_is_better"],
-                  OTHER_GROUP)
+    return Column(name, entry.label or name, entry.unit or "", entry.higher_is_better, OTHER_GROUP)
 
 
-def tables_by_manifest(results: list[dict]) -> list[Table]:
+def tables_by_manifest(results: list[Result]) -> list[Table]:
     """One :class:`Table` per dataset manifest hash, so that numbers from different
     data never share a table. Tables are sorted by manifest hash.
 
@@ -400,9 +237,9 @@ def tables_by_manifest(results: list[dict]) -> list[Table]:
     DataError
         Two results on one manifest disagree on a metric's direction or unit.
     """
-    groups: dict[str, list[tuple[int, dict]]] = {}
+    groups: dict[str, list[tuple[int, Result]]] = {}
     for index, result in enumerate(results):
-        groups.setdefault(dataset_key(result), []).append((index, result))
+        groups.setdefault(result.key, []).append((index, result))
     tables = []
     for manifest_hash in sorted(groups):
         sources = [index for index, _ in groups[manifest_hash]]
@@ -410,41 +247,37 @@ def tables_by_manifest(results: list[dict]) -> list[Table]:
         specs: dict[str, tuple] = {}
         columns: dict[str, Column] = {}
         for result in group:
-            for name, fields in result["metrics"].items():
-                spec = (fields["higher_is_better"], fields.get("unit") or "")
+            for name, entry in result.metrics.items():
+                spec = (entry.higher_is_better, entry.unit or "")
                 if specs.setdefault(name, spec) != spec:
                     raise DataError(
                         f"manifest {manifest_hash}: metric {name!r} has direction/unit {specs[name]} in one result "
-                        f"and {spec} in {result['method'].get('label')!r}"
+                        f"and {spec} in {result.method.label!r}"
                     )
-                columns.setdefault(name, _column(name, fields))
-        versions = sorted({str(r.get("schema_version")) for r in group})
-        if len(versions) > 1:
-            raise DataError(f"manifest {manifest_hash}: results of schema versions {', '.join(versions)} cannot share "
-                            f"a table ({sorted(r['method'].get('label') or r['method']['name'] for r in group)})")
-        labels = [r["method"].get("label") or r["method"]["name"] for r in group]
+                columns.setdefault(name, _column(name, entry))
+        labels = [r.label for r in group]
         rows = []
         for source, result, label in zip(sources, group, labels):
-            protocol = result["protocol"]
-            seeds = tuple(result_seeds(result))
+            protocol = result.protocol
+            seeds = tuple(result.training_seeds())
             if labels.count(label) > 1:
-                which = (f"seeds {','.join(map(str, seeds))}" if len(seeds) > 1 else f"seed {protocol.get('seed')}")
-                label = f"{label} (S={protocol.get('samples')}, {which})"
+                which = f"seeds {','.join(map(str, seeds))}" if len(seeds) > 1 else f"seed {protocol.seed}"
+                label = f"{label} (S={protocol.samples}, {which})"
             rows.append(Row(
                 label=label,
-                reference=bool(result["method"].get("reference", False)),
-                samples=int(protocol.get("samples") or 1),
-                metrics={k: (v["mean"], v.get("std"), v.get("ci95")) for k, v in result["metrics"].items()},
-                output=result["method"].get("output", "coefficients"),
+                reference=bool(result.method.reference),
+                samples=int(protocol.samples or 1),
+                metrics={k: (v.mean, v.std, v.ci95) for k, v in result.metrics.items()},
+                output=result.method.output or "coefficients",
                 source=source,
                 seed_ranges=_seed_ranges(result),
                 seeds=seeds if len(seeds) > 1 else (),
-                convergence=result.get("convergence") if isinstance(result.get("convergence"), dict) else None,
+                convergence=result.convergence,
                 result=result,
             ))
         rows.sort(key=lambda r: (r.label.lower(), r.label))
-        splits = sorted({r["dataset"].get("split", "test") for r in group})
-        counts = sorted({r["dataset"].get("num_sentences") for r in group if r["dataset"].get("num_sentences")})
+        splits = sorted({r.dataset.split or "test" for r in group})
+        counts = sorted({r.dataset.num_sentences for r in group if r.dataset.num_sentences})
         known = ordered_metrics([n for n in columns if n in METRICS])
         other = sorted(n for n in columns if n not in METRICS)
         tables.append(Table(
@@ -454,43 +287,23 @@ def tables_by_manifest(results: list[dict]) -> list[Table]:
             columns=[columns[n] for n in known + other],
             rows=[r for r in rows if not r.reference],
             references=[r for r in rows if r.reference],
-            name=" / ".join(sorted({dataset_name(r["dataset"]) for r in group} - {""})),
-            latent_out_of_domain=any(_latent_out_of_domain(r) for r in group),
+            name=" / ".join(sorted({r.dataset.display_name for r in group} - {""})),
+            latent_out_of_domain=any(r.dataset.latent_out_of_domain or r.protocol.latent_out_of_domain
+                                     for r in group),
         ))
     return tables
 
 
-def dataset_name(record: dict) -> str:
-    """The display name of a result's ``dataset`` record: its ``title``, else its ``name``, else ""."""
-    return str(record.get("title") or record.get("name") or "")
-
-
-def _latent_out_of_domain(result: dict) -> bool:
-    """Whether a result flags its latent metrics as out of domain (``dataset`` or ``protocol`` record)."""
-    return bool(result["dataset"].get("latent_out_of_domain") or result["protocol"].get("latent_out_of_domain"))
-
-
-def result_seeds(result: dict) -> list:
-    """The training seeds of a result trained with several: its ``seeds`` (or
-    ``protocol.seeds``); empty otherwise."""
-    seeds = result.get("seeds")
-    if seeds is None:
-        seeds = result["protocol"].get("seeds")
-    return list(seeds or [])
-
-
-def _seed_ranges(result: dict) -> dict:
+def _seed_ranges(result: Result) -> dict:
     """``{metric: (lowest, highest)}`` of the per-seed means: the metric's ``seed_range``,
     else the range of ``per_seed[k].metrics`` when there are several seeds."""
     out = {}
-    per_seed = result.get("per_seed") or []
-    for name, fields in result["metrics"].items():
-        stored = fields.get("seed_range")
-        if stored is not None:
-            out[name] = (float(stored[0]), float(stored[1]))
+    per_seed = result.per_seed or ()
+    for name, entry in result.metrics.items():
+        if entry.seed_range is not None:
+            out[name] = (float(entry.seed_range[0]), float(entry.seed_range[1]))
             continue
-        means = [e["metrics"][name] for e in per_seed
-                 if isinstance(e.get("metrics"), dict) and _is_number(e["metrics"].get(name))]
+        means = [e.metrics[name] for e in per_seed if e.metrics and e.metrics.get(name) is not None]
         if len(per_seed) > 1 and len(means) == len(per_seed):
             out[name] = (float(min(means)), float(max(means)))
     return out
@@ -537,7 +350,8 @@ def _metric_seed(name: str) -> int:
 def _sentence_value(row: dict, name: str):
     values = row.get("metrics") if isinstance(row.get("metrics"), dict) else row
     value = values.get(name)
-    return float(value) if _is_number(value) else None
+    finite = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+    return float(value) if finite else None
 
 
 def _by_sentence(rows, name: str) -> dict:
@@ -550,29 +364,18 @@ def _by_sentence(rows, name: str) -> dict:
     return out
 
 
-def _seed_sentence_values(result: dict, name: str) -> list | None:
+def _seed_sentence_values(result: Result, name: str) -> list | None:
     """Per training seed, ``{(subject, sentence): value}`` of a sentence-level metric: each
     ``per_seed[k].per_sentence``; the row's ``per_sentence`` for a row with one seed; None
     when a row with several seeds did not store each seed's rows."""
-    per_seed = result.get("per_seed") or []
-    if per_seed and all(entry.get("per_sentence") for entry in per_seed):
-        seeds = [_by_sentence(entry["per_sentence"], name) for entry in per_seed]
+    per_seed = result.per_seed or ()
+    if per_seed and all(entry.per_sentence for entry in per_seed):
+        seeds = [_by_sentence(entry.per_sentence, name) for entry in per_seed]
         return seeds if all(seeds) else None
-    if len(per_seed) > 1 or len(result_seeds(result)) > 1:
+    if len(per_seed) > 1 or len(result.training_seeds()) > 1:
         return None
-    values = _by_sentence(result.get("per_sentence"), name)
+    values = _by_sentence(result.per_sentence, name)
     return [values] if values else None
-
-
-def _seed_replicates(result: dict, name: str) -> list | None:
-    """Per training seed, the stored bootstrap replicates of a set-level metric: each
-    ``per_seed[k].replicates[name]``, else the metric's own ``replicates`` as one list."""
-    per_seed = result.get("per_seed") or []
-    stored = [(entry.get("replicates") or {}).get(name) for entry in per_seed]
-    if per_seed and all(stored):
-        return [np.asarray(r, dtype=np.float64) for r in stored]
-    own = result["metrics"].get(name, {}).get("replicates")
-    return [np.asarray(own, dtype=np.float64)] if own else None
 
 
 def pair_replicates(a: Row, b: Row, name: str, *, streams=(0, 1), resamples: int = ORDER_RESAMPLES,
@@ -620,9 +423,9 @@ def pair_replicates(a: Row, b: Row, name: str, *, streams=(0, 1), resamples: int
                     for values, stream in ((va, streams[0]), (vb, streams[1])))
         if info is not None:
             return None
-    ra, rb = _seed_replicates(a.result, name), _seed_replicates(b.result, name)
-    too_few = any(_is_number(r.result["metrics"].get(name, {}).get("n"))
-                  and r.result["metrics"][name]["n"] < MIN_PAIRED_SENTENCES for r in (a, b))
+    ra, rb = a.result.seed_replicates(name), b.result.seed_replicates(name)
+    too_few = any(name in r.result.metrics and r.result.metrics[name].n is not None
+                  and r.result.metrics[name].n < MIN_PAIRED_SENTENCES for r in (a, b))
     if ra and rb and not too_few:
         return tuple(cached(("set", stream, name, resamples), lambda reps=reps, stream=stream:
                             two_level_replicates(reps, resamples=resamples, seed=seed, stream=stream))

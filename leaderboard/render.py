@@ -15,6 +15,7 @@ from __future__ import annotations
 import re
 
 from benchmark.metrics.registry import METRICS
+from benchmark.results import Convergence
 
 from .collect import MIN_PAIRED_SENTENCES, Column, Row, Table, best_mark, column_decimals
 
@@ -104,10 +105,10 @@ def not_settled_text(row: Row) -> str:
     training, ``convergence.shared_with``: which row's training it is). A metric whose
     seed mean stayed within its half-width failed on some seeds: those are named instead,
     ``"<metric> on seed <k> <at half> → <at full> (half-width <w>)"``."""
-    conv = row.convergence or {}
-    if conv.get("shared_with"):  # scored with another row's training: that training's verdict
-        return f"{row.label}: row {conv['shared_with']}'s training, not settled there"
-    half, full = conv.get("checked_at_step"), conv.get("total_steps")
+    conv = row.convergence or Convergence()
+    if conv.shared_with:  # scored with another row's training: that training's verdict
+        return f"{row.label}: row {conv.shared_with}'s training, not settled there"
+    half, full = conv.checked_at_step, conv.total_steps
     steps = f"steps {half} and {full}" if half is not None and full is not None else "half and full budget"
     moved = []
     for name, at_half, at_full, half_width in row.unsettled_metrics():
@@ -165,8 +166,8 @@ def _caption(table: Table) -> str:
 def rtf_text(row: Row, decimals: int = 3) -> str:
     """The row's real-time factor (``latency.rtf`` of its result: wall seconds of generation per
     second of audio) to ``decimals`` significant digits, or ``"-"`` for a result without a latency record."""
-    latency = (row.result or {}).get("latency") if isinstance(row.result, dict) else None
-    rtf = latency.get("rtf") if isinstance(latency, dict) else None
+    latency = row.result.latency if row.result is not None else None
+    rtf = None if latency is None else latency.rtf
     return "-" if rtf is None else f"{float(rtf):.{decimals}g}"
 
 

@@ -18,11 +18,9 @@ from dataclasses import dataclass
 __all__ = [
     "ESTIMATORS",
     "GROUPS",
-    "LEGACY_NAMES",
     "METRICS",
     "SPACES",
     "MetricInfo",
-    "current_name",
     "markdown_table",
     "metric_info",
     "ordered_metrics",
@@ -155,22 +153,6 @@ for _info in (
 ):
     register_metric(_info)
 del _info
-
-#: Names of result files before the two reference spaces (schema 1) -> their name now,
-#: by the kind of row: vertex rows were scored against the source meshes, coefficient
-#: rows against the rig reconstruction of the ground truth.
-LEGACY_NAMES = {old: {"vertices": f"{old}_mesh", "coefficients": f"{old}_rig"}
-                for old in ("lve", "lve_squared", "mve", "fdd", "apd", "upd", "lpd", "mpd")}
-
-
-def current_name(name: str, output: str) -> str:
-    """The name a schema-1 metric ``name`` of a row with ``output`` (``"coefficients"`` or
-    ``"vertices"``) has now (:data:`LEGACY_NAMES`; other names are unchanged)."""
-    mapped = LEGACY_NAMES.get(name)
-    if mapped is None:
-        return name
-    return mapped["vertices" if output == "vertices" else "coefficients"]
-
 
 _BETTER = {True: "higher", False: "lower", None: "closer to 0"}
 

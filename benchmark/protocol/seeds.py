@@ -54,6 +54,7 @@ from benchmark.protocol.scoring import score
 from benchmark.protocol.spec import UsageError, checked_seeds
 from benchmark.protocol.storing import store_seeds, track_writer
 from benchmark.protocol.training import train
+from benchmark.results import replicates_array
 from benchmark.runs import seed_folder_name
 
 __all__ = ["CombinedScores", "SeedRun", "combined_seed_scores", "parse_seeds", "run_seeds", "seed_stream"]
@@ -118,6 +119,12 @@ class SeedRun:
     timings: dict = field(default_factory=dict)
     latency: dict | None = None
 
+    def seed_replicates(self, name: str) -> np.ndarray | None:
+        """This seed's bootstrap replicates of ``name`` (``Scores.replicates``, else the
+        metric entry's own; :func:`benchmark.results.replicates_array`)."""
+        reps = self.replicates.get(name) if self.replicates else None
+        return replicates_array(self.metrics[name].get("replicates") if reps is None else reps)
+
 
 @dataclass(frozen=True)
 class CombinedScores:
@@ -178,17 +185,6 @@ def _sentence_matrix(name: str, runs, keys) -> np.ndarray | None:
     return np.asarray(matrix, dtype=np.float64)
 
 
-def _seed_replicates(name: str, run) -> np.ndarray | None:
-    """A seed's bootstrap replicates of ``name`` (``Scores.replicates``, else the entry's own)."""
-    reps = run.replicates.get(name) if run.replicates else None
-    if reps is None:
-        reps = run.metrics[name].get("replicates")
-    if reps is None:
-        return None
-    reps = np.asarray(reps, dtype=np.float64).ravel()
-    return reps if reps.size and np.all(np.isfinite(reps)) else None
-
-
 def _rounded(values) -> list:
     return [float(f"{v:.7g}") for v in np.asarray(values, dtype=np.float64)]
 
@@ -238,7 +234,7 @@ def combined_seed_scores(runs, *, resamples: int = BOOTSTRAP_RESAMPLES, stream: 
                 combined_values[name] = per_key
                 entry["std"] = float(per_key.std(ddof=1)) if per_key.size > 1 else None
         else:
-            seed_reps = [_seed_replicates(name, run) for run in runs]
+            seed_reps = [run.seed_replicates(name) for run in runs]
             for run, r in zip(runs, seed_reps):
                 if r is not None:
                     set_replicates[run.seed][name] = _rounded(r)

@@ -9,7 +9,7 @@ from pathlib import Path
 
 from benchmark.methods.contract import COEFFICIENT_NAMES
 from benchmark.protocol.limits import generate_limit
-from benchmark.results import build_result, result_filename, write_result
+from benchmark.results import Result, build_result, result_filename, write
 from benchmark.runs import TrackWriter, seed_folder_name, tracks_folder_name
 from blendvoca.errors import MethodError
 from blendvoca.format import content_digest
@@ -29,11 +29,9 @@ def dataset_identity(dataset) -> dict:
 def result_name(spec, dataset, trained) -> str:
     """The result file's name: one per method label, build, samples and seed, or seeds
     (:func:`benchmark.results.result_filename`: ``__seed0``, ``__seeds0-1-2``)."""
-    protocol = {"samples": spec.samples if trained.stochastic else 1, "seed": int(spec.seed)}
-    if spec.seeds is not None:
-        protocol["seeds"] = [int(s) for s in spec.seeds]
-    return result_filename({"method": {"name": spec.method, "label": trained.label},
-                            "dataset": dataset_identity(dataset), "protocol": protocol})
+    identity = dataset_identity(dataset)
+    return result_filename(trained.label or spec.method, identity["recipe_id"],
+                           spec.samples if trained.stochastic else 1, int(spec.seed), spec.seeds)
 
 
 def track_writer(spec, inputs, trained) -> TrackWriter:
@@ -197,9 +195,8 @@ def store(spec, inputs, trained, generated, scored, *, writer: TrackWriter, timi
         per_sentence=scored.per_sentence,
         provenance=provenance,
         latency=getattr(generated, "latency", None),
+        convergence=convergence,
     )
-    if convergence is not None:
-        result["convergence"] = convergence
     return write_run(result, inputs.results_dir, filename, writer=writer)
 
 
@@ -254,17 +251,17 @@ def store_seeds(spec, inputs, trained, runs, combined, *, writer: TrackWriter, t
         provenance=provenance,
         # the first seed's: the chunked configuration and the machine are the same for every seed
         latency=first.latency,
+        seeds=[int(s) for s in spec.seeds],
+        per_seed=per_seed,
+        convergence=combined.convergence,
     )
-    result["seeds"] = [int(s) for s in spec.seeds]
-    result["per_seed"] = per_seed
-    if combined.convergence is not None:
-        result["convergence"] = combined.convergence
     return write_run(result, inputs.results_dir, filename, writer=writer)
 
 
-def write_run(result: dict, results_dir, filename: str | None = None, *, writer: TrackWriter | None = None) -> Path:
+def write_run(result: Result, results_dir, filename: str | None = None, *, writer: TrackWriter | None = None) -> Path:
     """Commit ``writer``'s tracks folder (when given), then write ``result`` atomically
-    into ``results_dir`` (:func:`benchmark.results.write_result`).
+    into ``results_dir`` as ``filename`` (default :meth:`Result.filename`;
+    :func:`benchmark.results.write`).
 
     Returns
     -------
@@ -273,4 +270,4 @@ def write_run(result: dict, results_dir, filename: str | None = None, *, writer:
     """
     if writer is not None:
         writer.commit()
-    return write_result(result, results_dir, filename)
+    return write(Path(results_dir) / (filename or result.filename()), result)

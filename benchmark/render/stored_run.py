@@ -50,11 +50,10 @@ def locate_sentence(result_json, subject: str, sentence: str, sample: int = 0) -
     if not result_json.is_file():
         raise FileNotFoundError(f"result file not found: {result_json}")
     stored = read_run(result_json)  # the run layout's owner: tracks folder, dataset.path
-    result = stored.result
-    dataset = result.get("dataset") or {}
-    if not isinstance(dataset, dict) or not dataset.get("path"):
+    data_path = stored.result.dataset.path
+    if not data_path:
         raise DataError(f"{result_json}: no 'dataset.path'; expected the BlendVOCA build root the run used")
-    root = Path(dataset["path"])
+    root = Path(data_path)
     if not root.is_absolute():
         root = (result_json.parent / root).resolve()
     try:
@@ -68,13 +67,10 @@ def locate_sentence(result_json, subject: str, sentence: str, sample: int = 0) -
         raise FileNotFoundError(f"{result_json}: no sample {sample} of {subject}/{sentence}; the run has "
                                 f"{[p.name for p in samples]}")
     generated = samples[sample]
-    method = result.get("method")
-    if isinstance(method, dict):
-        method = method.get("name")
-    files = StoredSentence(str(method or result_json.stem), generated, coeffs_path(root, subject, sentence),
+    files = StoredSentence(str(stored.result.method.name or result_json.stem), generated, coeffs_path(root, subject, sentence),
                            audio_path(root, subject, sentence), rig_path(root, subject))
     for what in ("ground_truth", "audio", "rig"):
         if not getattr(files, what).is_file():
             raise FileNotFoundError(f"{result_json}: the {what.replace('_', ' ')} of {subject}/{sentence} is missing: "
-                                    f"{getattr(files, what)} (dataset.path = {dataset['path']})")
+                                    f"{getattr(files, what)} (dataset.path = {data_path})")
     return files

@@ -12,6 +12,8 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from benchmark.results import read
+
 __all__ = ["EXECUTORS", "Resources", "Task", "check_order", "execute", "log_progress", "record_timing",
            "result_timing_table", "run_sequential", "timing_records", "timing_table"]
 
@@ -220,14 +222,12 @@ def result_timing_table(results) -> str:
     (each file's ``timings``, the whole row over its seeds): the record that stays with
     committed results when their work folder is gone. ``other`` is what the run spent
     outside training, the check, generation and scoring (loading, writing)."""
-    from benchmark.results import read_result
-
     rows = {}
     for path in sorted(Path(results).glob("*.json")):
-        result = read_result(path)
-        t = result.get("timings") or {}
-        entry = rows.setdefault(result["method"].get("label") or result["method"]["name"], _new_timing_entry())
-        entry["seeds"].update(result.get("seeds") or ())
+        result = read(path)
+        t = result.timings
+        entry = rows.setdefault(result.label, _new_timing_entry())
+        entry["seeds"].update(result.seeds or ())
         stages = {"train": "train_s", "check": "convergence_s", "generate": "generate_s", "score": "evaluate_s"}
         for stage, key in stages.items():
             entry[stage] += t.get(key) or 0.0

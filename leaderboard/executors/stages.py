@@ -9,7 +9,7 @@ for done. The work folder holds::
 
     <work>/trained/<training>/seed<k>/          a trained method (its save())
     <work>/stages/train/<training>-seed<k>.json  the training's timings and half-budget values
-    <work>/stages/rows/<row>/seed<k>.pkl         one seed's scores (SeedRun)
+    <work>/stages/rows/<row>/seed<k>.json        one seed's scores: a result file (benchmark.results)
     <work>/stages/rows/<row>/tracks-seed<k>/     the tracks those scores were computed on
     <work>/stages/timings/<task>.json           wall time of every stage that ran
 
@@ -28,13 +28,36 @@ from __future__ import annotations
 import dataclasses
 import json
 import os
-import pickle
 import shutil
 import socket
 import time
 from pathlib import Path
 
+from benchmark.data import open_blendvoca
+from benchmark.methods import get_method
+from benchmark.methods.base import Budget
+from benchmark.methods.contract import COEFFICIENT_NAMES
+from benchmark.protocol import (
+    CHECKED,
+    RunSpec,
+    SeedRun,
+    check_inputs,
+    generate,
+    half_budget_check,
+    run_method,
+    score,
+    train,
+)
+from benchmark.protocol.convergence import NOT_CHECKED, HalfBudget, checked_convergence, shared_convergence
+from benchmark.protocol.seeds import combined_seed_scores, seed_stream
+from benchmark.protocol.storing import dataset_identity, store_seeds, track_writer
+from benchmark.results import Result, build_result, current_provenance, read, result_filename, write
+from benchmark.runs import TrackWriter
+from blendvoca.builder import build_dataset
 from blendvoca.builder.outdir import is_running
+from blendvoca.errors import UserError
+from blendvoca.format import manifest_path
+from blendvoca.io.atomic import atomic_write
 from leaderboard.executors.core import log_progress
 
 __all__ = ["built_corpus", "data_stage", "expert_stage", "row_result_path", "score_stage", "single_stage",
@@ -60,8 +83,6 @@ def _remove_dead_partials(folder: Path, prefix: str) -> None:
 
 
 def _write_json(path: Path, record: dict) -> None:
-    from blendvoca.io.atomic import atomic_write
-
     with atomic_write(path, "w") as handle:
         json.dump(record, handle, indent=1)
 
@@ -73,15 +94,12 @@ def data_stage(spec):
     """The build the rows are scored on: ``spec["data"]`` when given, else the plan's
     corpus generated and built under ``spec["work"]`` (each made when missing)."""
     if spec.get("data"):
-        from blendvoca.errors import UserError
-        from blendvoca.format import manifest_path
-
         root = Path(spec["data"]).expanduser().resolve()
         if not manifest_path(root).is_file():
             raise UserError(f"--data {root}: not a BlendVOCA build (no manifest.json)")
         return str(root), None
     work = Path(spec["work"])
-    done = (work / spec["build_name"] / "manifest.json").is_file()
+    done = manifest_path(work / spec["build_name"]).is_file()
     root = built_corpus(work, spec["corpus"], corpus_name=spec["corpus_name"], build_name=spec["build_name"],
                         progress=spec["progress"])
     return str(root), (None if done else {})
@@ -91,8 +109,7 @@ def built_corpus(work, corpus: dict, *, corpus_name: str, build_name: str, worke
                  progress: bool = True) -> Path:
     """The synthetic corpus ``generate_corpus(**corpus)`` in ``<work>/<corpus_name>`` and
     its BlendVOCA build in ``<work>/<build_name>``, each made when missing (both resumable)."""
-    from blendvoca.build import build_dataset
-    from blendvoca.synthetic import generate_corpus
+    from blendvoca.synthetic import generate_corpus  # igl: loaded only when the corpus is made
 
     work = Path(work)
     source = work / corpus_name
@@ -109,7 +126,7 @@ def built_corpus(work, corpus: dict, *, corpus_name: str, build_name: str, worke
 def expert_stage(spec, root):
     """The learned lip-sync expert scoring every row, trained once on the build's
     training split (a step budget: deterministic) and cached; its checkpoint path."""
-    from benchmark.lipsync.expert_training import cached_expert
+    from benchmark.lipsync.expert_training import cached_expert  # torch: loaded only when the expert is trained
 
     started = time.time()
     _, path = cached_expert(root, max_seconds=None, max_steps=int(spec["expert_steps"]), progress=spec["progress"])
@@ -132,11 +149,6 @@ def _method_and_config(spec):
 
 def row_result_path(spec, root) -> Path:
     """Where the row's result file goes (its name: method label, build, samples, seeds)."""
-    from benchmark.data import open_blendvoca
-    from benchmark.methods import get_method
-    from benchmark.protocol.storing import dataset_identity
-    from benchmark.results import result_filename
-
     name, config = _method_and_config(spec)
     cls = get_method(name)
     method = cls(**config)
@@ -144,12 +156,8 @@ def row_result_path(spec, root) -> Path:
     label = getattr(method, "label", None) or name
     samples = spec["samples"] if cls.stochastic else 1
     seeds = spec.get("seeds")
-    protocol = {"samples": samples, "seed": int(seeds[0]) if seeds else 0}
-    if seeds:
-        protocol["seeds"] = [int(s) for s in seeds]
-    return Path(spec["results"]) / result_filename({"method": {"name": name, "label": label},
-                                                    "dataset": dataset_identity(open_blendvoca(root)),
-                                                    "protocol": protocol})
+    dataset = dataset_identity(open_blendvoca(root))["recipe_id"]
+    return Path(spec["results"]) / result_filename(label, dataset, samples, int(seeds[0]) if seeds else 0, seeds)
 
 
 def _source_corpus(spec, root) -> str | None:
@@ -170,9 +178,6 @@ def _row_done(spec, root) -> Path | None:
 def single_stage(spec, root, expert):
     """A row scored in one run (a reference row, or one without training seeds):
     :func:`benchmark.protocol.run_method` with seed 0, as ``benchmark.run`` does."""
-    from benchmark.methods.base import Budget
-    from benchmark.protocol import run_method
-
     if spec["method"] == "corpus-meshes":
         _exported_meshes(spec)  # first: the row's label (and so its file name) names the exported meshes
     done = _row_done(spec, root)
@@ -184,14 +189,13 @@ def single_stage(spec, root, expert):
     path = run_method(name, root, samples=spec["samples"], seed=0, budget=Budget(max_steps=spec["max_steps"]),
                       results_dir=spec["results"], config=config, progress=spec["progress"], sync_expert=expert,
                       vocaset=_source_corpus(spec, root))
-    timings = json.loads(Path(path).read_text()).get("timings", {})
+    timings = read(path).timings
     return str(path), {k: timings.get(k) for k in ("train_s", "load_s", "generate_s", "evaluate_s")}
 
 
 def _exported_meshes(spec) -> None:
     """The corpus's meshes at 60 fps for the ``corpus-meshes`` row (made when missing)."""
-    from baselines.mesh_adapter.export import exported_corpus_meshes
-    from blendvoca.errors import UserError
+    from baselines.mesh_adapter.export import exported_corpus_meshes  # a plug-in's own tool: loaded for this row only
 
     work = Path(spec["work"])
     meshes = work / "corpus-meshes-60fps"
@@ -205,9 +209,6 @@ def _exported_meshes(spec) -> None:
 
 
 def _run_spec(spec, root, *, seed, checkpoint, expert=None, seeds=None):
-    from benchmark.methods.base import Budget
-    from benchmark.protocol import RunSpec
-
     name, config = _method_and_config(spec)
     return RunSpec(method=name, config=config, data_root=root, samples=spec["samples"], seed=int(seed),
                    seeds=seeds, budget=Budget(max_steps=spec["max_steps"]), checkpoint=checkpoint,
@@ -227,8 +228,6 @@ def train_stage(spec, root):
     """Train the row's method with seed ``spec["seed"]`` under its step budget and save it
     into ``<work>/trained/<training>/seed<k>``, with the half-budget check; returns the
     training record (timings, the check's values)."""
-    from benchmark.protocol import check_inputs, half_budget_check, train
-
     seed = int(spec["seed"])
     final, record_path = _checkpoint(spec, seed), _train_record(spec, seed)
     if record_path.is_file() and final.is_dir() and any(final.iterdir()):
@@ -266,8 +265,6 @@ class _Half:
     """The half-budget check as the training saw it, for ``checked_convergence``."""
 
     def __init__(self, record: dict):
-        from benchmark.protocol.convergence import HalfBudget
-
         half = record.get("half_budget")
         self.result = None if half is None else HalfBudget(**half)
 
@@ -278,19 +275,47 @@ class _Half:
 
 def _seed_paths(spec, seed: int):
     folder = Path(spec["work"]) / "stages" / "rows" / spec["row"]
-    return folder / f"seed{int(seed)}.pkl", folder / f"tracks-seed{int(seed)}"
+    return folder / f"seed{int(seed)}.json", folder / f"tracks-seed{int(seed)}"
+
+
+def _seed_result(spec, inputs, run: SeedRun, *, label: str, reason: str | None) -> Result:
+    """One seed's scores as a result file (what :func:`_seed_run` reads back): its
+    metrics with the bootstrap replicates the seeds' combination needs, per-sentence
+    rows, half-budget verdict and timings; the evaluation's protocol record under
+    ``protocol.evaluation``."""
+    metrics = {}
+    for name, entry in run.metrics.items():
+        entry = {k: v for k, v in entry.items() if k != "replicates"}
+        reps = run.seed_replicates(name)
+        metrics[name] = entry if reps is None else {**entry, "replicates": reps.tolist()}
+    return build_result(
+        method={"name": spec["method"], "label": label, "config": {}},
+        dataset={**dataset_identity(inputs.dataset), "num_subjects": run.num_subjects,
+                 "num_sentences": run.num_sentences},
+        protocol={"seed": run.seed, "samples": spec["samples"], "n_clipped": int(run.n_clipped),
+                  "evaluation": dict(run.evaluation), "convergence_check": reason},
+        metrics=metrics, timings=run.timings, per_sentence=run.per_sentence, convergence=run.convergence,
+        tracks=_seed_paths(spec, run.seed)[1].name)
+
+
+def _seed_run(result: Result) -> SeedRun:
+    """The :class:`~benchmark.protocol.SeedRun` a seed's result file holds (:func:`_seed_result`)."""
+    record = result.to_json()
+    return SeedRun(
+        seed=result.protocol.seed,
+        metrics={name: {k: v for k, v in entry.items() if k != "replicates"} for name, entry in record["metrics"].items()},
+        per_sentence=list(record.get("per_sentence") or ()),
+        replicates={name: entry.replicates for name, entry in result.metrics.items() if entry.replicates is not None},
+        convergence=record.get("convergence"), evaluation=dict(result.protocol.get("evaluation", {})),
+        n_clipped=result.protocol.get("n_clipped", 0), num_subjects=result.dataset.num_subjects or 0,
+        num_sentences=result.dataset.num_sentences or 0, timings=dict(result.timings))
 
 
 def score_stage(spec, root, expert, record):
     """Generate and score the test split with the row's method trained with seed
     ``spec["seed"]`` (loaded from its checkpoint, with the row's sampling options);
-    writes the seed's scores and tracks under ``<work>/stages/rows/<row>``."""
-    from benchmark.methods.contract import COEFFICIENT_NAMES
-    from benchmark.protocol import SeedRun, check_inputs, generate, score, train
-    from benchmark.protocol.convergence import NOT_CHECKED, checked_convergence
-    from benchmark.runs import TrackWriter
-    from blendvoca.io.atomic import atomic_write
-
+    writes the seed's scores (a result file, :func:`_seed_result`) and tracks under
+    ``<work>/stages/rows/<row>``."""
     seed = int(spec["seed"])
     scores_path, tracks = _seed_paths(spec, seed)
     if scores_path.is_file() and tracks.is_dir() and not spec["force"]:
@@ -323,8 +348,7 @@ def score_stage(spec, root, expert, record):
                  "convergence_s": record.get("convergence_s") if spec["owns_training"] else None,
                  "generate_s": generated.seconds, "evaluate_s": scored.seconds})
     writer.commit()
-    with atomic_write(scores_path, "wb") as handle:
-        pickle.dump({"run": seed_run, "reason": reason, "label": trained.label}, handle)
+    write(scores_path, _seed_result(spec, inputs, seed_run, label=trained.label, reason=reason))
     return str(scores_path), {"generate_s": generated.seconds, "evaluate_s": scored.seconds,
                               "load_s": trained.load_s}
 
@@ -335,15 +359,14 @@ def _with_shared_verdict(spec, root, combined, reason):
     owner's half-budget verdict (:func:`benchmark.protocol.convergence.shared_convergence`),
     read from the owner's result file; unchanged when that file is missing or holds
     other seeds."""
-    from benchmark.protocol.convergence import shared_convergence
-
     owner = spec["training_owner"]
     path = row_result_path(owner, root)
     if not path.is_file():
         log_progress(f"{spec['row']}: {path} not found: its training's half-budget check is not recorded")
         return combined, reason
-    result = json.loads(path.read_text())
-    by_seed = {int(record["seed"]): record.get("convergence") for record in result.get("per_seed") or []}
+    result = read(path)
+    by_seed = {record.seed: record.convergence.to_json() if record.convergence else None
+               for record in result.per_seed or ()}
     if sorted(by_seed) != sorted(int(record["seed"]) for record in combined.per_seed):
         log_progress(f"{spec['row']}: {path} holds seeds {sorted(by_seed)}: its training's check is not recorded")
         return combined, reason
@@ -352,7 +375,7 @@ def _with_shared_verdict(spec, root, combined, reason):
         verdict = shared_convergence(by_seed[int(record["seed"])], owner["row"])
         record = {k: v for k, v in record.items() if k != "convergence"}
         per_seed.append({**record, "convergence": verdict} if verdict is not None else record)
-    convergence = shared_convergence(result.get("convergence"), owner["row"])
+    convergence = shared_convergence(result.convergence.to_json() if result.convergence else None, owner["row"])
     if convergence is None:
         return dataclasses.replace(combined, per_seed=per_seed), reason
     return (dataclasses.replace(combined, per_seed=per_seed, convergence=convergence),
@@ -362,11 +385,6 @@ def _with_shared_verdict(spec, root, combined, reason):
 def store_stage(spec, root, expert, *scores_paths):
     """The row's result file from its seeds' scores: combined over the seeds and stored
     with every seed's tracks, as ``benchmark.run --seeds`` stores a run."""
-    from benchmark.protocol import CHECKED, check_inputs, train
-    from benchmark.protocol.seeds import combined_seed_scores, seed_stream
-    from benchmark.protocol.storing import store_seeds, track_writer
-    from benchmark.results import current_provenance
-
     done = _row_done(spec, root)
     if done is not None:
         log_progress(f"{spec['row']}: {done} exists, kept (--force rescores)")
@@ -375,8 +393,8 @@ def store_stage(spec, root, expert, *scores_paths):
     provenance = current_provenance()
     # the seeds' scores; after them, a row sharing a training gets the owner's stored result
     # (a dependency only: its verdict is read from the owner's result file)
-    loaded = [pickle.loads(Path(p).read_bytes()) for p in scores_paths[:len(seeds)]]
-    runs = [item["run"] for item in loaded]
+    loaded = [read(p) for p in scores_paths[:len(seeds)]]
+    runs = [_seed_run(result) for result in loaded]
     run = _run_spec(spec, root, seed=seeds[0], seeds=tuple(seeds), expert=expert,
                     checkpoint=Path(spec["work"]) / "trained" / spec["training"])
     # a run over seeds refuses a checkpoint folder that holds trained methods (it would
@@ -384,7 +402,7 @@ def store_stage(spec, root, expert, *scores_paths):
     inputs = check_inputs(dataclasses.replace(run, checkpoint=None))
     first = train(dataclasses.replace(run, seeds=None, checkpoint=_checkpoint(spec, seeds[0])), inputs.dataset)
     combined = combined_seed_scores(runs, stream=seed_stream(first.label))
-    reason = next((item["reason"] for item in loaded if item["reason"] != CHECKED), CHECKED)
+    reason = next((r.protocol.convergence_check for r in loaded if r.protocol.convergence_check != CHECKED), CHECKED)
     if spec.get("training_owner") is not None:
         combined, reason = _with_shared_verdict(spec, root, combined, reason)
     writer = track_writer(run, inputs, first)

@@ -14,6 +14,7 @@ one GLB rig per speaker, so the pages only fetch and draw:
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import shutil
@@ -21,7 +22,18 @@ from pathlib import Path
 
 import numpy as np
 
+from benchmark.results import Result, read
+from benchmark.runs import read_run
 from blendvoca.errors import DataError, UserError
+from blendvoca.format import audio_path
+from leaderboard.collect import (
+    MIN_PAIRED_SENTENCES,
+    best_mark,
+    check_scoring_models,
+    pairwise_probabilities,
+    tables_by_manifest,
+)
+from leaderboard.render import AV_OFFSET_NOTE, not_settled_text
 
 
 __all__ = ["SiteRun", "load_site_runs", "with_dataset", "write_site_data"]
@@ -32,32 +44,29 @@ _DECIMALS = 4
 class SiteRun:
     """One stored run as the site sees it: the result and the tracks it stored."""
 
-    def __init__(self, path: Path, result: dict):
+    def __init__(self, path: Path, result: Result):
         self.path = Path(path)
         self.result = result
         self.id = self.path.stem
 
     @property
     def label(self) -> str:
-        method = self.result["method"]
-        return method.get("label") or method["name"]
+        return self.result.label
 
     @property
     def reference(self) -> bool:
-        return bool(self.result["method"].get("reference", False))
+        return bool(self.result.method.reference)
 
     @property
     def dataset_root(self) -> Path | None:
         """The BlendVOCA build the run was scored on, if it is on this machine."""
-        path = self.result.get("dataset", {}).get("path")
+        path = self.result.dataset.path
         return Path(path) if path and Path(path).is_dir() else None
 
     @property
     def recipe_id(self) -> str:
-        """The identity of the dataset the run was scored on (:func:`benchmark.results.dataset_key`)."""
-        from benchmark.results import dataset_key
-
-        return dataset_key(self.result)
+        """The identity of the dataset the run was scored on (:attr:`benchmark.results.Result.key`)."""
+        return self.result.key
 
     @property
     def manifest_hash(self) -> str:
@@ -66,8 +75,6 @@ class SiteRun:
 
     def tracks(self) -> dict[tuple[str, str], list[Path]]:
         """``{(subject, sentence): [csv of sample 0, 1, ...]}`` stored with the run (empty if none)."""
-        from benchmark.runs import read_run
-
         try:
             stored = read_run(self.path)
         except (DataError, FileNotFoundError):  # a run stored without tracks: nothing to play back
@@ -76,29 +83,24 @@ class SiteRun:
 
 
 def load_site_runs(results_dir) -> list[SiteRun]:
-    """Every result JSON in ``results_dir`` (schema-checked, with the fields the tables read
-    type-checked), sorted by file name.
+    """Every result JSON in ``results_dir`` (:func:`benchmark.results.read`), sorted by file name.
 
     Raises
     ------
     UserError
         No such folder, or no result in it.
     DataError
-        A file that is not a result, or results of different schema versions or
-        lip-sync models on one dataset (``leaderboard.collect.check_schema_versions``,
-        ``check_scoring_models``).
+        A file that is not a result, or results of different lip-sync models on one
+        dataset (``leaderboard.collect.check_scoring_models``).
     """
-    from benchmark.results import read_result
-    from leaderboard.collect import check_schema_versions, check_scoring_models, tabulable
 
     results_dir = Path(results_dir)
     if not results_dir.is_dir():
         raise UserError(f"leaderboard.site: results folder {results_dir} does not exist")
     paths = sorted(results_dir.glob("*.json"))
-    runs = [SiteRun(path, tabulable(read_result(path), path)) for path in paths]
+    runs = [SiteRun(path, read(path)) for path in paths]
     if not runs:
         raise UserError(f"leaderboard.site: {results_dir} holds no result *.json files")
-    check_schema_versions([run.result for run in runs], paths)
     check_scoring_models([run.result for run in runs], paths)
     return runs
 
@@ -129,8 +131,6 @@ def _column_spec(column) -> dict:
 
 
 def _row_data(row, run: SiteRun) -> dict:
-    from leaderboard.render import not_settled_text
-
     return {
         "run": run.id,
         "label": row.label,
@@ -142,13 +142,13 @@ def _row_data(row, run: SiteRun) -> dict:
         "not_settled": not_settled_text(row) if row.settled is False else None,
         "has_tracks": bool(run.tracks()) and run.dataset_root is not None,
         # the result's latency record (seconds), None for results written before it
-        "latency": ({key: _number(value) for key, value in latency.items()}
-                    if isinstance(latency := run.result.get("latency"), dict) else None),
+        "latency": ({key: _number(value) for key, value in latency.to_json().items()}
+                    if (latency := run.result.latency) is not None else None),
         "metrics": {
             name: {"mean": _number(mean), "std": _number(std),
                    "ci95": [_number(v) for v in ci95] if ci95 else None,
                    "seed_range": ([_number(v) for v in row.seed_ranges[name]] if name in row.seed_ranges else None),
-                   "n": run.result["metrics"][name].get("n")}
+                   "n": run.result.metrics[name].n}
             for name, (mean, std, ci95) in row.metrics.items()
         },
     }
@@ -165,8 +165,6 @@ def leaderboard_data(runs) -> dict:
     made each and its probability), and the probability of improvement between any two
     rows per metric (``leaderboard.collect.pairwise_probabilities``; rows in the order
     of ``improvement.runs``: the methods, then the reference rows)."""
-    from leaderboard.collect import MIN_PAIRED_SENTENCES, best_mark, pairwise_probabilities, tables_by_manifest
-    from leaderboard.render import AV_OFFSET_NOTE
 
     tables = []
     for table in tables_by_manifest([run.result for run in runs]):
@@ -210,10 +208,10 @@ def leaderboard_data(runs) -> dict:
     return {"tables": tables}
 
 
-def _per_sentence(result) -> list[dict]:
+def _per_sentence(result: Result) -> list[dict]:
     """Per-sentence rows as ``{subject, sentence, metrics: {name: value}}``."""
     rows = []
-    for entry in result.get("per_sentence") or []:
+    for entry in result.per_sentence or ():
         values = entry.get("metrics")
         if values is None:
             values = {k: v for k, v in entry.items() if k not in ("subject", "sentence")}
@@ -224,22 +222,20 @@ def _per_sentence(result) -> list[dict]:
 
 def run_page_data(run: SiteRun) -> dict:
     """The method page's data for one run (tracks only when its dataset is here)."""
-    from leaderboard.collect import result_seeds
-
     result = run.result
+    record = result.to_json()
     tracks = run.tracks() if run.dataset_root is not None else {}
     specs = _run_metric_specs(run)
     return {
         "run": run.id,
         "label": run.label,
-        "method": result["method"],
-        "dataset": result["dataset"],
-        "protocol": result.get("protocol", {}),
-        "provenance": {k: result.get(k) for k in ("versions", "git", "hardware", "date", "timings") if k in result},
-        "seeds": result_seeds(result),
-        "per_seed": [{"seed": entry.get("seed"), "metrics": entry.get("metrics") or {}}
-                     for entry in result.get("per_seed") or []],
-        "convergence": result.get("convergence"),
+        "method": record["method"],
+        "dataset": record["dataset"],
+        "protocol": record["protocol"],
+        "provenance": {k: record.get(k) for k in ("versions", "git", "hardware", "date", "timings") if k in record},
+        "seeds": result.training_seeds(),
+        "per_seed": [{"seed": entry.seed, "metrics": entry.metrics or {}} for entry in result.per_seed or ()],
+        "convergence": record.get("convergence"),
         "metrics": specs,
         "metric_order": list(specs),  # the JSON object's keys are written sorted
         "per_sentence": _per_sentence(result),
@@ -250,22 +246,20 @@ def run_page_data(run: SiteRun) -> dict:
 
 def _run_metric_specs(run: SiteRun) -> dict:
     """``{metric: {label, unit, higher_is_better, group}}`` of one run, in table order."""
-    from leaderboard.collect import tables_by_manifest
-
     (table,) = tables_by_manifest([run.result])
     return {column.name: _column_spec(column) for column in table.columns}
 
 
 def _tracks_note(run: SiteRun) -> str | None:
     """Why a run's tracks cannot be shown, or None."""
-    if not run.result.get("tracks"):
+    if not run.result.tracks:
         return "This run stored no tracks."
     if not run.tracks():
         return ("This run's generated tracks are not next to its result file, so it has no plots or 3D playback "
                 "(committed leaderboard results hold the scores only; python -m leaderboard.reproduce recreates "
                 "their tracks).")
     if run.dataset_root is None:
-        return (f"The dataset this run was scored on ({run.result['dataset'].get('path')}) is not on the machine "
+        return (f"The dataset this run was scored on ({run.result.dataset.path}) is not on the machine "
                 f"that made this site; rebuild the site with --data DIR pointing at a copy to see its tracks.")
     return None
 
@@ -316,13 +310,12 @@ def with_dataset(runs, data) -> list[SiteRun]:
     digest = dataset.recipe_id
     # A run that records no recipe id (written before they existed) matches its build's content hash.
     matched = [run for run in runs if run.recipe_id == digest
-               or (not run.result["dataset"].get("recipe_id")
-                   and run.result["dataset"].get("manifest_hash") == dataset.manifest_hash)]
+               or (not run.result.dataset.recipe_id and run.result.dataset.manifest_hash == dataset.manifest_hash)]
     if not matched:
         raise UserError(f"leaderboard.site: --data {data} (recipe {digest[:12]}) is not the dataset of any run "
                          f"(their recipes: {sorted({r.recipe_id[:12] for r in runs})})")
     for run in matched:
-        run.result = {**run.result, "dataset": {**run.result["dataset"], "path": str(data)}}
+        run.result = dataclasses.replace(run.result, dataset=dataclasses.replace(run.result.dataset, path=str(data)))
     return runs
 
 
@@ -374,7 +367,7 @@ def write_site_data(runs, data_dir, *, max_samples: int = 3, progress: bool = Tr
                 "envelope": _round((envelope - envelope.min()) / max(float(np.ptp(envelope)), 1e-12)),
                 "duration": audio.shape[0] / rate,
             })
-            src = root / "audio" / subject / f"{sentence}.wav"
+            src = audio_path(root, subject, sentence)
             (data_dir / "audio" / subject).mkdir(parents=True, exist_ok=True)
             shutil.copyfile(src, data_dir / "audio" / subject / f"{sentence}.wav")
             done_sentences.add((root, subject, sentence))

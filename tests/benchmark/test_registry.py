@@ -36,13 +36,9 @@ def test_entries_carry_registry_metadata():
     assert metric_entry("av_lag_bias_geometric", 0.5)["higher_is_better"] is None
 
 
-def test_every_vertex_metric_has_both_spaces_and_old_names_map_by_row_kind():
-    from benchmark.metrics.registry import LEGACY_NAMES, current_name
-
-    for old in LEGACY_NAMES:
+def test_every_vertex_metric_has_both_spaces():
+    for old in ("lve", "lve_squared", "mve", "fdd", "apd", "upd", "lpd", "mpd"):
         assert old not in METRICS and f"{old}_mesh" in METRICS and f"{old}_rig" in METRICS
-        assert current_name(old, "vertices") == f"{old}_mesh" and current_name(old, "coefficients") == f"{old}_rig"
-    assert current_name("fd", "vertices") == "fd"
     for est in ("geometric", "expert", "syncnet"):
         assert {f"av_offset_signed_{est}", f"av_lag_bias_{est}"} <= set(METRICS)
 

@@ -1,16 +1,25 @@
+import dataclasses
 import json
+from pathlib import Path
 
+import numpy as np
 import pytest
 
 from benchmark.results import (
+    SCHEMA_VERSION,
+    Latency,
     build_result,
-    check_result,
-    read_result,
+    check,
+    read,
     result_filename,
-    write_result,
+    seed_replicates,
+    write,
 )
+from benchmark.results.__main__ import main as results_main
+from blendvoca.errors import DataError
 
 METRICS = {"fd": {"mean": 1.5, "std": 0.1, "higher_is_better": False, "unit": ""}}
+COMMITTED = Path(__file__).resolve().parents[2] / "leaderboard"
 
 
 def _result(**overrides):
@@ -22,40 +31,79 @@ def _result(**overrides):
 
 def test_build_fills_provenance():
     r = _result()
-    assert r["method"]["label"] == "m"
-    prov = r["provenance"]
-    assert "numpy" in prov["versions"] and prov["hardware"]["cores"] >= 1 and prov["date"]
-    assert prov["hardware"]["blas"] and all(isinstance(k, str) for k in prov["hardware"]["blas"])
-    assert r["timings"]["train_s"] == 1.235
+    assert r.method.label == "m" and r.schema_version == SCHEMA_VERSION == 3
+    prov = r.provenance
+    assert "numpy" in prov.versions and prov.hardware["cores"] >= 1 and prov.date
+    assert prov.hardware["blas"] and all(isinstance(k, str) for k in prov.hardware["blas"])
+    assert r.timings["train_s"] == 1.235
 
 
 def test_write_read_round_trip(tmp_path):
     r = _result()
-    path = write_result(r, tmp_path)
-    assert path.name == result_filename(r) == "m__abc123__s1__seed0.json"
-    assert read_result(path) == json.loads(json.dumps(r))
+    path = write(tmp_path / r.filename(), r)
+    assert path.name == r.filename() == "m__abc123__s1__seed0.json"
+    assert read(path) == r
+    assert read(path).to_json() == json.loads(json.dumps(r.to_json()))
     assert [p.name for p in tmp_path.iterdir()] == [path.name]  # no temp file left
 
 
 def test_bad_metrics_refused_and_nothing_written(tmp_path):
-    with pytest.raises(ValueError, match="finite"):
+    with pytest.raises(DataError, match="finite"):
         _result(metrics={"x": {"mean": float("nan"), "std": 0, "higher_is_better": True}})
-    with pytest.raises(ValueError, match="higher_is_better"):
+    with pytest.raises(DataError, match="higher_is_better"):
         _result(metrics={"x": {"mean": 1.0}})
     r = _result()
-    r["metrics"]["fd"]["mean"] = float("inf")
-    with pytest.raises(ValueError):
-        write_result(r, tmp_path)
+    bad = dataclasses.replace(r, metrics={"fd": dataclasses.replace(r.metrics["fd"], mean=float("inf"))})
+    with pytest.raises(DataError, match="metrics.fd.mean: expected a finite number"):
+        write(tmp_path / "r.json", bad)
     assert list(tmp_path.iterdir()) == []
 
 
-def test_check_result_names_problem():
-    with pytest.raises(ValueError, match="schema_version"):
-        check_result({"schema_version": 0})
-    r = _result()
-    del r["dataset"]["manifest_hash"]
-    with pytest.raises(ValueError, match="manifest_hash"):
-        check_result(r)
+def test_check_names_problem():
+    with pytest.raises(DataError, match="schema_version"):
+        check({"schema_version": 0})
+    record = _result().to_json()
+    del record["dataset"]["manifest_hash"]
+    with pytest.raises(DataError, match="manifest_hash"):
+        check(record)
+    record = _result().to_json()
+    record["per_seed"] = [{"seed": "0"}]
+    with pytest.raises(DataError, match=r"^here: per_seed\[0\]\.seed: expected an integer, got '0'$"):
+        check(record, "here")
+
+
+def test_fields_this_version_does_not_type_are_kept_and_latency_is_closed():
+    record = _result().to_json()
+    record["study"] = {"preference": [0.5, 0.25]}  # a later part, unknown here
+    record["method"]["note"] = "kept"
+    record["protocol"]["checkpoint"] = None
+    r = check(record)
+    assert r.to_json() == record and r.extra == {"study": {"preference": [0.5, 0.25]}}
+    assert r.protocol.get("checkpoint", "none") == "none" and r.method.extra["note"] == "kept"
+    with pytest.raises(DataError, match="latency.speed: unknown field"):
+        check({**record, "latency": {"speed": 1.0}})
+    r = _result(latency={"rtf": 0.5})
+    assert r.latency == Latency(rtf=0.5) and r.to_json()["latency"]["lookahead_s"] is None
+
+
+def test_committed_results_read_and_write_back_unchanged(tmp_path):
+    """The committed files are schema 3 and canonical: read and written again, byte for byte."""
+    paths = sorted((COMMITTED / "results").glob("*.json")) + sorted((COMMITTED / "results-archive").rglob("*.json"))
+    assert len(paths) >= 27
+    for path in paths:
+        result = read(path)
+        assert result.schema_version == 3
+        assert write(tmp_path / path.name, result).read_text() == path.read_text()
+
+
+def test_seed_replicates_per_seed_else_the_metrics_own():
+    assert [a.tolist() for a in seed_replicates("fd", [{"fd": [1.0, 2.0]}, {"fd": [3.0]}])] == [[1.0, 2.0], [3.0]]
+    own = seed_replicates("fd", [{"fd": [1.0]}, {}], own=[5.0, 6.0])
+    assert len(own) == 1 and own[0].dtype == np.float64 and own[0].tolist() == [5.0, 6.0]
+    assert seed_replicates("fd", [{"fd": [float("nan")]}]) is None and seed_replicates("fd", []) is None
+    r = _result(metrics={"fd": {**METRICS["fd"], "replicates": [1.0, 2.0]}},
+                per_seed=[{"seed": 0, "replicates": {"fd": [1.5]}}, {"seed": 1, "replicates": {"fd": [2.5]}}])
+    assert [a.tolist() for a in r.seed_replicates("fd")] == [[1.5], [2.5]]
 
 
 def test_git_dirty_ignores_the_committed_output_folders(tmp_path):
@@ -89,24 +137,29 @@ def test_git_dirty_ignores_the_committed_output_folders(tmp_path):
 
 def test_a_run_over_several_seeds_is_named_by_them():
     r = _result(protocol={"samples": 5, "seed": 0, "seeds": [0, 1, 2]})
-    assert result_filename(r) == "m__abc123__s5__seeds0-1-2.json"
+    assert r.filename() == result_filename("m", "abc123", 5, 0, (0, 1, 2)) == "m__abc123__s5__seeds0-1-2.json"
 
 
-def test_schema_1_results_read_with_their_names_in_the_space_they_were_scored_in(tmp_path):
-    """Before the two reference spaces, vertex rows were scored against the source meshes
-    and coefficient rows against the rig reconstruction of the ground truth."""
-    old = {"lve": {"mean": 1.2, "std": 0.1, "higher_is_better": False, "unit": "mm"},
-           "apd": {"mean": 3.0, "std": 0.1, "higher_is_better": True, "unit": "mm"}, **METRICS}
-    for output, space in (("vertices", "mesh"), ("coefficients", "rig"), (None, "rig")):
-        r = _result(method={"name": "m", "config": {}, **({"output": output} if output else {})}, metrics=old,
-                    per_sentence=[{"subject": "s", "sentence": "q", "lve": 1.2}])
-        r["schema_version"] = 1
-        path = tmp_path / f"{space}-{output}.json"
-        path.write_text(json.dumps(r))
-        read = read_result(path)
-        assert read["schema_version"] == 1
-        assert set(read["metrics"]) == {f"lve_{space}", f"apd_{space}", "fd"}
-        assert read["per_sentence"] == [{"subject": "s", "sentence": "q", f"lve_{space}": 1.2}]
-    assert _result()["schema_version"] == 2
-    with pytest.raises(ValueError, match="schema_version"):
-        check_result({**_result(), "schema_version": 3})
+def test_older_result_files_are_refused_with_one_line_saying_what_to_run(tmp_path, capsys):
+    record = _result().to_json()
+    old = tmp_path / "old.json"
+    for version, remedy in ((2, f"run `python -m benchmark.results upgrade {old}`"),
+                            (1, "rescore the run with `python -m benchmark.run`")):
+        old.write_text(json.dumps({**record, "schema_version": version}))
+        with pytest.raises(DataError) as error:
+            read(old)
+        message = str(error.value)
+        assert "\n" not in message and message.startswith(f"{old}: a schema-{version} result file") and remedy in message
+
+
+def test_upgrade_rewrites_a_schema_2_file_with_its_numbers_unchanged(tmp_path, capsys):
+    record = _result(per_sentence=[{"subject": "s", "sentence": "q", "fd": 1.25}]).to_json()
+    old = tmp_path / "old.json"
+    old.write_text(json.dumps({**record, "schema_version": 2}, indent=2, sort_keys=True) + "\n")
+    assert results_main(["upgrade", str(old)]) == 0
+    assert read(old).to_json() == record
+    assert results_main(["upgrade", str(old)]) == 0  # already schema 3: left alone
+    assert capsys.readouterr().out.splitlines() == [f"{old}: upgraded to schema 3", f"{old}: already schema 3"]
+    old.write_text(json.dumps({**record, "schema_version": 1}))
+    assert results_main(["upgrade", str(old)]) != 0
+    assert "schema-1 result file" in capsys.readouterr().err and json.loads(old.read_text())["schema_version"] == 1

@@ -1,0 +1,315 @@
+"""The typed parts of a result file (schema 3) and the record that holds them.
+
+Each class is one JSON object of the file (:class:`~benchmark.results.parts.Part`);
+its fields are the keys the code reads, checked when the file is read. Keys a part
+does not declare are kept in its ``extra`` and written back unchanged.
+
+**Adding an optional part** (a study's human-preference results, latency probes,
+learning curves): declare a :class:`~benchmark.results.parts.Part` subclass here with
+its fields (each an :func:`~benchmark.results.parts.item` with its check), add a field
+``name: NewPart | None = item(part(NewPart))`` to :class:`Result`, document it in the
+schema of :mod:`benchmark.results`, and give its round trip a test. Files without it
+stay valid (None), so ``SCHEMA_VERSION`` does not change; a part's new field that
+older files lack is optional in the same way.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from benchmark.results.parts import (
+    Invalid,
+    Part,
+    anything,
+    integer,
+    integers,
+    item,
+    list_of,
+    mapping_of,
+    number,
+    numbers,
+    obj,
+    optional,
+    pair,
+    part,
+    seconds,
+    string,
+    truth,
+)
+
+__all__ = ["LATENCY_FIELDS", "METRIC_FIELDS", "SCHEMA_VERSION", "Convergence", "DatasetInfo", "Latency",
+           "MethodInfo", "MetricCheck", "MetricEntry", "Protocol", "Provenance", "Result", "SeedRecord",
+           "replicates_array", "seed_replicates"]
+
+SCHEMA_VERSION = 3
+#: Fields every metric entry writes (``std`` and ``unit`` may be null / "").
+METRIC_FIELDS = ("mean", "std", "higher_is_better", "unit")
+#: Fields of a result's optional ``latency`` section, seconds or null.
+LATENCY_FIELDS = ("lookahead_s", "first_frame_s", "compute_per_audio_s", "rtf")
+
+
+def _sentence_row(value, where):
+    """A per-sentence row: ``{"subject", "sentence", metric: value, ...}`` (kept as a dict)."""
+    if not isinstance(value, dict):
+        raise Invalid("an object", value)
+    for key in ("subject", "sentence"):
+        if not isinstance(value.get(key), str):
+            raise Invalid(f"a string at {key!r}", value.get(key))
+    if "metrics" in value and not isinstance(value["metrics"], dict):
+        raise Invalid("an object at 'metrics'", value["metrics"])
+    return value
+
+
+_rows = list_of(_sentence_row)
+
+
+@dataclass(frozen=True, kw_only=True)
+class MethodInfo(Part):
+    """``method``: the plug-in that ran and how it was configured."""
+
+    name: str = item(string, required=True)
+    #: The row's label in the tables (its ``name`` when None: :attr:`display_label`).
+    label: str | None = item(string)
+    #: ``module:qualname`` of the method's class.
+    class_path: str | None = item(string, key="class")
+    stochastic: bool | None = item(truth)
+    #: A reference row (ground truth, corpus meshes, mean ...): shown apart, never ranked.
+    reference: bool | None = item(truth)
+    #: ``"coefficients"`` or ``"vertices"``.
+    output: str | None = item(string)
+    #: The method's ``config()``.
+    config: object = item(anything, required=True)
+
+    @property
+    def display_label(self) -> str:
+        return self.label or self.name
+
+
+@dataclass(frozen=True, kw_only=True)
+class DatasetInfo(Part):
+    """``dataset``: the build scored (its identity) and the split."""
+
+    #: The dataset's identity (:func:`blendvoca.format.dataset_id`): names the file, keys the table.
+    recipe_id: str | None = item(string)
+    #: Content hash of the files scored (for information; differs between BLAS kernels).
+    manifest_hash: str | None = item(string)
+    path: str | None = item(string)
+    split: str | None = item(string)
+    num_subjects: int | None = item(integer)
+    num_sentences: int | None = item(integer)
+    #: Another corpus than VOCASET: its name and title.
+    name: str | None = item(string)
+    title: str | None = item(string)
+    #: Latent metrics computed with a VAE trained on another corpus.
+    latent_out_of_domain: bool | None = item(truth)
+
+    def validate(self, value, where):
+        if not self.recipe_id and not self.manifest_hash:
+            raise Invalid("lacks 'recipe_id' (and 'manifest_hash')")
+
+    @property
+    def key(self) -> str:
+        """The dataset's identity: ``recipe_id``, or for a result written before recipe ids existed its ``manifest_hash``."""
+        return str(self.recipe_id or self.manifest_hash)
+
+    @property
+    def display_name(self) -> str:
+        """Its ``title``, else its ``name``, else ""."""
+        return str(self.title or self.name or "")
+
+
+@dataclass(frozen=True, kw_only=True)
+class Protocol(Part):
+    """``protocol``: how the run was made. The typed fields are those the tables and
+    file names read; the rest (``budget``, ``clip``, ``checkpoint``, the evaluation's
+    settings ...) is kept in ``extra`` as the run wrote it."""
+
+    samples: int | None = item(integer)
+    seed: int | None = item(integer)
+    #: Training seeds of a run over several.
+    seeds: tuple | None = item(integers)
+    #: ``{model: {"path", "sha256", "weights_sha256"?, ...}}`` of the lip-sync models that scored it.
+    lipsync_models: dict | None = item(obj)
+    latent_out_of_domain: bool | None = item(truth)
+    #: ``"checked"``, or why the half-budget check did not run.
+    convergence_check: str | None = item(string)
+
+    def get(self, key: str, default=None):
+        """A protocol field by its JSON name, typed or not."""
+        value = getattr(self, key, None) if key in _PROTOCOL_FIELDS else self.extra.get(key)
+        return default if value is None else value
+
+
+_PROTOCOL_FIELDS = ("samples", "seed", "seeds", "lipsync_models", "latent_out_of_domain", "convergence_check")
+
+
+@dataclass(frozen=True, kw_only=True)
+class MetricEntry(Part):
+    """One metric of ``metrics``: the row's value and what is needed to compare it."""
+
+    mean: float = item(number, required=True)
+    std: float | None = item(number, always=True)
+    #: True, False, or None for a metric without a direction (written as null).
+    higher_is_better: bool | None = item(truth, always=True, present=True)
+    unit: str | None = item(string, always=True)
+    ci95: list | None = item(pair)
+    #: Sentences (the set-level metrics' resampling unit).
+    n: float | None = item(number)
+    label: str | None = item(string)
+    group: str | None = item(string)
+    #: Bootstrap replicates (set-level metrics).
+    replicates: tuple | None = item(numbers)
+    #: ``[lowest, highest]`` of the per-seed means (rows trained with several seeds).
+    seed_range: list | None = item(pair)
+    n_seeds: int | None = item(integer)
+    sample_std: float | None = item(number)
+
+    def validate(self, value, where):
+        if self.ci95 is not None and not self.ci95[0] <= self.mean <= self.ci95[1]:
+            raise Invalid(f"ci95 {list(self.ci95)} does not bracket the mean {self.mean}")
+
+
+@dataclass(frozen=True, kw_only=True)
+class MetricCheck(Part):
+    """One metric of the half-budget check: its values at half and full budget."""
+
+    half_budget: float | None = item(number)
+    full_budget: float | None = item(number)
+    half_width: float | None = item(number)
+    settled: bool | None = item(truth)
+
+
+@dataclass(frozen=True, kw_only=True)
+class Convergence(Part):
+    """``convergence``: whether the row's training had settled (the half-budget check).
+    The training helper's checkpoint fractions will add fields here."""
+
+    settled: bool | None = item(truth)
+    checked_at_step: int | None = item(integer)
+    total_steps: int | None = item(integer)
+    metrics: dict | None = item(mapping_of(part(MetricCheck), "an object of metric -> check"))
+    #: The row whose training this row scores (its verdict).
+    shared_with: str | None = item(anything)
+
+    def unsettled(self) -> list:
+        """``[(metric, half_budget, full_budget, half_width)]`` of the checked metrics that failed."""
+        return [(name, c.half_budget, c.full_budget, c.half_width) for name, c in (self.metrics or {}).items()
+                if c.settled is False]
+
+
+@dataclass(frozen=True, kw_only=True)
+class SeedRecord(Part):
+    """One training seed of ``per_seed``: enough to recombine the seeds later."""
+
+    seed: int | None = item(integer)
+    #: ``{metric: the seed's mean}``.
+    metrics: dict | None = item(mapping_of(optional(number), "an object of metric -> number"))
+    per_sentence: tuple | None = item(_rows)
+    #: ``{set-level metric: bootstrap replicates}``.
+    replicates: dict | None = item(mapping_of(numbers, "an object of metric -> list"))
+    convergence: Convergence | None = item(part(Convergence))
+    tracks: str | None = item(string)
+    n_clipped: int | None = item(integer)
+    timings: dict | None = item(obj)
+
+
+@dataclass(frozen=True, kw_only=True)
+class Latency(Part):
+    """``latency`` (:func:`benchmark.protocol.generation.measure_latency`; seconds, null
+    where not known): depends on the machine, like ``timings``."""
+
+    OPEN = False
+    lookahead_s: float | None = item(seconds, always=True)
+    first_frame_s: float | None = item(seconds, always=True)
+    compute_per_audio_s: float | None = item(seconds, always=True)
+    rtf: float | None = item(seconds, always=True)
+
+
+@dataclass(frozen=True, kw_only=True)
+class Provenance(Part):
+    """``provenance``: the code and machine when the run started."""
+
+    date: str | None = item(string)
+    git_revision: str | None = item(string)
+    #: Uncommitted changes outside the output folders.
+    git_dirty: bool | None = item(truth)
+    python: str | None = item(string)
+    platform: str | None = item(string)
+    versions: dict | None = item(obj)
+    hardware: dict | None = item(obj)
+
+
+def replicates_array(values) -> np.ndarray | None:
+    """Bootstrap replicates as a flat float64 array; None when absent, empty or not all finite."""
+    if values is None:
+        return None
+    values = np.asarray(values, dtype=np.float64).ravel()
+    return values if values.size and np.all(np.isfinite(values)) else None
+
+
+def seed_replicates(name: str, per_seed, own=None) -> list | None:
+    """Per training seed, the bootstrap replicates of ``name``: each seed's
+    ``replicates[name]`` (``per_seed``: one ``{metric: replicates}`` per seed) when every
+    seed has them, else ``own`` (the metric's replicates, a one-seed row's) as one seed;
+    None when neither."""
+    arrays = [replicates_array((stored or {}).get(name)) for stored in per_seed]
+    if arrays and all(a is not None for a in arrays):
+        return arrays
+    own = replicates_array(own)
+    return None if own is None else [own]
+
+
+@dataclass(frozen=True, kw_only=True)
+class Result(Part):
+    """One result file: a benchmark run with its provenance (the schema: :mod:`benchmark.results`)."""
+
+    schema_version: int = item(integer, required=True)
+    method: MethodInfo = item(part(MethodInfo), required=True)
+    dataset: DatasetInfo = item(part(DatasetInfo), required=True)
+    protocol: Protocol = item(part(Protocol), required=True)
+    metrics: dict = item(mapping_of(part(MetricEntry)), required=True)
+    provenance: Provenance = item(part(Provenance), required=True)
+    #: Seconds per step (``train_s``, ``load_s``, ``generate_s``, ``evaluate_s``, ``total_s`` ...).
+    timings: dict = item(obj, required=True)
+    per_sentence: tuple | None = item(_rows)
+    #: Training seeds of a run over several (``per_seed`` holds each).
+    seeds: tuple | None = item(integers)
+    per_seed: tuple | None = item(list_of(part(SeedRecord)))
+    convergence: Convergence | None = item(part(Convergence))
+    latency: Latency | None = item(part(Latency))
+    #: The stored tracks folder, relative to the JSON's folder (:mod:`benchmark.runs`).
+    tracks: str | None = item(string)
+
+    def validate(self, value, where):
+        if not self.metrics:
+            raise Invalid("expected a non-empty 'metrics' object of metric -> fields")
+
+    @property
+    def key(self) -> str:
+        """The dataset's identity (:attr:`DatasetInfo.key`): the table the result belongs to."""
+        return self.dataset.key
+
+    @property
+    def label(self) -> str:
+        return self.method.display_label
+
+    def training_seeds(self) -> list:
+        """The training seeds of a result trained with several: its ``seeds`` (or ``protocol.seeds``); else empty."""
+        seeds = self.seeds if self.seeds is not None else self.protocol.seeds
+        return list(seeds or [])
+
+    def filename(self) -> str:
+        """The file name of this result (:func:`benchmark.results.files.result_filename`)."""
+        from benchmark.results.files import result_filename
+
+        return result_filename(self.label, self.key, self.protocol.samples, self.protocol.seed,
+                               self.protocol.seeds)
+
+    def seed_replicates(self, name: str) -> list | None:
+        """Per training seed, the stored bootstrap replicates of ``name``
+        (:func:`seed_replicates` of ``per_seed[k].replicates``, else the metric's own)."""
+        entry = self.metrics.get(name)
+        return seed_replicates(name, [s.replicates for s in self.per_seed or ()],
+                               None if entry is None else entry.replicates)
