@@ -123,7 +123,7 @@ class Row:
 
 @dataclass
 class Table:
-    """All results on one dataset (one recipe id, :func:`benchmark.results.dataset_key`)."""
+    """All results on one dataset (one recipe id, :attr:`benchmark.results.Result.key`)."""
 
     #: The section's key: the dataset's recipe id (a result without one: its content hash).
     #: The field keeps the name it had when sections were keyed by the content hash.

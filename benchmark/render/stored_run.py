@@ -67,7 +67,8 @@ def locate_sentence(result_json, subject: str, sentence: str, sample: int = 0) -
         raise FileNotFoundError(f"{result_json}: no sample {sample} of {subject}/{sentence}; the run has "
                                 f"{[p.name for p in samples]}")
     generated = samples[sample]
-    files = StoredSentence(str(stored.result.method.name or result_json.stem), generated, coeffs_path(root, subject, sentence),
+    files = StoredSentence(str(stored.result.method.name or result_json.stem), generated,
+                           coeffs_path(root, subject, sentence),
                            audio_path(root, subject, sentence), rig_path(root, subject))
     for what in ("ground_truth", "audio", "rig"):
         if not getattr(files, what).is_file():

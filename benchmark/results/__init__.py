@@ -46,7 +46,7 @@ part: see :mod:`benchmark.results.record`. Tables are only ever rendered from th
 files (``python -m leaderboard.build``).
 """
 
-from benchmark.results.files import build_result, check, read, result_filename, write
+from benchmark.results.files import build_result, check, read, write
 from benchmark.results.provenance import (
     OUTPUT_FOLDERS,
     VERSIONED_PACKAGES,
@@ -70,6 +70,7 @@ from benchmark.results.record import (
     Result,
     SeedRecord,
     replicates_array,
+    result_filename,
     seed_replicates,
 )
 

@@ -9,12 +9,10 @@ from __future__ import annotations
 
 import sys
 
-from blendvoca import cli
-from blendvoca.errors import DataError
-from blendvoca.io.json_file import read_json
-
 from benchmark.results.files import check, write
 from benchmark.results.record import SCHEMA_VERSION
+from blendvoca import cli
+from blendvoca.io.json_file import read_json
 
 
 def upgrade(path) -> bool:

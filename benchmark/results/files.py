@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import json
 import os
-import re
 from pathlib import Path
 
 from benchmark.results.parts import Located
@@ -15,7 +14,7 @@ from blendvoca.errors import DataError
 from blendvoca.io.atomic import atomic_write
 from blendvoca.io.json_file import read_json
 
-__all__ = ["build_result", "check", "read", "result_filename", "upgrade_command", "write"]
+__all__ = ["build_result", "check", "read", "upgrade_command", "write"]
 
 
 def upgrade_command(where: str) -> str:
@@ -88,17 +87,6 @@ def write(path, result: Result) -> Path:
     with atomic_write(path, "w", encoding="utf-8") as handle:
         handle.write(text)
     return path
-
-
-def _slug(text: str) -> str:
-    return re.sub(r"[^a-z0-9._-]+", "-", str(text).lower()).strip("-") or "method"
-
-
-def result_filename(label: str, dataset_key: str, samples, seed, seeds=None) -> str:
-    """``<label>__<dataset key[:12]>__s<samples>__seed<seed>.json`` (one file per run
-    setting; :attr:`Result.key`); a run over several training seeds ends ``__seeds0-1-2.json``."""
-    tail = f"seeds{'-'.join(str(int(s)) for s in seeds)}" if seeds else f"seed{seed}"
-    return f"{_slug(label)}__{_slug(dataset_key)[:12]}__s{samples}__{tail}.json"
 
 
 def _clean_metric(fields) -> dict:

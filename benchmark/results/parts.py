@@ -18,7 +18,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 __all__ = ["Invalid", "Located", "Part", "anything", "integer", "integers", "item", "list_of", "located", "mapping_of",
-           "number", "numbers", "obj", "optional", "pair", "part", "seconds", "string", "to_json", "truth"]
+           "number", "numbers", "obj", "optional", "pair", "part", "seconds", "short", "string", "to_json", "truth"]
 
 
 class Invalid(ValueError):
@@ -26,7 +26,7 @@ class Invalid(ValueError):
     ``(message,)``; :func:`located` adds the field's path."""
 
 
-def _short(value) -> str:
+def short(value) -> str:
     text = repr(value)
     return text if len(text) <= 60 else text[:57] + "..."
 
@@ -122,12 +122,12 @@ def part(cls):
     return lambda value, where: cls.from_json(value, where)
 
 
-def list_of(check):
+def list_of(check, expected: str = "a list"):
     """A list whose items pass ``check`` (``where[i]``), as a tuple."""
     def checked(value, where):
         if not isinstance(value, list):
-            raise Invalid("a list", value)
-        return tuple(check(v, f"{where}[{i}]") for i, v in enumerate(value))
+            raise Invalid(expected, value)
+        return tuple(located(check, v, f"{where}[{i}]") for i, v in enumerate(value))
     return checked
 
 
@@ -136,7 +136,7 @@ def mapping_of(check, expected: str = "an object"):
     def checked(value, where):
         if not isinstance(value, dict):
             raise Invalid(expected, value)
-        return {str(k): check(v, f"{where}.{k}") for k, v in value.items()}
+        return {str(k): located(check, v, f"{where}.{k}") for k, v in value.items()}
     return checked
 
 
@@ -149,7 +149,7 @@ def located(check, value, where: str):
     try:
         return check(value, where)
     except Invalid as exc:
-        message = exc.args[0] if len(exc.args) == 1 else f"expected {exc.args[0]}, got {_short(exc.args[1])}"
+        message = exc.args[0] if len(exc.args) == 1 else f"expected {exc.args[0]}, got {short(exc.args[1])}"
         raise Located(f"{where}: {message}") from None
 
 
@@ -179,7 +179,7 @@ class Part:
             adds the file).
         """
         if not isinstance(value, dict):
-            raise Located(f"{where}: expected an object, got {_short(value)}")
+            raise Located(f"{where}: expected an object, got {short(value)}")
         values, extra, known = {}, {}, set()
         for f in dataclasses.fields(cls):
             if f.name == "extra":

@@ -15,12 +15,14 @@ older files lack is optional in the same way.
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 
 import numpy as np
 
 from benchmark.results.parts import (
     Invalid,
+    Located,
     Part,
     anything,
     integer,
@@ -35,13 +37,14 @@ from benchmark.results.parts import (
     pair,
     part,
     seconds,
+    short,
     string,
     truth,
 )
 
 __all__ = ["LATENCY_FIELDS", "METRIC_FIELDS", "SCHEMA_VERSION", "Convergence", "DatasetInfo", "Latency",
            "MethodInfo", "MetricCheck", "MetricEntry", "Protocol", "Provenance", "Result", "SeedRecord",
-           "replicates_array", "seed_replicates"]
+           "replicates_array", "result_filename", "seed_replicates"]
 
 SCHEMA_VERSION = 3
 #: Fields every metric entry writes (``std`` and ``unit`` may be null / "").
@@ -56,9 +59,9 @@ def _sentence_row(value, where):
         raise Invalid("an object", value)
     for key in ("subject", "sentence"):
         if not isinstance(value.get(key), str):
-            raise Invalid(f"a string at {key!r}", value.get(key))
+            raise Located(f"{where}.{key}: expected a string, got {short(value.get(key))}")
     if "metrics" in value and not isinstance(value["metrics"], dict):
-        raise Invalid("an object at 'metrics'", value["metrics"])
+        raise Located(f"{where}.metrics: expected an object, got {short(value['metrics'])}")
     return value
 
 
@@ -111,7 +114,8 @@ class DatasetInfo(Part):
 
     @property
     def key(self) -> str:
-        """The dataset's identity: ``recipe_id``, or for a result written before recipe ids existed its ``manifest_hash``."""
+        """The dataset's identity: ``recipe_id``, or for a result written before recipe ids
+        existed its ``manifest_hash``."""
         return str(self.recipe_id or self.manifest_hash)
 
     @property
@@ -241,6 +245,17 @@ class Provenance(Part):
     hardware: dict | None = item(obj)
 
 
+def _slug(text: str) -> str:
+    return re.sub(r"[^a-z0-9._-]+", "-", str(text).lower()).strip("-") or "method"
+
+
+def result_filename(label: str, dataset_key: str, samples, seed, seeds=None) -> str:
+    """``<label>__<dataset key[:12]>__s<samples>__seed<seed>.json`` (one file per run
+    setting; :attr:`Result.key`); a run over several training seeds ends ``__seeds0-1-2.json``."""
+    tail = f"seeds{'-'.join(str(int(s)) for s in seeds)}" if seeds else f"seed{seed}"
+    return f"{_slug(label)}__{_slug(dataset_key)[:12]}__s{samples}__{tail}.json"
+
+
 def replicates_array(values) -> np.ndarray | None:
     """Bootstrap replicates as a flat float64 array; None when absent, empty or not all finite."""
     if values is None:
@@ -276,7 +291,7 @@ class Result(Part):
     per_sentence: tuple | None = item(_rows)
     #: Training seeds of a run over several (``per_seed`` holds each).
     seeds: tuple | None = item(integers)
-    per_seed: tuple | None = item(list_of(part(SeedRecord)))
+    per_seed: tuple | None = item(list_of(part(SeedRecord), "a list of objects"))
     convergence: Convergence | None = item(part(Convergence))
     latency: Latency | None = item(part(Latency))
     #: The stored tracks folder, relative to the JSON's folder (:mod:`benchmark.runs`).
@@ -301,9 +316,7 @@ class Result(Part):
         return list(seeds or [])
 
     def filename(self) -> str:
-        """The file name of this result (:func:`benchmark.results.files.result_filename`)."""
-        from benchmark.results.files import result_filename
-
+        """The file name of this result (:func:`result_filename`)."""
         return result_filename(self.label, self.key, self.protocol.samples, self.protocol.seed,
                                self.protocol.seeds)
 

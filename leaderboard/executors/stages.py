@@ -303,7 +303,8 @@ def _seed_run(result: Result) -> SeedRun:
     record = result.to_json()
     return SeedRun(
         seed=result.protocol.seed,
-        metrics={name: {k: v for k, v in entry.items() if k != "replicates"} for name, entry in record["metrics"].items()},
+        metrics={name: {k: v for k, v in entry.items() if k != "replicates"}
+                 for name, entry in record["metrics"].items()},
         per_sentence=list(record.get("per_sentence") or ()),
         replicates={name: entry.replicates for name, entry in result.metrics.items() if entry.replicates is not None},
         convergence=record.get("convergence"), evaluation=dict(result.protocol.get("evaluation", {})),

@@ -6,7 +6,7 @@ import shutil
 import pytest
 
 from benchmark.data import open_blendvoca
-from benchmark.results import build_result, check_result, dataset_key, result_filename
+from benchmark.results import build_result, check
 from blendvoca import format as fmt
 from blendvoca.errors import UserError
 
@@ -21,11 +21,11 @@ def _result(dataset):
 
 def test_results_are_named_by_the_recipe_and_read_without_one():
     new = _result({"recipe_id": RECIPE, "manifest_hash": "f" * 64})
-    assert dataset_key(new) == RECIPE and result_filename(new) == "m__0123456789ab__s1__seed0.json"
+    assert new.key == RECIPE and new.filename() == "m__0123456789ab__s1__seed0.json"
     legacy = _result({"manifest_hash": "e" * 64})
-    assert dataset_key(legacy) == "e" * 64 and "__eeeeeeeeeeee__" in result_filename(legacy)
+    assert legacy.key == "e" * 64 and "__eeeeeeeeeeee__" in legacy.filename()
     with pytest.raises(ValueError, match="recipe_id"):
-        check_result({**legacy, "dataset": {"split": "test"}})
+        check({**legacy.to_json(), "dataset": {"split": "test"}})
 
 
 def _with_recipe(root, recipe):
@@ -52,7 +52,7 @@ def test_site_data_matches_by_recipe_across_contents(fake_dataset_dir, tmp_path)
     run = SiteRun(tmp_path / "m.json", _result({"recipe_id": RECIPE, "manifest_hash": open_blendvoca(ours).manifest_hash,
                                                 "path": str(ours)}))
     (matched,) = with_dataset([run], theirs)
-    assert matched.result["dataset"]["path"] == str(theirs.resolve())
+    assert matched.result.dataset.path == str(theirs.resolve())
     other = _with_recipe(shutil.copytree(fake_dataset_dir, tmp_path / "other"), "d" * 64)
     with pytest.raises(UserError, match="recipe"):
         with_dataset([run], other)

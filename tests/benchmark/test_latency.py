@@ -10,7 +10,7 @@ import pytest
 from benchmark.methods import Budget, Method
 from benchmark.protocol import run_method
 from benchmark.protocol.generation import measure_latency
-from benchmark.results import LATENCY_FIELDS, build_result, check_result
+from benchmark.results import LATENCY_FIELDS, build_result, check
 from tests.methods.fakes import fake_evaluate, speech_dataset
 
 
@@ -76,19 +76,18 @@ def test_result_files_check_the_latency_record():
     base = {"method": {"name": "m", "config": {}}, "dataset": {"manifest_hash": "h"}, "protocol": {},
             "metrics": {"fd": {"mean": 1.0, "std": 0.0, "higher_is_better": False, "unit": ""}}, "timings": {},
             "provenance": {}}
-    assert "latency" not in build_result(**base)  # results written before it have none, and stay valid
+    assert "latency" not in build_result(**base).to_json()  # results written before it have none, and stay valid
     result = build_result(**base, latency={"lookahead_s": None, "first_frame_s": 0.123456, "compute_per_audio_s": 1,
-                                           "rtf": 0.5})
+                                           "rtf": 0.5}).to_json()
     assert result["latency"] == {"lookahead_s": None, "first_frame_s": 0.1235, "compute_per_audio_s": 1.0, "rtf": 0.5}
     for bad in ({"rtf": -1.0}, {"rtf": "fast"}, {"speed": 1.0}, [0.5]):
         with pytest.raises(ValueError, match="latency"):
-            check_result({**result, "latency": bad})
+            check({**result, "latency": bad})
 
 
 def test_tables_show_a_real_time_factor_column(tmp_path):
-    from benchmark.results import write_result
     from leaderboard.build import build_leaderboard
-    from tests.leaderboard.test_build import _result
+    from tests.leaderboard.test_build import _result, write_result
 
     old = _result("old", "h1", {"fd": (2.0, 0.1, False, "latent^2", (1.9, 2.1))})
     new = _result("new", "h1", {"fd": (1.0, 0.1, False, "latent^2", (0.9, 1.1))})

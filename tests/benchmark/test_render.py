@@ -244,7 +244,7 @@ def _stored_run(tmp_path, dataset, subject, sentence, generated):
         protocol={"samples": 1, "seed": 0, "budget": {}, "clip": False, "n_clipped": 0, "checkpoint": None},
         metrics={"lve": {"mean": 1.0, "std": None, "higher_is_better": False, "unit": "mm"}}, timings={},
         tracks="run-tracks")
-    (results / "run.json").write_text(json.dumps(result))
+    (results / "run.json").write_text(json.dumps(result.to_json()))
     return results / "run.json"
 
 

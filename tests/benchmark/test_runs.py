@@ -5,7 +5,7 @@ import json
 import numpy as np
 import pytest
 
-from benchmark.results import build_result, write_result
+from benchmark.results import build_result, write
 from benchmark.runs import StoredVertices, TrackWriter, read_run, track_path, vertices_path
 from blendvoca.names import BLENDVOCA_NAMES
 
@@ -29,7 +29,7 @@ def test_tracks_and_vertices_round_trip_through_a_stored_run(tmp_path):
                           protocol={"samples": 2, "seed": 0}, metrics={"x": {"mean": 1.0, "higher_is_better": False}},
                           timings={}, provenance=PROV, tracks="run", per_sentence=[{"subject": "S1",
                                                                                     "sentence": "sentence03"}])
-    path = write_result(result, tmp_path, "run.json")
+    path = write(tmp_path / "run.json", result)
     run = read_run(path)
     assert run.keys == [("S1", "sentence03")] and run.tracks_dir == (tmp_path / "run").resolve()
     assert [p.name for p in run.track_paths("S1", "sentence03")] == ["sentence03-0.csv", "sentence03-1.csv"]
@@ -85,7 +85,7 @@ def test_read_run_explains_missing_tracks(tmp_path):
     result = build_result(method={"name": "m", "config": {}}, dataset={"manifest_hash": "h"},
                           protocol={"samples": 1, "seed": 0}, metrics={"x": {"mean": 1.0, "higher_is_better": False}},
                           timings={}, provenance=PROV)
-    path = write_result(result, tmp_path, "old.json")
+    path = write(tmp_path / "old.json", result)
     with pytest.raises(ValueError, match="stored no tracks"):
         read_run(path)
     data = json.loads(path.read_text())

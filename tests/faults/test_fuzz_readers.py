@@ -331,7 +331,7 @@ def _valid_result() -> dict:
         protocol={"samples": 1, "seed": 0},
         metrics={"mse": {"mean": 0.5, "std": 0.1, "higher_is_better": False, "unit": "", "ci95": [0.4, 0.6]},
                  "fd": {"mean": 2.0, "std": None, "higher_is_better": None}},
-        timings={"generate": 1.0}, provenance={"date": "2024-01-01"})
+        timings={"generate": 1.0}, provenance={"date": "2024-01-01"}).to_json()
 
 
 @quick(150)
@@ -339,18 +339,18 @@ def _valid_result() -> dict:
 @example(data=b'{"schema_version": 1, "mean": ' + b"1" * 400 + b"}")
 @pytest.mark.timeout(60)
 def test_result_files_give_a_checked_result_or_a_tree_error(tmp_path, data):
-    from benchmark.results import read_result
+    from benchmark.results import Result, read
     from leaderboard.collect import load_results, tables_by_manifest
 
     results = tmp_path / "results"
     results.mkdir(exist_ok=True)
     path = results / "run.json"
     path.write_bytes(data)
-    result = outcome(read_result, path)
+    result = outcome(read, path)
     if isinstance(result, Exception):
         assert str(path) in str(result), result
     else:
-        assert isinstance(result, dict)
+        assert isinstance(result, Result)
     shutil.copyfile(path, results / "other.json")
     (results / "valid.json").write_text(json.dumps(_valid_result()))
     loaded = outcome(load_results, results)

@@ -2,17 +2,35 @@ from pathlib import Path
 
 import pytest
 
-from benchmark.results import build_result, write_result
+from benchmark.results import build_result, check, write
+from leaderboard import build, collect
 from leaderboard.build import (
     DEFAULT_OUT_DIR,
     DEFAULT_RESULTS_DIR,
     build_leaderboard,
     main,
-    rendered_tables,
 )
-from leaderboard.collect import column_decimals, ranks, tables_by_manifest
+from leaderboard.collect import column_decimals, ranks
 
 PROV = {"date": "2026-01-01T00:00:00+00:00", "git_revision": None, "versions": {}, "hardware": {}}
+
+
+# the tests edit results as JSON records; these read them as the files are read (benchmark.results.check)
+def _typed(results):
+    return [check(r) if isinstance(r, dict) else r for r in results]
+
+
+def tables_by_manifest(results):
+    return collect.tables_by_manifest(_typed(results))
+
+
+def rendered_tables(results):
+    return build.rendered_tables(_typed(results))
+
+
+def write_result(result, folder, filename=None):
+    typed = check(result)
+    return write(Path(folder) / (filename or typed.filename()), typed)
 
 
 def _result(label, manifest, metrics, reference=False, seed=0, samples=1):
@@ -26,7 +44,7 @@ def _result(label, manifest, metrics, reference=False, seed=0, samples=1):
         method={"name": label, "label": label, "reference": reference, "config": {}},
         dataset={"manifest_hash": manifest, "split": "test", "num_sentences": 80},
         protocol={"samples": samples, "seed": seed},
-        metrics=entries, timings={}, provenance=PROV)
+        metrics=entries, timings={}, provenance=PROV).to_json()
 
 
 def _three():
@@ -146,8 +164,8 @@ def _results_with(tmp_path, edit):
     (lambda r: "{\"schema_version\": 1, ", "not valid JSON"),
     (lambda r: "", "not valid JSON"),
     (lambda r: __import__("json").dumps({**r, "metrics": {"fd": {"higher_is_better": False, "std": 0.1}}}),
-     "metric 'fd': missing field(s) ['mean']"),
-    (lambda r: __import__("json").dumps({k: v for k, v in r.items() if k != "protocol"}), "['protocol']"),
+     "metrics.fd: lacks 'mean'"),
+    (lambda r: __import__("json").dumps({k: v for k, v in r.items() if k != "protocol"}), "lacks 'protocol'"),
     (lambda r: __import__("json").dumps({**r, "dataset": {**r["dataset"], "manifest_hash": ["h1"]}}),
      "dataset.manifest_hash: expected a string"),
     (lambda r: __import__("json").dumps({**r, "protocol": {**r["protocol"], "samples": "ten"}}),
@@ -202,7 +220,7 @@ def _sentence_result(label, values, name="lve_rig", reference=False, manifest="h
         method={"name": label, "label": label, "reference": reference, "config": {}},
         dataset={"manifest_hash": manifest, "split": "test", "num_sentences": len(values)},
         protocol={"samples": 1, "seed": 0}, metrics={name: _entry(values, name)}, timings={}, provenance=PROV,
-        per_sentence=_rows(values, name))
+        per_sentence=_rows(values, name)).to_json()
     result.update(extra)
     return result
 
@@ -308,7 +326,8 @@ def _set_result(label, replicates, mean, **extra):
                       "ci95": [min(mean, min(replicates)), max(mean, max(replicates))], "replicates": replicates}}
     result = build_result(method={"name": label, "label": label, "reference": False, "config": {}},
                           dataset={"manifest_hash": "h", "split": "test", "num_sentences": 40},
-                          protocol={"samples": 5, "seed": 0}, metrics=metrics, timings={}, provenance=PROV)
+                          protocol={"samples": 5, "seed": 0}, metrics=metrics, timings={},
+                          provenance=PROV).to_json()
     result.update(extra)
     return result
 
@@ -419,41 +438,18 @@ def test_av_offset_columns_carry_the_ground_truth_lag_note():
     assert r"\texttt{av\_offset\_*}" in tex and r"\texttt{av\_lag\_bias\_*}" in tex
 
 
-def _v1_file(folder, name, manifest="h1"):
-    """A schema-1 result file as protocol v2 wrote them (old metric names)."""
-    result = build_result(
-        method={"name": name, "label": name, "reference": False, "config": {}, "output": "vertices"},
-        dataset={"manifest_hash": manifest, "split": "test", "num_sentences": 80},
-        protocol={"samples": 1, "seed": 0},
-        metrics={"lve": {"mean": 2.0, "std": 0.1, "higher_is_better": False, "unit": "mm", "ci95": [1.9, 2.1]}},
-        timings={}, provenance=PROV)
-    result["schema_version"] = 1
-    folder.mkdir(parents=True, exist_ok=True)
-    path = folder / f"{name}__v1.json"
-    path.write_text(json.dumps(result))
-    return path
-
-
-def test_schema_versions_are_not_mixed_in_one_table(tmp_path, capsys):
-    from benchmark.results import SCHEMA_VERSION
-
+def test_an_older_result_file_is_one_error_line_saying_what_to_run(tmp_path, capsys):
     folder = tmp_path / "results"
-    old = _v1_file(folder, "old")
-    new = write_result(_three()[0], folder)  # manifest h1, the current schema
-    assert json.loads(new.read_text())["schema_version"] == SCHEMA_VERSION == 2
-    code, line = _cli_error(capsys, folder, tmp_path)
-    assert code == 2 and "schema versions" in line
-    assert f"version 1: {old}" in line and f"version 2: {new}" in line
-    from leaderboard.site.data import load_site_runs
+    new = write_result(_three()[0], folder)
+    old = folder / "old.json"
+    for version, remedy in ((2, "python -m benchmark.results upgrade"), (1, "python -m benchmark.run")):
+        old.write_text(json.dumps({**json.loads(new.read_text()), "schema_version": version}))
+        code, line = _cli_error(capsys, folder, tmp_path)
+        assert code == 2 and f"{old}: a schema-{version} result file" in line and remedy in line
+        from leaderboard.site.data import load_site_runs
 
-    with pytest.raises(ValueError, match="schema versions"):
-        load_site_runs(folder)
-    # on different data they are different tables: fine, and the old names are mapped
-    old.unlink()
-    _v1_file(folder, "old", manifest="h2")
-    tables = tables_by_manifest(load_results(folder))
-    assert [t.manifest_hash for t in tables] == ["h1", "h2"]
-    assert [c.name for c in tables[1].columns] == ["lve_mesh"]
+        with pytest.raises(ValueError, match=f"schema-{version} result file"):
+            load_site_runs(folder)
 
 
 def test_rows_scored_by_different_lip_sync_experts_are_not_mixed_in_one_table(tmp_path, capsys):

@@ -1,7 +1,8 @@
 """Each leaderboard section names its dataset, and says when its latent metrics are out of domain."""
 
 from benchmark.results import build_result
-from leaderboard.collect import dataset_name, tables_by_manifest
+from benchmark.results import DatasetInfo
+from leaderboard.collect import tables_by_manifest
 from leaderboard.render import OUT_OF_DOMAIN_NOTE, markdown_tables
 
 PROV = {"date": "2026-01-01T00:00:00+00:00", "git_revision": None, "versions": {}, "hardware": {}}
@@ -31,4 +32,5 @@ def test_sections_carry_the_dataset_name_and_the_out_of_domain_note():
     assert "## BEAT: dataset `h_beat`" in text and "## vocaset: dataset `h_voca`" in text
     assert "## Dataset `h_old`" in text
     assert text.count(OUT_OF_DOMAIN_NOTE) == 1
-    assert dataset_name({"name": "beat"}) == "beat" and dataset_name({}) == ""
+    assert DatasetInfo(name="beat", recipe_id="r").display_name == "beat"
+    assert DatasetInfo(recipe_id="r").display_name == ""

@@ -163,7 +163,7 @@ def test_timings_are_tabled_per_row_and_stage(tmp_path, capsys):
 
 
 def test_timings_of_committed_rows_come_from_their_result_files(tmp_path, capsys):
-    from benchmark.results import build_result, write_result
+    from benchmark.results import build_result, write
     from leaderboard.reproduce import main
 
     prov = {"date": "2026-01-01T00:00:00+00:00", "git_revision": None, "versions": {}, "hardware": {}}
@@ -176,10 +176,8 @@ def test_timings_of_committed_rows_come_from_their_result_files(tmp_path, capsys
                               dataset={"manifest_hash": "h1", "split": "test", "num_sentences": 80},
                               protocol={"samples": 1, "seed": 0},
                               metrics={"fd": {"mean": 1.0, "std": 0.1, "higher_is_better": False, "unit": "latent^2"}},
-                              timings=timings, provenance=prov)
-        if seeds:
-            result["seeds"] = seeds
-        write_result(result, tmp_path / "results")
+                              timings=timings, provenance=prov, seeds=seeds)
+        write(tmp_path / "results" / result.filename(), result)
     # no work folder left: the result files still give every row's stages (minutes)
     assert main(["--work", str(tmp_path / "gone"), "--results", str(tmp_path / "results"), "--timings"]) == 0
     lines = capsys.readouterr().out.splitlines()
@@ -234,19 +232,23 @@ def test_rows_read_the_meshes_of_the_plans_own_corpus_where_the_work_folder_now_
 
 
 def test_a_row_sharing_a_training_stores_the_owners_verdict_per_seed(tmp_path, monkeypatch):
-    import json
-
     from benchmark.protocol.seeds import CombinedScores
+    from benchmark.results import build_result, write
     from leaderboard.executors import stages
 
     def verdict(settled, step=3750):
         return {"checked_at_step": step, "total_steps": 4500, "settled": settled,
                 "metrics": {"fd": {"half_budget": 9.0, "full_budget": 3.0, "half_width": 0.5, "settled": settled}}}
 
+    def owner(**parts):
+        return build_result(method={"name": "cdface", "config": {}}, dataset={"recipe_id": "r"},
+                            protocol={"samples": 1, "seed": 0},
+                            metrics={"fd": {"mean": 3.0, "std": None, "higher_is_better": False}},
+                            timings={}, provenance={}, **parts)
+
     owner_file = tmp_path / "owner.json"
-    owner_file.write_text(json.dumps({"convergence": verdict(False),
-                                      "per_seed": [{"seed": 0, "convergence": verdict(True)},
-                                                   {"seed": 1, "convergence": verdict(False)}]}))
+    write(owner_file, owner(convergence=verdict(False), per_seed=[{"seed": 0, "convergence": verdict(True)},
+                                                                  {"seed": 1, "convergence": verdict(False)}]))
     monkeypatch.setattr(stages, "row_result_path", lambda spec, root: owner_file if spec["row"] == "cdface" else None)
     combined = CombinedScores(metrics={}, per_sentence=[], per_seed=[{"seed": 0, "metrics": {}},
                                                                      {"seed": 1, "metrics": {}}])
@@ -257,7 +259,63 @@ def test_a_row_sharing_a_training_stores_the_owners_verdict_per_seed(tmp_path, m
     assert [r["convergence"]["settled"] for r in stored.per_seed] == [True, False]
     assert reason == "shared training: checked on row cdface"
     # the owner's file holding other seeds, or missing: nothing is claimed
-    owner_file.write_text(json.dumps({"convergence": verdict(False), "per_seed": [{"seed": 0}]}))
+    write(owner_file, owner(convergence=verdict(False), per_seed=[{"seed": 0}]))
     assert stages._with_shared_verdict(spec, tmp_path, combined, "r") == (combined, "r")
     owner_file.unlink()
     assert stages._with_shared_verdict(spec, tmp_path, combined, "r") == (combined, "r")
+
+
+def test_seed_scores_pass_between_stages_as_result_json_and_combine_as_before(tmp_path):
+    """The score stage writes a seed's scores as a result file (no pickle: a work folder
+    holds no code to run); read back, the seeds combine to the same row."""
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from benchmark.protocol import SeedRun
+    from benchmark.protocol.seeds import combined_seed_scores
+    from benchmark.results import read, write
+    from leaderboard.executors import stages
+
+    rng = np.random.default_rng(0)
+    keys = [("S1", f"sentence{i:02d}") for i in range(6)]
+
+    def seed_run(seed):
+        rows = [{"subject": s, "sentence": q, "lve_rig": float(v)} for (s, q), v in zip(keys, rng.normal(2, 1, 6))]
+        mean = float(np.mean([r["lve_rig"] for r in rows]))
+        fd = rng.normal(5.0, 0.5, 300)
+        metrics = {"lve_rig": {"mean": mean, "std": 0.5, "ci95": [mean - 1, mean + 1], "higher_is_better": False,
+                               "unit": "mm", "n": 6, "label": "LVE rig", "group": "vertex"},
+                   "fd": {"mean": float(fd.mean()), "std": 0.1, "ci95": [float(fd.min()), float(fd.max())],
+                          "higher_is_better": False, "unit": "latent^2", "n": 6, "sample_std": 0.25},
+                   "wind": {"mean": 1.0, "std": None, "higher_is_better": False, "unit": "latent^2"}}
+        convergence = {"checked_at_step": 5, "total_steps": 10, "settled": True,
+                       "metrics": {"fd": {"half_budget": 5.1, "full_budget": 5.0, "half_width": 0.2,
+                                          "settled": True}}}
+        return SeedRun(seed=seed, metrics=metrics, per_sentence=rows,
+                       replicates={"fd": fd, "lve_rig": rng.normal(mean, 0.1, 300), "wind": np.array([np.nan])},
+                       convergence=convergence, evaluation={"fd_floor_probe": 1.5}, n_clipped=seed, num_subjects=1,
+                       num_sentences=6, timings={"train_s": 1.5, "load_s": None, "generate_s": 0.25})
+
+    spec = {"work": str(tmp_path), "row": "said", "method": "said", "samples": 5}
+    inputs = SimpleNamespace(dataset=SimpleNamespace(manifest_hash="h" * 64, recipe_id="r" * 64))
+    runs = [seed_run(k) for k in (0, 1, 2)]
+    back = []
+    for run in runs:
+        path, _ = stages._seed_paths(spec, run.seed)
+        write(path, stages._seed_result(spec, inputs, run, label="SAiD", reason="checked"))
+        assert path.suffix == ".json" and not list(path.parent.glob("*.pkl"))
+        result = read(path)
+        assert result.label == "SAiD" and result.protocol.convergence_check == "checked"
+        back.append(stages._seed_run(result))
+    for run, again in zip(runs, back):
+        assert again.seed == run.seed and again.per_sentence == run.per_sentence
+        assert again.convergence == run.convergence and again.evaluation == run.evaluation
+        assert (again.n_clipped, again.num_subjects, again.num_sentences) == (run.seed, 1, 6)
+        assert again.metrics == run.metrics
+        for name in ("fd", "lve_rig", "wind"):  # wind: replicates that are not finite are none
+            a, b = again.seed_replicates(name), run.seed_replicates(name)
+            assert (a is None and b is None) or np.array_equal(a, b)
+    expected, got = combined_seed_scores(runs, stream=7), combined_seed_scores(back, stream=7)
+    assert got.metrics == expected.metrics and got.per_sentence == expected.per_sentence
+    assert got.per_seed == expected.per_seed and got.convergence == expected.convergence

@@ -41,10 +41,8 @@ def _write_run(results, name, dataset, *, reference, samples, transform, lve):
                  "split": "test",
                  "num_subjects": len(dataset.split("test")), "num_sentences": len(per_sentence)},
         protocol={"samples": samples, "seed": 0, "budget": {}, "clip": False, "n_clipped": 0, "checkpoint": None},
-        metrics={"lve_rig": metric}, timings={})
-    result["per_sentence"] = per_sentence
-    result["tracks"] = tracks.name
-    (results / f"{name}.json").write_text(json.dumps(result, indent=1))
+        metrics={"lve_rig": metric}, timings={}, per_sentence=per_sentence, tracks=tracks.name)
+    (results / f"{name}.json").write_text(json.dumps(result.to_json(), indent=1))
 
 
 @pytest.fixture(scope="module")
@@ -259,7 +257,7 @@ def test_site_from_the_committed_results_loads(three_js, browser, tmp_path):
 
 def _v3_runs(tmp_path):
     """Two methods (one trained with two seeds, not settled) and a reference row, as SiteRuns."""
-    from benchmark.results import build_result
+    from benchmark.results import build_result, check
     from leaderboard.site.data import SiteRun
 
     sentences = [("S1", f"sentence{i:02d}") for i in range(30)]
@@ -278,7 +276,7 @@ def _v3_runs(tmp_path):
         out = build_result(method={"name": label, "label": label, "reference": reference, "config": {}},
                            dataset={"manifest_hash": "h", "split": "test", "num_sentences": len(sentences)},
                            protocol={"samples": 1, "seed": 0}, metrics=metrics, timings={},
-                           provenance={"date": "2026-01-01"}, per_sentence=rows(values))
+                           provenance={"date": "2026-01-01"}, per_sentence=rows(values)).to_json()
         out.update(extra)
         return out
 
@@ -290,7 +288,7 @@ def _v3_runs(tmp_path):
                                              "settled": False}}})
     two["metrics"]["lve_rig"]["seed_range"] = [float(seeds[0].mean()), float(seeds[1].mean())]
     results = [two, result("one-seed", base + 0.5), result("ground-truth", base - 1.0, reference=True)]
-    return [SiteRun(tmp_path / f"{r['method']['name']}.json", r) for r in results]
+    return [SiteRun(tmp_path / f"{r['method']['name']}.json", check(r)) for r in results]
 
 
 def test_site_data_shows_seeds_settling_best_rules_and_improvement(tmp_path):
@@ -317,11 +315,11 @@ def test_site_data_shows_seeds_settling_best_rules_and_improvement(tmp_path):
 
 
 def test_leaderboard_page_shows_seed_ranges_settling_and_the_av_note(three_js, browser, tmp_path):
-    from benchmark.results import write_result
+    from benchmark.results import write
 
     results = tmp_path / "results"
     for run in _v3_runs(tmp_path):
-        write_result(run.result, results, f"{run.id}.json")
+        write(results / f"{run.id}.json", run.result)
     site = build_site(results, tmp_path / "site", progress=False)
     server, url = serve_site(site, port=0, background=True)
     try:

@@ -149,7 +149,8 @@ def test_older_result_files_are_refused_with_one_line_saying_what_to_run(tmp_pat
         with pytest.raises(DataError) as error:
             read(old)
         message = str(error.value)
-        assert "\n" not in message and message.startswith(f"{old}: a schema-{version} result file") and remedy in message
+        assert "\n" not in message and message.startswith(f"{old}: a schema-{version} result file")
+        assert remedy in message
 
 
 def test_upgrade_rewrites_a_schema_2_file_with_its_numbers_unchanged(tmp_path, capsys):
