@@ -151,4 +151,8 @@ def build_result(*, method: dict, dataset: dict, protocol: dict, metrics: dict, 
     if latency is not None:
         record["latency"] = {key: (None if latency.get(key) is None else round(float(latency[key]), 4))
                              for key in LATENCY_FIELDS}
+    try:  # as JSON holds it (tuples as lists), as a file read back gives it
+        record = json.loads(json.dumps(record))
+    except (TypeError, ValueError) as exc:
+        raise DataError(f"result: not JSON-serialisable ({exc})") from None
     return check(record)

@@ -17,8 +17,9 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
-__all__ = ["Invalid", "Located", "Part", "anything", "integer", "integers", "item", "list_of", "located", "mapping_of",
-           "number", "numbers", "obj", "optional", "pair", "part", "seconds", "short", "string", "to_json", "truth"]
+__all__ = ["Invalid", "Located", "Part", "anything", "integer", "integers", "item", "kind", "list_of", "located",
+           "mapping_of", "number", "numbers", "obj", "optional", "pair", "part", "seconds", "short", "string",
+           "to_json", "truth"]
 
 
 class Invalid(ValueError):
@@ -47,69 +48,36 @@ def _is_number(value) -> bool:
         return False
 
 
-def number(value, where):
-    """A finite number (not a boolean)."""
-    if not _is_number(value):
-        raise Invalid("a finite number", value)
-    return value
+def kind(expected: str, test, convert=None):
+    """A check of a plain value: ``test(value)`` true, else :class:`Invalid` saying ``expected``;
+    the value is returned as read (``convert(value)`` when given)."""
+    def check(value, where):
+        if not test(value):
+            raise Invalid(expected, value)
+        return value if convert is None else convert(value)
+    return check
 
 
-def seconds(value, where):
-    """A finite number of seconds >= 0."""
-    if not _is_number(value) or value < 0:
-        raise Invalid("seconds >= 0 or null", value)
-    return value
+def _is_int(value) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool)
 
 
-def integer(value, where):
-    if not isinstance(value, int) or isinstance(value, bool):
-        raise Invalid("an integer", value)
-    return value
-
-
-def string(value, where):
-    if not isinstance(value, str):
-        raise Invalid("a string", value)
-    return value
-
-
-def truth(value, where):
-    if not isinstance(value, bool):
-        raise Invalid("true or false", value)
-    return value
-
-
-def anything(value, where):
-    """Any JSON value, kept as written."""
-    return value
-
-
-def obj(value, where):
-    """A JSON object, kept as written."""
-    if not isinstance(value, dict):
-        raise Invalid("an object", value)
-    return value
-
-
-def numbers(value, where):
-    """A non-empty list of finite numbers (bootstrap replicates)."""
-    if not isinstance(value, list) or not value or not all(_is_number(v) for v in value):
-        raise Invalid("a non-empty list of finite numbers", value)
-    return value
-
-
-def pair(value, where):
-    """``[low, high]`` of finite numbers, low <= high."""
-    if not (isinstance(value, (list, tuple)) and len(value) == 2 and all(_is_number(v) for v in value)
-            and value[0] <= value[1]):
-        raise Invalid("[low, high] of finite numbers", value)
-    return list(value)
-
-
-def integers(value, where):
-    if not isinstance(value, list) or not all(isinstance(v, int) and not isinstance(v, bool) for v in value):
-        raise Invalid("a list of integers", value)
-    return tuple(value)
+number = kind("a finite number", _is_number)
+seconds = kind("seconds >= 0 or null", lambda v: _is_number(v) and v >= 0)
+integer = kind("an integer", _is_int)
+string = kind("a string", lambda v: isinstance(v, str))
+truth = kind("true or false", lambda v: isinstance(v, bool))
+#: A JSON object, kept as written.
+obj = kind("an object", lambda v: isinstance(v, dict))
+#: Any JSON value, kept as written.
+anything = kind("anything", lambda v: True)
+#: Bootstrap replicates.
+numbers = kind("a non-empty list of finite numbers",
+               lambda v: isinstance(v, list) and bool(v) and all(_is_number(x) for x in v))
+#: An interval: ``[low, high]``, low <= high.
+pair = kind("[low, high] of finite numbers",
+            lambda v: isinstance(v, list) and len(v) == 2 and all(_is_number(x) for x in v) and v[0] <= v[1])
+integers = kind("a list of integers", lambda v: isinstance(v, list) and all(_is_int(x) for x in v), tuple)
 
 
 def optional(check):
@@ -180,26 +148,19 @@ class Part:
         """
         if not isinstance(value, dict):
             raise Located(f"{where}: expected an object, got {short(value)}")
-        values, extra, known = {}, {}, set()
-        for f in dataclasses.fields(cls):
-            if f.name == "extra":
-                continue
-            key = f.metadata["key"] or f.name
-            known.add(key)
-            if f.metadata["present"] and key not in value:
-                raise Located(f"{where}: lacks {key!r} (got fields {sorted(value)})")
+        fields, values, extra = _json_fields(cls), {}, {}
+        for f, key in fields:
             present = value.get(key)
-            if present is None:
-                if f.metadata["required"]:
-                    raise Located(f"{where}: lacks {key!r} (got fields {sorted(value)})")
-                if key in value and not f.metadata["always"]:
-                    extra[key] = None
-                continue
-            values[f.name] = located(f.metadata["check"], present, f"{where}.{key}")
+            if (f.metadata["present"] and key not in value) or (present is None and f.metadata["required"]):
+                raise Located(f"{where}: lacks {key!r} (got fields {sorted(value)})")
+            if present is not None:
+                values[f.name] = located(f.metadata["check"], present, f"{where}.{key}")
+            elif key in value and not f.metadata["always"]:
+                extra[key] = None
+        known = {key for _, key in fields}
         unknown = {k: v for k, v in value.items() if k not in known}
         if unknown and not cls.OPEN:
-            names = [f.metadata["key"] or f.name for f in dataclasses.fields(cls) if f.name != "extra"]
-            raise Located(f"{where}.{sorted(unknown)[0]}: unknown field; expected some of {tuple(names)}")
+            raise Located(f"{where}.{sorted(unknown)[0]}: unknown field; expected some of {tuple(sorted(known))}")
         built = cls(**values, extra={**unknown, **extra})
         located(built.validate, None, where)
         return built
@@ -211,13 +172,16 @@ class Part:
     def to_json(self) -> dict:
         """The JSON object of this part (what :meth:`from_json` read)."""
         out = dict(self.extra)
-        for f in dataclasses.fields(self):
-            if f.name == "extra":
-                continue
+        for f, key in _json_fields(type(self)):
             value = getattr(self, f.name)
             if value is not None or f.metadata["always"]:
-                out[f.metadata["key"] or f.name] = to_json(value)
+                out[key] = to_json(value)
         return out
+
+
+def _json_fields(cls) -> list:
+    """``[(field, JSON key)]`` of a part's declared fields."""
+    return [(f, f.metadata["key"] or f.name) for f in dataclasses.fields(cls) if f.name != "extra"]
 
 
 def to_json(value):

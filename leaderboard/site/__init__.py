@@ -23,6 +23,7 @@ from pathlib import Path
 
 from blendvoca.errors import OutputDirError
 from blendvoca.io.atomic import permissions_for
+from blendvoca.runtime.progress import progress_bars
 
 from .data import load_site_runs, with_dataset, write_site_data
 from .vendor import copy_vendor_files
@@ -95,7 +96,8 @@ def build_site(results_dir, out, *, data=None, max_samples: int = 3, node_module
                     target.write_text(framed_page(page), encoding="utf-8")
                 else:
                     shutil.copyfile(page, target)
-        write_site_data(runs, tmp / "data", max_samples=max_samples, progress=progress)
+        with progress_bars(progress):
+            write_site_data(runs, tmp / "data", max_samples=max_samples)
         (tmp / SITE_MARKER).write_text("written by python -m leaderboard.site\n")
         os.chmod(tmp, permissions_for(out, directory=True))  # not mkdtemp's 0700: a web server reads it
         if out.exists():

@@ -26,6 +26,7 @@ from benchmark.results import Result, read
 from benchmark.runs import read_run
 from blendvoca.errors import DataError, UserError
 from blendvoca.format import audio_path
+from blendvoca.runtime.progress import bar
 from leaderboard.collect import (
     MIN_PAIRED_SENTENCES,
     best_mark,
@@ -319,7 +320,7 @@ def with_dataset(runs, data) -> list[SiteRun]:
     return runs
 
 
-def write_site_data(runs, data_dir, *, max_samples: int = 3, progress: bool = True) -> dict:
+def write_site_data(runs, data_dir, *, max_samples: int = 3) -> dict:
     """Write every data file of the site into ``data_dir``.
 
     Parameters
@@ -344,12 +345,7 @@ def write_site_data(runs, data_dir, *, max_samples: int = 3, progress: bool = Tr
     datasets: dict[Path, _SentenceData] = {}
     done_sentences, done_rigs = set(), set()
     work = [(run, key, paths) for run in runs if run.dataset_root is not None for key, paths in run.tracks().items()]
-    try:
-        from tqdm import tqdm
-
-        work = tqdm(work, desc="site: tracks", unit="sentence", disable=not progress)
-    except ImportError:
-        pass
+    work = bar(work, desc="site: tracks", unit="sentence")
     for run in runs:
         _write_json(data_dir / "runs" / f"{run.id}.json", run_page_data(run))
         counts["runs"] += 1
