@@ -87,6 +87,7 @@ class MethodInfo(Part):
 
     @property
     def display_label(self) -> str:
+        """``label``, else ``name``."""
         return self.label or self.name
 
 
@@ -98,8 +99,11 @@ class DatasetInfo(Part):
     recipe_id: str | None = item(string)
     #: Content hash of the files scored (for information; differs between BLAS kernels).
     manifest_hash: str | None = item(string)
+    #: The BlendVOCA root the run read (stored runs find their data here).
     path: str | None = item(string)
+    #: The split scored (``"test"``).
     split: str | None = item(string)
+    #: Speakers and sentences scored.
     num_subjects: int | None = item(integer)
     num_sentences: int | None = item(integer)
     #: Another corpus than VOCASET: its name and title.
@@ -225,9 +229,13 @@ class Latency(Part):
     where not known): depends on the machine, like ``timings``."""
 
     OPEN = False
+    #: Audio the method needs before its first frame (None: the whole utterance).
     lookahead_s: float | None = item(seconds, always=True)
+    #: Wall time to the first frame.
     first_frame_s: float | None = item(seconds, always=True)
+    #: CPU time per second of audio.
     compute_per_audio_s: float | None = item(seconds, always=True)
+    #: Real-time factor: wall seconds of generation per second of audio.
     rtf: float | None = item(seconds, always=True)
 
 
@@ -235,13 +243,17 @@ class Latency(Part):
 class Provenance(Part):
     """``provenance``: the code and machine when the run started."""
 
+    #: ISO 8601, UTC.
     date: str | None = item(string)
     git_revision: str | None = item(string)
     #: Uncommitted changes outside the output folders.
     git_dirty: bool | None = item(truth)
+    #: Python version and platform string.
     python: str | None = item(string)
     platform: str | None = item(string)
+    #: ``{distribution: version}``.
     versions: dict | None = item(obj)
+    #: CPU, cores, BLAS kernels, GPU.
     hardware: dict | None = item(obj)
 
 
@@ -308,6 +320,7 @@ class Result(Part):
 
     @property
     def label(self) -> str:
+        """The row's label (``method.label``, else its name)."""
         return self.method.display_label
 
     def training_seeds(self) -> list:
