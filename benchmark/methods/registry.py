@@ -7,17 +7,16 @@ A ``"package.module:Class"`` string that is not a registered name is itself a me
 
 from __future__ import annotations
 
-import difflib
-import importlib
-import importlib.metadata
 import re
 
 from blendvoca.errors import UserError
+from blendvoca.registry import Registry, import_target, is_target
 
 from .base import Method
 
 __all__ = [
     "ENTRY_POINT_GROUP",
+    "METHODS",
     "MethodClassError",
     "MethodImportError",
     "UnknownMethodError",
@@ -51,9 +50,6 @@ class MethodClassError(UnknownMethodError, TypeError):
 
 _NAME_PATTERN = re.compile(r"^[a-z0-9][a-z0-9._-]*$")
 
-# name -> class, or "module:Class" not imported yet
-_REGISTRY: dict[str, type | str] = {}
-
 
 def _check_name(name) -> str:
     if not isinstance(name, str):
@@ -66,20 +62,21 @@ def _check_name(name) -> str:
     return name
 
 
-def _target_of(entry: type | str) -> str:
-    if isinstance(entry, str):
-        return entry
-    return f"{entry.__module__}:{entry.__qualname__}"
+def _check_class(cls, name: str, where: str = "get_method") -> None:
+    if not isinstance(cls, type):
+        raise MethodClassError(f"{where}: method {name!r} must be a class, got {type(cls).__name__} {cls!r}")
+    if not issubclass(cls, Method):
+        missing = [attr for attr in ("generate", "train", "save", "load", "config") if not hasattr(cls, attr)]
+        if missing:
+            raise MethodClassError(
+                f"{where}: method {name!r} ({cls.__module__}:{cls.__qualname__}) must subclass "
+                f"benchmark.methods.Method or provide {', '.join(missing)}"
+            )
 
 
-def _add(name: str, entry: type | str) -> None:
-    _check_name(name)
-    if name in _REGISTRY:
-        raise ValueError(
-            f"method {name!r} is already registered (to {_target_of(_REGISTRY[name])}); "
-            f"refusing to register it again (to {_target_of(entry)})"
-        )
-    _REGISTRY[name] = entry
+#: The method registry: registered classes, lazy targets and installed entry points.
+METHODS = Registry("method", entry_point_group=ENTRY_POINT_GROUP, error=UnknownMethodError,
+                   import_error=MethodImportError, check=_check_class)
 
 
 def register(name: str):
@@ -96,7 +93,7 @@ def register(name: str):
 
     def decorator(cls):
         _check_class(cls, name, where="register")
-        _add(name, cls)
+        METHODS.add(name, cls)
         cls.name = name
         return cls
 
@@ -105,83 +102,20 @@ def register(name: str):
 
 def register_lazy(name: str, target: str) -> None:
     """Register ``"package.module:Class"`` under ``name``; imported on first lookup."""
+    _check_name(name)
     if not isinstance(target, str) or target.count(":") != 1 or not all(target.split(":")):
         raise ValueError(f"register_lazy({name!r}): expected 'package.module:Class', got {target!r}")
-    _add(name, target)
+    METHODS.add(name, target)
 
 
 def unregister(name: str) -> None:
     """Remove ``name`` from the registry (for tests); unknown names raise KeyError."""
-    del _REGISTRY[name]
-
-
-def _check_class(cls, name: str, where: str) -> None:
-    if not isinstance(cls, type):
-        raise MethodClassError(f"{where}: method {name!r} must be a class, got {type(cls).__name__} {cls!r}")
-    if not issubclass(cls, Method):
-        missing = [attr for attr in ("generate", "train", "save", "load", "config") if not hasattr(cls, attr)]
-        if missing:
-            raise MethodClassError(
-                f"{where}: method {name!r} ({_target_of(cls)}) must subclass "
-                f"benchmark.methods.Method or provide {', '.join(missing)}"
-            )
-
-
-def _entry_points() -> dict[str, importlib.metadata.EntryPoint]:
-    # read afresh on every lookup: a package installed while the process runs
-    # (as in the plug-in test) is found without restarting
-    found: dict[str, importlib.metadata.EntryPoint] = {}
-    for ep in importlib.metadata.entry_points(group=ENTRY_POINT_GROUP):
-        previous = found.get(ep.name)
-        if previous is not None and previous.value != ep.value:
-            raise ValueError(
-                f"method {ep.name!r} is declared by two installed packages in entry point group "
-                f"{ENTRY_POINT_GROUP!r}: {previous.value} and {ep.value}"
-            )
-        found[ep.name] = ep
-    return found
-
-
-def _merged() -> dict[str, type | str | importlib.metadata.EntryPoint]:
-    merged: dict[str, type | str | importlib.metadata.EntryPoint] = dict(_REGISTRY)
-    for name, ep in _entry_points().items():
-        if name in merged:
-            if _target_of(merged[name]) != ep.value:
-                raise ValueError(
-                    f"method {name!r} is registered to {_target_of(merged[name])} and also declared "
-                    f"by an installed package (entry point {ENTRY_POINT_GROUP!r}) as {ep.value}"
-                )
-            continue
-        merged[name] = ep
-    return merged
+    METHODS.remove(name)
 
 
 def available_methods() -> list[str]:
     """Sorted names of all registered and installed methods."""
-    return sorted(_merged())
-
-
-def _import_target(target: str, name: str):
-    module_name, _, attr = target.partition(":")
-    try:
-        module = importlib.import_module(module_name)
-    except Exception as exc:  # ImportError, or the module failing while it is imported
-        raise MethodImportError(f"method {name!r}: cannot import module {module_name!r} "
-                                f"({type(exc).__name__}: {exc})") from exc
-    obj = module
-    for part in attr.split("."):
-        try:
-            obj = getattr(obj, part)
-        except AttributeError as exc:
-            raise MethodImportError(f"method {name!r}: module {module_name!r} has no attribute {attr!r}") from exc
-    return obj
-
-
-def _is_target(name: str) -> bool:
-    """True for a ``"package.module:Class"`` string (dotted names on both sides of one colon)."""
-    module, sep, attr = name.partition(":")
-    dotted = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*$")
-    return bool(sep) and bool(dotted.match(module)) and bool(dotted.match(attr))
+    return sorted(METHODS.names())
 
 
 def get_method(name: str) -> type[Method]:
@@ -199,30 +133,11 @@ def get_method(name: str) -> type[Method]:
     """
     if not isinstance(name, str):
         raise TypeError(f"get_method: expected a method name (str), got {type(name).__name__}")
-    merged = _merged()
-    if name not in merged and _is_target(name):
-        cls = _import_target(name, name)
-        _check_class(cls, name, where="get_method")
+    if name not in METHODS and is_target(name):
+        cls = import_target(name, label=f"method {name!r}", error=MethodImportError)
+        _check_class(cls, name)
         return cls
-    if name not in merged:
-        close = difflib.get_close_matches(name, list(merged), n=3, cutoff=0.5)
-        hint = f"; did you mean {', '.join(repr(c) for c in close)}?" if close else ""
-        raise UnknownMethodError(f"unknown method {name!r}{hint} Known methods: {', '.join(sorted(merged)) or 'none'}")
-    entry = merged[name]
-    if isinstance(entry, type):
-        return entry
-    if isinstance(entry, str):
-        cls = _import_target(entry, name)
-    else:
-        try:
-            cls = entry.load()
-        except Exception as exc:  # broken installed plug-in: say which package and why
-            raise MethodImportError(f"method {name!r}: cannot load entry point {entry.value!r} "
-                                    f"({type(exc).__name__}: {exc})") from exc
-    _check_class(cls, name, where="get_method")
-    if isinstance(entry, str):
-        _REGISTRY[name] = cls  # resolve once
-    return cls
+    return METHODS.get(name)
 
 
 def method_schema(method):

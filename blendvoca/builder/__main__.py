@@ -14,7 +14,6 @@ complete), 2 a usage, input or output-folder error (nothing built), 130 interrup
 
 from __future__ import annotations
 
-import inspect
 import sys
 import time
 
@@ -63,9 +62,9 @@ def main(argv: list[str] | None = None) -> int:
         args.out = default_output_dir()
     extra = {}
     if args.pose_fit is not None:
-        if "pose_fit" not in inspect.signature(build).parameters:
+        if not build.takes("pose_fit"):
             p.error(f"--pose-fit: the {dataset} corpus is not posed (it applies to posed corpora: "
-                    f"{', '.join(n for n in dataset_names() if 'pose_fit' in inspect.signature(adapter(n)).parameters)})")
+                    f"{', '.join(n for n in dataset_names() if adapter(n).takes('pose_fit'))})")
         extra["pose_fit"] = args.pose_fit
     start = time.perf_counter()
     summary = build(root, args.out, workers=args.workers, shapes=args.shapes, delta=args.delta,

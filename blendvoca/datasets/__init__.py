@@ -1,12 +1,16 @@
 """Corpora a BlendVOCA folder can be built from: the dataset adapter registry.
 
 Each entry maps a dataset name (``python -m blendvoca.build --dataset NAME``) to
-the adapter that builds it, as a lazy ``"module:callable"`` string: nothing is
-imported until that dataset is asked for, so a corpus with heavy readers costs
-the others nothing. Every adapter has one signature::
+the :class:`DatasetAdapter` that builds it, as a lazy ``"module:attr"`` string
+(a :class:`~blendvoca.registry.Registry`): nothing is imported until that dataset is
+asked for, so a corpus with heavy readers costs the others nothing. Every adapter is
+called the same way::
 
-    build(root, out, *, workers=None, shapes="speech", delta=0.1,
-          report=True, progress=True) -> blendvoca.builder.BuildSummary
+    adapter(root, out, *, workers=None, shapes="speech", delta=0.1,
+            report=True, progress=True, **declared) -> blendvoca.builder.BuildSummary
+
+and declares the options it takes besides these (``DatasetAdapter.options``: the
+posed corpora's ``pose_fit``).
 
 ``root`` is the corpus as distributed (see ``docs/datasets.md``), ``out`` the
 BlendVOCA folder to write (the layout, splits and manifest of
@@ -18,37 +22,68 @@ ignored (a coefficient corpus fits nothing, so ``delta`` does not apply to it).
 
 from __future__ import annotations
 
-import difflib
-import importlib
 from collections.abc import Callable
+from dataclasses import dataclass
 
 from blendvoca.errors import UserError
+from blendvoca.registry import Registry
 
-#: Dataset name -> ``"module:callable"`` of its adapter (imported on first use).
+#: The options every adapter takes (a corpus ignores those it has no use for).
+COMMON_OPTIONS: tuple[str, ...] = ("workers", "shapes", "delta", "report", "progress")
+
+#: Dataset name -> ``"module:attr"`` of its :class:`DatasetAdapter` (imported on first use).
 DATASETS: dict[str, str] = {
     # meshes in FLAME topology: rig retargeted per speaker, sentences fitted
-    "vocaset": "blendvoca.datasets.vocaset:build",
+    "vocaset": "blendvoca.datasets.vocaset:ADAPTER",
     # ARKit coefficient corpora: read, remapped to arkit52, resampled to 60 fps
-    "beat": "blendvoca.datasets.beat:build",
-    "unitalker": "blendvoca.datasets.unitalker:build",
-    "3d-etf": "blendvoca.datasets.etf3d:build",
+    "beat": "blendvoca.datasets.beat:ADAPTER",
+    "unitalker": "blendvoca.datasets.unitalker:ADAPTER",
+    "3d-etf": "blendvoca.datasets.etf3d:ADAPTER",
     # vertex corpora of other topologies: posed meshes, rig retargeted with the user's landmark file
-    "biwi": "blendvoca.datasets.biwi:build",
-    "multiface": "blendvoca.datasets.multiface:build",
+    "biwi": "blendvoca.datasets.biwi:ADAPTER",
+    "multiface": "blendvoca.datasets.multiface:ADAPTER",
 }
+
+
+@dataclass(frozen=True)
+class DatasetAdapter:
+    """A corpus's build function and the options it declares besides :data:`COMMON_OPTIONS`.
+
+    Calling it calls ``build``; ``options`` tells the command line what it may pass
+    (``("pose_fit",)`` for the posed corpora), so nothing reads the function's signature.
+    """
+
+    build: Callable
+    options: tuple[str, ...] = ()
+
+    def __call__(self, root, out, **options):
+        return self.build(root, out, **options)
+
+    def takes(self, option: str) -> bool:
+        """Whether this adapter accepts ``option`` (a common one or one it declares)."""
+        return option in COMMON_OPTIONS or option in self.options
 
 
 class UnknownDatasetError(UserError):
     """A dataset name with no adapter in :data:`DATASETS`."""
 
 
+def _check_adapter(obj, name: str) -> None:
+    if not isinstance(obj, DatasetAdapter):
+        raise TypeError(f"dataset {name!r}: {DATASETS.get(name)} is {type(obj).__name__}, expected a DatasetAdapter")
+
+
+#: The adapter registry over :data:`DATASETS`.
+ADAPTERS = Registry("dataset", DATASETS, error=UnknownDatasetError, check=_check_adapter, where="--dataset")
+
+
 def dataset_names() -> tuple[str, ...]:
     """The names ``--dataset`` accepts, sorted."""
-    return tuple(sorted(DATASETS))
+    return tuple(sorted(ADAPTERS.names()))
 
 
-def adapter(name: str) -> Callable:
-    """The build function of dataset ``name``, imported now.
+def adapter(name: str) -> DatasetAdapter:
+    """The adapter of dataset ``name``, imported now.
 
     Raises
     ------
@@ -56,10 +91,4 @@ def adapter(name: str) -> Callable:
         For a name not in :data:`DATASETS`; the message lists the known names and
         the close matches.
     """
-    target = DATASETS.get(name)
-    if target is None:
-        close = difflib.get_close_matches(str(name), DATASETS, n=3)
-        hint = f" (did you mean {', '.join(close)}?)" if close else ""
-        raise UnknownDatasetError(f"--dataset: unknown dataset {name!r}{hint}; known: {', '.join(dataset_names())}")
-    module, _, attribute = target.partition(":")
-    return getattr(importlib.import_module(module), attribute)
+    return ADAPTERS.get(name)

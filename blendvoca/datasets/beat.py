@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from blendvoca.builder.pipeline import BuildSummary
+from blendvoca.datasets import DatasetAdapter
 from blendvoca.datasets.coefficients import DatasetLayoutError, Take, build_coefficient_dataset, frame_rate, safe_name
 from blendvoca.errors import DataError
 from blendvoca.io.json_file import read_json
@@ -108,3 +109,7 @@ def build(root, out, *, workers: int | None = None, shapes: str = "speech", delt
     """
     return build_coefficient_dataset(out, root, beat_takes(root), dataset="beat", title="BEAT", convention="beat",
                                      report=report, progress=progress)
+
+
+#: The ``--dataset beat`` adapter (:data:`blendvoca.datasets.DATASETS`).
+ADAPTER = DatasetAdapter(build)

@@ -27,6 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
+from blendvoca.datasets import DatasetAdapter
 from blendvoca.errors import DataError
 from blendvoca.vocaset.errors import check_safe_name
 from blendvoca.vocaset.processed import UnsafePickleError, load_data_pickle, open_rows
@@ -190,3 +191,7 @@ def build(root, out, *, workers: int | None = None, shapes: str = "speech", delt
     :func:`~blendvoca.datasets._vertex.build_vertex_corpus` with this reader."""
     return build_vertex_corpus("blendvoca.datasets.biwi:open_biwi", root, out, workers=workers, shapes=shapes,
                                delta=delta, report=report, progress=progress, pose_fit=pose_fit)
+
+
+#: The ``--dataset biwi`` adapter (:data:`blendvoca.datasets.DATASETS`).
+ADAPTER = DatasetAdapter(build, options=("pose_fit",))

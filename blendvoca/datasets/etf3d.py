@@ -12,6 +12,7 @@ HDTF, and D4, 3D-ETF RAVDESS) in its own layout, which this adapter reads
 from __future__ import annotations
 
 from blendvoca.builder.pipeline import BuildSummary
+from blendvoca.datasets import DatasetAdapter
 from blendvoca.datasets.coefficients import build_coefficient_dataset
 from blendvoca.datasets.unitalker import unitalker_layout_takes
 
@@ -29,3 +30,7 @@ def build(root, out, *, workers: int | None = None, shapes: str = "speech", delt
     takes = unitalker_layout_takes(root, annot_type=ANNOT_TYPE, convention="etf52")
     return build_coefficient_dataset(out, root, takes, dataset="3d-etf", title="3D-ETF", convention="etf52",
                                      report=report, progress=progress)
+
+
+#: The ``--dataset 3d-etf`` adapter (:data:`blendvoca.datasets.DATASETS`).
+ADAPTER = DatasetAdapter(build)

@@ -30,6 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
+from blendvoca.datasets import DatasetAdapter
 from blendvoca.errors import DataError
 from blendvoca.vocaset.checks import frame_gaps
 from blendvoca.vocaset.errors import Problem, check_safe_name
@@ -202,3 +203,7 @@ def build(root, out, *, workers: int | None = None, shapes: str = "speech", delt
     :func:`~blendvoca.datasets._vertex.build_vertex_corpus` with this reader."""
     return build_vertex_corpus("blendvoca.datasets.multiface:open_multiface", root, out, workers=workers, shapes=shapes,
                                delta=delta, report=report, progress=progress, pose_fit=pose_fit)
+
+
+#: The ``--dataset multiface`` adapter (:data:`blendvoca.datasets.DATASETS`).
+ADAPTER = DatasetAdapter(build, options=("pose_fit",))

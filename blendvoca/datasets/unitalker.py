@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from blendvoca.builder.pipeline import BuildSummary
+from blendvoca.datasets import DatasetAdapter
 from blendvoca.datasets.coefficients import DatasetLayoutError, Take, build_coefficient_dataset, safe_name
 from blendvoca.errors import DataError
 from blendvoca.io.json_file import read_json
@@ -133,3 +134,7 @@ def build(root, out, *, workers: int | None = None, shapes: str = "speech", delt
     takes = unitalker_layout_takes(root, annot_type=ANNOT_TYPE, convention="unitalker51")
     return build_coefficient_dataset(out, root, takes, dataset="unitalker", title="UniTalker (D6/D7)",
                                      convention="unitalker51", report=report, progress=progress)
+
+
+#: The ``--dataset unitalker`` adapter (:data:`blendvoca.datasets.DATASETS`).
+ADAPTER = DatasetAdapter(build)

@@ -9,6 +9,7 @@ reference rig and every sentence fitted (:func:`blendvoca.builder.build_dataset`
 from __future__ import annotations
 
 from blendvoca.builder.pipeline import BuildSummary, build_dataset
+from blendvoca.datasets import DatasetAdapter
 
 
 def build(root, out, *, workers: int | None = None, shapes: str = "speech", delta: float = 0.1,
@@ -20,3 +21,7 @@ def build(root, out, *, workers: int | None = None, shapes: str = "speech", delt
     """
     return build_dataset(out, root, workers=workers, shapes=shapes, delta=delta, report=report,
                          progress=progress)
+
+
+#: The ``--dataset vocaset`` adapter (:data:`blendvoca.datasets.DATASETS`).
+ADAPTER = DatasetAdapter(build)

@@ -24,6 +24,7 @@ from blendvoca.names.conventions import (
     CONVENTIONS,
     Convention,
 )
+from blendvoca.registry import Registry
 
 # Live Link Face's CSV export: the same 52 shapes in PascalCase, except that the app
 # writes JawRight before JawLeft and MouthRight before MouthLeft; then head and eye
@@ -125,18 +126,19 @@ class MissingShapesWarning(UserWarning):
     """A remap filled target shapes the source lacks with 0 (``missing="zero"``)."""
 
 
+#: The convention registry over :data:`CONVENTIONS` (a :class:`~blendvoca.registry.Registry`).
+NAMING_CONVENTIONS = Registry("blendshape convention", CONVENTIONS)
+
+
 def convention(name: str) -> Convention:
     """The registered :class:`Convention` called ``name``.
 
     Raises
     ------
     UserError
-        For an unknown name, listing the known ones.
+        For an unknown name, listing the close matches and the known ones.
     """
-    found = CONVENTIONS.get(str(name))
-    if found is None:
-        raise UserError(f"unknown blendshape convention {name!r}; known: {', '.join(CONVENTIONS)}")
-    return found
+    return NAMING_CONVENTIONS.get(str(name))
 
 
 def convention_names(name: str) -> tuple[str, ...]:
