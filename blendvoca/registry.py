@@ -160,12 +160,14 @@ class Registry:
     def __len__(self) -> int:
         return len(self.entries())
 
-    def unknown(self, name) -> UserError:
-        """The error for a name this registry does not know: close matches and the known names."""
+    def unknown(self, name, *, where: str | None = None) -> UserError:
+        """The error for a name this registry does not know: close matches and the known
+        names, after ``where`` (default the registry's ``where``)."""
         known = self.names()
         close = difflib.get_close_matches(str(name), known, n=3)
         hint = f"; did you mean {', '.join(repr(c) for c in close)}?" if close else ""
-        prefix = f"{self.where}: " if self.where else ""
+        where = where or self.where
+        prefix = f"{where}: " if where else ""
         return self.error(f"{prefix}unknown {self.kind} {name!r}{hint}; known: {', '.join(sorted(known)) or 'none'}")
 
     def get(self, name: str):

@@ -15,6 +15,10 @@ format         what                                        needs a rig
 ``export_track(out, coeffs, names, fmt)`` writes one; ``read_track(path)`` reads any
 back as ``(coeffs, names, fps)``. Columns are always matched by name; shapes a target
 lacks are 0 and reported in the returned :class:`~blendvoca.export.align.AlignedTrack`.
+
+Each format is one :class:`~blendvoca.export.base.ExportFormat` class in its own module,
+named in :data:`FORMAT_REGISTRY` (a :class:`~blendvoca.registry.Registry`): adding a
+format is that module and one registry line.
 """
 
 from __future__ import annotations
@@ -29,11 +33,36 @@ import numpy as np
 from blendvoca.errors import DataError, UserError
 from blendvoca.export._support import read_json_object
 from blendvoca.export.align import AlignedTrack, align_track, check_track, unit_range_track
+from blendvoca.export.base import ExportFormat, ExportOptions
+from blendvoca.registry import Registry
+from blendvoca.rig import Rig
 
-FORMATS: tuple[str, ...] = ("livelink", "arkit-json", "a2f-json", "glb", "usd", "csv")
-NEEDS_RIG: frozenset[str] = frozenset({"glb", "usd"})
-SUFFIX: dict[str, str] = {"livelink": ".csv", "arkit-json": ".json", "a2f-json": ".json", "glb": ".glb",
-                          "usd": ".usda", "csv": ".csv"}
+#: Format name -> ``"module:Class"`` of its :class:`~blendvoca.export.base.ExportFormat`;
+#: adding a format is its module and one line here.
+FORMAT_REGISTRY = Registry("format", {
+    "livelink": "blendvoca.export.livelink:LiveLinkCsv",
+    "arkit-json": "blendvoca.export.arkit_json:ArkitJson",
+    "a2f-json": "blendvoca.export.a2f_json:A2fJson",
+    "glb": "blendvoca.export.glb:Glb",
+    "usd": "blendvoca.export.usd:Usd",
+    "csv": "blendvoca.export.coeffs_csv:CoeffsCsv",
+})
+FORMATS: tuple[str, ...] = FORMAT_REGISTRY.names()
+NEEDS_RIG: frozenset[str] = frozenset(name for name in FORMATS if FORMAT_REGISTRY.get(name).needs_rig)
+SUFFIX: dict[str, str] = {name: FORMAT_REGISTRY.get(name).suffix for name in FORMATS}
+
+
+def export_format(fmt: str, *, where: str = "export_track") -> ExportFormat:
+    """The :class:`~blendvoca.export.base.ExportFormat` called ``fmt``.
+
+    Raises
+    ------
+    UserError
+        An unknown name: ``"<where>: unknown format ..."`` with the close matches.
+    """
+    if fmt not in FORMAT_REGISTRY:
+        raise FORMAT_REGISTRY.unknown(fmt, where=where)
+    return FORMAT_REGISTRY.get(fmt)()
 
 
 def export_track(out, coeffs, names: Sequence[str], fmt: str, *, rig=None, fps: float = 60.0,
@@ -68,53 +97,18 @@ def export_track(out, coeffs, names: Sequence[str], fmt: str, *, rig=None, fps: 
         An unknown format, a missing rig, or a track that is not (T, K) finite weights
         in [0, 1] (``clip`` off), naming the first bad frame and column.
     """
-    if fmt not in FORMATS:
-        raise UserError(f"export_track: unknown format {fmt!r}; expected one of {FORMATS}")
-    if fmt in NEEDS_RIG and rig is None:
+    writer = export_format(fmt)
+    if writer.needs_rig and rig is None:
         raise UserError(f"export_track: format {fmt!r} needs a rig (the mesh and its blendshapes)")
     if fps <= 0:
         raise UserError(f"export_track: fps must be positive, got {fps}")
-    if convention is not None and fmt != "csv":
+    if convention is not None and not writer.takes_convention:
         raise UserError(f"export_track: a convention applies to the csv format only; {fmt!r} has its own columns")
     checked, _ = check_track(coeffs, names, where="export_track")
     coeffs, clipped = unit_range_track(checked, tuple(str(n) for n in names), where="export_track", clip=clip)
-    aligned = _write(out, coeffs, names, fmt, rig=rig, fps=fps, audio=audio, convention=convention)
+    options = ExportOptions(fps=fps, rig=rig, audio=audio, convention=convention)
+    aligned = writer.write(out, coeffs, names, options)
     return dataclasses.replace(aligned, clipped=clipped)
-
-
-def _write(out, coeffs, names, fmt: str, *, rig, fps: float, audio, convention=None) -> AlignedTrack:
-    """Write a checked track in ``fmt`` (:func:`export_track`)."""
-    if fmt == "livelink":
-        from blendvoca.export.livelink import write_livelink_csv
-
-        return write_livelink_csv(out, coeffs, names, fps)
-    if fmt == "arkit-json":
-        from blendvoca.export.arkit_json import write_arkit_json
-
-        return write_arkit_json(out, coeffs, names, fps)
-    if fmt == "a2f-json":
-        from blendvoca.export.a2f_json import write_a2f_json
-
-        return write_a2f_json(out, coeffs, names, fps, "" if audio is None else str(Path(audio).resolve()))
-    if fmt == "glb":
-        from blendvoca.export.glb import write_glb
-
-        return write_glb(out, rig, coeffs, names, fps)
-    if fmt == "usd":
-        from blendvoca.export.usd import write_usd
-
-        return write_usd(out, rig, coeffs, names, fps, audio=audio)
-    from blendvoca.io.coeffs import write_coeffs_csv
-    from blendvoca.names import BLENDVOCA_NAMES
-    from blendvoca.names import convention as named_convention
-
-    if convention is not None:
-        aligned = align_track(coeffs, names, convention, where="csv")
-        write_coeffs_csv(out, aligned.coeffs, named_convention(convention).columns())
-        return aligned
-    aligned = align_track(coeffs, names, rig.names if rig is not None else BLENDVOCA_NAMES, where="csv")
-    write_coeffs_csv(out, aligned.coeffs, aligned.names)
-    return aligned
 
 
 def detect_format(path) -> str:
@@ -176,46 +170,16 @@ def read_track(path, fmt: str | None = None, *, fps: float = 60.0) -> tuple[np.n
         An unknown format or suffix.
     """
     fmt = fmt or detect_format(path)
-    if fmt == "livelink":
-        from blendvoca.export.livelink import read_livelink_csv
-
-        coeffs, names, _ = read_livelink_csv(path, fps)
-        return coeffs, names, fps
-    if fmt == "arkit-json":
-        from blendvoca.export.arkit_json import read_arkit_json
-
-        return read_arkit_json(path)
-    if fmt == "a2f-json":
-        from blendvoca.export.a2f_json import read_a2f_json
-
-        return read_a2f_json(path)
-    if fmt == "glb":
-        from blendvoca.export.glb import read_glb
-
-        glb = read_glb(path)
-        rate = 1.0 / float(np.median(np.diff(glb.times))) if len(glb.times) > 1 else fps
-        return glb.weights, glb.names, rate
-    if fmt == "usd":
-        from blendvoca.export.usd import read_usd
-
-        usd = read_usd(path)
-        return usd.weights, usd.names, usd.fps
-    if fmt == "csv":
-        from blendvoca.io.coeffs import read_coeffs_csv
-
-        coeffs, names = read_coeffs_csv(path)
-        return coeffs, names, fps
-    raise UserError(f"read_track: unknown format {fmt!r}; expected one of {FORMATS}")
+    return export_format(fmt, where="read_track").read(path, fps=fps)
 
 
 def load_rig(path):
     """A rig from a ``.npz`` (blendvoca.rig.Rig) or a SAiD folder (Neutral.obj + <name>.obj)."""
-    from blendvoca.rig import Rig
-
     path = Path(os.fspath(path))
     if path.is_dir():
         return Rig.load_said_folder(path)
     return Rig.load(path)
 
 
-__all__ = ["FORMATS", "AlignedTrack", "align_track", "detect_format", "export_track", "load_rig", "read_track"]
+__all__ = ["FORMATS", "FORMAT_REGISTRY", "AlignedTrack", "ExportFormat", "ExportOptions", "align_track",
+           "detect_format", "export_format", "export_track", "load_rig", "read_track"]

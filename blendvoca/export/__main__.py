@@ -22,6 +22,7 @@ from blendvoca.errors import UserError
 from blendvoca.export import FORMATS, NEEDS_RIG, export_track, load_rig
 from blendvoca.export.align import check_track, unit_range_track
 from blendvoca.io.coeffs import read_coeffs_csv
+from blendvoca.names import convention_names
 
 
 @cli.command
@@ -41,8 +42,6 @@ def main(argv: Sequence[str] | None = None) -> int:
                              "in its order and spelling")
     args = parser.parse_args(argv)
     if args.convention is not None:
-        from blendvoca.names import convention_names
-
         if args.fmt != "csv":
             raise UserError(f"--convention applies to --format csv only; {args.fmt} has its own columns")
         convention_names(args.convention)  # an unknown name, or one without a fixed order, is refused now

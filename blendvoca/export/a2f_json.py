@@ -9,12 +9,14 @@ from __future__ import annotations
 
 import json
 from collections.abc import Sequence
+from pathlib import Path
 
 import numpy as np
 
 from blendvoca.errors import DataError
 from blendvoca.export._support import count, positive_number, read_json_object, string_list, weight_matrix
 from blendvoca.export.align import AlignedTrack, align_track
+from blendvoca.export.base import ExportFormat, ExportOptions
 from blendvoca.io.atomic import atomic_write
 
 
@@ -62,3 +64,16 @@ def read_a2f_json(path) -> tuple[np.ndarray, tuple[str, ...], float]:
         raise DataError(f"{path}: numPoses/numFrames ({poses}, {frames}) disagree with "
                         f"facsNames/weightMat ({len(names)}, {len(weights)})")
     return weights, names, fps
+
+
+class A2fJson(ExportFormat):
+    """``a2f-json``: Audio2Face-3D blendshape weights JSON (``trackPath`` names the audio)."""
+
+    name, suffix = "a2f-json", ".json"
+
+    def write(self, out, coeffs, names, options: ExportOptions) -> AlignedTrack:
+        audio = "" if options.audio is None else str(Path(options.audio).resolve())
+        return write_a2f_json(out, coeffs, names, options.fps, audio)
+
+    def read(self, path, *, fps: float):
+        return read_a2f_json(path)

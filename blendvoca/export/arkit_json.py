@@ -15,6 +15,7 @@ import numpy as np
 from blendvoca.errors import DataError
 from blendvoca.export._support import positive_number, read_json_object, string_list, weight_matrix
 from blendvoca.export.align import AlignedTrack, align_track
+from blendvoca.export.base import ExportFormat, ExportOptions
 from blendvoca.io.atomic import atomic_write
 
 FORMAT_NAME = "arkit-blendshapes"
@@ -59,3 +60,15 @@ def read_arkit_json(path) -> tuple[np.ndarray, tuple[str, ...], float]:
             raise DataError(f"{path}: not an ARKit blendshape JSON: missing key {key!r}")
     names = string_list(doc, "blendShapeNames", path)
     return weight_matrix(doc, "weights", names, path), names, positive_number(doc, "frameRate", path)
+
+
+class ArkitJson(ExportFormat):
+    """``arkit-json``: the 52 ARKit weights per frame, JSON."""
+
+    name, suffix = "arkit-json", ".json"
+
+    def write(self, out, coeffs, names, options: ExportOptions) -> AlignedTrack:
+        return write_arkit_json(out, coeffs, names, options.fps)
+
+    def read(self, path, *, fps: float):
+        return read_arkit_json(path)

@@ -19,6 +19,7 @@ import numpy as np
 from blendvoca.errors import DataError
 from blendvoca.export._support import foreign_parser, optional_module
 from blendvoca.export.align import AlignedTrack, align_track
+from blendvoca.export.base import ExportFormat, ExportOptions
 from blendvoca.io.atomic import atomic_write
 
 _FLOAT, _UINT32 = 5126, 5125
@@ -227,3 +228,17 @@ def validate_glb(path, validator: str | Path | None = None) -> dict:
     if out.returncode != 0:
         raise RuntimeError(f"gltf-validator failed on {path}: {out.stderr.strip()}")
     return json.loads(out.stdout)
+
+
+class Glb(ExportFormat):
+    """``glb``: glTF 2.0 mesh + morph targets + animation (needs a rig)."""
+
+    name, suffix, needs_rig = "glb", ".glb", True
+
+    def write(self, out, coeffs, names, options: ExportOptions) -> AlignedTrack:
+        return write_glb(out, options.rig, coeffs, names, options.fps)
+
+    def read(self, path, *, fps: float):
+        glb = read_glb(path)
+        rate = 1.0 / float(np.median(np.diff(glb.times))) if len(glb.times) > 1 else fps
+        return glb.weights, glb.names, rate

@@ -9,6 +9,7 @@ every row ``HH:MM:SS:FF.fff`` (FF the frame within the second, .fff the subframe
 
 from __future__ import annotations
 
+import csv
 import math
 import re
 from collections.abc import Sequence
@@ -17,6 +18,7 @@ import numpy as np
 
 from blendvoca.errors import DataError, UserError
 from blendvoca.export.align import AlignedTrack, align_track
+from blendvoca.export.base import ExportFormat, ExportOptions
 from blendvoca.io.atomic import atomic_write
 from blendvoca.io.coeffs import read_coeffs_csv
 from blendvoca.names import LIVELINK_HEADER, LIVELINK_ROTATION_COLUMNS, LIVELINK_SHAPE_COLUMNS
@@ -83,8 +85,6 @@ def read_livelink_csv(path, fps: float = 60.0) -> tuple[np.ndarray, tuple[str, .
     names : the 52 camelCase names
     times : (T,) float64 ndarray, seconds of each row's timecode at ``fps``
     """
-    import csv
-
     coeffs, names = read_coeffs_csv(path, names="arkit52")
     with open(path, newline="", encoding="utf-8-sig") as f:
         reader = csv.reader(f)
@@ -99,3 +99,16 @@ def read_livelink_csv(path, fps: float = 60.0) -> tuple[np.ndarray, tuple[str, .
             except ValueError as error:
                 raise DataError(f"{path}: row {t + 2} (frame {t}): {error}") from None
     return coeffs, names, np.asarray(times, dtype=np.float64)
+
+
+class LiveLinkCsv(ExportFormat):
+    """``livelink``: Live Link Face CSV (Unreal, MetaHuman)."""
+
+    name, suffix = "livelink", ".csv"
+
+    def write(self, out, coeffs, names, options: ExportOptions) -> AlignedTrack:
+        return write_livelink_csv(out, coeffs, names, options.fps)
+
+    def read(self, path, *, fps: float):
+        coeffs, names, _ = read_livelink_csv(path, fps)
+        return coeffs, names, fps

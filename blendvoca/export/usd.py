@@ -23,6 +23,7 @@ import numpy as np
 from blendvoca.errors import DataError, UserError
 from blendvoca.export._support import foreign_parser, optional_module
 from blendvoca.export.align import AlignedTrack, align_track
+from blendvoca.export.base import ExportFormat, ExportOptions
 from blendvoca.io.atomic import permissions_for
 
 SUFFIXES = (".usda", ".usdc", ".usd")
@@ -183,3 +184,16 @@ def _usd_contents(path) -> UsdContents:
                   if p.IsA(UsdMedia.SpatialAudio)), None)
     return UsdContents(neutral, faces, deltas, shape_names, np.asarray(codes, dtype=np.float64) / fps,
                        weights[:, order], float(fps), audio)
+
+
+class Usd(ExportFormat):
+    """``usd``: UsdSkel blend shapes + SkelAnimation (needs a rig; references the audio)."""
+
+    name, suffix, needs_rig = "usd", ".usda", True
+
+    def write(self, out, coeffs, names, options: ExportOptions) -> AlignedTrack:
+        return write_usd(out, options.rig, coeffs, names, options.fps, audio=options.audio)
+
+    def read(self, path, *, fps: float):
+        usd = read_usd(path)
+        return usd.weights, usd.names, usd.fps
