@@ -15,7 +15,7 @@ Layout (:mod:`blendvoca.format`, which this module reads it through)::
 Only the files ``manifest.json`` lists exist for the dataset (outputs of failed or
 removed sentences left on disk are not seen); a folder without a manifest is
 refused with the command that builds it (a hand-made SAiD-layout folder is listed
-once with ``python -m blendvoca.build.manifest DIR``). Without ``splits.json`` the
+once with ``python -m blendvoca.format manifest DIR``). Without ``splits.json`` the
 standard VOCASET split is used; without ``rigs/`` the rig is built from the
 SAiD-layout OBJ files.
 

@@ -20,7 +20,7 @@ and ``manifest.json``, which lists the files that make up the dataset. The build
 :mod:`~blendvoca.format.manifest`
     ``manifest.json``: reading (``listed_files``, ``read_manifest``), writing
     (``write_manifest`` for a build, ``write_folder_manifest`` for a hand-made
-    SAiD-layout folder, also ``python -m blendvoca.build.manifest DIR``), the
+    SAiD-layout folder, also ``python -m blendvoca.format manifest DIR``), the
     dataset's identity (``manifest_hash``) and the BLAS kernels a build ran on
     (``blas_kernels``).
 :mod:`~blendvoca.format.recipe`

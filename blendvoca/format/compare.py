@@ -1,4 +1,4 @@
-"""``python -m blendvoca.format compare A B``: are two builds the same dataset?
+"""Are two builds the same dataset? (``python -m blendvoca.format compare A B``)
 
 Two folders are the same dataset when their manifests record the same recipe id
 (:mod:`blendvoca.format.recipe`), list the same data files (the build report left
@@ -12,14 +12,12 @@ another corpus, tool or parameter set, or one whose numbers moved further, does 
 from __future__ import annotations
 
 import os
-import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from blendvoca import cli
-from blendvoca.errors import CheckFailed, DataError
+from blendvoca.errors import DataError
 
 from .layout import is_report_file
 from .manifest import listed_files, read_manifest
@@ -194,27 +192,3 @@ def compare_builds(a, b) -> Comparison:
         result.within += 1
     result.same = True
     return result
-
-
-@cli.command
-def main(argv: list[str] | None = None) -> int:
-    """``python -m blendvoca.format compare A B``: exit 0 for the same dataset, 4 (naming the first file) otherwise."""
-    p = cli.parser("blendvoca.format", "Tools over BlendVOCA folders.")
-    sub = p.add_subparsers(dest="tool", required=True)
-    c = sub.add_parser("compare", help="are two builds the same dataset (same recipe, every file within "
-                                       "its stored tolerance)?")
-    c.add_argument("a", help="a BlendVOCA folder (with manifest.json)")
-    c.add_argument("b", help="another BlendVOCA folder")
-    args = p.parse_args(argv)
-    found = compare_builds(args.a, args.b)
-    if not found.same:
-        raise CheckFailed(f"not the same dataset: {found.problem}")
-    worst = max(found.max_difference.items(), key=lambda kv: kv[1], default=None)
-    detail = f"; largest difference {worst[1]:.3g} in {worst[0]}" if worst else ""
-    print(f"same dataset: recipe {found.recipe[0][:12]}, {found.identical} file(s) identical, "
-          f"{found.within} within their tolerance{detail}")
-    return cli.EXIT_OK
-
-
-if __name__ == "__main__":
-    sys.exit(main())

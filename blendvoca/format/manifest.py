@@ -18,7 +18,7 @@ recipe may differ (``python -m blendvoca.format compare A B``).
 
 A hand-made SAiD-layout folder (``blendshape_coeffs/``, ``audio/``,
 ``blendshapes_head/``, ``templates_head/``) is made readable by listing its
-files once: ``python -m blendvoca.build.manifest DIR`` (:func:`write_folder_manifest`, :func:`main`).
+files once: ``python -m blendvoca.format manifest DIR`` (:func:`write_folder_manifest`).
 """
 
 from __future__ import annotations
@@ -26,10 +26,8 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import sys
 from pathlib import Path
 
-from blendvoca import cli
 from blendvoca.errors import DataError
 from blendvoca.io.json_file import read_json
 from blendvoca.io.atomic import atomic_write
@@ -63,7 +61,8 @@ __all__ = [
 MANIFEST_NAME = MANIFEST_FILE
 #: ``tool`` of a manifest a build wrote (and of the marker in a build's state folder).
 BUILD_TOOL = "blendvoca.build"
-#: ``tool`` of a manifest :func:`write_folder_manifest` wrote for a hand-made folder.
+#: ``tool`` of a manifest :func:`write_folder_manifest` wrote for a hand-made folder (the
+#: command's former name, kept: it is recorded in those manifests and their recipe ids).
 FOLDER_TOOL = "blendvoca.build.manifest"
 
 
@@ -78,7 +77,7 @@ def _root(root) -> Path:
 def _how_to_make(root: Path) -> str:
     return (f"Build it with `python -m blendvoca.build --vocaset <VOCASET folder> --out {root}` (or "
             f"`python -m blendvoca.build` for the bundled default); for a hand-made SAiD-layout folder, list its "
-            f"files with `python -m blendvoca.build.manifest {root}`")
+            f"files with `python -m blendvoca.format manifest {root}`")
 
 
 def read_manifest(root) -> dict:
@@ -353,18 +352,3 @@ def write_folder_manifest(root) -> Path:
             "recipe": make_recipe([(rel, root / rel) for rel in files], {"tool": FOLDER_TOOL}),
             "tolerances": default_tolerances(files)}
     return _write(manifest_path(root), data)
-
-
-@cli.command
-def main(argv: list[str] | None = None) -> int:
-    """``python -m blendvoca.build.manifest DIR``: list a hand-made SAiD-layout folder's files."""
-    p = cli.parser("blendvoca.build.manifest", "Write manifest.json for a hand-made SAiD-layout folder.")
-    p.add_argument("folder", help=f"the SAiD-layout folder ({', '.join(f'{d}/' for d in DATA_DIRS)} ...)")
-    args = p.parse_args(argv)
-    path = write_folder_manifest(args.folder)
-    print(f"{path}: {len(json.loads(path.read_text())['files'])} files listed")
-    return cli.EXIT_OK
-
-
-if __name__ == "__main__":
-    sys.exit(main())

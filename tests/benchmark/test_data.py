@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from benchmark.data import open_blendvoca
+from blendvoca.format.__main__ import main as format_main
 from blendvoca.names import BLENDVOCA_NAMES
 
 
@@ -58,11 +59,9 @@ def test_said_layout_fallback(fake_dataset_dir, tmp_path):
     rig.save_said_folder(root / "blendshapes_head" / "FakeC")
     (root / "templates_head").mkdir()
     (root / "blendshapes_head" / "FakeC" / "Neutral.obj").rename(root / "templates_head" / "FakeC.obj")
-    with pytest.raises(ValueError, match=r"no manifest.json.*python -m blendvoca.build.manifest"):
+    with pytest.raises(ValueError, match=r"no manifest.json.*python -m blendvoca.format manifest"):
         open_blendvoca(root)  # a hand-made folder is listed once, then opened
-    from blendvoca.format.manifest import main as list_folder
-
-    assert list_folder([str(root)]) == 0
+    assert format_main(["manifest", str(root)]) == 0
     ds = open_blendvoca(root)
     np.testing.assert_allclose(ds.rig("FakeC").deltas, rig.deltas, atol=1e-6)
     assert set(ds.splits) == {"train", "val", "test"}  # the VOCASET split (no such subjects here)

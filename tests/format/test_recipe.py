@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from blendvoca import format as fmt
-from blendvoca.format.compare import compare_builds, file_difference, main as compare_main
+from blendvoca.format.__main__ import main as compare_main
+from blendvoca.format.compare import compare_builds, file_difference
 from blendvoca.format.recipe import make_recipe, recipe_id
 
 
