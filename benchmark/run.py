@@ -15,8 +15,8 @@ also scored at half its step budget on ``lve_rig`` and ``fd`` (settled or not:
 to every ``Method.train`` that takes it, and the trained or loaded method is moved there
 before it generates (docs/gpu.md).
 
-The command line over :mod:`benchmark.protocol` (which holds the steps and
-:func:`run_method`), on the project's CLI layer :mod:`blendvoca.cli`: a mistake in
+The command line over :mod:`benchmark.protocol` (a :class:`~benchmark.protocol.RunSpec`
+run by :func:`~benchmark.protocol.run`), on the project's CLI layer :mod:`blendvoca.cli`: a mistake in
 what was asked or a build file that is missing is exit status 2, a method that
 misbehaved exit status 3, each with one ``error:`` line and nothing written.
 """
@@ -28,73 +28,11 @@ import json
 import sys
 from pathlib import Path
 
-from benchmark.methods import Budget
-from benchmark.methods import method_schema
-from blendvoca.cli import checked_device
-from benchmark.protocol import (
-    DEFAULT_GENERATE_LIMIT,
-    TRAIN_GRACE_S,
-    UsageError,
-    check_results_dir,
-    default_data_root,
-    default_results_dir,
-    generated_tracks,
-    lipsync_models_provenance,
-    make_method,
-    parse_seeds,
-    prepared_method,
-    run_method,
-    sentence_seed,
-)
+from benchmark.methods import Budget, available_methods, method_schema
+from benchmark.protocol import DEFAULT_GENERATE_LIMIT, RunSpec, parse_seeds, run
 from blendvoca import cli
-from blendvoca.errors import MethodTimeout
 
-__all__ = [
-    "DEFAULT_RESULTS_DIR",
-    "MethodTimeout",
-    "TRAIN_GRACE_S",
-    "UsageError",
-    "check_results_dir",
-    "default_data_root",
-    "default_results_dir",
-    "generated_tracks",
-    "lipsync_models_provenance",
-    "main",
-    "make_method",
-    "parse_budget",
-    "parse_config",
-    "prepared_method",
-    "run_method",
-    "sentence_seed",
-]
-
-#: Kept for callers of the old constant: the user results folder at import time.
-DEFAULT_RESULTS_DIR = default_results_dir()
-
-
-def parse_budget(text: str | None = None, *, max_steps: int | None = None,
-                 max_seconds: float | None = None) -> Budget:
-    """A :class:`Budget` from ``--budget`` text and/or explicit limits, read as the
-    shared ``--budget`` / ``--max-steps`` / ``--max-seconds`` options are
-    (:func:`blendvoca.cli.budget_limits`: explicit limits over the text).
-
-    Accepted text: ``"500"`` or ``"500steps"`` (steps), ``"90s"``, ``"5m"``,
-    ``"1h"`` (time), or comma-separated ``"steps=500,seconds=300"``.
-
-    Raises
-    ------
-    UserError
-        Text of another form, or a limit that is not > 0.
-    """
-    steps, seconds = cli.budget_limits(argparse.Namespace(budget=text, max_steps=max_steps, max_seconds=max_seconds))
-    return Budget(max_steps=steps, max_seconds=seconds)
-
-
-def parse_config(pairs=(), *, preset: str | None = None) -> dict:
-    """Method config from ``KEY=VALUE`` strings (values parsed as JSON when they can be);
-    ``preset`` (``--preset``) is passed through as ``config["preset"]``
-    (:func:`blendvoca.cli.parse_config`)."""
-    return cli.parse_config(pairs, preset=preset)
+__all__ = ["main"]
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -166,8 +104,6 @@ def main(argv=None) -> int:
     parser = _parser()
     args = parser.parse_args(argv)
     if args.list:
-        from benchmark.methods import available_methods
-
         print("\n".join(available_methods()))
         return cli.EXIT_OK
     if not args.method:
@@ -184,13 +120,14 @@ def main(argv=None) -> int:
     max_steps, max_seconds = cli.budget_limits(args)
     config = cli.parse_config(args.config, preset=args.preset, schema=schema, method=args.method)
     seeds = None if args.seeds is None else parse_seeds(args.seeds)
-    device = checked_device(args.device)  # a GPU that is not there: exit 2 before anything is read
-    path = run_method(args.method, args.data, samples=args.samples, seed=args.seed, seeds=seeds,
-                      budget=Budget(max_steps=max_steps, max_seconds=max_seconds), results_dir=args.results,
-                      config=config, split=args.split, checkpoint=args.checkpoint, clip=args.clip,
-                      progress=not args.quiet, generate_time_limit=args.generate_time_limit, vocaset=args.vocaset,
-                      syncnet=args.syncnet_weights, sync_expert=args.sync_expert, sentence_batch=args.sentence_batch,
-                      verify=args.verify, device=device, vae=args.vae)
+    device = cli.checked_device(args.device)  # a GPU that is not there: exit 2 before anything is read
+    spec = RunSpec(args.method, config=config, data_root=args.data, split=args.split, samples=args.samples,
+                   seed=args.seed, seeds=seeds, budget=Budget(max_steps=max_steps, max_seconds=max_seconds),
+                   checkpoint=args.checkpoint, clip=args.clip, generate_time_limit=args.generate_time_limit,
+                   sentence_batch=args.sentence_batch, vocaset=args.vocaset, syncnet=args.syncnet_weights,
+                   sync_expert=args.sync_expert, results_dir=args.results, verify=args.verify,
+                   progress=not args.quiet, device=device, vae=args.vae)
+    path = run(spec)
     if not args.quiet:
         _print_summary(path)
     print(path)

@@ -80,7 +80,7 @@ def main(argv=None) -> int:
     from baselines.cdface.generate import checkpoint_file
     from baselines.cdface.pipeline import CDFace
     from benchmark.data import open_blendvoca
-    from benchmark.run import default_data_root
+    from benchmark.protocol import default_data_root
 
     torch.set_num_threads(1)
     try:

@@ -15,9 +15,8 @@ inspect any of them::
     path = store(spec, inputs, trained, generated, scored, writer=writer, timings=..., provenance=...,
                  convergence=convergence, convergence_check="checked")
 
-:func:`run` composes them (nothing is written when a step fails) and
-:func:`run_method` is the same with keyword arguments; ``python -m benchmark.run``
-is the command line over it. A run over several training seeds (``RunSpec.seeds``)
+:func:`run` composes them (nothing is written when a step fails);
+``python -m benchmark.run`` is the command line over it. A run over several training seeds (``RunSpec.seeds``)
 repeats train, generate and score per seed and stores one result
 (:mod:`benchmark.protocol.seeds`). Which error a step raises says whose fault it is
 (:mod:`blendvoca.errors`): :class:`UsageError` / ``UserError`` for what was asked,
@@ -27,6 +26,7 @@ repeats train, generate and score per seed and stores one result
 from __future__ import annotations
 
 import time
+import warnings
 from pathlib import Path
 
 from benchmark.methods import Budget
@@ -154,110 +154,9 @@ def run(spec: RunSpec, *, evaluate=None, open_dataset=None) -> Path:
         raise
 
 
-def run_method(
-    method_name: str,
-    data_root=None,
-    *,
-    samples: int = 10,
-    seed: int | None = None,
-    seeds=None,
-    budget: Budget | None = None,
-    results_dir=None,
-    config: dict | None = None,
-    split: str = "test",
-    checkpoint=None,
-    clip: bool = False,
-    evaluate=None,
-    open_dataset=None,
-    progress: bool = True,
-    generate_time_limit: float | None = None,
-    vocaset=None,
-    syncnet=None,
-    sync_expert=None,
-    sentence_batch: int = 1,
-    verify: bool = True,
-    device: str | None = None,
-    vae=None,
-) -> Path:
-    """Train or load ``method_name``, generate on ``split``, score it and write the result.
-
-    Parameters
-    ----------
-    method_name : str
-        Registered or installed method name.
-    data_root : path-like or None
-        BlendVOCA build; None uses :func:`default_data_root`.
-    samples : int
-        Samples per sentence for stochastic methods (deterministic ones give one).
-    seed : int, optional
-        Training and sampling seed (default 0).
-    seeds : sequence of int, optional
-        Training seeds (exclusive with ``seed``): one run per seed, stored as one
-        result (:mod:`benchmark.protocol.seeds`); the method must train.
-    budget : Budget, optional
-        Training limits (default: none, the method's own defaults).
-    results_dir : path-like, optional
-        Where the result JSON and its tracks folder are written (default:
-        :func:`default_results_dir`).
-    config : dict, optional
-        Method constructor kwargs.
-    checkpoint : path-like, optional
-        Load the trained method from here if it holds one, else train and save there.
-    clip : bool
-        Clip out-of-range coefficients instead of failing.
-    evaluate : callable, optional
-        ``evaluate(generated, dataset, split=...) -> {metric: {...}}``; default
-        ``benchmark.evaluate.evaluate_split``.
-    open_dataset : callable, optional
-        ``open_dataset(root) -> dataset``; default ``benchmark.data.open_blendvoca``.
-    generate_time_limit : float or GenerateLimit, optional
-        How long one ``generate`` call may take before the run stops with
-        :class:`~blendvoca.errors.MethodTimeout`: None for
-        :data:`DEFAULT_GENERATE_LIMIT` (120 s + 60 s per second of audio), seconds
-        per call, or 0 for no limit.
-    vocaset : path-like, optional
-        The source VOCASET corpus (for ``dataset.vertices``) when the build's
-        recorded one is elsewhere.
-    syncnet, sync_expert : path-like or model, optional
-        SyncNet weights and a learned sync expert for the lip-sync metrics (loaded
-        when the run is scored).
-    sentence_batch : int, default 1
-        Sentences per generation call (:func:`generated_tracks`); recorded in the
-        protocol when above 1, since batched samples may differ from one-by-one
-        ones by float rounding.
-    verify : bool, default True
-        Check the split's files against the build's manifest digests first
-        (:class:`~blendvoca.errors.CheckFailed` for one that changed).
-    device : str, optional
-        ``"cpu"``, ``"cuda"``, ``"cuda:N"`` or ``"auto"``: where the method trains and
-        generates (``RunSpec.device``); a GPU run records ``protocol.device``.
-    vae : path-like, optional
-        The VAE of the latent metrics (``RunSpec.vae``); default the published one.
-
-    Notes
-    -----
-    Step budgets make runs deterministic: the same seed gives the same metric
-    values. A time budget depends on the machine; the result records
-    ``protocol.deterministic = false`` for it. A trained method that calls
-    ``on_checkpoint`` at half its steps is checked for convergence
-    (:mod:`benchmark.protocol.convergence`; the result's ``convergence``).
-
-    Raises
-    ------
-    UsageError
-        Among others: ``seed`` and ``seeds`` both given, a repeated or non-integer
-        seed, ``seeds`` for a method that does not train (all before anything trains).
-
-    Returns
-    -------
-    Path
-        The result file. Nothing is written when any step fails.
-    """
-    if seed is not None and seeds is not None:
-        raise UsageError("--seeds: not allowed with --seed (the seeds are the training seeds of the run)")
-    spec = RunSpec(method=method_name, config=config, data_root=data_root, split=split, samples=samples,
-                   seed=0 if seed is None else seed, seeds=seeds, budget=budget, checkpoint=checkpoint, clip=clip,
-                   generate_time_limit=generate_time_limit, sentence_batch=sentence_batch, vocaset=vocaset,
-                   syncnet=syncnet, sync_expert=sync_expert, results_dir=results_dir, verify=verify, progress=progress,
-                   device=device, vae=vae)
-    return run(spec, evaluate=evaluate, open_dataset=open_dataset)
+def run_method(method_name: str, data_root=None, *, evaluate=None, open_dataset=None, **spec_fields) -> Path:
+    """Deprecated (removed after 2027-06-30): ``run(RunSpec(method_name, data_root=data_root,
+    **spec_fields), evaluate=evaluate, open_dataset=open_dataset)``; build a :class:`RunSpec`."""
+    warnings.warn("benchmark.protocol.run_method is removed after 2027-06-30: build a RunSpec and call "
+                  "benchmark.protocol.run(spec)", DeprecationWarning, stacklevel=2)
+    return run(RunSpec(method_name, data_root=data_root, **spec_fields), evaluate=evaluate, open_dataset=open_dataset)

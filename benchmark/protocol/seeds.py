@@ -1,6 +1,6 @@
 """Training seeds in the protocol: one run per seed, stored as one result.
 
-``benchmark.run --seeds 0,1,2`` (``RunSpec.seeds``, ``run_method(seeds=[...])``)
+``benchmark.run --seeds 0,1,2`` (``RunSpec.seeds``, ``run(RunSpec(seeds=[...]))``)
 trains, generates and scores the method once per seed, each run exactly what
 ``--seed k`` would give, and :func:`combined_seed_scores` makes one row of them:
 

@@ -92,12 +92,13 @@ class RunSpec:
         The split generated and scored.
     samples : int, default 10
         Samples per sentence for stochastic methods (deterministic ones give one).
-    seed : int, default 0
-        Training and sampling seed (with ``seeds``: the first of them).
+    seed : int, optional
+        Training and sampling seed (``--seed``); None: 0, or with ``seeds`` the first of
+        them (another seed beside ``seeds`` is refused).
     seeds : sequence of int, optional
         Training seeds (``--seeds 0,1,2``): one run per seed (each trained, generated
-        and scored with that seed) stored as one result; distinct integers >= 0.
-        None: the single run of ``seed``.
+        and scored with that seed) stored as one result; distinct integers >= 0, not
+        with ``seed``. None: the single run of ``seed``.
     budget : Budget, optional
         Training limits (default: none, the method's own defaults).
     checkpoint : path-like, optional
@@ -138,7 +139,7 @@ class RunSpec:
     data_root: object = None
     split: str = "test"
     samples: int = 10
-    seed: int = 0
+    seed: int | None = None
     seeds: tuple | None = None
     budget: Budget = field(default_factory=Budget)
     checkpoint: object = None
@@ -175,8 +176,12 @@ class RunSpec:
             object.__setattr__(self, "device", checked_device(self.device))
         if self.seeds is not None:
             seeds = checked_seeds(self.seeds)
+            if self.seed is not None and self.seed != seeds[0]:  # seeds[0]: a spec made from one with seeds
+                raise UsageError("--seeds: not allowed with --seed (the seeds are the training seeds of the run)")
             object.__setattr__(self, "seeds", seeds)
             object.__setattr__(self, "seed", seeds[0])
+        elif self.seed is None:
+            object.__setattr__(self, "seed", 0)
 
     @property
     def evaluates_lipsync_models(self) -> bool:

@@ -44,7 +44,7 @@ from benchmark.protocol import (
     check_inputs,
     generate,
     half_budget_check,
-    run_method,
+    run,
     score,
     train,
 )
@@ -177,18 +177,15 @@ def _row_done(spec, root) -> Path | None:
 
 def single_stage(spec, root, expert):
     """A row scored in one run (a reference row, or one without training seeds):
-    :func:`benchmark.protocol.run_method` with seed 0, as ``benchmark.run`` does."""
+    :func:`benchmark.protocol.run` with seed 0, as ``benchmark.run`` does."""
     if spec["method"] == "corpus-meshes":
         _exported_meshes(spec)  # first: the row's label (and so its file name) names the exported meshes
     done = _row_done(spec, root)
     if done is not None:
         log_progress(f"{spec['row']}: {done} exists, kept (--force rescores)")
         return str(done), None
-    name, config = _method_and_config(spec)
     log_progress(f"{spec['row']}: {spec['note']}")
-    path = run_method(name, root, samples=spec["samples"], seed=0, budget=Budget(max_steps=spec["max_steps"]),
-                      results_dir=spec["results"], config=config, progress=spec["progress"], sync_expert=expert,
-                      vocaset=_source_corpus(spec, root))
+    path = run(_run_spec(spec, root, seed=0, checkpoint=None, expert=expert))
     timings = read(path).timings
     return str(path), {k: timings.get(k) for k in ("train_s", "load_s", "generate_s", "evaluate_s")}
 

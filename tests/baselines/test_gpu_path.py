@@ -103,11 +103,11 @@ def test_a_whole_run_on_device_cpu_stores_the_results_of_a_run_without_one(tmp_p
     config, steps = _config("regression")
     stored = []
     for folder, device in (("plain", None), ("cpu", "cpu")):
-        from benchmark.protocol import run_method
+        from benchmark.protocol import RunSpec, run
 
-        path = run_method("regression", "unused", results_dir=tmp_path / folder, evaluate=fake_evaluate,
-                          open_dataset=lambda root: dataset, progress=False, config=config,
-                          budget=Budget(max_steps=steps), device=device)
+        path = run(RunSpec("regression", data_root="unused", results_dir=tmp_path / folder, progress=False,
+                           config=config, budget=Budget(max_steps=steps), device=device),
+                   evaluate=fake_evaluate, open_dataset=lambda root: dataset)
         stored.append(json.loads(Path(path).read_text())["metrics"])
     assert stored[0] == stored[1]
 
@@ -173,7 +173,7 @@ def test_cli_device_without_cuda_is_one_error_line_exit_2(device, message, monke
     import benchmark.run
 
     monkeypatch.setattr(torch.cuda, "is_available", lambda: False)  # as on a machine without a GPU
-    monkeypatch.setattr(benchmark.run, "run_method", lambda *a, **k: pytest.fail("the run started"))
+    monkeypatch.setattr(benchmark.run, "run", lambda *a, **k: pytest.fail("the run started"))
     rc = main(["--method", "regression", "--results", str(tmp_path), "--device", device, "--quiet"])
     err = capsys.readouterr().err.strip().splitlines()
     assert rc == 2 and len(err) == 1 and err[0].startswith("error: ") and message in err[0], err
@@ -184,15 +184,17 @@ def test_cli_device_reaches_the_run(monkeypatch, tmp_path, capsys):
 
     seen = []
 
-    def fake_run(*args, **kwargs):
-        seen.append((kwargs["device"], kwargs["vae"]))
+    def fake_run(spec):
+        seen.append((spec.device, spec.vae))
         return tmp_path / "result.json"
 
-    monkeypatch.setattr(benchmark.run, "run_method", fake_run)
+    vae = tmp_path / "v.pt"
+    vae.write_bytes(b"")  # RunSpec checks that the file is there
+    monkeypatch.setattr(benchmark.run, "run", fake_run)
     assert main(["--method", "regression", "--results", str(tmp_path), "--quiet"]) == 0
-    assert main(["--method", "regression", "--results", str(tmp_path), "--device", "cpu", "--vae", "v.pt",
+    assert main(["--method", "regression", "--results", str(tmp_path), "--device", "cpu", "--vae", str(vae),
                  "--quiet"]) == 0
-    assert seen == [("cpu", None), ("cpu", "v.pt")]  # the CPU unless asked
+    assert seen == [("cpu", None), ("cpu", str(vae))]  # the CPU unless asked
     assert capsys.readouterr().out.splitlines() == [str(tmp_path / "result.json")] * 2
 
 

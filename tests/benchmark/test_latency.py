@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from benchmark.methods import Budget, Method
-from benchmark.protocol import run_method
+from benchmark.protocol import RunSpec, run
 from benchmark.protocol.generation import measure_latency
 from benchmark.results import LATENCY_FIELDS, build_result, check
 from tests.methods.fakes import fake_evaluate, speech_dataset
@@ -60,9 +60,9 @@ def test_a_method_that_does_not_say_needs_the_whole_utterance():
 
 def test_the_runner_stores_latency_and_reruns_compare_without_it(tmp_path):
     dataset = speech_dataset(seed=1, sentences=2, seconds=1.0)
-    paths = [run_method("random", "unused", samples=2, seed=3, budget=Budget(max_steps=2),
-                        results_dir=tmp_path / name, evaluate=fake_evaluate, open_dataset=lambda root: dataset,
-                        progress=False) for name in ("a", "b")]
+    paths = [run(RunSpec("random", data_root="unused", samples=2, seed=3, budget=Budget(max_steps=2),
+                         results_dir=tmp_path / name, progress=False),
+                 evaluate=fake_evaluate, open_dataset=lambda root: dataset) for name in ("a", "b")]
     a, b = (json.loads(p.read_text()) for p in paths)
     for result in (a, b):
         assert set(result["latency"]) == set(LATENCY_FIELDS)

@@ -1,5 +1,5 @@
 """The benchmark protocol: its steps and their records composed by hand give what
-``run_method`` gives; and end to end with the real metrics, same seed and step budget,
+``run`` gives; and end to end with the real metrics, same seed and step budget,
 same numbers; intervals bracket the means; one per-sentence row and one stored CSV per
 sentence and sample."""
 
@@ -49,7 +49,7 @@ def test_a_run_spec_is_frozen_and_keeps_its_own_config():
         spec.samples = 3
 
 
-def test_the_steps_by_hand_give_what_run_method_gives(tmp_path):
+def test_the_steps_by_hand_give_what_run_gives(tmp_path):
     dataset = speech_dataset(seed=1, sentences=2, seconds=1.0)
     spec = RunSpec("random", data_root="unused", samples=2, seed=3, budget=Budget(max_steps=2),
                    results_dir=tmp_path / "steps", progress=False)
@@ -71,9 +71,9 @@ def test_the_steps_by_hand_give_what_run_method_gives(tmp_path):
     timings = {**trained.timings, "generate_s": generated.seconds, "evaluate_s": scored.seconds, "total_s": 1.0}
     by_hand = store(spec, inputs, trained, generated, scored, writer=writer, timings=timings, provenance={},
                     convergence_check=reason)
-    composed = run_method("random", "unused", samples=2, seed=3, budget=Budget(max_steps=2),
-                          results_dir=tmp_path / "run", evaluate=fake_evaluate, open_dataset=lambda root: dataset,
-                          progress=False)
+    composed = run(RunSpec("random", data_root="unused", samples=2, seed=3, budget=Budget(max_steps=2),
+                           results_dir=tmp_path / "run", progress=False),
+                   evaluate=fake_evaluate, open_dataset=lambda root: dataset)
     a, b = json.loads(by_hand.read_text()), json.loads(composed.read_text())
     assert by_hand.name == composed.name
     for section in ("method", "dataset", "protocol", "metrics", "per_sentence", "tracks"):
@@ -81,6 +81,12 @@ def test_the_steps_by_hand_give_what_run_method_gives(tmp_path):
     run_a, run_b = read_run(by_hand), read_run(composed)
     assert run_a.keys == run_b.keys
     assert all(np.array_equal(run_a.tracks(*key), run_b.tracks(*key)) for key in run_a.keys)
+    # the old keyword facade still runs the same spec, with a dated DeprecationWarning
+    with pytest.warns(DeprecationWarning, match="run_method is removed after 2027-06-30"):
+        old = run_method("random", "unused", samples=2, seed=3, budget=Budget(max_steps=2),
+                         results_dir=tmp_path / "old", progress=False, evaluate=fake_evaluate,
+                         open_dataset=lambda root: dataset)
+    assert json.loads(old.read_text())["metrics"] == b["metrics"]
 
 
 def test_a_failing_step_leaves_nothing(tmp_path):
@@ -114,8 +120,8 @@ def test_same_seed_and_steps_give_identical_metrics(fake_dataset_dir, assets_dir
     vae = load_published_vae(assets_dir / "said" / "vae.pth")
     results = []
     for attempt in ("a", "b"):
-        path = run_method(method, fake_dataset_dir, samples=samples, seed=4, budget=Budget(max_steps=20),
-                          results_dir=tmp_path / attempt, evaluate=_evaluate(vae), progress=False)
+        path = run(RunSpec(method, data_root=fake_dataset_dir, samples=samples, seed=4, budget=Budget(max_steps=20),
+                           results_dir=tmp_path / attempt, progress=False), evaluate=_evaluate(vae))
         results.append(json.loads(path.read_text()))
     first, second = results
     assert first["metrics"] == second["metrics"] and first["per_sentence"] == second["per_sentence"]

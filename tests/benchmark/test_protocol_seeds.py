@@ -1,4 +1,4 @@
-"""Training seeds in the protocol (``benchmark.run --seeds``, ``run_method(seeds=...)``,
+"""Training seeds in the protocol (``benchmark.run --seeds``, ``RunSpec(seeds=...)``,
 ``benchmark.protocol.seeds``) and the half-budget convergence check of every run
 (``benchmark.protocol.convergence``): one result over the seeds, each seed's run as
 ``--seed k`` gives it, two-level intervals, bad input refused before anything trains,
@@ -25,8 +25,9 @@ from benchmark.protocol import (
     UsageError,
     combined_seed_scores,
     convergence_record,
+    RunSpec,
     parse_seeds,
-    run_method,
+    run,
 )
 from benchmark.protocol.convergence import HalfBudget, combined_convergence
 from benchmark.run import main
@@ -117,8 +118,8 @@ def dataset():
 def _run(dataset, results, method="test-stepper", **kw):
     kw.setdefault("samples", 2)
     kw.setdefault("budget", None)
-    return run_method(method, "unused", results_dir=results, evaluate=fake_scores,
-                      open_dataset=lambda root: dataset, progress=False, **kw)
+    return run(RunSpec(method, data_root="unused", results_dir=results, progress=False, **kw),
+               evaluate=fake_scores, open_dataset=lambda root: dataset)
 
 
 def test_one_result_over_the_seeds_each_seed_as_its_own_run(dataset, tmp_path):
@@ -248,7 +249,7 @@ def test_each_seed_saved_in_its_own_checkpoint_folder(dataset, tmp_path):
     ({"seeds": [-1, 2]}, "expected integers >= 0"),
     ({"seeds": []}, "at least one seed"),
     ({"seeds": "0,1"}, "expected a list of integers"),
-    ({"seeds": [0, 1], "seed": 0}, "not allowed with --seed"),
+    ({"seeds": [0, 1], "seed": 1}, "not allowed with --seed"),
     ({"seeds": [0, 1], "method": "mean"}, "does not train .*reference"),
     ({"seeds": [0, 1], "method": "static"}, "does not train"),
 ])

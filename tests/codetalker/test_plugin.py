@@ -85,7 +85,7 @@ def test_official_paths_come_in_pairs():
 
 def test_official_checkpoints_through_the_runner(tmp_path):
     """``benchmark.run --checkpoint vocaset_stage2.pth.tar`` finds the stage-1 file beside it."""
-    from benchmark.run import prepared_method
+    from benchmark.protocol import prepared_method
     from tests.codetalker import test_official as official
 
     ds = FakeBlendVOCA(0, train=2, sentences=1)

@@ -5,7 +5,7 @@ import json
 import pytest
 
 from benchmark.methods.base import Budget
-from benchmark.run import run_method
+from benchmark.protocol import RunSpec, run
 
 pytestmark = pytest.mark.slow
 
@@ -14,8 +14,8 @@ pytestmark = pytest.mark.slow
                                           ("codetalker", {"feature_dim": 16, "vq_hidden_size": 16,
                                                           "vq_zquant_dim": 4, "vq_n_embed": 16})])
 def test_brief_training_run_is_scored_as_a_vertex_method(built_dataset, tmp_path, name, config):
-    path = run_method(name, built_dataset, results_dir=tmp_path / "results", samples=2, seed=0,
-                      budget=Budget(max_steps=4), config=config, progress=False)
+    path = run(RunSpec(name, data_root=built_dataset, results_dir=tmp_path / "results", samples=2, seed=0,
+                       budget=Budget(max_steps=4), config=config, progress=False))
     result = json.loads(path.read_text())
     assert result["method"]["output"] == "vertices"
     assert result["protocol"]["samples"] == 2

@@ -102,7 +102,7 @@ def test_official_checkpoint_through_the_runner(tmp_path):
     """``benchmark.run --checkpoint vocaset.pth``: the authors' weights, their 8 styles, no training."""
     from baselines.faceformer import load_official
     from benchmark.methods.base import Budget
-    from benchmark.run import prepared_method
+    from benchmark.protocol import prepared_method
     from tests.faceformer.test_official import authors_state
 
     ds = FakeBlendVOCA(0, train=2, sentences=1)

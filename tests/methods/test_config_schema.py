@@ -127,7 +127,7 @@ def test_run_refuses_a_bad_config_before_any_work(argv, words, monkeypatch, tmp_
     def no_work(*args, **kwargs):
         raise AssertionError("the run started before the config was checked")
 
-    monkeypatch.setattr(run_module, "run_method", no_work)
+    monkeypatch.setattr(run_module, "run", no_work)
     assert run_module.main([*argv, "--results", str(tmp_path)]) == cli.EXIT_USER
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("error: ") and all(w in err[0] for w in words), err

@@ -9,7 +9,7 @@ import json
 import pytest
 
 from baselines.mesh_adapter.export import exported_corpus_meshes
-from benchmark.run import run_method
+from benchmark.protocol import RunSpec, run
 
 pytestmark = pytest.mark.slow
 
@@ -25,8 +25,9 @@ def _vertex_only(generated, dataset, split="test", vertices=None):
 
 
 def _run(name, built_dataset, tmp_path, **kw):
-    path = run_method(name, built_dataset, results_dir=tmp_path / "results",
-                      evaluate=kw.pop("evaluate", _vertex_only), progress=False, **kw)
+    evaluate = kw.pop("evaluate", _vertex_only)
+    path = run(RunSpec(name, data_root=built_dataset, results_dir=tmp_path / "results", progress=False, **kw),
+               evaluate=evaluate)
     return json.loads(path.read_text())
 
 

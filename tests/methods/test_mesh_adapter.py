@@ -5,7 +5,7 @@ from baselines.mesh_adapter.adapt import adapted_coefficients
 from baselines.mesh_adapter.config import adapter_config, read_adapter_config
 from baselines.mesh_adapter.sequences import find_sequences, read_vertex_sequence
 from benchmark.methods import Budget, get_method
-from benchmark.run import generated_tracks
+from benchmark.protocol import generated_tracks
 from benchmark.testing import RANDOM_RIG_VERTICES, FakeBlendVOCA
 
 V = RANDOM_RIG_VERTICES

@@ -5,7 +5,7 @@ from baselines.common.track_lookup import fit_track_length
 from baselines.bounds.mean import mean_coefficients
 from baselines.bounds.random_walk import random_tracks
 from benchmark.methods import Budget, Utterance, get_method
-from benchmark.run import generated_tracks
+from benchmark.protocol import generated_tracks
 
 from .fakes import speech_dataset
 

@@ -10,7 +10,7 @@ from baselines.regression.mel import (
 )
 from baselines.regression.training import window_batch
 from benchmark.methods import Budget, Utterance, get_method
-from benchmark.run import generated_tracks
+from benchmark.protocol import generated_tracks
 
 from .fakes import fake_evaluate, speech_dataset
 

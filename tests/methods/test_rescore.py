@@ -7,7 +7,7 @@ import pytest
 
 from benchmark.lipsync.expert import build_expert, save_expert
 from benchmark.rescore import main as rescore_main
-from benchmark.run import run_method
+from benchmark.protocol import RunSpec, run
 from blendvoca.names import BLENDVOCA_NAMES
 
 
@@ -17,9 +17,9 @@ def test_rescoring_a_stored_run_with_an_expert_equals_scoring_with_it(built_data
     torch.manual_seed(0)
     expert_path = tmp_path / "expert.pt"
     save_expert(build_expert({}, np.zeros(32), np.ones(32), BLENDVOCA_NAMES, {"data": "test"}), expert_path)
-    scored = run_method("random", built_dataset, samples=2, results_dir=tmp_path / "a", sync_expert=expert_path,
-                        progress=False)
-    plain = run_method("random", built_dataset, samples=2, results_dir=tmp_path / "b", progress=False)
+    scored = run(RunSpec("random", data_root=built_dataset, samples=2, results_dir=tmp_path / "a",
+                         sync_expert=expert_path, progress=False))
+    plain = run(RunSpec("random", data_root=built_dataset, samples=2, results_dir=tmp_path / "b", progress=False))
     assert "av_confidence_expert" not in json.loads(plain.read_text())["metrics"]
     assert rescore_main([str(plain), "--sync-expert", str(expert_path), "--quiet"]) == 0
     a, b = json.loads(scored.read_text()), json.loads(plain.read_text())
@@ -56,8 +56,8 @@ def test_rescoring_a_build_edited_since_is_refused_unless_no_verify(built_datase
     shutil.copytree(built_dataset, build)
     expert_path = tmp_path / "expert.pt"
     save_expert(build_expert({}, np.zeros(32), np.ones(32), BLENDVOCA_NAMES, {"data": "test"}), expert_path)
-    run = run_method("random", build, samples=1, results_dir=tmp_path / "r", progress=False)
-    assert json.loads(run.read_text())["protocol"]["verified"] is True
+    path = run(RunSpec("random", data_root=build, samples=1, results_dir=tmp_path / "r", progress=False))
+    assert json.loads(path.read_text())["protocol"]["verified"] is True
     # a speaker the run did not score is not read, so not checked
     other = fmt.read_splits(build)["val"][0]
     fmt.audio_path(build, other, "sentence01").write_bytes(b"edited")

@@ -1,3 +1,4 @@
+import argparse
 import json
 
 import numpy as np
@@ -12,9 +13,10 @@ from benchmark.methods import (
     show_progress,
     unregister,
 )
-from benchmark.protocol import generated_tracks, sentence_seed
-from benchmark.run import main, parse_budget, parse_config, run_method
-from blendvoca.errors import UserError
+from benchmark.protocol import RunSpec, UsageError, generated_tracks, run, sentence_seed
+from benchmark.run import main
+from blendvoca import cli
+from blendvoca.errors import MethodTimeout, UserError
 
 from .fakes import fake_evaluate, speech_dataset
 
@@ -25,9 +27,9 @@ def dataset():
 
 
 def _run(name, dataset, tmp_path, **kw):
-    return run_method(name, "unused", samples=kw.pop("samples", 3), seed=kw.pop("seed", 0),
-                      results_dir=tmp_path / "results", evaluate=fake_evaluate,
-                      open_dataset=lambda root: dataset, progress=False, **kw)
+    spec = RunSpec(name, data_root="unused", samples=kw.pop("samples", 3), seed=kw.pop("seed", 0),
+                   results_dir=tmp_path / "results", progress=False, **kw)
+    return run(spec, evaluate=fake_evaluate, open_dataset=lambda root: dataset)
 
 
 class _Broken(Method):
@@ -83,8 +85,6 @@ def test_misbehaving_plugin_caught_and_no_result_file(mode, error, pattern, data
 
 
 def test_bad_config_reported(dataset, tmp_path):
-    from benchmark.run import UsageError
-
     # a config the constructor refuses is a user mistake, reported before any training
     with pytest.raises(UsageError, match="construction with config"):
         _run("test-broken", dataset, tmp_path, config={"nope": 1})
@@ -216,17 +216,17 @@ def test_checkpoint_train_then_load(dataset, tmp_path):
 
 
 def test_parse_budget_and_config():
-    assert parse_budget("500") == Budget(max_steps=500)
-    assert parse_budget("90s") == Budget(max_seconds=90.0)
-    assert parse_budget("5m") == Budget(max_seconds=300.0)
-    assert parse_budget("steps=10,seconds=2.5") == Budget(max_steps=10, max_seconds=2.5)
-    assert parse_budget(None, max_steps=3) == Budget(max_steps=3)
+    assert cli.parse_budget_text("500") == (500, None)
+    assert cli.parse_budget_text("90s") == (None, 90.0)
+    assert cli.parse_budget_text("5m") == (None, 300.0)
+    assert cli.parse_budget_text("steps=10,seconds=2.5") == (10, 2.5)
+    assert cli.budget_limits(argparse.Namespace(budget=None, max_steps=3, max_seconds=None)) == (3, None)
     with pytest.raises(ValueError, match="--budget"):
-        parse_budget("lots")
-    assert parse_config(["a=1", "b=x", "c=[1,2]"], preset="cpu-demo") == {
+        cli.parse_budget_text("lots")
+    assert cli.parse_config(["a=1", "b=x", "c=[1,2]"], preset="cpu-demo") == {
         "a": 1, "b": "x", "c": [1, 2], "preset": "cpu-demo"}
     with pytest.raises(ValueError, match="KEY=VALUE"):
-        parse_config(["novalue"])
+        cli.parse_config(["novalue"])
 
 
 def test_sentence_seeds_distinct():
@@ -284,7 +284,6 @@ class _Slow(Method):
 
 def test_runner_enforces_generate_time_limit_and_training_budget(dataset, tmp_path, monkeypatch):
     from benchmark.protocol import training
-    from benchmark.run import MethodTimeout
 
     register("test-slow")(_Slow)
     try:
@@ -486,8 +485,8 @@ class _Chatty(Method):
 def test_quiet_runs_silence_the_plugins_own_bars(progress, dataset, tmp_path, capsys):
     register("test-chatty")(_Chatty)
     try:
-        run_method("test-chatty", "unused", samples=1, results_dir=tmp_path / "results", evaluate=fake_evaluate,
-                   open_dataset=lambda root: dataset, progress=progress)
+        run(RunSpec("test-chatty", data_root="unused", samples=1, results_dir=tmp_path / "results", progress=progress),
+            evaluate=fake_evaluate, open_dataset=lambda root: dataset)
     finally:
         unregister("test-chatty")
     err = capsys.readouterr().err

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from benchmark.methods import Method, MethodOutputError, get_method
-from benchmark.run import generated_tracks
+from benchmark.protocol import generated_tracks
 from benchmark.testing import FakeBlendVOCA, MethodCheckError, check_method
 
 

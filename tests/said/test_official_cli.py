@@ -82,7 +82,7 @@ def test_benchmark_loads_official_weights_from_a_file(weights):
     from baselines.said.plugin import SAiDMethod
     from benchmark.methods.base import Budget
     from benchmark.methods.contract import Utterance
-    from benchmark.run import prepared_method
+    from benchmark.protocol import prepared_method
 
     method, timings = prepared_method("said", {"official_steps": 3}, None, seed=0, budget=Budget(), checkpoint=weights)
     assert isinstance(method, SAiDMethod) and timings["train_s"] is None and method.said.sampling["num_steps"] == 3

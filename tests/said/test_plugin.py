@@ -60,7 +60,7 @@ def test_a_step_budget_trains_the_same_weights_whatever_the_global_rng():
 def test_plugin_batches_sentences_through_the_runner():
     from baselines.said.plugin import SAiDMethod
     from benchmark.methods.base import Budget
-    from benchmark.run import generated_tracks
+    from benchmark.protocol import generated_tracks
 
     method = SAiDMethod(**TINY)
     method.train(small_dataset(), seed=0, budget=Budget(max_steps=2))
@@ -86,7 +86,7 @@ def test_a_trained_checkpoint_samples_with_other_sampling_options(tmp_path):
     from baselines.said.plugin import SAiDMethod
     from benchmark.methods import Utterance
     from benchmark.methods.base import Budget
-    from benchmark.run import prepared_method
+    from benchmark.protocol import prepared_method
 
     method = SAiDMethod(**TINY)
     method.train(small_dataset(), seed=0, budget=Budget(max_steps=2))
