@@ -165,12 +165,9 @@ def add_results_option(p: argparse.ArgumentParser, *, required: bool = False,
     shared_options(p).add_argument("--results", required=required, default=default, metavar="DIR", help=help)
 
 
-def add_budget_options(p: argparse.ArgumentParser, *, default_steps: int | None = None,
-                       aliases: tuple[str, ...] = ()) -> None:
+def add_budget_options(p: argparse.ArgumentParser, *, default_steps: int | None = None) -> None:
     """``--budget``, ``--max-steps`` and ``--max-seconds``: one training budget spelling.
-
-    ``aliases`` are older spellings of ``--max-steps`` a tool keeps (e.g. ``--steps``);
-    they are accepted but not listed. Read the result with :func:`budget_limits`.
+    Read the result with :func:`budget_limits`.
     """
     group = shared_options(p)
     group.add_argument("--budget", default=None, metavar="BUDGET",
@@ -179,8 +176,6 @@ def add_budget_options(p: argparse.ArgumentParser, *, default_steps: int | None 
     steps_help = "training steps at most" + ("" if default_steps is None else f" (default {default_steps})")
     group.add_argument("--max-steps", type=int, default=None, metavar="N", help=steps_help)
     p.set_defaults(default_max_steps=default_steps)  # applied by budget_limits when nothing sets the steps
-    for alias in aliases:
-        group.add_argument(alias, type=int, dest="max_steps", help=argparse.SUPPRESS)
     group.add_argument("--max-seconds", type=float, default=None, metavar="S", help="training seconds at most")
 
 

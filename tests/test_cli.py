@@ -348,13 +348,13 @@ def test_a_budget_that_is_not_positive_is_a_user_error(argv):
         cli.budget_limits(_parse(argv))
 
 
-def test_budget_aliases_are_accepted_and_not_listed():
-    args = _parse(["--steps", "12"], default_steps=300, aliases=("--steps",))
-    assert cli.budget_limits(args) == (12, None)
-    p = cli.parser("tool")
-    cli.add_budget_options(p, default_steps=300, aliases=("--steps",))
-    text = p.format_help()
-    assert "--steps" not in text.replace("--max-steps", "") and "(default 300)" in text
+def test_the_old_steps_spelling_is_gone(capsys):
+    # --max-steps is the one spelling: the hidden --steps alias was retired
+    with pytest.raises(SystemExit) as info:
+        _parse(["--steps", "12"], default_steps=300)
+    assert info.value.code == 2 and "--steps" in capsys.readouterr().err
+    with pytest.raises(TypeError, match="aliases"):
+        _parse([], default_steps=300, aliases=("--steps",))
 
 
 def test_budget_text_wins_over_the_default_step_count():

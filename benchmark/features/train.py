@@ -10,9 +10,8 @@ of each cycle); AdamW, constant learning rate after a linear warm-up over the fi
 the weights (decay 0.99, ramped up as ``(1 + step) / (10 + step)`` early on) that
 is what gets saved.
 
-``python -m benchmark.features.train --data DIR --out vae.pth [--max-steps N]`` (``--steps N``
-is the older spelling of ``--max-steps``; ``--max-seconds S`` stops earlier, keeping the
-schedules of the step count).
+``python -m benchmark.features.train --data DIR --out vae.pth [--max-steps N]``
+(``--max-seconds S`` stops earlier, keeping the schedules of the step count).
 """
 
 from __future__ import annotations
@@ -189,7 +188,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--coeffs-std", default=None, help="coeffs_std.csv (default: the asset coeffs-std)")
     cli.add_data_option(parser, required=True, help="BlendVOCA build (or SAiD-layout folder)")
-    cli.add_budget_options(parser, default_steps=DEFAULT_STEPS, aliases=("--steps",))
+    cli.add_budget_options(parser, default_steps=DEFAULT_STEPS)
     args = parser.parse_args(argv)
     steps, seconds = cli.budget_limits(args)
     steps = DEFAULT_STEPS if steps is None else steps

@@ -95,14 +95,13 @@ def test_training_cli(fake_dataset_dir, tmp_path, assets_dir, monkeypatch, one_t
 
     monkeypatch.setenv("BLENDVOCA_ASSETS", str(assets_dir))
     out = tmp_path / "vae.pth"
-    main(["--data", str(fake_dataset_dir), "--out", str(out), "--steps", "3", "--batch-size", "2"])
+    main(["--data", str(fake_dataset_dir), "--out", str(out), "--max-steps", "3", "--batch-size", "2"])
     model = load_published_vae(out)
     assert model.encode(torch.zeros(1, 120, 32)).shape == (1, 64)
 
 
 @pytest.mark.parametrize("argv, steps, seconds", [
     ([], 300, None),
-    (["--steps", "7"], 7, None),
     (["--max-steps", "7"], 7, None),
     (["--budget", "12"], 12, None),
     (["--budget", "5m"], 300, 300.0),
