@@ -103,4 +103,4 @@ def resolve_config(preset: str = DEFAULT_PRESET, **overrides) -> dict:
     -------
     dict ``{"preset", "model", "loss", "training"}``
     """
-    return resolved_preset(PRESETS, preset, overrides, method="CDFace")
+    return {**resolved_preset(PRESETS, preset, overrides, method="CDFace"), "preset": preset}

@@ -12,7 +12,7 @@ from pathlib import Path
 
 from baselines.codetalker.model import CodeTalker
 from baselines.codetalker.official import load_official
-from baselines.codetalker.presets import resolve_config
+from baselines.codetalker.presets import PREFIXES, PRESETS, resolve_config
 from baselines.codetalker.train import split_budget, train_stage1, train_stage2
 from baselines.common.chunking import ChunkedDecoder
 from baselines.common.device import checked_precision, method_device, precision_config
@@ -53,9 +53,8 @@ class CodeTalkerMethod(ChunkedDecoder, StyleVertexMethod):
         """The constructor's keys plus every flat key of the presets, typed from their values."""
         from baselines.common.chunking import chunk_options
         from baselines.common.device import precision_option
-        from baselines.codetalker.presets import PRESETS
 
-        return super().config_schema().with_presets(PRESETS, default="cpu-demo", prefixes={"stage1": "vq_"},
+        return super().config_schema().with_presets(PRESETS, default="cpu-demo", prefixes=PREFIXES,
                                                     extra=(precision_option(), *chunk_options()))
 
     def __init__(self, preset: str = "cpu-demo", official: str | os.PathLike | None = None,

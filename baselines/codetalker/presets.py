@@ -13,12 +13,13 @@ directory) and wants a GPU.
 
 from __future__ import annotations
 
-import copy
-
-from blendvoca.errors import UserError
 from baselines.common.chunking import chunk_section
+from baselines.common.presets import resolved_preset
 
-__all__ = ["PRESETS", "resolve_config"]
+__all__ = ["PREFIXES", "PRESETS", "resolve_config"]
+
+#: The flat-key prefix of a section's keys: ``vq_hidden_size`` sets ``stage1.hidden_size``.
+PREFIXES = {"stage1": "vq_"}
 
 PRESETS = {
     "cpu-demo": {
@@ -49,23 +50,6 @@ PRESETS = {
 
 
 def resolve_config(preset: str, **overrides) -> dict:
-    """The nested config of ``preset`` with flat overrides (``vq_<key>`` for the VQ-VAE's keys)."""
-    if preset not in PRESETS:
-        raise UserError(f"unknown preset {preset!r}; expected one of {sorted(PRESETS)}")
-    cfg = copy.deepcopy(PRESETS[preset])
-    for key, value in overrides.items():
-        if key.startswith("vq_") and key[3:] in cfg["stage1"]:
-            cfg["stage1"][key[3:]] = value
-        elif key in cfg["model"]:
-            cfg["model"][key] = value
-        elif key in cfg["training"]:
-            cfg["training"][key] = value
-        elif key in cfg.get("inference", {}):
-            cfg["inference"][key] = value
-        elif key in cfg:
-            cfg[key] = value
-        else:
-            known = sorted({*cfg["model"], *cfg["training"], *cfg["inference"], *(f"vq_{k}" for k in cfg["stage1"]),
-                            "wav2vec2_path"})
-            raise UserError(f"unknown config key {key!r}; expected one of {known}")
-    return cfg
+    """The nested config of ``preset`` with flat overrides (``vq_<key>`` for the VQ-VAE's keys;
+    :func:`baselines.common.presets.resolved_preset`)."""
+    return resolved_preset(PRESETS, preset, overrides, method="CodeTalker", prefixes=PREFIXES)

@@ -2,7 +2,8 @@
 
 A preset is a named config of sections (``model``, ``training``, ...) of keys; a
 method is built from a preset and *flat* overrides (``channels=128``) that land in
-whichever section holds the key. A mistake in a preset name or a key is a
+whichever section holds the key (:func:`benchmark.methods.config.preset_keys`, the
+rule the config schemas describe too). A mistake in a preset name or a key is a
 :class:`~blendvoca.errors.UserError` that lists the close matches.
 """
 
@@ -12,6 +13,7 @@ import copy
 import difflib
 import os
 
+from benchmark.methods.config import preset_keys
 from blendvoca.errors import UserError
 
 __all__ = ["expand_path", "resolved_preset"]
@@ -25,14 +27,18 @@ def expand_path(value: str) -> str:
     return os.path.expanduser(value)
 
 
-def resolved_preset(presets: dict, preset: str, overrides: dict, *, method: str) -> dict:
-    """``presets[preset]`` (sections of keys) deep-copied with flat ``overrides`` applied
-    and ``"preset"`` set: the rule SAiD's and CDFace's configs share.
+def resolved_preset(presets: dict, preset: str, overrides: dict, *, method: str,
+                    prefixes: dict | None = None) -> dict:
+    """``presets[preset]`` deep-copied with flat ``overrides`` applied: the one rule every
+    preset-based baseline resolves its config with.
 
-    ``encoder`` may be a spec dict or a kind string, ``wav2vec2_path`` sets the wav2vec2
-    directory (required, and ``${VAR:-default}`` / ``~`` expanded, for that encoder); an
-    unknown preset or key is a :class:`~blendvoca.errors.UserError` naming ``method``
-    and the close matches.
+    Each flat key lands where :func:`benchmark.methods.config.preset_keys` says (a
+    section's key, with the section's prefix from ``prefixes``, or a top-level value).
+    A preset whose ``model`` section has an ``encoder`` (SAiD, CDFace) also takes
+    ``encoder`` as a kind string and ``wav2vec2_path`` as the wav2vec2 directory
+    (required, and ``${VAR:-default}`` / ``~`` expanded, for that encoder). An unknown
+    preset or key is a :class:`~blendvoca.errors.UserError` naming ``method`` and the
+    close matches.
     """
     if preset not in presets:
         close = difflib.get_close_matches(str(preset), presets, n=3)
@@ -40,24 +46,27 @@ def resolved_preset(presets: dict, preset: str, overrides: dict, *, method: str)
                         + (f" (did you mean {close}?)" if close else ""))
     config = copy.deepcopy(presets[preset])
     overrides = dict(overrides)
-    path = overrides.pop("wav2vec2_path", None)
-    if isinstance(overrides.get("encoder"), str):
-        kind = overrides["encoder"]
-        overrides["encoder"] = {"kind": kind, "path": path} if kind == "wav2vec2" else {"kind": kind}
-    elif path is not None:
-        overrides.setdefault("encoder", {"kind": "wav2vec2", "path": path})
-    sections = {key: section for section, values in config.items() for key in values}
-    for key, value in overrides.items():
-        if key not in sections:
-            close = difflib.get_close_matches(key, sections, n=3)
-            raise UserError(f"{method} config: unknown key {key!r}"
-                            + (f" (did you mean {close}?)" if close else f"; known keys: {sorted(sections)}"))
-        config[sections[key]][key] = copy.deepcopy(value)
-    encoder = config["model"]["encoder"]
-    if encoder.get("kind") == "wav2vec2":
-        if not encoder.get("path"):
-            raise UserError(f"{method} config: the wav2vec2 encoder needs a local directory "
-                            "(wav2vec2_path=... or BLENDVOCA_WAV2VEC2)")
-        encoder["path"] = expand_path(str(encoder["path"]))
-    config["preset"] = preset
+    has_encoder = "encoder" in config.get("model", {})
+    if has_encoder:
+        path = overrides.pop("wav2vec2_path", None)
+        if isinstance(overrides.get("encoder"), str):
+            kind = overrides["encoder"]
+            overrides["encoder"] = {"kind": kind, "path": path} if kind == "wav2vec2" else {"kind": kind}
+        elif path is not None:
+            overrides.setdefault("encoder", {"kind": "wav2vec2", "path": path})
+    keys = preset_keys(config, prefixes)
+    for flat, value in overrides.items():
+        if flat not in keys:
+            close = difflib.get_close_matches(flat, keys, n=3)
+            raise UserError(f"{method} config: unknown key {flat!r}"
+                            + (f" (did you mean {close}?)" if close else f"; known keys: {sorted(keys)}"))
+        section, key = keys[flat]
+        (config if section is None else config[section])[key] = copy.deepcopy(value)
+    if has_encoder:
+        encoder = config["model"]["encoder"]
+        if encoder.get("kind") == "wav2vec2":
+            if not encoder.get("path"):
+                raise UserError(f"{method} config: the wav2vec2 encoder needs a local directory "
+                                "(wav2vec2_path=... or BLENDVOCA_WAV2VEC2)")
+            encoder["path"] = expand_path(str(encoder["path"]))
     return config

@@ -8,10 +8,8 @@ local ``from_pretrained`` directory, Adam 1e-4, batch 1, 100 epochs) and wants a
 
 from __future__ import annotations
 
-import copy
-
-from blendvoca.errors import UserError
 from baselines.common.chunking import chunk_section
+from baselines.common.presets import resolved_preset
 
 __all__ = ["PRESETS", "resolve_config"]
 
@@ -34,22 +32,8 @@ PRESETS = {
     },
 }
 
-_MODEL_KEYS = ("feature_dim", "period", "n_head", "num_layers", "dropout", "audio")
+
 def resolve_config(preset: str, presets: dict = PRESETS, **overrides) -> dict:
-    """The nested config of ``preset`` with flat ``overrides`` (model, training or top-level keys)."""
-    if preset not in presets:
-        raise UserError(f"unknown preset {preset!r}; expected one of {sorted(presets)}")
-    cfg = copy.deepcopy(presets[preset])
-    for key, value in overrides.items():
-        if key in cfg.get("model", {}) or key in _MODEL_KEYS and "model" in cfg:
-            cfg["model"][key] = value
-        elif key in cfg.get("training", {}):
-            cfg["training"][key] = value
-        elif key in cfg.get("inference", {}):
-            cfg["inference"][key] = value
-        elif key in cfg:
-            cfg[key] = value
-        else:
-            known = sorted(set(cfg) | set(cfg.get("model", {})) | set(cfg.get("training", {})) | set(cfg.get("inference", {})))
-            raise UserError(f"unknown config key {key!r}; expected one of {known}")
-    return cfg
+    """The nested config of ``preset`` with flat ``overrides`` (model, training, inference or
+    top-level keys; :func:`baselines.common.presets.resolved_preset`)."""
+    return resolved_preset(presets, preset, overrides, method="FaceFormer")

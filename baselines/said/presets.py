@@ -116,4 +116,4 @@ def resolve_config(preset: str = DEFAULT_PRESET, **overrides) -> dict[str, dict]
     config : dict
         ``{"preset", "model", "diffusion", "sampling", "training"}``.
     """
-    return resolved_preset(PRESETS, preset, overrides, method="SAiD")
+    return {**resolved_preset(PRESETS, preset, overrides, method="SAiD"), "preset": preset}

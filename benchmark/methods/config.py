@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 
 from blendvoca.errors import UserError
 
-__all__ = ["ConfigSchema", "Option", "parse_value", "type_name"]
+__all__ = ["ConfigSchema", "Option", "parse_value", "preset_keys", "type_name"]
 
 #: Types an option may declare; ``object`` accepts any JSON value.
 _TYPE_NAMES = {bool: "bool", int: "int", float: "float", str: "str", list: "list", dict: "dict",
@@ -34,6 +34,29 @@ _TYPE_NAMES = {bool: "bool", int: "int", float: "float", str: "str", list: "list
 _BY_NAME = {name: tp for tp, name in _TYPE_NAMES.items()}
 _BY_NAME.update({"None": type(None), "tuple": list, "Any": object, "Path": str, "os.PathLike": str,
                  "PathLike": str})
+
+
+def preset_keys(preset: dict, prefixes: dict | None = None) -> dict[str, tuple[str | None, str]]:
+    """Where each flat config key of a preset lands: the one rule of preset overrides.
+
+    A preset (``baselines/*/presets.py``) is ``{section: {key: value}}`` beside
+    top-level values (``wav2vec2_path``). A section's key is set by its flat name, with
+    the section's prefix from ``prefixes`` (CodeTalker's ``{"stage1": "vq_"}``); a
+    top-level value by its own name.
+
+    Returns
+    -------
+    dict
+        ``{flat_key: (section, key)}``, ``section`` None for a top-level value.
+    """
+    prefixes = prefixes or {}
+    keys: dict[str, tuple[str | None, str]] = {}
+    for section, values in preset.items():
+        if isinstance(values, dict):
+            keys.update({prefixes.get(section, "") + key: (section, key) for key in values})
+        else:
+            keys[section] = (None, section)
+    return keys
 
 
 def type_name(types_: tuple) -> str:
@@ -206,16 +229,11 @@ class ConfigSchema:
         (e.g. ``wav2vec2_path``); ``prefixes`` maps a section to the prefix its flat
         keys take (CodeTalker's ``{"stage1": "vq_"}``).
         """
-        prefixes = prefixes or {}
         found: dict[str, dict] = {}
         for name, sections in presets.items():
-            for section, values in sections.items():
-                entries = values.items() if isinstance(values, dict) else [(section, values)]
-                for key, value in entries:
-                    key = prefixes.get(section, "") + key if isinstance(values, dict) else key
-                    slot = found.setdefault(key, {"section": section if isinstance(values, dict) else None,
-                                                  "values": {}})
-                    slot["values"][name] = value
+            for key, (section, inner) in preset_keys(sections, prefixes).items():
+                slot = found.setdefault(key, {"section": section, "values": {}})
+                slot["values"][name] = sections[section][inner] if section is not None else sections[inner]
         options = []
         for key, slot in found.items():
             if key in self.options:

@@ -136,7 +136,7 @@ def test_paper_schedule_is_epochs_when_no_budget_is_given():
     assert math.isinf(steps) and math.isinf(seconds)
     assert epochs_to_steps(t, 320, steps, seconds) == 100 * 320
     assert training_limits(Budget(max_steps=7), t["max_steps"], t["max_seconds"]) == (7, math.inf)
-    with pytest.raises(ValueError, match="unknown config key"):
+    with pytest.raises(ValueError, match="CodeTalker config: unknown key 'widht'"):
         resolve_config("paper", widht=3)
 
 
