@@ -10,7 +10,7 @@ with the close matches and the known names::
 
     FORMATS = Registry("export format", {"glb": "blendvoca.export.glb:Glb"})
     FORMATS.get("glb")    # the class, imported now
-    FORMATS.get("gbl")    # UserError: unknown export format 'gbl'; did you mean 'glb'? known: glb
+    FORMATS.get("gbl")    # UserError: unknown export format 'gbl' (did you mean 'glb'?); known: glb
 """
 
 from __future__ import annotations
@@ -165,7 +165,7 @@ class Registry:
         names, after ``where`` (default the registry's ``where``)."""
         known = self.names()
         close = difflib.get_close_matches(str(name), known, n=3)
-        hint = f"; did you mean {', '.join(repr(c) for c in close)}?" if close else ""
+        hint = f" (did you mean {', '.join(repr(c) for c in close)}?)" if close else ""
         where = where or self.where
         prefix = f"{where}: " if where else ""
         return self.error(f"{prefix}unknown {self.kind} {name!r}{hint}; known: {', '.join(sorted(known)) or 'none'}")
