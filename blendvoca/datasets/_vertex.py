@@ -17,11 +17,13 @@ frames in metres, audio, splits, faces). What differs is declared on the reader:
 
 from __future__ import annotations
 
+import functools
 import os
 from pathlib import Path
 
 import numpy as np
 
+from blendvoca.datasets import DatasetAdapter
 from blendvoca.errors import DataError, UserError
 from blendvoca.vocaset.base import VocasetCorpus
 from blendvoca.vocaset.checks import FLAME_RMS_RADIUS, rms_radius
@@ -209,3 +211,9 @@ def build_vertex_corpus(reader: str, root, out, *, workers: int | None = None, s
     open_corpus(root, reader)
     return build_dataset(out, root, workers=workers, shapes=shapes, delta=delta, report=report, progress=progress,
                          reader=reader, pose_fit=pose_fit)
+
+
+def vertex_adapter(reader: str) -> DatasetAdapter:
+    """The adapter of the vertex corpus ``reader`` opens (``"module:open_function"``):
+    :func:`build_vertex_corpus` with that reader, declaring ``pose_fit``."""
+    return DatasetAdapter(functools.partial(build_vertex_corpus, reader), options=("pose_fit",))

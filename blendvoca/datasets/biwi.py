@@ -27,13 +27,12 @@ from pathlib import Path
 
 import numpy as np
 
-from blendvoca.datasets import DatasetAdapter
 from blendvoca.errors import DataError
 from blendvoca.vocaset.errors import check_safe_name
 from blendvoca.vocaset.processed import UnsafePickleError, load_data_pickle, open_rows
 from blendvoca.vocaset.splits import proportional_split
 
-from ._vertex import LayoutError, VertexCorpus, build_vertex_corpus, sentence_numbers
+from ._vertex import LayoutError, VertexCorpus, sentence_numbers, vertex_adapter
 
 NUM_VERTICES = 23370
 FPS = 25
@@ -185,13 +184,5 @@ def open_biwi(root, **kwargs) -> BiwiCorpus:
     return BiwiCorpus(root, **kwargs)
 
 
-def build(root, out, *, workers: int | None = None, shapes: str = "speech", delta: float = 0.1,
-          report: bool = True, progress: bool = True, pose_fit: str = "joint"):
-    """Build BlendVOCA from the BIWI corpus at ``root`` into ``out`` (``--dataset biwi``):
-    :func:`~blendvoca.datasets._vertex.build_vertex_corpus` with this reader."""
-    return build_vertex_corpus("blendvoca.datasets.biwi:open_biwi", root, out, workers=workers, shapes=shapes,
-                               delta=delta, report=report, progress=progress, pose_fit=pose_fit)
-
-
-#: The ``--dataset biwi`` adapter (:data:`blendvoca.datasets.DATASETS`).
-ADAPTER = DatasetAdapter(build, options=("pose_fit",))
+#: The ``--dataset biwi`` adapter (:data:`blendvoca.datasets.DATASETS`): the vertex-corpus build with this reader.
+ADAPTER = vertex_adapter("blendvoca.datasets.biwi:open_biwi")

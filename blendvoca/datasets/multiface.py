@@ -30,13 +30,12 @@ from pathlib import Path
 
 import numpy as np
 
-from blendvoca.datasets import DatasetAdapter
 from blendvoca.errors import DataError
 from blendvoca.vocaset.checks import frame_gaps
 from blendvoca.vocaset.errors import Problem, check_safe_name
 from blendvoca.vocaset.splits import proportional_split
 
-from ._vertex import LayoutError, VertexCorpus, build_vertex_corpus, sentence_numbers
+from ._vertex import LayoutError, VertexCorpus, sentence_numbers, vertex_adapter
 
 NUM_VERTICES = 6172
 #: Vertices of Multiface's own (unconverted) tracked meshes.
@@ -197,13 +196,5 @@ def open_multiface(root, **kwargs) -> MultifaceCorpus:
     return MultifaceCorpus(root, **kwargs)
 
 
-def build(root, out, *, workers: int | None = None, shapes: str = "speech", delta: float = 0.1,
-          report: bool = True, progress: bool = True, pose_fit: str = "joint"):
-    """Build BlendVOCA from the Multiface corpus at ``root`` into ``out`` (``--dataset multiface``):
-    :func:`~blendvoca.datasets._vertex.build_vertex_corpus` with this reader."""
-    return build_vertex_corpus("blendvoca.datasets.multiface:open_multiface", root, out, workers=workers, shapes=shapes,
-                               delta=delta, report=report, progress=progress, pose_fit=pose_fit)
-
-
-#: The ``--dataset multiface`` adapter (:data:`blendvoca.datasets.DATASETS`).
-ADAPTER = DatasetAdapter(build, options=("pose_fit",))
+#: The ``--dataset multiface`` adapter (:data:`blendvoca.datasets.DATASETS`): the vertex-corpus build with this reader.
+ADAPTER = vertex_adapter("blendvoca.datasets.multiface:open_multiface")
