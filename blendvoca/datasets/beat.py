@@ -20,9 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from blendvoca.builder.pipeline import BuildSummary
-from blendvoca.datasets import DatasetAdapter
-from blendvoca.datasets.coefficients import DatasetLayoutError, Take, build_coefficient_dataset, frame_rate, safe_name
+from blendvoca.datasets.coefficients import DatasetLayoutError, Take, coefficient_adapter, frame_rate, safe_name
 from blendvoca.errors import DataError
 from blendvoca.io.json_file import read_json
 
@@ -100,16 +98,5 @@ def beat_takes(root) -> list[Take]:
     return takes
 
 
-def build(root, out, *, workers: int | None = None, shapes: str = "speech", delta: float = 0.1,
-          report: bool = True, progress: bool = True) -> BuildSummary:
-    """Build the BlendVOCA folder of the BEAT corpus at ``root`` into ``out``.
-
-    ``workers``, ``shapes`` and ``delta`` do not apply (nothing is fitted; every shape
-    of the corpus is kept). See :func:`blendvoca.datasets.coefficients.build_coefficient_dataset`.
-    """
-    return build_coefficient_dataset(out, root, beat_takes(root), dataset="beat", title="BEAT", convention="beat",
-                                     report=report, progress=progress)
-
-
 #: The ``--dataset beat`` adapter (:data:`blendvoca.datasets.DATASETS`).
-ADAPTER = DatasetAdapter(build)
+ADAPTER = coefficient_adapter(beat_takes, dataset="beat", title="BEAT", convention="beat")

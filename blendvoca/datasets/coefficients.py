@@ -31,6 +31,7 @@ from blendvoca import format as fmt
 from blendvoca.builder.outdir import build_lock, check_output_dir, claim_output_dir, unwritable
 from blendvoca.builder.pipeline import BuildInputError, BuildSummary
 from blendvoca.builder.report import coeffs_std
+from blendvoca.datasets import DatasetAdapter
 from blendvoca.errors import BlendVOCAError, DataError, UserError
 from blendvoca.fit.resample import resample_sequence
 from blendvoca.format.manifest import write_dataset_manifest
@@ -371,3 +372,16 @@ def build_coefficient_dataset(out, root, takes: Iterable[Take], *, dataset: str,
     summary.warnings[:0] = [{"subject": "", "sentence": None, "message": n} for n in notes]
     summary.seconds["total"] = time.perf_counter() - started
     return summary
+
+
+def coefficient_adapter(read_takes: Callable, *, dataset: str, title: str, convention: str) -> DatasetAdapter:
+    """The adapter of a coefficient corpus: ``read_takes(root)`` finds its takes, then
+    :func:`build_coefficient_dataset` writes them (``workers``, ``shapes`` and ``delta``
+    do not apply: nothing is fitted, every shape of the corpus is kept)."""
+
+    def build(root, out, *, workers: int | None = None, shapes: str = "speech", delta: float = 0.1,
+              report: bool = True, progress: bool = True) -> BuildSummary:
+        return build_coefficient_dataset(out, root, read_takes(root), dataset=dataset, title=title,
+                                         convention=convention, report=report, progress=progress)
+
+    return DatasetAdapter(build)

@@ -11,26 +11,15 @@ HDTF, and D4, 3D-ETF RAVDESS) in its own layout, which this adapter reads
 
 from __future__ import annotations
 
-from blendvoca.builder.pipeline import BuildSummary
-from blendvoca.datasets import DatasetAdapter
-from blendvoca.datasets.coefficients import build_coefficient_dataset
+import functools
+
+from blendvoca.datasets.coefficients import coefficient_adapter
 from blendvoca.datasets.unitalker import unitalker_layout_takes
 
 #: UniTalker's ``annot_type`` of its 3D-ETF corpora (D3, D4).
 ANNOT_TYPE = "3DETF_blendshape_weight"
 
 
-def build(root, out, *, workers: int | None = None, shapes: str = "speech", delta: float = 0.1,
-          report: bool = True, progress: bool = True) -> BuildSummary:
-    """Build the BlendVOCA folder of a 3D-ETF corpus (UniTalker's D3 or D4 folder) at ``root`` into ``out``.
-
-    ``workers``, ``shapes`` and ``delta`` do not apply (nothing is fitted; every shape
-    of the corpus is kept). See :func:`blendvoca.datasets.coefficients.build_coefficient_dataset`.
-    """
-    takes = unitalker_layout_takes(root, annot_type=ANNOT_TYPE, convention="etf52")
-    return build_coefficient_dataset(out, root, takes, dataset="3d-etf", title="3D-ETF", convention="etf52",
-                                     report=report, progress=progress)
-
-
-#: The ``--dataset 3d-etf`` adapter (:data:`blendvoca.datasets.DATASETS`).
-ADAPTER = DatasetAdapter(build)
+#: The ``--dataset 3d-etf`` adapter (:data:`blendvoca.datasets.DATASETS`): UniTalker's D3 or D4 folder.
+ADAPTER = coefficient_adapter(functools.partial(unitalker_layout_takes, annot_type=ANNOT_TYPE, convention="etf52"),
+                              dataset="3d-etf", title="3D-ETF", convention="etf52")

@@ -17,14 +17,13 @@ is ``id_list[id]``. The same layout carries 3D-ETF in UniTalker's release
 
 from __future__ import annotations
 
+import functools
 import os
 from pathlib import Path
 
 import numpy as np
 
-from blendvoca.builder.pipeline import BuildSummary
-from blendvoca.datasets import DatasetAdapter
-from blendvoca.datasets.coefficients import DatasetLayoutError, Take, build_coefficient_dataset, safe_name
+from blendvoca.datasets.coefficients import DatasetLayoutError, Take, coefficient_adapter, safe_name
 from blendvoca.errors import DataError
 from blendvoca.io.json_file import read_json
 from blendvoca.names import convention_names
@@ -124,17 +123,6 @@ def unitalker_layout_takes(root, *, annot_type: str, convention: str) -> list[Ta
     return takes
 
 
-def build(root, out, *, workers: int | None = None, shapes: str = "speech", delta: float = 0.1,
-          report: bool = True, progress: bool = True) -> BuildSummary:
-    """Build the BlendVOCA folder of UniTalker's D6 or D7 corpus at ``root`` into ``out``.
-
-    ``workers``, ``shapes`` and ``delta`` do not apply (nothing is fitted; every shape
-    of the corpus is kept). See :func:`blendvoca.datasets.coefficients.build_coefficient_dataset`.
-    """
-    takes = unitalker_layout_takes(root, annot_type=ANNOT_TYPE, convention="unitalker51")
-    return build_coefficient_dataset(out, root, takes, dataset="unitalker", title="UniTalker (D6/D7)",
-                                     convention="unitalker51", report=report, progress=progress)
-
-
-#: The ``--dataset unitalker`` adapter (:data:`blendvoca.datasets.DATASETS`).
-ADAPTER = DatasetAdapter(build)
+#: The ``--dataset unitalker`` adapter (:data:`blendvoca.datasets.DATASETS`): D6/D7.
+ADAPTER = coefficient_adapter(functools.partial(unitalker_layout_takes, annot_type=ANNOT_TYPE, convention="unitalker51"),
+                              dataset="unitalker", title="UniTalker (D6/D7)", convention="unitalker51")
