@@ -17,17 +17,22 @@ from blendvoca.errors import BlendVOCAError, DataError, UserError
 from blendvoca.io.json_file import json_kind, read_json
 
 
-def read_json_object(path, what: str) -> dict:
-    """The JSON object (a dict) of ``path``; ``what`` names the format for the error.
+def read_json_object(path, what: str, required: tuple[str, ...] = ()) -> dict:
+    """The JSON object (a dict) of ``path`` holding the ``required`` keys; ``what`` names
+    the format for the error.
 
     Raises
     ------
     DataError
-        As :func:`blendvoca.io.json_file.read_json`, or the document is not an object.
+        As :func:`blendvoca.io.json_file.read_json`, or the document is not an object,
+        or it lacks a required key (naming the first).
     """
     doc = read_json(path)
     if not isinstance(doc, dict):
         raise DataError(f"{path}: not {what}: the document is {json_kind(doc)}, expected an object")
+    for key in required:
+        if key not in doc:
+            raise DataError(f"{path}: not {what}: missing key {key!r}")
     return doc
 
 

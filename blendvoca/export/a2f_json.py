@@ -52,10 +52,8 @@ def read_a2f_json(path) -> tuple[np.ndarray, tuple[str, ...], float]:
         the wrong type, counts that disagree with the names and frames, or the frame
         whose vector has the wrong length or a value that is not a finite number.
     """
-    doc = read_json_object(path, "an Audio2Face blendshape JSON")
-    for key in ("exportFps", "numPoses", "numFrames", "facsNames", "weightMat"):
-        if key not in doc:
-            raise DataError(f"{path}: not an Audio2Face blendshape JSON: missing key {key!r}")
+    doc = read_json_object(path, "an Audio2Face blendshape JSON",
+                           ("exportFps", "numPoses", "numFrames", "facsNames", "weightMat"))
     names = string_list(doc, "facsNames", path)
     fps = positive_number(doc, "exportFps", path)
     poses, frames = count(doc, "numPoses", path), count(doc, "numFrames", path)

@@ -54,10 +54,7 @@ def read_arkit_json(path) -> tuple[np.ndarray, tuple[str, ...], float]:
         that is not a positive number, names that are not strings, or the frame whose
         vector has the wrong length or a value that is not a finite number.
     """
-    doc = read_json_object(path, "an ARKit blendshape JSON")
-    for key in ("frameRate", "blendShapeNames", "weights"):
-        if key not in doc:
-            raise DataError(f"{path}: not an ARKit blendshape JSON: missing key {key!r}")
+    doc = read_json_object(path, "an ARKit blendshape JSON", ("frameRate", "blendShapeNames", "weights"))
     names = string_list(doc, "blendShapeNames", path)
     return weight_matrix(doc, "weights", names, path), names, positive_number(doc, "frameRate", path)
 

@@ -13,6 +13,25 @@ from blendvoca.export.align import AlignedTrack
 
 
 @dataclass(frozen=True)
+class RigAnimation:
+    """A rig animated by a track, as the readers of the rigged formats recover it.
+
+    Attributes
+    ----------
+    neutral : (V, 3) float64, faces : (F, 3) int64, deltas : (K, V, 3) float64
+    names : tuple of K str
+    times : (T,) float64 seconds, weights : (T, K) float64
+    """
+
+    neutral: np.ndarray
+    faces: np.ndarray
+    deltas: np.ndarray
+    names: tuple[str, ...]
+    times: np.ndarray
+    weights: np.ndarray
+
+
+@dataclass(frozen=True)
 class ExportOptions:
     """What :func:`blendvoca.export.export_track` hands every format besides the track.
 

@@ -11,7 +11,6 @@ from __future__ import annotations
 import os
 import warnings
 from collections.abc import Sequence
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -19,30 +18,15 @@ import numpy as np
 from blendvoca.errors import DataError
 from blendvoca.export._support import foreign_parser, optional_module
 from blendvoca.export.align import AlignedTrack, align_track
-from blendvoca.export.base import ExportFormat, ExportOptions
+from blendvoca.export.base import ExportFormat, ExportOptions, RigAnimation
 from blendvoca.io.atomic import atomic_write
 
 _FLOAT, _UINT32 = 5126, 5125
 _ARRAY_BUFFER, _ELEMENT_ARRAY_BUFFER = 34962, 34963
 
 
-@dataclass(frozen=True)
-class GlbContents:
-    """What :func:`read_glb` recovers.
-
-    Attributes
-    ----------
-    neutral : (V, 3) float64, faces : (F, 3) int64, deltas : (K, V, 3) float64
-    names : tuple of K str (``extras.targetNames``)
-    times : (T,) float64 seconds, weights : (T, K) float64
-    """
-
-    neutral: np.ndarray
-    faces: np.ndarray
-    deltas: np.ndarray
-    names: tuple[str, ...]
-    times: np.ndarray
-    weights: np.ndarray
+#: What :func:`read_glb` recovers (the names from ``extras.targetNames``).
+GlbContents = RigAnimation
 
 
 def glb_bytes(rig, coeffs, names: Sequence[str], fps: float = 60.0) -> tuple[bytes, AlignedTrack]:

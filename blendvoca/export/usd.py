@@ -23,22 +23,16 @@ import numpy as np
 from blendvoca.errors import DataError, UserError
 from blendvoca.export._support import foreign_parser, optional_module
 from blendvoca.export.align import AlignedTrack, align_track
-from blendvoca.export.base import ExportFormat, ExportOptions
+from blendvoca.export.base import ExportFormat, ExportOptions, RigAnimation
 from blendvoca.io.atomic import permissions_for
 
 SUFFIXES = (".usda", ".usdc", ".usd")
 
 
 @dataclass(frozen=True)
-class UsdContents:
-    """What :func:`read_usd` recovers (same fields as the GLB reader's)."""
+class UsdContents(RigAnimation):
+    """What :func:`read_usd` recovers: the GLB reader's fields, the frame rate and the audio."""
 
-    neutral: np.ndarray
-    faces: np.ndarray
-    deltas: np.ndarray
-    names: tuple[str, ...]
-    times: np.ndarray
-    weights: np.ndarray
     fps: float
     audio: str | None
 
