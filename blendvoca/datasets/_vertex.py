@@ -122,7 +122,16 @@ class VertexCorpus(VocasetCorpus):
         """The sentence in the corpus's own unit and rate, ``(T, V, 3)``."""
         raise NotImplementedError
 
+    def _wav(self, subject: str, sentence: str) -> Path:
+        """The sentence's WAV file."""
+        raise NotImplementedError
+
     # -- the shared interface -------------------------------------------------
+    def audio(self, subject: str, sentence: str) -> tuple[np.ndarray, int]:
+        """Speech of one sentence at its native rate: ``(samples (N,) float32 mono, rate)``."""
+        self._check_subject(subject)
+        return self._wav_audio(subject, sentence, self._wav(subject, sentence))
+
     @property
     def scale(self) -> float:
         """Metres per corpus unit (``units``, or guessed from the first readable template)."""

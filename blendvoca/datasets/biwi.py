@@ -145,11 +145,6 @@ class BiwiCorpus(VertexCorpus):
             self._fail("missing_frame", subject, sentence, f"{path}: no frames")
         return np.asarray(rows, dtype=np.float64)
 
-    def audio(self, subject: str, sentence: str) -> tuple[np.ndarray, int]:
-        """Speech of one sentence at its native rate: ``(samples (N,) float32 mono, rate)``."""
-        self._check_subject(subject)
-        return self._wav_audio(subject, sentence, self._wav(subject, sentence))
-
     @property
     def faces(self) -> np.ndarray:
         """Triangles ``(F, 3)`` of the BIWI topology: ``BIWI.ply``, else the first ``rigid_scans/*.obj``."""

@@ -166,11 +166,6 @@ class MultifaceCorpus(VertexCorpus):
             frames.append(self._checked_vertices(subject, sentence, path, vertices, frame=t))
         return np.stack(frames)
 
-    def audio(self, subject: str, sentence: str) -> tuple[np.ndarray, int]:
-        """Speech of one sentence at its native rate: ``(samples (N,) float32 mono, rate)``."""
-        self._check_subject(subject)
-        return self._wav_audio(subject, sentence, self._wav(subject, sentence))
-
     @property
     def faces(self) -> np.ndarray:
         """Triangles ``(F, 3)`` of MeshTalk's topology, from ``face_template.obj``."""
