@@ -19,7 +19,7 @@ import difflib
 import importlib
 import importlib.metadata
 import re
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Mapping
 
 from blendvoca.errors import UserError
 
@@ -153,12 +153,6 @@ class Registry:
 
     def __contains__(self, name) -> bool:
         return name in self.entries()
-
-    def __iter__(self) -> Iterator[str]:
-        return iter(self.names())
-
-    def __len__(self) -> int:
-        return len(self.entries())
 
     def unknown(self, name, *, where: str | None = None) -> UserError:
         """The error for a name this registry does not know: close matches and the known

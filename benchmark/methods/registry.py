@@ -103,7 +103,7 @@ def register(name: str):
 def register_lazy(name: str, target: str) -> None:
     """Register ``"package.module:Class"`` under ``name``; imported on first lookup."""
     _check_name(name)
-    if not isinstance(target, str) or target.count(":") != 1 or not all(target.split(":")):
+    if not is_target(target):
         raise ValueError(f"register_lazy({name!r}): expected 'package.module:Class', got {target!r}")
     METHODS.add(name, target)
 
