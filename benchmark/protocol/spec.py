@@ -9,9 +9,11 @@ import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from benchmark.data import open_blendvoca
 from benchmark.methods import OUTPUT_COEFFICIENTS, OUTPUT_VERTICES, Budget, Method, MethodError, get_method
 from benchmark.protocol.limits import GenerateLimit
 from benchmark.protocol.training import make_method
+from blendvoca.assets import find_local
 from blendvoca.errors import DataError, UserError
 from blendvoca.format import manifest_path
 
@@ -265,8 +267,6 @@ def check_results_dir(path) -> Path:
 
 
 def _open_default(root, vocaset=None):
-    from benchmark.data import open_blendvoca
-
     return open_blendvoca(root, vocaset=vocaset)
 
 
@@ -284,8 +284,6 @@ def open_data(root, *, vocaset=None, open_dataset=None):
 
 def _check_evaluation_assets(syncnet, sync_expert) -> None:
     """UsageError unless the VAE (and the given SyncNet / expert files) are in place."""
-    from blendvoca.assets import find_local
-
     if find_local("said-vae") is None:
         raise UsageError("the evaluation needs the VAE feature extractor (asset 'said-vae'); "
                          "run `python -m blendvoca.assets fetch said-vae` or set BLENDVOCA_ASSETS")
