@@ -61,17 +61,17 @@ def test_rescoring_a_build_edited_since_is_refused_unless_no_verify(built_datase
     # a speaker the run did not score is not read, so not checked
     other = fmt.read_splits(build)["val"][0]
     fmt.audio_path(build, other, "sentence01").write_bytes(b"edited")
-    assert rescore_main([str(run), "--sync-expert", str(expert_path), "--quiet"]) == 0, capsys.readouterr().err
+    assert rescore_main([str(path), "--sync-expert", str(expert_path), "--quiet"]) == 0, capsys.readouterr().err
     capsys.readouterr()
-    before = run.read_bytes()
+    before = path.read_bytes()
     subject, sentence = next((row["subject"], row["sentence"]) for row in json.loads(before)["per_sentence"])
     audio = fmt.audio_path(build, subject, sentence)
     data = bytearray(audio.read_bytes())
     data[-1] ^= 1
     audio.write_bytes(bytes(data))
-    assert rescore_main([str(run), "--sync-expert", str(expert_path), "--quiet"]) == 4
+    assert rescore_main([str(path), "--sync-expert", str(expert_path), "--quiet"]) == 4
     assert_one_error_line(capsys.readouterr().err, str(audio), "manifest.json", "--no-verify")
-    assert run.read_bytes() == before  # nothing rewritten
-    assert rescore_main([str(run), "--sync-expert", str(expert_path), "--quiet", "--no-verify"]) == 0
-    rescored = json.loads(run.read_text())
+    assert path.read_bytes() == before  # nothing rewritten
+    assert rescore_main([str(path), "--sync-expert", str(expert_path), "--quiet", "--no-verify"]) == 0
+    rescored = json.loads(path.read_text())
     assert rescored["protocol"]["verified"] is False and "av_confidence_expert" in rescored["metrics"]
