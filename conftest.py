@@ -8,10 +8,10 @@ import pytest  # noqa: E402
 @pytest.fixture(scope="session", autouse=True)
 def _wind_fits_in_a_session_folder(tmp_path_factory):
     """The tests' ground-truth WInD fits go to a session folder, not the user's cache."""
-    import benchmark.evaluate as evaluate
+    from benchmark.evaluation import latent
 
     folder = tmp_path_factory.mktemp("wind-gmm")
-    default = evaluate._wind_cache_dir
+    default = latent.wind_cache_dir
     with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(evaluate, "_wind_cache_dir", lambda cache: folder if cache is True else default(cache))
+        patch.setattr(latent, "wind_cache_dir", lambda cache: folder if cache is True else default(cache))
         yield

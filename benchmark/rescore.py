@@ -5,7 +5,7 @@ A stored run (:mod:`benchmark.runs`) keeps every generated track, so the lip-syn
 scores of a learned sync expert or of SyncNet can be added later without running
 the method again: the tracks are read back, scored exactly as ``benchmark.run``
 scores them (:func:`benchmark.protocol.score_lipsync_models`, the lip-sync stage of
-:func:`benchmark.evaluate.evaluate_split`), and the result file is rewritten with
+:func:`benchmark.evaluation.evaluate_split`), and the result file is rewritten with
 those metrics, their per-sentence values and the models' provenance
 (``protocol.lipsync_models``). Other metrics are left as they are.
 
@@ -21,14 +21,18 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+from benchmark.metrics.registry import ordered_metrics
+from benchmark.protocol import lipsync_models_provenance, open_data, score_lipsync_models, write_run
+from benchmark.results import check
+from benchmark.runs import read_run
 from blendvoca import cli
 from blendvoca.errors import UserError
+from blendvoca.runtime.progress import set_progress
 
 __all__ = ["main", "rescored_result"]
 
 
-def rescored_result(json_path, *, syncnet=None, sync_expert=None, data=None, progress: bool = True,
-                    verify: bool = True) -> dict:
+def rescored_result(json_path, *, syncnet=None, sync_expert=None, data=None, verify: bool = True) -> dict:
     """The result of a stored run with the model-based lip-sync metrics (re)computed.
 
     Parameters
@@ -39,8 +43,6 @@ def rescored_result(json_path, *, syncnet=None, sync_expert=None, data=None, pro
         SyncNet weights (authors' format) and a learned sync expert; at least one.
     data : str or path-like, optional
         The BlendVOCA build to read audio and rigs from (default: the run's ``dataset.path``).
-    progress : bool, default True
-        Show the scoring's progress.
     verify : bool, default True
         Check the rescored speakers' files against the build's manifest digests before
         scoring; off, they are scored as they are and ``protocol.verified`` becomes False.
@@ -60,10 +62,6 @@ def rescored_result(json_path, *, syncnet=None, sync_expert=None, data=None, pro
     CheckFailed
         ``verify`` and a file of a rescored speaker differs from what the build made.
     """
-    from benchmark.metrics.registry import ordered_metrics
-    from benchmark.protocol import lipsync_models_provenance, open_data, score_lipsync_models
-    from benchmark.runs import read_run
-
     if syncnet is None and sync_expert is None:
         raise UserError("benchmark.rescore: expected --sync-expert and/or --syncnet-weights, got neither")
     json_path = Path(json_path)
@@ -86,7 +84,7 @@ def rescored_result(json_path, *, syncnet=None, sync_expert=None, data=None, pro
     check = getattr(dataset, "verify", None) if verify else None
     if check is not None:
         check(sorted({subject for subject, _ in keys}))
-    scored = score_lipsync_models(tracks, dataset, syncnet=syncnet, sync_expert=sync_expert, progress=progress)
+    scored = score_lipsync_models(tracks, dataset, syncnet=syncnet, sync_expert=sync_expert)
     metrics = {**result["metrics"], **scored.metrics}
     rows = {(row["subject"], row["sentence"]): row for row in scored.per_sentence}
     result = {**result, "metrics": {name: metrics[name] for name in ordered_metrics(list(metrics))}}
@@ -113,12 +111,10 @@ def main(argv=None) -> int:
                         "recorded in the result)")
     cli.add_quiet_option(p)
     args = p.parse_args(argv)
-    from benchmark.protocol import write_run
-    from benchmark.results import check
-
+    set_progress(not args.quiet)
     for run in args.runs:
         result = rescored_result(run, syncnet=args.syncnet_weights, sync_expert=args.sync_expert,
-                                 data=args.data, progress=not args.quiet, verify=args.verify)
+                                 data=args.data, verify=args.verify)
         path = Path(run)
         print(write_run(check(result, str(path)), path.parent, path.name))
     return cli.EXIT_OK

@@ -5,7 +5,7 @@
 
 Scores one deterministic method's tracks on ``BUILD``'s test split (the 12 x 40
 leaderboard build: 80 sentences) three times in this process with
-``benchmark.evaluate.evaluate_split``:
+``benchmark.evaluation.evaluate_split``:
 
 1. reference: one process, no ground-truth WInD cache (every mixture fitted);
 2. ``--workers`` processes, cold cache (the first method scored on a split);
@@ -72,7 +72,7 @@ def sampled_tracks(dataset, samples: int, seed: int = 0) -> dict:
 
 def stochastic_ratio(args) -> None:
     """Time the ``--samples`` row against the ground-truth row, alternately, in this process."""
-    from benchmark.evaluate import evaluate_split
+    from benchmark.evaluation import EvaluationSettings, evaluate_split
     from benchmark.features import load_published_vae
 
     if args.data is None:
@@ -92,12 +92,14 @@ def stochastic_ratio(args) -> None:
     with tempfile.TemporaryDirectory() as tmp:
         cache = Path(tmp) / "wind-gmm"
         for tracks_ in rows.values():  # warm: the ground-truth fits, imports, the VAE
-            evaluate_split(tracks_, dataset, extractor=extractor, workers=1, wind_cache=cache)
+            evaluate_split(tracks_, dataset, "test",
+                           EvaluationSettings(extractor=extractor, workers=1, wind_cache=cache))
         best = {label: float("inf") for label in rows}
         for _ in range(args.repeats):
             for label, tracks_ in rows.items():
                 start = time.perf_counter()
-                evaluate_split(tracks_, dataset, extractor=extractor, workers=1, wind_cache=cache)
+                evaluate_split(tracks_, dataset, "test",
+                               EvaluationSettings(extractor=extractor, workers=1, wind_cache=cache))
                 best[label] = min(best[label], time.perf_counter() - start)
         for label, seconds in best.items():
             print(f"  {label:28s} {seconds:7.2f} s")
@@ -110,7 +112,7 @@ def stochastic_ratio(args) -> None:
 
 def stage_times(generated, dataset, extractor, sync_expert, workers: int, cache) -> dict:
     """Seconds of the three evaluation stages (the same calls evaluate_split makes)."""
-    from benchmark.evaluate import _lipsync_values, _vertex_values, latent_metrics
+    from benchmark.evaluation import EvaluationSettings, latent_metrics, lipsync_values, vertex_values
 
     keys = list(generated)
     truth = {k: dataset.coeffs(*k) for k in keys}
@@ -118,14 +120,14 @@ def stage_times(generated, dataset, extractor, sync_expert, workers: int, cache)
     audio = {k: dataset.audio(*k) for k in keys}
     out = {}
     start = time.perf_counter()
-    latent_metrics(truth, generated, extractor, wind_workers=workers, wind_cache=cache)
+    latent_metrics(truth, generated, extractor, EvaluationSettings(workers=workers, wind_cache=cache))
     out["latent (FD, WInD, multimodality, energy)"] = time.perf_counter() - start
     start = time.perf_counter()
-    _vertex_values(truth, generated, rigs, dataset.names, workers=workers, mesh_vertices=dataset.vertices)
+    vertex_values(truth, generated, rigs, dataset.names, workers=workers, mesh_vertices=dataset.vertices)
     out["vertex (LVE, MVE, FDD, energy; mesh and rig)"] = time.perf_counter() - start
     start = time.perf_counter()
-    _lipsync_values(generated, rigs, audio, dataset.names, sync_expert=sync_expert, workers=workers,
-                    ground_truth=truth)
+    lipsync_values(generated, rigs, audio, dataset.names, sync_expert=sync_expert, workers=workers,
+                   ground_truth=truth)
     out["lip sync (geometric + expert)"] = time.perf_counter() - start
     return out
 
@@ -147,7 +149,7 @@ def main(argv=None) -> None:
         parser.error("--data is required without --samples")
 
     from benchmark.data import open_blendvoca
-    from benchmark.evaluate import evaluate_split
+    from benchmark.evaluation import EvaluationSettings, evaluate_split
     from benchmark.features import load_published_vae
     from benchmark.lipsync.expert import load_expert
 
@@ -164,8 +166,8 @@ def main(argv=None) -> None:
                                            (f"{args.workers} processes, cold cache", args.workers, cache),
                                            (f"{args.workers} processes, warm cache", args.workers, cache)):
             start = time.perf_counter()
-            scores = evaluate_split(generated, dataset, extractor=extractor, sync_expert=expert, workers=workers,
-                                    wind_cache=wind_cache)
+            scores = evaluate_split(generated, dataset, "test", EvaluationSettings(
+                extractor=extractor, sync_expert=expert, workers=workers, wind_cache=wind_cache))
             runs[label] = (time.perf_counter() - start, scores)
         reference = next(iter(runs.values()))
         for label, (seconds, _) in runs.items():

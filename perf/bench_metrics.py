@@ -42,7 +42,7 @@ def main(argv=None) -> None:
     from scipy import linalg
 
     from benchmark.data import open_blendvoca
-    from benchmark.evaluate import latent_metrics, lipsync_metrics, vertex_metrics
+    from benchmark.evaluation import EvaluationSettings, latent_metrics, lipsync_metrics, vertex_metrics
     from benchmark.features import load_published_vae
     from benchmark.metrics import feature_statistics, frechet_distance
     from benchmark.render import render_sequence
@@ -60,8 +60,8 @@ def main(argv=None) -> None:
         vae = load_published_vae(assets / "said" / "vae.pth")
         rigs = {s: ds.rig(s) for s in ds.split("test")}
         audio = {k: ds.audio(*k) for k in test}
-        latent_metrics(gt, gen, vae, wind_repeats=1)  # warm-up: imports, allocator
-        t_lat, _ = timed(latent_metrics, gt, gen, vae, wind_repeats=10)
+        latent_metrics(gt, gen, vae, EvaluationSettings(wind_repeats=1))  # warm-up: imports, allocator
+        t_lat, _ = timed(latent_metrics, gt, gen, vae, EvaluationSettings(wind_repeats=10))
         t_vert, _ = timed(vertex_metrics, gt, gen, rigs, ds.names)
         t_sync, _ = timed(lipsync_metrics, gen, rigs, audio, ds.names)
         frames = sum(v.shape[0] * v.shape[1] for v in gen.values())

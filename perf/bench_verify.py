@@ -5,7 +5,7 @@
 ``benchmark.run`` checks the files of the split it scores (coefficient tracks, audio,
 rigs) against the digests of the build's ``manifest.json`` before anything runs
 (``BlendVOCADataset.verify``). This script times that check and the evaluation of
-the train-split mean track on the same split (``benchmark.evaluate.evaluate_split``,
+the train-split mean track on the same split (``benchmark.evaluation.evaluate_split``,
 as a run scores it) and prints both and their ratio. Without ``--data`` it uses the
 bundled-default build (built once if missing); the figure quoted in the docs is on
 the 12 x 40 build::
@@ -45,7 +45,8 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
 
     from benchmark.data import open_blendvoca
-    from benchmark.evaluate import evaluate_split
+    from benchmark.evaluation import evaluate_split
+    from blendvoca.runtime.progress import progress_bars
     from benchmark.protocol import default_data_root
 
     root = Path(args.data) if args.data else default_data_root(progress=False)
@@ -60,7 +61,8 @@ def main(argv=None) -> int:
         checks.append(time.perf_counter() - start)
     generated = mean_tracks(dataset, args.split)
     start = time.perf_counter()
-    evaluate_split(generated, dataset, split=args.split, progress=False)
+    with progress_bars(False):
+        evaluate_split(generated, dataset, args.split)
     evaluation = time.perf_counter() - start
     print(f"build {root}: split {args.split!r}, {len(subjects)} speakers, {len(generated)} sentences")
     print(f"verify: {len(files)} files, {size / 2**20:.1f} MiB, first {checks[0]:.3f} s, best {min(checks):.3f} s")

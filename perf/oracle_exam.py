@@ -8,7 +8,7 @@ the noisy mean, for the energy score), or an LVE that does not prefer ``oracle-m
 is broken on the corpus. "Prefer" is strict (means ordered, 95 % intervals apart)
 except against the noisy mean, which must only not beat ``oracle-sample``. This
 script scores the three rows on one split, in one process, through
-``benchmark.evaluate.evaluate_split`` (the runner's scoring), and
+``benchmark.evaluation.evaluate_split`` (the runner's scoring), and
 prints each metric's value and 95 % interval per row, whether the intervals overlap,
 and the probability of improvement over paired bootstrap resamples. It also prints
 the share of the split's coefficient variance that ``oracle-mean`` and a linear ridge
@@ -35,7 +35,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from baselines.bounds.oracle import OracleMeanMethod, OracleSampleMethod  # noqa: E402
 from baselines.regression.ridge import ridge_explained  # noqa: E402
 from benchmark.data import open_blendvoca  # noqa: E402
-from benchmark.evaluate import evaluate_split  # noqa: E402
+from benchmark.evaluation import EvaluationSettings, evaluate_split  # noqa: E402
 from benchmark.methods import Budget  # noqa: E402
 from benchmark.metrics.bootstrap import probability_of_improvement  # noqa: E402
 from benchmark.protocol.generation import generated_tracks  # noqa: E402
@@ -99,7 +99,7 @@ def main(argv=None) -> int:
     scores, seconds = {}, {}
     for name, tracks in rows.items():
         start = time.perf_counter()
-        scores[name] = evaluate_split(tracks, dataset, args.split, seed=args.seed, lipsync=False,
+        scores[name] = evaluate_split(tracks, dataset, args.split, EvaluationSettings(seed=args.seed, lipsync=False),
                                       metrics=wanted)
         seconds[name] = time.perf_counter() - start
         print(f"scored {name} ({next(iter(tracks.values())).shape[0]} samples) in {seconds[name]:.1f} s",

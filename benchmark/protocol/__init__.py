@@ -123,7 +123,7 @@ def run(spec: RunSpec, *, evaluate=None, open_dataset=None) -> Path:
     spec : RunSpec
     evaluate : callable, optional
         ``evaluate(tracks, dataset, split=...) -> {metric: {...}}`` in place of
-        ``benchmark.evaluate.evaluate_split`` (its assets are then not checked).
+        ``benchmark.evaluation.evaluate_split`` (its assets are then not checked).
     open_dataset : callable, optional
         ``open_dataset(root) -> dataset`` in place of ``benchmark.data.open_blendvoca``.
 

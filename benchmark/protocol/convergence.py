@@ -39,7 +39,7 @@ import numpy as np
 from benchmark.methods import get_method
 from benchmark.methods.base import takes_checkpoint_hook
 from benchmark.methods.contract import COEFFICIENT_NAMES, OUTPUT_COEFFICIENTS, OUTPUT_VERTICES
-from benchmark.protocol.generation import generated_tracks
+from benchmark.protocol.generation import Generated, generated_tracks
 from benchmark.protocol.limits import generate_limit
 from benchmark.protocol.spec import trains_nothing
 from benchmark.runs import TrackWriter
@@ -140,7 +140,7 @@ class HalfBudgetCheck:
         while they are scored, then removed).
     evaluate : callable, optional
         The run's evaluation (called with ``metrics=CHECK_METRICS`` when it takes that
-        keyword); default ``benchmark.evaluate.evaluate_split(..., metrics=CHECK_METRICS)``.
+        keyword); default ``benchmark.evaluation.evaluate_split(..., metrics=CHECK_METRICS)``.
     """
 
     def __init__(self, spec, inputs, *, evaluate=None):
@@ -181,10 +181,10 @@ class HalfBudgetCheck:
                                          sentence_batch=spec.sentence_batch)
             extra = {} if writer is None else {"vertices": writer.stored_vertices()}
             if self.evaluate is None:
-                from benchmark.evaluate import evaluate_split
+                from benchmark.evaluation import EvaluationSettings, evaluate_split
 
-                scores = evaluate_split(tracks, dataset, split=spec.split, progress=spec.progress,
-                                        metrics=CHECK_METRICS, **extra)
+                scores = evaluate_split(Generated(tracks, vertices=extra.get("vertices")), dataset, spec.split,
+                                        EvaluationSettings(), metrics=CHECK_METRICS)
             elif _accepts(self.evaluate, "metrics"):
                 scores = self.evaluate(tracks, dataset, split=spec.split, metrics=CHECK_METRICS, **extra)
             else:

@@ -1,5 +1,5 @@
 """The protocol's third step: the metrics of what was generated
-(:func:`benchmark.evaluate.evaluate_split` unless a run brings its own evaluation)."""
+(:func:`benchmark.evaluation.evaluate_split` unless a run brings its own evaluation)."""
 
 from __future__ import annotations
 
@@ -9,9 +9,14 @@ import time
 import zipfile
 from dataclasses import dataclass
 
+from benchmark.evaluation import EvaluationSettings, evaluate_split
+from benchmark.evaluation.entries import sentence_entries
+from benchmark.evaluation.lipsync import lipsync_values, load_lipsync_models
+from benchmark.metrics.bootstrap import BOOTSTRAP_RESAMPLES
+from benchmark.metrics.registry import METRICS
 from blendvoca.errors import BlendVOCAError, UserError
 
-__all__ = ["MODEL_LIPSYNC_METRICS", "Scored", "loaded_lipsync_models", "score", "score_lipsync_models"]
+__all__ = ["MODEL_LIPSYNC_METRICS", "Scored", "loaded_lipsync_models", "run_settings", "score", "score_lipsync_models"]
 
 #: The lip-sync metrics that need a model file: SyncNet weights or a learned sync expert.
 MODEL_LIPSYNC_METRICS = tuple(f"av_{kind}_{model}" for model in ("expert", "syncnet")
@@ -30,7 +35,7 @@ class Scored:
     ----------
     metrics : dict
         ``{metric: {"mean", "std", "higher_is_better", "unit", ...}}`` as the
-        evaluation returned them (``benchmark.evaluate.Scores`` by default).
+        evaluation returned them (``benchmark.evaluation.Scores`` by default).
     per_sentence : list of dict
         One ``{"subject", "sentence", metric: value, ...}`` row per generated sentence,
         in the generated order (subject and sentence only where the evaluation gives
@@ -44,15 +49,9 @@ class Scored:
     seconds: float = 0.0
 
 
-def _evaluate_default(generated, dataset, split="test", **kw):
-    from benchmark.evaluate import evaluate_split
-
-    return evaluate_split(generated, dataset, split=split, **kw)
-
-
 def loaded_lipsync_models(syncnet=None, sync_expert=None):
     """SyncNet and the sync expert loaded where they are given as paths (models, None and
-    ``syncnet=True``, the manifest's asset, as ``benchmark.evaluate`` takes them).
+    ``syncnet=True``, the manifest's asset, as :class:`benchmark.evaluation.EvaluationSettings` takes them).
 
     Returns
     -------
@@ -63,10 +62,8 @@ def loaded_lipsync_models(syncnet=None, sync_expert=None):
     UserError
         A file that holds no such model, naming ``--syncnet-weights`` or ``--sync-expert``.
     """
-    from benchmark.evaluate import _load_models
-
-    return (_loaded(lambda: _load_models(syncnet, None)[0], "--syncnet-weights", syncnet),
-            _loaded(lambda: _load_models(None, sync_expert)[1], "--sync-expert", sync_expert))
+    return (_loaded(lambda: load_lipsync_models(syncnet, None)[0], "--syncnet-weights", syncnet),
+            _loaded(lambda: load_lipsync_models(None, sync_expert)[1], "--sync-expert", sync_expert))
 
 
 def _loaded(load, flag: str, value):
@@ -97,29 +94,36 @@ def score(spec, dataset, generated, *, evaluate=None) -> Scored:
     generated : Generated
     evaluate : callable, optional
         ``evaluate(tracks, dataset, split=..., [vertices=...]) -> {metric: {...}}``;
-        default ``benchmark.evaluate.evaluate_split`` with ``spec``'s lip-sync models
-        and progress bars.
+        default :func:`benchmark.evaluation.evaluate_split` with ``spec``'s lip-sync models
+        and VAE.
 
     Returns
     -------
     Scored
     """
-    extra = {} if generated.vertices is None else {"vertices": generated.vertices}
     start = time.perf_counter()
     if evaluate is None:
-        if spec.evaluates_lipsync_models:
-            syncnet, sync_expert = loaded_lipsync_models(spec.syncnet, spec.sync_expert)
-            extra.update(syncnet=syncnet, sync_expert=sync_expert)
-        if getattr(spec, "vae", None) is not None:  # a VAE trained on this dataset (benchmark.features.train)
-            extra["extractor"] = str(spec.vae)
-        metrics = _evaluate_default(generated.tracks, dataset, split=spec.split, progress=spec.progress, **extra)
+        metrics = evaluate_split(generated, dataset, spec.split, run_settings(spec))
     else:
+        extra = {} if generated.vertices is None else {"vertices": generated.vertices}
         metrics = evaluate(generated.tracks, dataset, split=spec.split, **extra)
     seconds = time.perf_counter() - start
     return Scored(metrics=metrics, per_sentence=_per_sentence_rows(metrics, generated.tracks), seconds=seconds)
 
 
-def score_lipsync_models(tracks, dataset, *, syncnet=None, sync_expert=None, progress: bool = True) -> Scored:
+def run_settings(spec) -> EvaluationSettings:
+    """The evaluation settings of the run ``spec``: the protocol's, with its lip-sync models
+    (loaded: a file that holds none is a UserError) and its VAE (``spec.vae``, a VAE
+    trained on this dataset by ``benchmark.features.train``) where it names them."""
+    models = {}
+    if spec.evaluates_lipsync_models:
+        models["syncnet"], models["sync_expert"] = loaded_lipsync_models(spec.syncnet, spec.sync_expert)
+    if getattr(spec, "vae", None) is not None:
+        models["extractor"] = str(spec.vae)
+    return EvaluationSettings(**models)
+
+
+def score_lipsync_models(tracks, dataset, *, syncnet=None, sync_expert=None) -> Scored:
     """The model-based lip-sync metrics (:data:`MODEL_LIPSYNC_METRICS`) of ``tracks``,
     computed as :func:`score` computes them in a whole evaluation (same values, same
     bootstrap seed and resamples).
@@ -131,16 +135,12 @@ def score_lipsync_models(tracks, dataset, *, syncnet=None, sync_expert=None, pro
         Gives the rigs, the audio and the column names.
     syncnet, sync_expert : path-like or model, optional
         At least one.
-    progress : bool
 
     Returns
     -------
     Scored
         Only the metrics of the models given; rows in the order of ``tracks``.
     """
-    from benchmark.evaluate import _lipsync_values, _sentence_entries
-    from benchmark.metrics.bootstrap import BOOTSTRAP_RESAMPLES
-
     if syncnet is None and sync_expert is None:
         raise UserError("expected --sync-expert and/or --syncnet-weights, got neither")
     keys = list(tracks)
@@ -149,10 +149,10 @@ def score_lipsync_models(tracks, dataset, *, syncnet=None, sync_expert=None, pro
     audio = {k: dataset.audio(*k) for k in keys}
     ground_truth = {k: dataset.coeffs(*k) for k in keys}
     syncnet_model, expert_model = loaded_lipsync_models(syncnet, sync_expert)
-    values = _lipsync_values(tracks, rigs, audio, dataset.names, syncnet=syncnet_model, sync_expert=expert_model,
-                             progress=progress, ground_truth=ground_truth)
+    values = lipsync_values(tracks, rigs, audio, dataset.names, syncnet=syncnet_model, sync_expert=expert_model,
+                            ground_truth=ground_truth)
     values = {name: v for name, v in values.items() if name in MODEL_LIPSYNC_METRICS}
     # evaluate_split's own bootstrap seed (0), as a run scores: same tracks, same intervals
-    metrics, rows, _replicates = _sentence_entries(values, seed=0, resamples=BOOTSTRAP_RESAMPLES)
+    metrics, rows, _replicates = sentence_entries(values, METRICS, seed=0, resamples=BOOTSTRAP_RESAMPLES)
     per_sentence = [{"subject": k[0], "sentence": k[1], **rows.get(k, {})} for k in keys]
     return Scored(metrics=metrics, per_sentence=per_sentence, seconds=time.perf_counter() - start)

@@ -5,7 +5,7 @@ metric reacts (or does not) as declared.
 pieces: :mod:`~benchmark.sanity.disturbances` (pure functions over coefficient
 tracks), :mod:`~benchmark.sanity.expectations` (the declaration table and the
 verdict), :mod:`~benchmark.sanity.report` (scoring through
-``benchmark.evaluate.evaluate_split``, ``sanity.json`` and ``sanity.png``).
+``benchmark.evaluation.evaluate_split``, ``sanity.json`` and ``sanity.png``).
 docs/metrics.md, "Metric sanity", gives the table and what it found.
 """
 

@@ -5,7 +5,7 @@ The ground-truth coefficient tracks of the build's test split are disturbed at f
 more levels per kind (time shift and advance, temporal smoothing, i.i.d. noise,
 damping toward the neutral, mouth-only damping, sentence swaps, noisy samples,
 constant offsets), each disturbed set is scored through the normal evaluation
-(``benchmark.evaluate.evaluate_split``), and each metric's response is judged
+(``benchmark.evaluation.evaluate_split``), and each metric's response is judged
 against its declaration (``benchmark/sanity/expectations.py``: rises, falls, must not
 react, equals the level, or no claim, each with its reason). Writes
 ``DIR/sanity.json`` (``{metric: {disturbance: {levels, values, rho, expected, ok,
@@ -19,8 +19,12 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+from benchmark.protocol import check_results_dir, default_data_root, open_data
+from benchmark.sanity.disturbances import DISTURBANCES
+from benchmark.sanity.report import SANITY_SETTINGS, ground_truth, run_sanity
 from blendvoca import cli
 from blendvoca.errors import CheckFailed, UserError
+from blendvoca.runtime.progress import set_progress
 
 __all__ = ["main"]
 
@@ -42,11 +46,7 @@ def main(argv=None) -> int:
     cli.add_data_option(p)
     cli.add_quiet_option(p)
     args = p.parse_args(argv)
-
-    from benchmark.protocol import check_results_dir, default_data_root, open_data
-    from benchmark.sanity.disturbances import DISTURBANCES
-    from benchmark.sanity.report import ground_truth, run_sanity
-
+    set_progress(not args.quiet)
     kinds = None
     if args.disturbances is not None:
         kinds = [k.strip() for k in args.disturbances.split(",") if k.strip()]
@@ -57,14 +57,13 @@ def main(argv=None) -> int:
     data = default_data_root(progress=not args.quiet) if args.data is None else Path(args.data).expanduser()
     dataset = open_data(data)
     ground_truth(dataset, args.split)  # a build without that split: one error line, nothing written
-    options = {"progress": False}
+    settings = SANITY_SETTINGS
     if args.sync_expert is not None:
         if not Path(args.sync_expert).expanduser().is_file():
             raise UserError(f"--sync-expert {args.sync_expert}: no such file")
-        options["sync_expert"] = str(Path(args.sync_expert).expanduser())
+        settings = settings.replace(sync_expert=str(Path(args.sync_expert).expanduser()))
     out = check_results_dir(Path(args.out).expanduser())
-    table, failed = run_sanity(dataset, out, levels=args.levels, split=args.split, kinds=kinds, options=options,
-                               progress=not args.quiet)
+    table, failed = run_sanity(dataset, out, levels=args.levels, split=args.split, kinds=kinds, settings=settings)
     counts = {}
     for row in table.values():
         for entry in row.values():

@@ -2,7 +2,7 @@
 
 :func:`sanity_scores` applies each disturbance of :data:`~benchmark.sanity.disturbances.DISTURBANCES`
 at its levels to the ground-truth tracks of a split and scores each disturbed set with
-:func:`benchmark.evaluate.evaluate_split` (fewer bootstrap resamples than a run: the
+:func:`benchmark.evaluation.evaluate_split` (fewer bootstrap resamples than a run: the
 suite reads means, not intervals; the metric definitions are the run's).
 :func:`sanity_table` turns the scores into ``{metric: {disturbance: entry}}`` judged
 against :data:`~benchmark.sanity.expectations.EXPECTATIONS`; :func:`write_report`
@@ -11,7 +11,6 @@ writes ``sanity.json`` and ``sanity.png``.
 
 from __future__ import annotations
 
-import inspect
 import json
 import time
 import warnings
@@ -20,35 +19,39 @@ from pathlib import Path
 
 import numpy as np
 
+from benchmark.evaluation import EvaluationSettings, evaluate_split
+from benchmark.metrics.registry import ordered_metrics
 from benchmark.sanity.disturbances import DISTURBANCES, disturb
 from benchmark.sanity.expectations import EXPECTATIONS, declared, verdict
+from blendvoca.errors import UserError
+from blendvoca.runtime.progress import bar, progress_bars
 
-__all__ = ["SANITY_OPTIONS", "failures", "ground_truth", "plot_table", "run_sanity", "sanity_scores", "sanity_table",
+__all__ = ["SANITY_SETTINGS", "failures", "ground_truth", "plot_table", "run_sanity", "sanity_scores", "sanity_table",
            "write_report"]
 
-#: evaluate_split options of the sanity run: the suite compares means across levels,
+#: The evaluation settings of the sanity run: the suite compares means across levels,
 #: so the bootstrap intervals get a handful of resamples and WInD two seeded fits (the same
 #: seeds at every level: the fit noise is common to all levels).
-SANITY_OPTIONS = {"wind_repeats": 2, "resamples": 10, "fd_resamples": 5, "wind_resamples": 1, "workers": 2}
+SANITY_SETTINGS = EvaluationSettings(wind_repeats=2, resamples=10, fd_resamples=5, wind_resamples=1, workers=2)
 
 
-def _evaluate(generated, dataset, split, options):
-    """``evaluate_split`` with the options it accepts (older and newer signatures alike)."""
-    import benchmark.evaluate as evaluate
-
-    accepted = inspect.signature(evaluate.evaluate_split).parameters
-    kwargs = {k: v for k, v in options.items() if k in accepted}
-    with warnings.catch_warnings():
+def _evaluate(generated, dataset, split, settings):
+    """``{metric: mean}`` of ``generated`` (without the evaluation's own progress bars and warnings)."""
+    with warnings.catch_warnings(), progress_bars(False):
         warnings.simplefilter("ignore")  # the same warnings at every level (e.g. no mesh space)
-        scores = evaluate.evaluate_split(generated, dataset, split=split, **kwargs)
+        scores = evaluate_split(generated, dataset, split, settings)
     return {name: float(entry["mean"]) for name, entry in scores.items()
             if isinstance(entry, Mapping) and entry.get("mean") is not None}
 
 
+def _settings_record(settings) -> dict:
+    """What the report records of ``settings``: :meth:`EvaluationSettings.to_dict` and the sync expert's path."""
+    expert = {} if settings.sync_expert is None else {"sync_expert": str(settings.sync_expert)}
+    return {**settings.to_dict(), **expert}
+
+
 def ground_truth(dataset, split: str = "test") -> dict:
     """``{(subject, sentence): (T, K)}`` of a split; UserError when it has no sentence."""
-    from blendvoca.errors import UserError
-
     subjects = dataset.split(split)
     keys = [(s, t) for s in subjects for t in dataset.sentences(s)]
     if not keys:
@@ -57,8 +60,8 @@ def ground_truth(dataset, split: str = "test") -> dict:
     return {k: np.asarray(dataset.coeffs(*k), dtype=np.float64) for k in keys}
 
 
-def sanity_scores(dataset, *, levels: str = "small", split: str = "test", kinds=None, options=None,
-                  progress: bool = False) -> dict:
+def sanity_scores(dataset, *, levels: str = "small", split: str = "test", kinds=None,
+                  settings: EvaluationSettings = SANITY_SETTINGS) -> dict:
     """``{kind: [(level, {metric: mean})]}``: every disturbance at every level, scored.
 
     Parameters
@@ -67,14 +70,9 @@ def sanity_scores(dataset, *, levels: str = "small", split: str = "test", kinds=
         what ``evaluate_split`` reads)
     levels : "small" or "full"
     kinds : iterable of disturbance names, optional (default all)
-    options : dict, optional
-        ``evaluate_split`` keyword options over :data:`SANITY_OPTIONS` (e.g.
-        ``sync_expert``, ``wind_cache``); options that ``evaluate_split`` does not take
-        are dropped.
+    settings : EvaluationSettings
+        Default :data:`SANITY_SETTINGS` (e.g. ``SANITY_SETTINGS.replace(sync_expert=PATH)``).
     """
-    from tqdm import tqdm
-
-    options = {**SANITY_OPTIONS, **(options or {})}
     truth = ground_truth(dataset, split)
     names = tuple(dataset.names)
     kinds = list(DISTURBANCES) if kinds is None else list(kinds)
@@ -83,13 +81,13 @@ def sanity_scores(dataset, *, levels: str = "small", split: str = "test", kinds=
             raise ValueError(f"sanity_scores: unknown disturbance {kind!r}; known: {', '.join(DISTURBANCES)}")
     jobs = [(kind, level) for kind in kinds for level in DISTURBANCES[kind].levels(levels)]
     out, undisturbed = {}, None
-    for kind, level in tqdm(jobs, desc="sanity", unit="score", disable=not progress):
+    for kind, level in bar(jobs, desc="sanity", unit="score"):
         count = DISTURBANCES[kind].sample_count(levels)
         single = count == 1
         if level == 0 and single and undisturbed is not None:
             values = undisturbed  # level 0 of every single-sample disturbance is the truth itself
         else:
-            values = _evaluate(disturb(kind, truth, level, names, count), dataset, split, options)
+            values = _evaluate(disturb(kind, truth, level, names, count), dataset, split, settings)
             if level == 0 and single:
                 undisturbed = values
         out.setdefault(kind, []).append((level, values))
@@ -98,8 +96,6 @@ def sanity_scores(dataset, *, levels: str = "small", split: str = "test", kinds=
 
 def _metric_order(names) -> list:
     try:
-        from benchmark.metrics.registry import ordered_metrics
-
         return list(ordered_metrics(list(names)))
     except (KeyError, ValueError):
         return sorted(names)
@@ -229,11 +225,11 @@ def write_report(table: Mapping, out, *, title: str = "", meta: Mapping | None =
     return json_path, plot_table(table, out / "sanity.png", title=title)
 
 
-def run_sanity(dataset, out, *, levels: str = "small", split: str = "test", kinds=None, options=None,
-               table=None, progress: bool = False) -> tuple[dict, list]:
+def run_sanity(dataset, out, *, levels: str = "small", split: str = "test", kinds=None,
+               settings: EvaluationSettings = SANITY_SETTINGS, table=None) -> tuple[dict, list]:
     """Score, judge and write the report; returns ``(table, failures)``."""
     start = time.perf_counter()
-    scores = sanity_scores(dataset, levels=levels, split=split, kinds=kinds, options=options, progress=progress)
+    scores = sanity_scores(dataset, levels=levels, split=split, kinds=kinds, settings=settings)
     result = sanity_table(scores, table)
     failed = failures(result)
     seconds = time.perf_counter() - start
@@ -242,10 +238,8 @@ def run_sanity(dataset, out, *, levels: str = "small", split: str = "test", kind
     root = getattr(dataset, "root", None)
     title = (f"metric sanity: {root} ({split} split, levels {levels}) - {counts['held']} held, "
              f"{counts['failed']} failed, {counts['no claim']} without a claim, {counts['not scored']} not scored")
-    shown_options = {k: (v if isinstance(v, (int, float, str, bool, type(None))) else str(v))
-                     for k, v in {**SANITY_OPTIONS, **(options or {})}.items()}
     meta = {"data": None if root is None else str(root), "manifest_hash": getattr(dataset, "manifest_hash", None),
-            "split": split, "levels": levels, "evaluate_options": shown_options, "seconds": round(seconds, 1),
+            "split": split, "levels": levels, "evaluation": _settings_record(settings), "seconds": round(seconds, 1),
             "counts": counts, "failed": [f"{m} / {d}" for m, d, _e in failed]}
     if meta["manifest_hash"] is not None:
         meta["manifest_hash"] = str(meta["manifest_hash"])

@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from benchmark.data import open_blendvoca
-from benchmark.evaluate import evaluate_split
+from benchmark.evaluation import EvaluationSettings, evaluate_split
 
 KEYS = {"mean", "std", "ci95", "n", "higher_is_better", "unit", "label", "group"}
 
@@ -25,7 +25,8 @@ def ground_truth(ds, split="test"):
 
 def test_ground_truth_scores_perfectly(dataset, vae):
     with pytest.warns(UserWarning, match="mesh-space metrics"):  # this build has no source corpus
-        res = evaluate_split(ground_truth(dataset), dataset, extractor=vae, wind_repeats=2, wind_resamples=2)
+        res = evaluate_split(ground_truth(dataset), dataset, "test",
+                             EvaluationSettings(extractor=vae, wind_repeats=2, wind_resamples=2))
     for name, entry in res.items():
         assert KEYS <= set(entry) <= KEYS | {"windows", "sample_std", "replicates"}
         assert entry["ci95"][0] <= entry["mean"] <= entry["ci95"][1]
@@ -56,8 +57,10 @@ def test_worse_method_scores_worse_and_samples_give_diversity(dataset, vae):
     rng = np.random.default_rng(0)
     gt = ground_truth(dataset)
     noisy = {k: np.clip(v + rng.normal(scale=0.1, size=(3, *v.shape[1:])), 0, 1) for k, v in gt.items()}
-    res = evaluate_split(noisy, dataset, extractor=vae, wind_repeats=2, wind_resamples=2, lipsync=False, mesh=False)
-    base = evaluate_split(gt, dataset, extractor=vae, wind_repeats=2, wind_resamples=2, lipsync=False, mesh=False)
+    res = evaluate_split(noisy, dataset, "test", EvaluationSettings(extractor=vae, wind_repeats=2, wind_resamples=2,
+                                                                    lipsync=False, mesh=False))
+    base = evaluate_split(gt, dataset, "test", EvaluationSettings(extractor=vae, wind_repeats=2, wind_resamples=2,
+                                                                  lipsync=False, mesh=False))
     assert res["fd"]["mean"] > base["fd"]["mean"]
     assert res["lve_rig"]["mean"] > 0 and res["mve_rig"]["mean"] > 0
     assert res["multimodality"]["mean"] > 0 and res["multimodality"]["higher_is_better"]
@@ -75,14 +78,15 @@ def test_worse_method_scores_worse_and_samples_give_diversity(dataset, vae):
 def test_any_extractor_and_bad_input(dataset):
     gt = ground_truth(dataset)
     # a trivial extractor: per-window coefficient means (D = 32)
-    res = evaluate_split(gt, dataset, extractor=lambda w: w.mean(axis=1), wind_repeats=1, wind_resamples=2,
-                         vertex=False, lipsync=False)
+    means = EvaluationSettings(extractor=lambda w: w.mean(axis=1))
+    res = evaluate_split(gt, dataset, "test", EvaluationSettings(extractor=lambda w: w.mean(axis=1), wind_repeats=1,
+                                                               wind_resamples=2, vertex=False, lipsync=False))
     assert res["fd"]["mean"] < 1e-3 and res["wind"]["std"] == 0.0
     with pytest.raises(ValueError, match="no generated track"):
-        evaluate_split({("x", "y"): np.zeros((1, 200, 32))}, dataset, extractor=lambda w: w.mean(axis=1))
+        evaluate_split({("x", "y"): np.zeros((1, 200, 32))}, dataset, "test", means)
     key = next(iter(gt))
     with pytest.raises(ValueError, match=r"\(S, T, 32\)"):
-        evaluate_split({key: np.zeros((1, 200, 31))}, dataset, extractor=lambda w: w.mean(axis=1))
+        evaluate_split({key: np.zeros((1, 200, 31))}, dataset, "test", means)
 
 
 @pytest.mark.slow
@@ -94,7 +98,7 @@ def test_on_the_built_synthetic_dataset(built_dataset, vae):
     gt = ground_truth(ds)
     assert gt
     with pytest.warns(UserWarning, match="windows of 120 frames"):
-        res = evaluate_split(gt, ds, extractor=vae, wind_repeats=2, wind_resamples=2)
+        res = evaluate_split(gt, ds, "test", EvaluationSettings(extractor=vae, wind_repeats=2, wind_resamples=2))
     assert "fd" not in res
     assert res["lve_rig"]["mean"] == 0 and res["mve_rig"]["mean"] == 0
     # against the source meshes the ground truth has the rig's floor: the fit's residual
@@ -103,20 +107,21 @@ def test_on_the_built_synthetic_dataset(built_dataset, vae):
     # stretched tracks long enough for windows: latent metrics appear
     long = {k: np.concatenate([v, v[:, ::-1], v], axis=1) for k, v in gt.items()}
     cut = {k: v[0] for k, v in long.items()}
-    from benchmark.evaluate import latent_metrics
+    from benchmark.evaluation import latent_metrics
 
-    lat = latent_metrics(cut, long, vae, wind_repeats=2, wind_resamples=2)
+    lat = latent_metrics(cut, long, vae, EvaluationSettings(wind_repeats=2, wind_resamples=2))
     assert lat["fd"]["mean"] == pytest.approx(0.0, abs=0.5)
 
 
 def test_wind_workers_do_not_change_the_scores(dataset, vae):
-    from benchmark.evaluate import latent_metrics
+    from benchmark.evaluation import latent_metrics
 
     gt = ground_truth(dataset)
     truth = {k: v[0] for k, v in gt.items()}
     rng = np.random.default_rng(4)
     generated = {k: np.clip(v + rng.normal(0, 0.05, v.shape), 0, 1) for k, v in gt.items()}
-    runs = [latent_metrics(truth, generated, vae, wind_repeats=3, wind_resamples=4, fd_resamples=2, wind_workers=w)
+    runs = [latent_metrics(truth, generated, vae, EvaluationSettings(wind_repeats=3, wind_resamples=4, fd_resamples=2,
+                                                                    workers=w))
             for w in (1, 2)]
     assert runs[0]["wind"] == runs[1]["wind"]
     assert runs[0] == runs[1]
@@ -125,7 +130,7 @@ def test_wind_workers_do_not_change_the_scores(dataset, vae):
 def test_wind_is_the_metric_and_the_ground_truth_fits_are_cached(dataset, tmp_path, monkeypatch):
     import importlib
 
-    from benchmark.evaluate import latent_metrics
+    from benchmark.evaluation import latent_metrics
     from benchmark.metrics import cut_windows, wind
 
     gt = ground_truth(dataset)
@@ -136,22 +141,20 @@ def test_wind_is_the_metric_and_the_ground_truth_fits_are_cached(dataset, tmp_pa
     def extractor(w):  # per-window means and spreads: 64-d features
         return np.concatenate([w.mean(axis=1), w.std(axis=1)], axis=1)
 
+    settings = EvaluationSettings(wind_repeats=3, wind_resamples=4, fd_resamples=2, workers=1)
     wind_module = importlib.import_module("benchmark.metrics.wind")  # the module, not the function
     fits = []
     real_fit = wind_module.gmm_components
     monkeypatch.setattr(wind_module, "gmm_components", lambda *job: fits.append(job) or real_fit(*job))
     cache = tmp_path / "wind-gmm"
-    first = latent_metrics(truth, generated, extractor, wind_repeats=3, wind_resamples=4, fd_resamples=2,
-                           wind_workers=1, wind_cache=cache)
+    first = latent_metrics(truth, generated, extractor, settings.replace(wind_cache=cache))
     # 3 ground-truth fits stored; 3 generated and 4 bootstrap refits
     assert len(fits) == 3 + 3 + 4 and len(list(cache.glob("*.npz"))) == 3
     fits.clear()
-    second = latent_metrics(truth, generated, extractor, wind_repeats=3, wind_resamples=4, fd_resamples=2,
-                            wind_workers=1, wind_cache=cache)
+    second = latent_metrics(truth, generated, extractor, settings.replace(wind_cache=cache))
     assert len(fits) == 3 + 4  # the ground-truth side came from the cache
     assert second == first
-    uncached = latent_metrics(truth, generated, extractor, wind_repeats=3, wind_resamples=4, fd_resamples=2,
-                              wind_workers=1, wind_cache=None)
+    uncached = latent_metrics(truth, generated, extractor, settings.replace(wind_cache=None))
     assert uncached == first
     # the point estimate and spread are those of the metric function on the same features
     windows = cut_windows(truth, generated)
@@ -162,15 +165,16 @@ def test_wind_is_the_metric_and_the_ground_truth_fits_are_cached(dataset, tmp_pa
 
 
 def test_a_damaged_cached_fit_is_refitted(dataset, tmp_path):
-    from benchmark.evaluate import latent_metrics
+    from benchmark.evaluation import latent_metrics
 
     truth = {k: v[0] for k, v in ground_truth(dataset).items()}
     generated = {k: v[None] for k, v in truth.items()}
     cache = tmp_path / "wind-gmm"
 
     def run():
-        return latent_metrics(truth, generated, lambda w: w.mean(axis=1), wind_repeats=2, wind_resamples=2,
-                              fd_resamples=2, wind_workers=1, wind_cache=cache)
+        return latent_metrics(truth, generated, lambda w: w.mean(axis=1),
+                              EvaluationSettings(wind_repeats=2, wind_resamples=2, fd_resamples=2, workers=1,
+                                                 wind_cache=cache))
 
     first = run()
     for path in cache.glob("*.npz"):
@@ -182,7 +186,7 @@ def test_a_damaged_cached_fit_is_refitted(dataset, tmp_path):
 def test_warm_started_refits_leave_wind_and_its_std_unchanged():
     # The bootstrap refits start from the generated side's seed-0 mixture; the
     # reported WInD and its std still come from the cold seeded fits, bit for bit.
-    from benchmark.evaluate import _wind_with_replicates
+    from benchmark.evaluation.latent import _wind_with_replicates
     from benchmark.metrics import wind
 
     rng = np.random.default_rng(3)
@@ -191,9 +195,9 @@ def test_warm_started_refits_leave_wind_and_its_std_unchanged():
     real = centres[rng.integers(0, 5, 300)] + rng.normal(size=(300, 6)) + 0.3
     members = [np.arange(i, 360, 6) for i in range(6)]
     mean, std, reps = _wind_with_replicates(fake, real, members, 5, repeats=3, seed=0, resamples=4, workers=1,
-                                            cache=None, progress=False)
+                                            cache=None)
     assert (mean, std) == wind(fake, real, n_components=5, repeats=3, seed=0)
     assert reps.shape == (4,) and np.all(np.isfinite(reps))
-    again = _wind_with_replicates(fake, real, members, 5, repeats=3, seed=0, resamples=4, workers=2, cache=None,
-                                  progress=False)[2]
+    again = _wind_with_replicates(fake, real, members, 5, repeats=3, seed=0, resamples=4, workers=2,
+                                  cache=None)[2]
     np.testing.assert_array_equal(reps, again)

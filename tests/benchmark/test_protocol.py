@@ -102,11 +102,12 @@ def test_a_failing_step_leaves_nothing(tmp_path):
 
 
 def _evaluate(vae):
-    from benchmark.evaluate import evaluate_split
+    from benchmark.evaluation import EvaluationSettings, evaluate_split
 
-    def evaluate(generated, dataset, split="test", **kw):
-        return evaluate_split(generated, dataset, split=split, extractor=vae, wind_repeats=2, wind_resamples=3,
-                              fd_resamples=50, **kw)
+    def evaluate(generated, dataset, split="test", vertices=None):
+        settings = EvaluationSettings(extractor=vae, wind_repeats=2, wind_resamples=3, fd_resamples=50)
+        return evaluate_split(generated if vertices is None else Generated(generated, vertices=vertices), dataset,
+                              split, settings)
 
     return evaluate
 

@@ -10,7 +10,7 @@ import zlib
 import numpy as np
 import pytest
 
-from benchmark.evaluate import Scores
+from benchmark.evaluation import Scores
 from benchmark.methods import Method, register, unregister
 from benchmark.metrics.bootstrap import (
     bootstrap_indices,

@@ -4,7 +4,9 @@ the AV lag bias read against the data's own offsets; metric subsets."""
 import numpy as np
 import pytest
 
-from benchmark.evaluate import evaluate_split
+import types
+
+from benchmark.evaluation import EvaluationSettings, evaluate_split
 from benchmark.testing import FakeBlendVOCA
 
 
@@ -28,9 +30,11 @@ def _truth(ds, samples=1):
             for q in ds.sentences(s)}
 
 
-def _score(tracks, ds, **kw):
-    return evaluate_split(tracks, ds, extractor=_mean_features, wind_repeats=1, wind_resamples=2, fd_resamples=2,
-                          resamples=50, workers=1, wind_cache=None, **kw)
+def _score(tracks, ds, split="test", metrics=None, vertices=None, **options):
+    settings = EvaluationSettings(extractor=_mean_features, wind_repeats=1, wind_resamples=2, fd_resamples=2,
+                                  resamples=50, workers=1, wind_cache=None, **options)
+    generated = tracks if vertices is None else types.SimpleNamespace(tracks=tracks, vertices=vertices)
+    return evaluate_split(generated, ds, split, settings, metrics)
 
 
 def test_coefficient_rows_are_scored_in_both_spaces():

@@ -5,9 +5,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from benchmark.evaluate import metric_entry
 from benchmark.metrics.bootstrap import bootstrap_indices, mean_ci
-from benchmark.metrics.registry import GROUPS, METRICS, markdown_table, metric_info, ordered_metrics
+from benchmark.metrics.registry import GROUPS, METRICS, markdown_table, metric_entry, metric_info, ordered_metrics
 
 DOCS = Path(__file__).resolve().parents[2] / "docs" / "metrics.md"
 

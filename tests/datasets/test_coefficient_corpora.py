@@ -155,7 +155,7 @@ def test_unitalker_columns_are_the_registrys_order(tmp_path):
 
 def test_vertex_metrics_are_rig_space_only_without_source_meshes(tmp_path, monkeypatch):
     from benchmark.data import open_blendvoca
-    from benchmark.evaluate import evaluate_split
+    from benchmark.evaluation import EvaluationSettings, evaluate_split
 
     monkeypatch.delenv("BLENDVOCA_VOCASET", raising=False)
     write_beat(tmp_path / "beat", seconds=1.0)
@@ -164,7 +164,8 @@ def test_vertex_metrics_are_rig_space_only_without_source_meshes(tmp_path, monke
     keys = [(s, t) for s in data.split("test") for t in data.sentences(s)]
     truth = {k: data.coeffs(*k)[None] for k in keys}
     with pytest.warns(UserWarning, match="source meshes cannot be read.*mesh-space metrics"):
-        scores = evaluate_split(truth, data, "test", metrics=("lve_rig", "lve_mesh"), lipsync=False, workers=1)
+        scores = evaluate_split(truth, data, "test", EvaluationSettings(lipsync=False, workers=1),
+                                metrics=("lve_rig", "lve_mesh"))
     assert set(scores) == {"lve_rig"} and scores["lve_rig"]["mean"] == pytest.approx(0.0, abs=1e-9)
 
 

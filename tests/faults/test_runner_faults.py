@@ -14,7 +14,7 @@ import pytest
 
 from blendvoca import format as fmt
 from tests.faults.conftest import assert_one_error_line
-from tests.methods.fakes import fake_evaluate
+from tests.methods.fakes import fake_evaluate_split
 
 
 @pytest.fixture
@@ -30,7 +30,7 @@ def fast_scoring(monkeypatch):
     """The runner scores with the tests' fake evaluation (the build is still opened and read)."""
     from benchmark.protocol import scoring
 
-    monkeypatch.setattr(scoring, "_evaluate_default", lambda *a, progress=True, **kw: fake_evaluate(*a, **kw))
+    monkeypatch.setattr(scoring, "evaluate_split", fake_evaluate_split)
 
 
 def _run(capsys, build, results, *argv):
@@ -114,7 +114,7 @@ def test_ctrl_c_in_a_run_is_one_line_exit_130_and_leaves_nothing(build, tmp_path
         # what Ctrl-C does while the metrics are computed: the tracks are staged by then
         signal.raise_signal(signal.SIGINT)
 
-    monkeypatch.setattr(scoring, "_evaluate_default", interrupted)
+    monkeypatch.setattr(scoring, "evaluate_split", interrupted)
     assert threading.current_thread() is threading.main_thread()
     code, out = _run(capsys, build, tmp_path / "r")
     assert code == 130, out.err

@@ -16,7 +16,7 @@ from benchmark.methods.convert_checkpoint import main as convert_main
 from benchmark.run import main as run_main
 from blendvoca.errors import DataError, UserError
 from tests.io.test_torch_file import _Payload, bad_checkpoints
-from tests.methods.fakes import fake_evaluate, speech_dataset
+from tests.methods.fakes import fake_evaluate_split, speech_dataset
 
 #: Tiny configs (constructing them trains nothing) and the torch file each method's folder holds.
 METHODS = {
@@ -45,7 +45,7 @@ def runner(dataset, monkeypatch):
     from benchmark.protocol import scoring, spec
 
     monkeypatch.setattr(spec, "_open_default", lambda root, **kw: dataset)
-    monkeypatch.setattr(scoring, "_evaluate_default", lambda *a, progress=True, **kw: fake_evaluate(*a, **kw))
+    monkeypatch.setattr(scoring, "evaluate_split", fake_evaluate_split)
 
     def run(tmp_path, *argv):
         return run_main(["--data", str(tmp_path), "--results", str(tmp_path / "results"), "--quiet",

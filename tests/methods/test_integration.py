@@ -19,9 +19,11 @@ VERTEX = tuple(f"{name}_{space}" for name in ("lve", "mve", "fdd", "energy") for
 
 
 def _vertex_only(generated, dataset, split="test", vertices=None):
-    from benchmark.evaluate import evaluate_split
+    from benchmark.evaluation import EvaluationSettings, evaluate_split
+    from benchmark.protocol import Generated
 
-    return evaluate_split(generated, dataset, split=split, vertices=vertices, metrics=VERTEX, mesh=True, workers=1)
+    return evaluate_split(Generated(generated, vertices=vertices), dataset, split,
+                          EvaluationSettings(mesh=True, workers=1), metrics=VERTEX)
 
 
 def _run(name, built_dataset, tmp_path, **kw):
@@ -144,7 +146,7 @@ def test_vertex_output_method_is_fitted_and_scored_on_its_own_vertices(built_dat
 
 
 def _vertex_and_own(generated, dataset, split="test", vertices=None):
-    from benchmark.evaluate import own_vertex_metrics
+    from benchmark.evaluation import own_vertex_metrics
 
     if vertices is None:
         return _vertex_only(generated, dataset, split)

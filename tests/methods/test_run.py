@@ -18,7 +18,7 @@ from benchmark.run import main
 from blendvoca import cli
 from blendvoca.errors import MethodTimeout, UserError
 
-from .fakes import fake_evaluate, speech_dataset
+from .fakes import fake_evaluate, fake_evaluate_split, speech_dataset
 
 
 @pytest.fixture(scope="module")
@@ -95,7 +95,7 @@ def _cli_on(dataset, monkeypatch):
     from benchmark.protocol import scoring, spec
 
     monkeypatch.setattr(spec, "_open_default", lambda root: dataset)
-    monkeypatch.setattr(scoring, "_evaluate_default", lambda *a, progress=True, **kw: fake_evaluate(*a, **kw))
+    monkeypatch.setattr(scoring, "evaluate_split", fake_evaluate_split)
 
 
 def test_cli_reports_misbehaviour_without_traceback(dataset, tmp_path, monkeypatch, capsys):

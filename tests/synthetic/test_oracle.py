@@ -143,7 +143,7 @@ def _one_error_line(capsys, *fragments):
 def test_benchmark_run_exit_2_cases_and_a_scored_run(oracle_build, built_dataset, tmp_path, monkeypatch, capsys):
     from benchmark.protocol import scoring
     from benchmark.run import main
-    from tests.methods.fakes import fake_evaluate
+    from tests.methods.fakes import fake_evaluate_split
 
     results = str(tmp_path / "results")
     assert main(["--method", "oracle-mean", "--data", str(built_dataset), "--results", results, "--quiet"]) == 2
@@ -155,7 +155,7 @@ def test_benchmark_run_exit_2_cases_and_a_scored_run(oracle_build, built_dataset
                  "--results", results, "--quiet"]) == 2
     _one_error_line(capsys, f"--samples {K + 1}", f"{K} oracle tracks per sentence")
     assert not (tmp_path / "results").exists() or not list((tmp_path / "results").glob("*.json"))
-    monkeypatch.setattr(scoring, "_evaluate_default", lambda *a, progress=True, **kw: fake_evaluate(*a, **kw))
+    monkeypatch.setattr(scoring, "evaluate_split", fake_evaluate_split)
     for method, samples in (("oracle-sample", "3"), ("oracle-mean", "3")):
         assert main(["--method", method, "--samples", samples, "--data", str(oracle_build), "--results", results,
                      "--quiet"]) == 0

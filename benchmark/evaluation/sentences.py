@@ -1,0 +1,76 @@
+"""Per-sentence work of the vertex and lip-sync families: each speaker's rig regions and
+the map of a per-sentence function over the scored sentences."""
+
+from __future__ import annotations
+
+import multiprocessing
+import sys
+from concurrent.futures import ProcessPoolExecutor
+
+import numpy as np
+from threadpoolctl import threadpool_limits
+
+from benchmark.metrics import regions
+from blendvoca.runtime.progress import bar
+
+__all__ = ["by_metric", "map_sentences", "rig_regions"]
+
+
+def _rig_deltas(rig, names) -> np.ndarray:
+    rig_names = tuple(rig.names)
+    if tuple(names) == rig_names:
+        return np.asarray(rig.deltas, dtype=np.float64)
+    missing = [n for n in names if n not in rig_names]
+    if missing:
+        raise ValueError(f"evaluate_split: the rig lacks the blendshapes {missing}")
+    return np.asarray(rig.deltas, dtype=np.float64)[[rig_names.index(n) for n in names]]
+
+
+def rig_regions(rigs, names) -> dict:
+    """``{subject: (neutral (V, 3), deltas (K, V, 3) in the order of names, lip indices,
+    upper-face indices)}`` of every speaker's rig."""
+    out = {}
+    for subject, rig in rigs.items():
+        neutral = np.asarray(rig.neutral, dtype=np.float64)
+        deltas = _rig_deltas(rig, names)
+        out[subject] = neutral, deltas, regions.lip_vertices(deltas, names), regions.upper_face_vertices(neutral)
+    return out
+
+
+def by_metric(per_key: dict) -> dict:
+    """``{key: {name: value}}`` -> ``{name: {key: value}}``."""
+    values = {}
+    for key, sentence in per_key.items():
+        for name, value in sentence.items():
+            values.setdefault(name, {})[key] = value
+    return values
+
+
+#: The per-sentence function of the running `map_sentences` (read by its forked workers).
+_SENTENCE_TASK = None
+
+
+def _run_sentence_task(key):
+    with threadpool_limits(limits=1):  # small matrix products: one BLAS thread is faster here
+        return _SENTENCE_TASK(key)
+
+
+def map_sentences(task, keys, *, workers: int, desc: str) -> dict:
+    """``{key: task(key)}`` over ``keys``, in ``workers`` forked processes (Linux; else here).
+
+    ``task`` is pure numpy work over one sentence (no torch: an OpenMP runtime used
+    before a fork is not safe in the child), so the values do not depend on ``workers``.
+    """
+    global _SENTENCE_TASK
+    keys = list(keys)
+    _SENTENCE_TASK = task
+    try:
+        if workers <= 1 or len(keys) <= 1 or not sys.platform.startswith("linux"):
+            return dict(zip(keys, bar((_run_sentence_task(k) for k in keys), total=len(keys), desc=desc,
+                                      unit="sentence")))
+        with ProcessPoolExecutor(min(workers, len(keys)), mp_context=multiprocessing.get_context("fork")) as pool:
+            chunk = max(1, len(keys) // (8 * workers))
+            return dict(zip(keys, bar(pool.map(_run_sentence_task, keys, chunksize=chunk), total=len(keys),
+                                      desc=desc, unit="sentence")))
+    finally:
+        _SENTENCE_TASK = None
