@@ -1,6 +1,6 @@
 """BlendVOCA benchmark: dataset reader, metrics, feature extractor, lip sync,
 rendering, evaluation protocol, method registry and runner.
 
-Submodules are imported on demand (``benchmark.metrics``, ``benchmark.evaluate`` ...)
+Submodules are imported on demand (``benchmark.metrics``, ``benchmark.evaluation`` ...)
 so that importing the package stays light.
 """

@@ -27,7 +27,7 @@ from benchmark.results import check
 from benchmark.runs import read_run
 from blendvoca import cli
 from blendvoca.errors import UserError
-from blendvoca.runtime.progress import set_progress
+from blendvoca.runtime.progress import progress_bars
 
 __all__ = ["main", "rescored_result"]
 
@@ -111,10 +111,10 @@ def main(argv=None) -> int:
                         "recorded in the result)")
     cli.add_quiet_option(p)
     args = p.parse_args(argv)
-    set_progress(not args.quiet)
     for run in args.runs:
-        result = rescored_result(run, syncnet=args.syncnet_weights, sync_expert=args.sync_expert,
-                                 data=args.data, verify=args.verify)
+        with progress_bars(not args.quiet):
+            result = rescored_result(run, syncnet=args.syncnet_weights, sync_expert=args.sync_expert,
+                                     data=args.data, verify=args.verify)
         path = Path(run)
         print(write_run(check(result, str(path)), path.parent, path.name))
     return cli.EXIT_OK

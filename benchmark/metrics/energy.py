@@ -14,7 +14,7 @@ second.
 
 The benchmark scores per frame (vertex spaces: ``d`` = the RMS vertex distance in mm)
 and per 120-frame window (the VAE latents), averaging over the frames or windows of
-a sentence (:mod:`benchmark.evaluate`).
+a sentence (:mod:`benchmark.evaluation`).
 """
 
 from __future__ import annotations

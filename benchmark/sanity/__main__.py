@@ -24,7 +24,7 @@ from benchmark.sanity.disturbances import DISTURBANCES
 from benchmark.sanity.report import SANITY_SETTINGS, ground_truth, run_sanity
 from blendvoca import cli
 from blendvoca.errors import CheckFailed, UserError
-from blendvoca.runtime.progress import set_progress
+from blendvoca.runtime.progress import progress_bars
 
 __all__ = ["main"]
 
@@ -46,7 +46,6 @@ def main(argv=None) -> int:
     cli.add_data_option(p)
     cli.add_quiet_option(p)
     args = p.parse_args(argv)
-    set_progress(not args.quiet)
     kinds = None
     if args.disturbances is not None:
         kinds = [k.strip() for k in args.disturbances.split(",") if k.strip()]
@@ -63,7 +62,9 @@ def main(argv=None) -> int:
             raise UserError(f"--sync-expert {args.sync_expert}: no such file")
         settings = settings.replace(sync_expert=str(Path(args.sync_expert).expanduser()))
     out = check_results_dir(Path(args.out).expanduser())
-    table, failed = run_sanity(dataset, out, levels=args.levels, split=args.split, kinds=kinds, settings=settings)
+    with progress_bars(not args.quiet):
+        table, failed = run_sanity(dataset, out, levels=args.levels, split=args.split, kinds=kinds,
+                                   settings=settings)
     counts = {}
     for row in table.values():
         for entry in row.values():
