@@ -109,22 +109,6 @@ def _source_meshes(dataset, keys, mesh):
     return vertices
 
 
-class _Subset(Mapping):
-    """The entries ``keys`` of a (lazily reading) mapping."""
-
-    def __init__(self, mapping, keys):
-        self._mapping, self._keys = mapping, keys
-
-    def __getitem__(self, key):
-        return self._mapping[key]
-
-    def __iter__(self):
-        return iter(self._keys)
-
-    def __len__(self):
-        return len(self._keys)
-
-
 def evaluate_split(generated, dataset, split: str = "test", settings: EvaluationSettings = EvaluationSettings(),
                    metrics=None) -> Scores:
     """Score generated tracks against a split's ground truth.
@@ -210,10 +194,9 @@ def evaluate_split(generated, dataset, split: str = "test", settings: Evaluation
             mesh_vertices = dataset.vertices if vertices is not None else _source_meshes(dataset, keys, settings.mesh)
             if mesh_vertices is None:
                 spaces = tuple(s for s in spaces if s != "mesh")
-        own = None if vertices is None else _Subset(vertices, list(generated))
         if spaces:
             values.update(vertex_values(ground_truth, generated, rigs, names, settings.workers,
-                                        mesh_vertices=mesh_vertices, own_vertices=own, spaces=spaces))
+                                        mesh_vertices=mesh_vertices, own_vertices=vertices, spaces=spaces))
     if lipsync:
         syncnet, sync_expert = load_lipsync_models(settings.syncnet, settings.sync_expert)
         audio = {k: dataset.audio(*k) for k in generated}

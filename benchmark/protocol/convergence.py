@@ -182,9 +182,11 @@ class HalfBudgetCheck:
             extra = {} if writer is None else {"vertices": writer.stored_vertices()}
             if self.evaluate is None:
                 from benchmark.evaluation import EvaluationSettings, evaluate_split
+                from blendvoca.runtime.progress import progress_bars
 
-                scores = evaluate_split(Generated(tracks, vertices=extra.get("vertices")), dataset, spec.split,
-                                        EvaluationSettings(), metrics=CHECK_METRICS)
+                with progress_bars(spec.progress):
+                    scores = evaluate_split(Generated(tracks, vertices=extra.get("vertices")), dataset, spec.split,
+                                            EvaluationSettings(), metrics=CHECK_METRICS)
             elif _accepts(self.evaluate, "metrics"):
                 scores = self.evaluate(tracks, dataset, split=spec.split, metrics=CHECK_METRICS, **extra)
             else:

@@ -94,13 +94,6 @@ def sanity_scores(dataset, *, levels: str = "small", split: str = "test", kinds=
     return out
 
 
-def _metric_order(names) -> list:
-    try:
-        return list(ordered_metrics(list(names)))
-    except (KeyError, ValueError):
-        return sorted(names)
-
-
 def sanity_table(scores: Mapping, table=None) -> dict:
     """``{metric: {disturbance: entry}}`` (:func:`~benchmark.sanity.expectations.verdict`
     entries plus ``status``: ``held``, ``failed``, ``no claim`` or ``not scored``).
@@ -112,7 +105,7 @@ def sanity_table(scores: Mapping, table=None) -> dict:
     table = EXPECTATIONS if table is None else table
     scored = {m for rows in scores.values() for _level, values in rows for m in values}
     result = {}
-    for metric in _metric_order(scored):
+    for metric in ordered_metrics(list(scored)):
         for kind, rows in scores.items():
             pairs = [(level, values[metric]) for level, values in rows if metric in values]
             if len(pairs) < len(rows):
