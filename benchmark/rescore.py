@@ -21,7 +21,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from benchmark.metrics.registry import ordered_metrics
+from benchmark.evaluation.registry import ordered_metrics
 from benchmark.protocol import lipsync_models_provenance, open_data, score_lipsync_models, write_run
 from benchmark.results import check
 from benchmark.runs import read_run

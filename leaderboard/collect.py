@@ -1,7 +1,7 @@
 """Reading result files and arranging them into per-dataset tables.
 
 Columns are the metrics of the results, grouped and ordered by the metric registry
-(:mod:`benchmark.metrics.registry`: lip sync, distribution, vertex, energy, diversity,
+(:mod:`benchmark.evaluation.registry`: lip sync, distribution, vertex, energy, diversity,
 as in the SAiD paper's Table 1); rows are the methods, and the reference rows (ground
 truth, corpus meshes, mean, static, random) apart, never ranked.
 
@@ -28,12 +28,12 @@ from pathlib import Path
 
 import numpy as np
 
+from benchmark.evaluation.registry import METRICS, ordered_metrics
 from benchmark.metrics.bootstrap import (
     probability_of_improvement,
     two_level_mean_replicates,
     two_level_replicates,
 )
-from benchmark.metrics.registry import METRICS, ordered_metrics
 from benchmark.results import Convergence, MetricEntry, Result, read
 from blendvoca.errors import DataError, UserError
 
@@ -342,7 +342,7 @@ def ranks(values, higher_is_better, decimals: int) -> list:
 
 
 def _metric_seed(name: str) -> int:
-    """Seed of a metric's resamples (as ``benchmark.evaluate``: seed 0 + crc32 of the name),
+    """Seed of a metric's resamples (as ``benchmark.evaluation``: seed 0 + crc32 of the name),
     the same for every row, so rows scored on the same sentences are paired."""
     return zlib.crc32(name.encode())
 

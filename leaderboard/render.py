@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import re
 
-from benchmark.metrics.registry import METRICS
+from benchmark.evaluation.registry import METRICS
 from benchmark.results import Convergence
 
 from .collect import MIN_PAIRED_SENTENCES, Column, Row, Table, best_mark, column_decimals

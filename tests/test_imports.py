@@ -179,7 +179,7 @@ ROOMS = (
     (("blendvoca.datasets",), ABOVE),
     (("benchmark.methods",), ("blendvoca",)),
     (("benchmark.data", "benchmark.metrics", "benchmark.features", "benchmark.results", "benchmark.runs",
-      "benchmark.render", "benchmark.lipsync", "benchmark.vertex_fit", "benchmark.evaluate"),
+      "benchmark.render", "benchmark.lipsync", "benchmark.vertex_fit", "benchmark.evaluation"),
      ("blendvoca", "benchmark.methods")),
     (("benchmark.protocol",), ABOVE),
     (("benchmark.run", "benchmark.rescore", "benchmark.sanity", "benchmark.testing"), ABOVE),

@@ -9,7 +9,7 @@ one row per scored sentence. ``settings`` is one frozen :class:`EvaluationSettin
 
 The metrics come in families, each a module that computes them and declares their
 metadata (:class:`benchmark.metrics.info.MetricInfo`, gathered by
-:mod:`benchmark.metrics.registry`): :mod:`~benchmark.evaluation.latent` (FD, WInD,
+:mod:`benchmark.evaluation.registry`): :mod:`~benchmark.evaluation.latent` (FD, WInD,
 multimodality, latent energy), :mod:`~benchmark.evaluation.vertex` (vertex errors,
 energy and diversity in the two reference spaces) and
 :mod:`~benchmark.evaluation.lipsync` (AV offset, lag bias and confidence). Intervals:
@@ -28,11 +28,9 @@ from benchmark.evaluation.entries import Scores, sentence_entries
 from benchmark.evaluation.latent import fd_floor_probe, latent_metrics, latent_results, resolve_extractor
 from benchmark.evaluation.lipsync import METRICS as LIPSYNC_METRICS
 from benchmark.evaluation.lipsync import lipsync_metrics, lipsync_values, load_lipsync_models
+from benchmark.evaluation.registry import METRICS, ordered_metrics
 from benchmark.evaluation.settings import FD_RESAMPLES, WIND_RESAMPLES, EvaluationSettings
 from benchmark.evaluation.vertex import own_vertex_metrics, sentence_vertex_values, vertex_metrics, vertex_values
-# the module, not its names: the registry gathers the families' declarations (this
-# package's modules), so it may be half-imported while this package's __init__ runs
-from benchmark.metrics import registry
 from benchmark.metrics.windows import GT_DROP_LAST, window_starts
 
 __all__ = [
@@ -53,9 +51,9 @@ def _requested(metrics) -> frozenset | None:
     if metrics is None:
         return None
     names = frozenset([metrics] if isinstance(metrics, str) else metrics)
-    unknown = sorted(names - set(registry.METRICS))
+    unknown = sorted(names - set(METRICS))
     if unknown:
-        raise ValueError(f"evaluate_split: unknown metric(s) {unknown}; registered: {sorted(registry.METRICS)}")
+        raise ValueError(f"evaluate_split: unknown metric(s) {unknown}; registered: {sorted(METRICS)}")
     return names
 
 
@@ -202,19 +200,19 @@ def evaluate_split(generated, dataset, split: str = "test", settings: Evaluation
         audio = {k: dataset.audio(*k) for k in generated}
         values.update(lipsync_values(generated, rigs, audio, names, syncnet=syncnet, sync_expert=sync_expert,
                                      workers=settings.workers, ground_truth=ground_truth))
-    entries, rows, sentence_replicates = sentence_entries(values, registry.METRICS, seed=settings.seed,
+    entries, rows, sentence_replicates = sentence_entries(values, METRICS, seed=settings.seed,
                                                           resamples=settings.resamples)
     results.update(entries)
     replicates.update(sentence_replicates)
     if wanted is not None:
         results = {name: entry for name, entry in results.items() if name in wanted}
     for name, entry in results.items():
-        if registry.METRICS[name].level == "set" and name in replicates:
+        if METRICS[name].level == "set" and name in replicates:
             entry["replicates"] = [float(f"{v:.7g}") for v in replicates[name]]
     per_sentence = [{"subject": k[0], "sentence": k[1],
                      **{n: v for n, v in rows.get(k, {}).items() if wanted is None or n in wanted}}
                     for k in keys if k in generated]
-    scores = Scores({name: results[name] for name in registry.ordered_metrics(list(results))}, per_sentence)
+    scores = Scores({name: results[name] for name in ordered_metrics(list(results))}, per_sentence)
     scores.replicates = {name: replicates[name] for name in scores if name in replicates}
     recorded = settings.to_dict()
     scores.protocol = {**protocol, **({"evaluation": recorded} if recorded else {})}

@@ -2,7 +2,7 @@
 group, spread) and the entry a result file keeps for it (:meth:`MetricInfo.entry`).
 
 Each metric family of :mod:`benchmark.evaluation` declares its metrics with this
-class beside their computation; :mod:`benchmark.metrics.registry` gathers them.
+class beside their computation; :mod:`benchmark.evaluation.registry` gathers them.
 """
 
 from __future__ import annotations

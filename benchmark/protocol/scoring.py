@@ -13,7 +13,7 @@ from benchmark.evaluation import EvaluationSettings, evaluate_split
 from benchmark.evaluation.entries import sentence_entries
 from benchmark.evaluation.lipsync import lipsync_values, load_lipsync_models
 from benchmark.metrics.bootstrap import BOOTSTRAP_RESAMPLES
-from benchmark.metrics.registry import METRICS
+from benchmark.evaluation.registry import METRICS
 from blendvoca.errors import BlendVOCAError, UserError
 from blendvoca.runtime.progress import progress_bars
 

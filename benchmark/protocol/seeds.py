@@ -42,7 +42,7 @@ from benchmark.metrics.bootstrap import (
     two_level_mean_replicates,
     two_level_replicates,
 )
-from benchmark.metrics.registry import METRICS
+from benchmark.evaluation.registry import METRICS
 from benchmark.protocol.convergence import (
     CHECKED,
     checked_convergence,

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from benchmark.evaluation import EvaluationSettings, evaluate_split
-from benchmark.metrics.registry import ordered_metrics
+from benchmark.evaluation.registry import ordered_metrics
 from benchmark.sanity.disturbances import DISTURBANCES, disturb
 from benchmark.sanity.expectations import EXPECTATIONS, declared, verdict
 from blendvoca.errors import UserError

@@ -183,7 +183,7 @@ def test_evaluate_split_names_a_wrong_settings_argument(split):
 
 def test_each_family_declares_the_metrics_it_computes():
     from benchmark.evaluation import latent, lipsync, vertex
-    from benchmark.metrics.registry import FAMILIES, METRICS
+    from benchmark.evaluation.registry import FAMILIES, METRICS
 
     assert FAMILIES == (lipsync, vertex, latent)
     declared = [name for family in FAMILIES for name in family.METRICS]

@@ -5,15 +5,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from benchmark.evaluation.registry import GROUPS, METRICS, markdown_table, metric_entry, metric_info, ordered_metrics
 from benchmark.metrics.bootstrap import bootstrap_indices, mean_ci
-from benchmark.metrics.registry import GROUPS, METRICS, markdown_table, metric_entry, metric_info, ordered_metrics
 
 DOCS = Path(__file__).resolve().parents[2] / "docs" / "metrics.md"
 
 
 def test_docs_table_is_the_registry():
     assert markdown_table() in DOCS.read_text(), "docs/metrics.md's metric table differs from the registry; " \
-        "paste benchmark.metrics.registry.markdown_table() into it"
+        "paste benchmark.evaluation.registry.markdown_table() into it"
 
 
 def test_order_follows_the_papers_table_1():

@@ -77,7 +77,7 @@ def test_any_never_fails_and_a_reason_is_required():
 
 
 def test_the_table_is_keyed_by_protocol_v3_names_and_known_disturbances():
-    from benchmark.metrics.registry import metric_info
+    from benchmark.evaluation.registry import metric_info
 
     v3 = True
     try:

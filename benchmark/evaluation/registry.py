@@ -1,10 +1,9 @@
 """Metric metadata in one place: what each benchmark metric is called, measured in,
 which direction is better, which group it belongs to and what its spread means.
 
-Each metric family of :mod:`benchmark.evaluation` declares its metrics beside their
-computation (``METRICS`` of :mod:`~benchmark.evaluation.lipsync`,
-:mod:`~benchmark.evaluation.vertex`, :mod:`~benchmark.evaluation.latent`); this module
-gathers them into :data:`METRICS`. The evaluation builds every result entry from here,
+Each metric family declares its metrics beside their computation (``METRICS`` of
+:mod:`~benchmark.evaluation.lipsync`, :mod:`~benchmark.evaluation.vertex`,
+:mod:`~benchmark.evaluation.latent`); this module gathers them into :data:`METRICS`. The evaluation builds every result entry from here,
 the result files carry ``label`` and ``group``, the leaderboard orders and groups its
 columns by it, and docs/metrics.md's table is checked against it. Groups and their
 order follow the SAiD paper's Table 1: lip sync (AV offset, AV confidence), then the
