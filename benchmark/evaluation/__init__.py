@@ -25,6 +25,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from benchmark.evaluation.entries import Scores, sentence_entries
+from benchmark.evaluation.latent import METRICS as LATENT_METRICS
 from benchmark.evaluation.latent import fd_floor_probe, latent_metrics, latent_results, resolve_extractor
 from benchmark.evaluation.lipsync import METRICS as LIPSYNC_METRICS
 from benchmark.evaluation.lipsync import lipsync_metrics, lipsync_values, load_lipsync_models
@@ -169,13 +170,13 @@ def evaluate_split(generated, dataset, split: str = "test", settings: Evaluation
     ground_truth = {k: dataset.coeffs(*k) for k in keys}
     n_real = sum(len(window_starts(len(v), drop_last=GT_DROP_LAST)) for v in ground_truth.values())
     results, values, replicates, protocol = {}, {}, {}, {}
-    if want("fd", "wind", "multimodality", "energy_latent"):
+    if want(*LATENT_METRICS):
         if n_real >= 2:
             extractor = resolve_extractor(settings.extractor)
             found = latent_results(ground_truth, generated, extractor, settings, wind=want("wind"))
             results.update(found.entries)
             replicates.update(found.replicates)
-            values["energy_latent"] = {k: float(v.mean()) for k, v in found.energy.items()}
+            values.update(found.sentence_values())
             protocol["fd_floor_probe"] = fd_floor_probe(found.real, ground_truth, extractor)
         else:
             # sentences shorter than 122 frames give no 120-frame window: no latent metric

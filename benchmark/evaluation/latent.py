@@ -128,6 +128,10 @@ class Latent:
     energy: dict
     real: np.ndarray
 
+    def sentence_values(self) -> dict:
+        """The per-sentence metrics, ``{"energy_latent": {key: mean over the sentence's windows}}``."""
+        return {"energy_latent": {k: float(v.mean()) for k, v in self.energy.items()}}
+
 
 def _latent_energy(real, real_keys, fake, fake_keys) -> dict:
     """``{key: (windows,) energy scores}``: each generated window group (the S samples of one
@@ -243,9 +247,7 @@ def latent_metrics(ground_truth: Mapping[Hashable, np.ndarray], generated: Mappi
     """
     result = latent_results(ground_truth, generated, extractor, settings, wind=wind)
     entries = dict(result.entries)
-    per_sentence = {k: float(v.mean()) for k, v in result.energy.items()}
-    energy = sentence_entries({"energy_latent": per_sentence}, METRICS, seed=settings.seed,
-                              resamples=settings.resamples)[0]
+    energy = sentence_entries(result.sentence_values(), METRICS, seed=settings.seed, resamples=settings.resamples)[0]
     for entry in energy.values():
         entry["windows"] = result.entries["fd"]["windows"]
     entries.update(energy)
