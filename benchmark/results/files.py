@@ -113,7 +113,7 @@ def build_result(*, method: dict, dataset: dict, protocol: dict, metrics: dict, 
         defaults to its ``name``.
     metrics : dict
         ``{metric: {"mean", "std", "higher_is_better", "unit", ...}}`` as returned by
-        ``benchmark.evaluate.evaluate_split`` (means and stds as floats, a missing unit "").
+        ``benchmark.evaluation.evaluate_split`` (means and stds as floats, a missing unit "").
     timings : dict
         Seconds per stage (rounded to ms).
     provenance : dict, optional
