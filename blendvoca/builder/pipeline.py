@@ -28,7 +28,6 @@ The names and formats of what it writes are :mod:`blendvoca.format`'s.
 from __future__ import annotations
 
 import os
-import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -40,11 +39,15 @@ from blendvoca import format as fmt
 from blendvoca.errors import BlendVOCAError, DataError, OutputDirError, UserError
 from blendvoca.format.hashing import array_digest, file_digest, stage_key
 from blendvoca.format.manifest import remove_manifest
+from blendvoca.runtime.processes import WorkerStartError, is_worker_process, process_map
+from blendvoca.runtime.progress import progress_bars, show_progress
+from blendvoca.runtime.threads import limit_threads, limited_threads
 
 from .outdir import (
     build_lock,
     check_output_dir,
     claim_output_dir,
+    drop_inherited_locks,
     is_fatal_write_error,
     remove_own_outputs,
     remove_stale_temporaries,
@@ -145,40 +148,6 @@ _WORKER: dict = {}
 _OPENED: dict = {}
 
 
-class WorkerStartError(UserError):
-    """A worker process could not set itself up (assets, imports); ends the build."""
-
-
-def _guarded_init(*initargs):
-    """`_worker_init` in a pool process: a failure is kept and raised by every task.
-
-    (An initializer that raises would make a ``multiprocessing.Pool`` respawn
-    workers forever; here the first task reports it and the build stops.)
-    """
-    try:
-        _worker_init(*initargs)
-    except Exception as error:  # reported to the parent by the tasks
-        _WORKER.clear()
-        _WORKER["init_error"] = f"a worker process could not start: {_reason(error)}"
-
-
-def _pool_worker_init(parent, *initargs):
-    """A pool process's set-up: it ends with the build process (:mod:`.lifetime`), then `_guarded_init`."""
-    from .lifetime import die_with_parent, leave_interrupts_to_the_parent
-    from .outdir import drop_inherited_locks
-
-    leave_interrupts_to_the_parent()
-    die_with_parent(parent)
-    drop_inherited_locks()
-    _guarded_init(*initargs)
-
-
-def _guarded_call(function, task):
-    if "init_error" in _WORKER:
-        raise WorkerStartError(_WORKER["init_error"])
-    return function(task)
-
-
 def _invalidate_manifest(out: Path) -> None:
     """Remove ``manifest.json`` before the first output changes: it is rewritten at the end,
     so an interrupted or failed build never leaves a manifest claiming partial outputs."""
@@ -212,13 +181,14 @@ def _keep_freed_memory() -> bool:
 
 
 def _worker_init(corpus_root, out, params, shared=None):
-    """Per-process state: the corpus, static inputs, the shared correspondence, one BLAS thread, kept memory."""
-    try:
-        from threadpoolctl import threadpool_limits
+    """Per-process state: the corpus, static inputs, the shared correspondence, one BLAS thread, kept memory.
 
-        threadpool_limits(1)
-    except ImportError:  # pragma: no cover
-        pass
+    In a worker process it first closes its copies of the build lock
+    (:func:`blendvoca.builder.outdir.drop_inherited_locks`).
+    """
+    if is_worker_process():
+        drop_inherited_locks()
+    limit_threads(1)
     _keep_freed_memory()
     opened = _OPENED.get(str(corpus_root))
     forked = opened is not None and opened[0] != os.getpid()
@@ -294,7 +264,7 @@ def _shared_correspondence(corpus, subjects, out, params):
     shared = {"template": reference_digest, "correspondence": None}
     if stale:
         try:
-            with _one_blas_thread():
+            with limited_threads(1):  # as in the workers, so shared results match theirs bit for bit
                 reference = _reference_rig(static, params)
                 shared["correspondence"] = correspondence_for_target(
                     reference.neutral, reference.faces, reference_template, faces,
@@ -302,24 +272,6 @@ def _shared_correspondence(corpus, subjects, out, params):
         except Exception:  # each rig task computes (and reports) its own then
             shared["correspondence"] = None
     return shared
-
-
-class _one_blas_thread:
-    """Context: one BLAS thread (as in the workers, so shared results match theirs bit for bit)."""
-
-    def __enter__(self):
-        try:
-            from threadpoolctl import threadpool_limits
-
-            self._limits = threadpool_limits(1)
-        except ImportError:  # pragma: no cover
-            self._limits = None
-        return self
-
-    def __exit__(self, *exc):
-        if self._limits is not None:
-            self._limits.unregister()
-        return False
 
 
 # ----------------------------------------------------------------------------- speaker stage
@@ -514,39 +466,9 @@ def _reason(error: BaseException) -> str:
 # ----------------------------------------------------------------------------- driver
 
 
-def _run(tasks, function, *, workers, initargs, desc, progress):
-    """Run ``function`` over ``tasks`` in ``workers`` processes (inline for 1), in order."""
-    from tqdm.auto import tqdm
-
-    bar = tqdm(total=len(tasks), desc=desc, unit="item", disable=not progress, file=sys.stderr)
-    results = []
-    try:
-        if workers <= 1 or len(tasks) <= 1:
-            _guarded_init(*initargs)
-            for task in tasks:
-                results.append(_guarded_call(function, task))
-                bar.update()
-        else:
-            import functools
-            import multiprocessing
-            from concurrent.futures import ProcessPoolExecutor
-            from concurrent.futures.process import BrokenProcessPool
-
-            context = multiprocessing.get_context("fork" if sys.platform.startswith("linux") else "spawn")
-            pool = ProcessPoolExecutor(min(workers, len(tasks)), mp_context=context, initializer=_pool_worker_init,
-                                       initargs=(os.getpid(), *initargs))
-            try:
-                for result in pool.map(functools.partial(_guarded_call, function), tasks):
-                    results.append(result)
-                    bar.update()
-            except BrokenProcessPool:
-                raise WorkerStartError(f"{desc}: a worker process died (killed, or out of memory); "
-                                       "rerun the same command to continue") from None
-            finally:
-                pool.shutdown(wait=True, cancel_futures=True)
-    finally:
-        bar.close()
-    return results
+def _run(tasks, function, *, workers, initargs, desc):
+    """``function`` over ``tasks`` in ``workers`` processes (here for 1), set up by `_worker_init`; the results in order."""
+    return list(process_map(function, tasks, workers=workers, initializer=_worker_init, initargs=initargs, desc=desc))
 
 
 def default_output_dir() -> Path:
@@ -620,7 +542,7 @@ def build_dataset(
         symbolic link among the build's folders and files, or locked by
         another build (:class:`OutputDirError`). During the build: output that
         cannot be written (disk full, read-only; no manifest is left) and
-        worker processes that cannot start or die (``WorkerStartError``).
+        worker processes that cannot start (``WorkerStartError``) or die (``WorkerDied``).
     """
     from .sentence import POSE_FITS
 
@@ -652,8 +574,8 @@ def build_dataset(
     claim_output_dir(out)
     with build_lock(out):
         try:
-            return _build(out, vocaset, corpus, params, workers=workers, report=report, progress=progress,
-                          recipe=recipe)
+            with progress_bars(progress and show_progress()):
+                return _build(out, vocaset, corpus, params, workers=workers, report=report, recipe=recipe)
         except OutputDirError:
             remove_manifest(out)
             raise
@@ -748,11 +670,11 @@ def build_recipe(vocaset, params: dict, assets: dict) -> dict:
                            format_version=RECIPE_FORMAT)
 
 
-def _build(out, vocaset, corpus, params, *, workers, report, progress, recipe=None):
+def _build(out, vocaset, corpus, params, *, workers, report, recipe=None):
     _OPENED.clear()
     _OPENED[str(vocaset)] = (os.getpid(), corpus)
     try:
-        return _build_stages(out, vocaset, corpus, params, workers=workers, report=report, progress=progress,
+        return _build_stages(out, vocaset, corpus, params, workers=workers, report=report,
                              recipe=recipe)
     finally:
         _OPENED.clear()
@@ -771,7 +693,7 @@ def _declared_share(corpus) -> dict | None:
             "oracle_samples": oracle_count(meta)}
 
 
-def _build_stages(out, vocaset, corpus, params, *, workers, report, progress, recipe=None):
+def _build_stages(out, vocaset, corpus, params, *, workers, report, recipe=None):
     remove_stale_temporaries(out)
     summary = BuildSummary(out)
     initargs = (str(vocaset), str(out), params)
@@ -786,7 +708,7 @@ def _build_stages(out, vocaset, corpus, params, *, workers, report, progress, re
     shared = _shared_correspondence(corpus, subjects, out, params)
     shared_s = time.perf_counter() - shared_clock
     speaker_results = _run(subjects, _speaker_task, workers=workers, initargs=initargs + (shared,),
-                           desc="speaker rigs", progress=progress)
+                           desc="speaker rigs")
     rig_keys = {}
     for result in speaker_results:
         if result["status"] == "failed":
@@ -813,7 +735,7 @@ def _build_stages(out, vocaset, corpus, params, *, workers, report, progress, re
                     write_record(path, {"subject": subject, "sentence": sentence, "status": "failed", "reason": reason})
                 summary.failures.append({"subject": subject, "sentence": sentence, "stage": "fit", "reason": reason})
     sentence_results = _run(items, _sentence_task, workers=workers, initargs=initargs,
-                            desc="sentences", progress=progress)
+                            desc="sentences")
     for result in sentence_results:
         for message in result.get("warnings", ()):
             summary.warnings.append({"subject": result["subject"], "sentence": result["sentence"],
@@ -832,7 +754,7 @@ def _build_stages(out, vocaset, corpus, params, *, workers, report, progress, re
     stages["fits"] = {**_task_seconds(sentence_results), "wall": summary.seconds["sentences"],
                       "built": summary.built["sentences"]}
     oracle_items = _oracle_stage(out, corpus, subjects, sentence_results, rig_keys, summary, stages,
-                                 workers=workers, initargs=initargs, progress=progress)
+                                 workers=workers, initargs=initargs)
     clock = time.perf_counter()
     report_s = _write_summary_files(out, corpus, vocaset, subjects, params, summary, report=report,
                                     oracle_items=oracle_items, recipe=recipe)
@@ -849,8 +771,8 @@ def _build_stages(out, vocaset, corpus, params, *, workers, report, progress, re
     return summary
 
 
-def _oracle_stage(out, corpus, subjects, sentence_results, rig_keys, summary, stages, *, workers, initargs,
-                  progress) -> list[tuple[str, str]]:
+def _oracle_stage(out, corpus, subjects, sentence_results, rig_keys, summary, stages, *, workers,
+                  initargs) -> list[tuple[str, str]]:
     """Fit the oracle samples of every fitted sentence of a corpus that has them; return those sentences.
 
     A corpus without oracle samples runs nothing here (and a build of one is what it was
@@ -870,7 +792,7 @@ def _oracle_stage(out, corpus, subjects, sentence_results, rig_keys, summary, st
         return []
     clock = time.perf_counter()
     results = _run([(s, q, rig_keys[s]) for s, q in items], _oracle_task, workers=workers, initargs=initargs,
-                   desc="oracle samples", progress=progress)
+                   desc="oracle samples")
     done = []
     summary.built["oracle"] = summary.skipped["oracle"] = 0
     for result in results:

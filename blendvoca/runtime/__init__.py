@@ -1,5 +1,7 @@
-"""The runtime floor every stage stands on: one progress switch (:mod:`.progress`).
+"""The runtime floor every stage stands on, one module each.
 
-Process maps, the BLAS thread limiter and staging folders for partial outputs live
-here too, one module each; CLIs set the progress switch once from ``--quiet``.
+* :mod:`.processes`: :func:`~.processes.process_map`, the one process map (Ctrl-C and
+  dying workers handled; :mod:`.lifetime` ties each worker to its parent);
+* :mod:`.threads`: :func:`~.threads.limited_threads`, the one BLAS/OpenMP/torch thread limiter;
+* :mod:`.progress`: the one progress switch, set once per CLI from ``--quiet``.
 """

@@ -17,6 +17,7 @@ import pytest
 from blendvoca.builder import build_dataset, pipeline
 from blendvoca.cli import EXIT_PARTIAL
 from blendvoca.errors import BlendVOCAError, DataError, MethodError, OutputDirError, UserError
+from blendvoca.runtime.processes import WorkerDied
 from tests.faults.conftest import assert_one_error_line, build_cli, tree
 
 S1 = "sentence01"
@@ -89,7 +90,7 @@ def _die(subject):
 
 def test_a_worker_that_dies_ends_the_build(tmp_path, small_corpus, monkeypatch):
     monkeypatch.setattr(pipeline, "_speaker_task", _die)
-    with pytest.raises(pipeline.WorkerStartError, match="died"):
+    with pytest.raises(WorkerDied, match="died"):
         build_dataset(tmp_path / "out", small_corpus, workers=2, progress=False)
 
 

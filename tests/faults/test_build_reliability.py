@@ -150,38 +150,11 @@ def test_ctrl_c_during_the_fits_is_one_interrupted_line(tmp_path, signal_corpus)
     _interrupted_with_ctrl_c(process)
 
 
-#: A build's pool with one worker busy (task 0) and one idle, waiting for work (where Ctrl-C used
-#: to print the waiting worker's KeyboardInterrupt traceback).
-_BUSY_AND_IDLE_POOL = """
-import sys, time
-from blendvoca import cli
-from blendvoca.builder import pipeline
-
-pipeline._worker_init = lambda *args: None  # no corpus: the pool alone
-
-
-def task(i):
-    if i == 0:
-        print("busy", flush=True)
-        time.sleep(60)
-    return i
-
-
-@cli.command
-def main(argv=None):
-    pipeline._run([0, 1, 2], task, workers=2, initargs=(), desc="tasks", progress=False)
-    return 0
-
-
-sys.exit(main())
-"""
-
-
 @pytest.mark.parametrize("ignored", [False, True])
 def test_build_workers_leave_ctrl_c_to_the_parent_unless_the_build_ignores_it(ignored):
     # a build started with SIGINT ignored (nohup, a background job) must not have its workers die of it
     script = ("import signal\n"
-              "from blendvoca.builder.lifetime import leave_interrupts_to_the_parent\n"
+              "from blendvoca.runtime.lifetime import leave_interrupts_to_the_parent\n"
               f"signal.signal(signal.SIGINT, signal.SIG_IGN if {ignored} else signal.default_int_handler)\n"
               "leave_interrupts_to_the_parent()\n"
               "print(signal.getsignal(signal.SIGINT).name)\n")
@@ -190,22 +163,11 @@ def test_build_workers_leave_ctrl_c_to_the_parent_unless_the_build_ignores_it(ig
     assert out == ("SIG_IGN" if ignored else "SIG_DFL")
 
 
-def test_ctrl_c_ends_busy_and_idle_workers_without_a_traceback():
-    process = subprocess.Popen([sys.executable, "-c", _BUSY_AND_IDLE_POOL], env=dict(os.environ, PYTHONPATH=str(ROOT)),
-                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
-                               preexec_fn=_sigint_as_in_a_terminal)
-    assert process.stdout.readline().strip() == "busy"
-    time.sleep(0.5)  # the other worker has done tasks 1 and 2 and waits for more
-    workers = _children(process.pid)
-    _interrupted_with_ctrl_c(process)
-    assert not any(map(_alive, workers))
-
-
 def test_a_worker_ends_when_its_parent_dies(tmp_path):
     """The lifetime guard on its own: a child of a SIGKILLed process exits within seconds."""
     script = (
         "import os, sys, time\n"
-        "from blendvoca.builder.lifetime import die_with_parent\n"
+        "from blendvoca.runtime.lifetime import die_with_parent\n"
         "parent = os.getpid()\n"
         "child = os.fork()\n"
         "if child == 0:\n"

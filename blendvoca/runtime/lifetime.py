@@ -1,17 +1,16 @@
-"""A worker process lives no longer than its build.
+"""A worker process lives no longer than the process that started it.
 
 A pool worker blocks on its task queue, whose pipe it holds both ends of: when
-the build process dies without closing the pool (SIGKILL, SIGTERM: what
-``timeout``, ``docker stop`` and systemd send) the worker would wait forever,
-and keep the copies it inherited of the build's descriptors. Each worker
-therefore
+its parent (a build, an evaluation, a render) dies without closing the pool
+(SIGKILL, SIGTERM: what ``timeout``, ``docker stop`` and systemd send) the worker
+would wait forever, and keep the copies it inherited of the parent's descriptors.
+Each worker of :func:`blendvoca.runtime.processes.process_map` therefore
 
 * asks the kernel to kill it when its parent dies (Linux ``PR_SET_PDEATHSIG``),
 * runs a watchdog thread that ends it when its parent changes (every platform;
   also covers the moment before the request above took effect),
-* closes its copies of the build lock (:func:`blendvoca.builder.outdir.drop_inherited_locks`),
-* leaves Ctrl-C to the build process: the terminal sends SIGINT to the whole
-  process group, and the build process alone reports it (``interrupted: ...``)
+* leaves Ctrl-C to the parent: the terminal sends SIGINT to the whole
+  process group, and the parent alone reports it (``interrupted: ...``)
   and stops the pool; a worker ends at once and silently instead of printing a
   ``KeyboardInterrupt`` traceback of its own.
 """
@@ -34,7 +33,7 @@ def die_with_parent(parent: int) -> bool:
     Parameters
     ----------
     parent : int
-        The pid of the build process that started this worker.
+        The pid of the process that started this worker.
 
     Returns
     -------
@@ -73,9 +72,9 @@ def _watch(parent: int) -> None:
 def leave_interrupts_to_the_parent() -> None:
     """Ctrl-C ends this worker at once and without a traceback (the default action of SIGINT).
 
-    The build process, which gets the same SIGINT, reports the interruption and
-    shuts the pool down; the temporaries a killed write leaves are removed by the
-    next build (:func:`blendvoca.builder.outdir.remove_stale_temporaries`).
+    The parent, which gets the same SIGINT, reports the interruption and shuts the
+    pool down (the temporaries a killed build write leaves are removed by the next
+    build: :func:`blendvoca.builder.outdir.remove_stale_temporaries`).
     """
-    if signal.getsignal(signal.SIGINT) is not signal.SIG_IGN:  # a build started with SIGINT ignored
+    if signal.getsignal(signal.SIGINT) is not signal.SIG_IGN:  # a parent started with SIGINT ignored
         signal.signal(signal.SIGINT, signal.SIG_DFL)              # (nohup, a background job) keeps it ignored
