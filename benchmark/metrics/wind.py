@@ -14,6 +14,9 @@ import warnings
 import numpy as np
 from scipy.optimize import linprog
 
+from blendvoca.runtime.processes import process_map
+from blendvoca.runtime.threads import limited_threads
+
 from benchmark.metrics.frechet import _as_features, frechet_distance_from_stats
 
 
@@ -40,7 +43,6 @@ def gmm_components(x, n_components: int = 5, seed: int = 0, init=None) -> tuple[
     """
     from sklearn.exceptions import ConvergenceWarning
     from sklearn.mixture import GaussianMixture
-    from threadpoolctl import threadpool_limits
 
     x = _as_features(x, "gmm_components")
     if n_components < 1 or n_components > len(x):
@@ -59,7 +61,7 @@ def gmm_components(x, n_components: int = 5, seed: int = 0, init=None) -> tuple[
         precisions = np.swapaxes(inv_chol, 1, 2) @ inv_chol
         start = {"weights_init": weights / weights.sum(), "means_init": means,
                  "precisions_init": 0.5 * (precisions + np.swapaxes(precisions, 1, 2))}
-    with threadpool_limits(limits=1), warnings.catch_warnings():
+    with limited_threads(1), warnings.catch_warnings():
         # a generator with fewer distinct outputs than components (a constant row: one)
         # makes the k-means start warn; the fit of such points is what WInD scores
         warnings.filterwarnings("ignore", message="Number of distinct clusters", category=ConvergenceWarning)
@@ -98,17 +100,9 @@ def gmm_components_many(jobs, workers: int = 1, progress=None) -> list:
     -------
     list of (weights (K,), means (K, D), covariances (K, D, D))
     """
-    import sys
-
     jobs = list(jobs)
     wrap = progress if progress is not None else (lambda it: it)
-    if workers <= 1 or len(jobs) <= 1 or not sys.platform.startswith("linux"):
-        return list(wrap(_fit_job(job) for job in jobs))
-    import multiprocessing
-    from concurrent.futures import ProcessPoolExecutor
-
-    with ProcessPoolExecutor(min(workers, len(jobs)), mp_context=multiprocessing.get_context("fork")) as pool:
-        return list(wrap(pool.map(_fit_job, jobs)))
+    return list(wrap(process_map(_fit_job, jobs, workers=workers)))
 
 
 def gmm_fit_key(x, n_components: int, seed: int) -> str:

@@ -6,9 +6,10 @@ once, so memory does not grow with the clip: the process holds the audio, the
 coefficient track and a window of ``sources.CHUNK`` frames of vertices per panel,
 and ffmpeg its encoder's look-ahead.
 
-With ``jobs > 1`` (the software rasteriser only) worker processes draw blocks of
-``BLOCK`` frames, at most ``jobs + 2`` blocks in flight, and the main process writes
-them in order: the memory stays bounded by the window, not the clip.
+With ``jobs > 1`` (the software rasteriser only) worker processes
+(:func:`blendvoca.runtime.processes.process_map`) draw blocks of ``BLOCK`` frames, a
+few blocks per worker in flight, and the main process writes them in order: the
+memory stays bounded by the window, not the clip.
 """
 
 from __future__ import annotations
@@ -19,6 +20,8 @@ from dataclasses import dataclass
 from os import PathLike
 
 import numpy as np
+
+from blendvoca.runtime.processes import WorkerError, process_map
 
 #: Frames a worker draws per task.
 BLOCK = 4
@@ -91,19 +94,17 @@ def _worker_init(args) -> None:
     _WORKER = _Drawer(*args)
 
 
-def _worker_block(requests):
-    """Draw ``[(t, [index or None per panel])]``; return ``[(t, [(pixels, shown) or None per panel])]``."""
-    out = []
-    for t, indices in requests:
-        row = []
-        for k, index in enumerate(indices):
-            if index is None:
-                row.append(None)
-                continue
-            pixels = np.empty((_WORKER.size, _WORKER.size * len(_WORKER.renderers[k]), 3), dtype=np.uint8)
-            row.append((pixels, _WORKER.draw(k, index, pixels)))
-        out.append((t, row))
-    return out
+def _worker_frame(request):
+    """Draw ``(t, [index or None per panel])``; return ``(t, [(pixels, shown) or None per panel])``."""
+    t, indices = request
+    row = []
+    for k, index in enumerate(indices):
+        if index is None:
+            row.append(None)
+            continue
+        pixels = np.empty((_WORKER.size, _WORKER.size * len(_WORKER.renderers[k]), 3), dtype=np.uint8)
+        row.append((pixels, _WORKER.draw(k, index, pixels)))
+    return t, row
 
 
 def _requests(panels, count) -> Iterator[tuple[int, list]]:
@@ -123,25 +124,10 @@ def _serial(panels, drawer, count, view_width, size) -> Iterator:
 
 def _pooled(panels, args, count, jobs) -> Iterator:
     import multiprocessing
-    from concurrent.futures import ProcessPoolExecutor
 
     method = "forkserver" if "forkserver" in multiprocessing.get_all_start_methods() else "spawn"
-    requests = _requests(panels, count)
-    pool = ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context(method), initializer=_worker_init,
-                               initargs=(args,))
-    try:
-        pending = []
-        while True:
-            while len(pending) < jobs + 2:
-                block = [r for _, r in zip(range(BLOCK), requests)]
-                if not block:
-                    break
-                pending.append(pool.submit(_worker_block, block))
-            if not pending:
-                return
-            yield from pending.pop(0).result()
-    finally:
-        pool.shutdown(wait=True, cancel_futures=True)
+    return process_map(_worker_frame, _requests(panels, count), workers=jobs, initializer=_worker_init,
+                       initargs=(args,), chunksize=BLOCK, start_method=method)
 
 
 def _first_block(frames: Iterator, jobs: int):
@@ -149,13 +135,12 @@ def _first_block(frames: Iterator, jobs: int):
     cannot start (a note says so; the render then runs in this process)."""
     import itertools
     import sys
-    from concurrent.futures.process import BrokenProcessPool
 
     try:
         first = next(frames)
     except StopIteration:
         return iter(()), jobs
-    except (BrokenProcessPool, OSError, EOFError) as error:
+    except (WorkerError, OSError, EOFError) as error:
         frames.close()
         print(f"note: the {jobs} drawing processes did not start ({type(error).__name__}: {error}); drawing in this "
               "process", file=sys.stderr)

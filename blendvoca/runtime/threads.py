@@ -13,33 +13,24 @@ import contextlib
 import sys
 from collections.abc import Callable
 
+from threadpoolctl import threadpool_limits
+
 __all__ = ["limit_threads", "limited_threads"]
-
-_CONTROLLER = None
-
-
-def _controller():
-    """The process's ``threadpoolctl.ThreadpoolController`` (made once: making one reads every loaded library)."""
-    global _CONTROLLER
-    if _CONTROLLER is None:
-        from threadpoolctl import ThreadpoolController
-
-        _CONTROLLER = ThreadpoolController()
-    return _CONTROLLER
 
 
 def limit_threads(n: int | None = 1, *, openmp: bool = True) -> Callable[[], None]:
     """At most ``n`` threads for BLAS (and OpenMP unless ``openmp=False``) and, when torch
     is imported, for torch; returns the function that restores the previous counts.
 
-    ``n=None`` changes nothing. Raises ``ValueError`` for ``n < 1``.
+    The libraries loaded now are limited (one loaded later is not). ``n=None`` changes
+    nothing. Raises ``ValueError`` for ``n < 1``.
     """
     if n is None:
         return lambda: None
     if isinstance(n, bool) or int(n) != n or n < 1:
         raise ValueError(f"limit_threads: expected a thread count >= 1 or None, got {n!r}")
     n = int(n)
-    limiter = _controller().limit(limits=n, user_api=None if openmp else "blas")
+    limiter = threadpool_limits(limits=n, user_api=None if openmp else "blas")
     torch = sys.modules.get("torch")
     before = torch.get_num_threads() if torch is not None else None
     if before is not None and before != n:
