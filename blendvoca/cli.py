@@ -28,6 +28,11 @@ tools share, spelled and explained the same way everywhere and listed under
 "shared options" in ``--help``: ``--data``, ``--results``, ``--budget`` /
 ``--max-steps`` / ``--max-seconds``, ``--config`` / ``--preset``, ``--device`` and
 ``--quiet``.
+
+**The progress switch.** A :class:`Parser` that has ``--quiet``
+(:func:`add_quiet_option`) sets :func:`blendvoca.runtime.progress.set_progress` from it
+when it parses the command line, once per command: library code draws its bars with
+:func:`blendvoca.runtime.progress.bar` and takes no ``progress`` parameter.
 """
 
 from __future__ import annotations
@@ -40,6 +45,7 @@ import sys
 import traceback
 
 from blendvoca.errors import CheckFailed, DataError, MethodError, UserError, error_line
+from blendvoca.runtime.progress import set_progress
 
 __all__ = [
     "EXIT_BUG",
@@ -129,7 +135,14 @@ def command(main):
 
 
 class Parser(argparse.ArgumentParser):
-    """``argparse.ArgumentParser`` whose usage errors are one ``error:`` line and exit 2."""
+    """``argparse.ArgumentParser`` whose usage errors are one ``error:`` line and exit 2, and
+    which sets the progress switch from ``--quiet`` (when it has that option)."""
+
+    def parse_known_args(self, args=None, namespace=None):
+        namespace, extras = super().parse_known_args(args, namespace)
+        if "quiet" in vars(namespace):
+            set_progress(not namespace.quiet)
+        return namespace, extras
 
     def error(self, message):
         print(f"error: {' '.join(str(message).split())}", file=sys.stderr)
@@ -303,5 +316,6 @@ def checked_device(name) -> str | None:
 
 
 def add_quiet_option(p: argparse.ArgumentParser) -> None:
-    """``--quiet``: no progress bars (errors are still printed)."""
+    """``--quiet``: no progress bars (errors are still printed); the parser sets the progress
+    switch from it (:func:`blendvoca.runtime.progress.set_progress`)."""
     shared_options(p).add_argument("--quiet", action="store_true", help="no progress bars")

@@ -172,6 +172,7 @@ ROOMS = (
     (("blendvoca.runtime",), ()),  # the standard library and third-party libraries only
     (("blendvoca.errors", "blendvoca.cli"), ABOVE),
     (("blendvoca.registry", "blendvoca.names", "blendvoca.io", "blendvoca.assets", "blendvoca.rig"), ABOVE),
+    (("blendvoca.runtime.processes", "blendvoca.runtime.staging"), ABOVE),
     (("blendvoca.format",), ABOVE),
     (("blendvoca.vocaset", "blendvoca.synthetic", "blendvoca.retarget", "blendvoca.fit", "blendvoca.export",
       "blendvoca.blender"), ABOVE),

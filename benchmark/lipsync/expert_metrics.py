@@ -7,9 +7,10 @@ from collections.abc import Mapping
 import numpy as np
 
 from blendvoca.errors import DataError
+from blendvoca.runtime.progress import bar
 
 
-def expert_sync_metrics(generated: Mapping, audio: Mapping, expert, *, progress: bool = False) -> dict:
+def expert_sync_metrics(generated: Mapping, audio: Mapping, expert) -> dict:
     """AV offset and confidence of every generated sample by a sync expert.
 
     Parameters
@@ -21,8 +22,6 @@ def expert_sync_metrics(generated: Mapping, audio: Mapping, expert, *, progress:
         ``{(subject, sentence): (samples (N,) float32, rate)}``.
     expert : SyncExpert or path
         A loaded expert (:func:`benchmark.lipsync.load_expert`) or its checkpoint path.
-    progress : bool
-        tqdm bar.
 
     Returns
     -------
@@ -34,14 +33,12 @@ def expert_sync_metrics(generated: Mapping, audio: Mapping, expert, *, progress:
         ``"keys"`` : list of ``(subject, sentence, sample)``, ``"trained_on"`` :
         the checkpoint's provenance (data, split, steps, seconds).
     """
-    from tqdm.auto import tqdm
-
     if not hasattr(expert, "sync"):
         from benchmark.lipsync.expert import load_expert
 
         expert = load_expert(expert)
     offsets, conf, keys = [], [], []
-    for (subject, sentence), tracks in tqdm(generated.items(), disable=not progress, desc="sync expert"):
+    for (subject, sentence), tracks in bar(generated.items(), desc="sync expert"):
         if (subject, sentence) not in audio:
             raise DataError(f"expert_sync_metrics: no audio for {subject}/{sentence}")
         samples, rate = audio[(subject, sentence)]

@@ -20,6 +20,7 @@ from benchmark.render.timing import resample_frames
 from benchmark.render.video import read_video, write_video
 from blendvoca.errors import DataError, UserError
 from blendvoca.io.arrays import float_array
+from blendvoca.runtime.progress import bar
 
 BACKENDS = ("auto", "pyrender", "software")
 
@@ -80,7 +81,7 @@ def open_renderer(faces, pose, *, size: int = 256, backend: str = "auto", yfov: 
 
 
 def render_sequence(vertices, faces, *, size: int = 256, backend: str = "auto", yfov: float = np.pi / 8,
-                    pose=None, progress: bool = False) -> np.ndarray:
+                    pose=None) -> np.ndarray:
     """Render a mesh sequence from the front.
 
     Parameters
@@ -93,8 +94,6 @@ def render_sequence(vertices, faces, *, size: int = 256, backend: str = "auto", 
     yfov : float
     pose : (4, 4), optional
         Camera-to-world pose; default :func:`front_camera` over the whole sequence.
-    progress : bool
-        tqdm bar over frames (either backend).
 
     Returns
     -------
@@ -111,12 +110,10 @@ def render_sequence(vertices, faces, *, size: int = 256, backend: str = "auto", 
     if pose is None:
         pose = front_camera(vertices, yfov=yfov)
     backend = choose_backend(backend)
-    from tqdm import tqdm
-
     frames = np.empty((len(vertices), size, size, 3), dtype=np.uint8)
     renderer = open_renderer(faces, pose, size=size, backend=backend, yfov=yfov, num_vertices=vertices.shape[1])
     try:
-        for t, v in enumerate(tqdm(vertices, desc=f"render ({backend})", unit="frame", disable=not progress)):
+        for t, v in enumerate(bar(vertices, desc=f"render ({backend})", unit="frame")):
             renderer.render(v, out=frames[t])
     finally:
         close = getattr(renderer, "close", None)

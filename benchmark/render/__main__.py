@@ -138,6 +138,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--jobs", type=int, default=None,
                         help="processes drawing frames with the numpy rasteriser (default: the CPUs but one, at "
                              "most 8, for a render of more than a few frames; 1 draws in this process)")
+    cli.add_quiet_option(parser)
     args = parser.parse_args(argv)
     return _render(args)
 
@@ -201,7 +202,7 @@ def _render(args) -> int:
         audio = load_audio(audio_path, rate=16000)
     count, width, height = render_video(args.out, panels, faces, views, fps=out_fps, size=args.size,
                                         backend=args.backend, yfov=yfov, audio=audio, rate=16000,
-                                        waveform=not args.no_waveform, progress=True, jobs=args.jobs)
+                                        waveform=not args.no_waveform, jobs=args.jobs)
     print(f"wrote {args.out} ({count} frames at {out_fps:g} fps, {width}x{height} px)")
     return cli.EXIT_OK
 

@@ -22,6 +22,7 @@ from os import PathLike
 import numpy as np
 
 from blendvoca.runtime.processes import WorkerError, process_map
+from blendvoca.runtime.progress import bar
 
 #: Frames a worker draws per task.
 BLOCK = 4
@@ -150,7 +151,7 @@ def _first_block(frames: Iterator, jobs: int):
 
 def render_video(out: str | PathLike, panels: Sequence[Panel], faces, poses, *, fps: float, size: int,
                  backend: str = "auto", yfov: float = np.pi / 8, audio=None, rate: int = 16000,
-                 waveform: bool = True, progress: bool = False, jobs: int | None = 1) -> tuple[int, int, int]:
+                 waveform: bool = True, jobs: int | None = 1) -> tuple[int, int, int]:
     """Stream a render to ``out`` (MP4).
 
     Panel frames are drawn from each pose in ``poses`` (side by side); panels are side by
@@ -168,8 +169,6 @@ def render_video(out: str | PathLike, panels: Sequence[Panel], faces, poses, *, 
     -------
     (frames, width, height) of the video written
     """
-    from tqdm import tqdm
-
     from benchmark.render import VisibilityCheck, choose_backend
     from benchmark.render.compose import Waveform, draw_label, label_mask
     from benchmark.render.video import VideoWriter, frame_count
@@ -204,9 +203,8 @@ def render_video(out: str | PathLike, panels: Sequence[Panel], faces, poses, *, 
                 drawer = _Drawer(*args)
         if drawer is not None:
             frames = _serial(panels, drawer, count, view_width, size)
-        bar = tqdm(total=count, desc=f"render ({backend}{f', {jobs} processes' if jobs > 1 else ''})", unit="frame",
-                   disable=not progress)
-        with bar:
+        with bar(total=count, desc=f"render ({backend}{f', {jobs} processes' if jobs > 1 else ''})",
+                 unit="frame") as frames_bar:
             for t, row in frames:
                 for k, drawn in enumerate(row):
                     if drawn is None:
@@ -228,7 +226,7 @@ def render_video(out: str | PathLike, panels: Sequence[Panel], faces, poses, *, 
                 if wave is not None:
                     wave.frame(t, out=frame[size:])
                 writer.write(frame)
-                bar.update()
+                frames_bar.update()
         for checks_of_panel in checks:
             for check in checks_of_panel:
                 check.finish()

@@ -68,7 +68,7 @@ def main(argv: list[str] | None = None) -> int:
         extra["pose_fit"] = args.pose_fit
     start = time.perf_counter()
     summary = build(root, args.out, workers=args.workers, shapes=args.shapes, delta=args.delta,
-                    report=not args.no_report, progress=not args.quiet, **extra)
+                    report=not args.no_report, **extra)
     elapsed = time.perf_counter() - start
     print(f"{summary.out}: speakers built {summary.built['speakers']}, up to date {summary.skipped['speakers']}; "
           f"sentences built {summary.built['sentences']}, up to date {summary.skipped['sentences']}; "

@@ -7,7 +7,7 @@ asked for, so a corpus with heavy readers costs the others nothing. Every adapte
 called the same way::
 
     adapter(root, out, *, workers=None, shapes="speech", delta=0.1,
-            report=True, progress=True, **declared) -> blendvoca.builder.BuildSummary
+            report=True, **declared) -> blendvoca.builder.BuildSummary
 
 and declares the options it takes besides these (``DatasetAdapter.options``: the
 posed corpora's ``pose_fit``).
@@ -29,7 +29,7 @@ from blendvoca.errors import UserError
 from blendvoca.registry import Registry
 
 #: The options every adapter takes (a corpus ignores those it has no use for).
-COMMON_OPTIONS: tuple[str, ...] = ("workers", "shapes", "delta", "report", "progress")
+COMMON_OPTIONS: tuple[str, ...] = ("workers", "shapes", "delta", "report")
 
 #: Dataset name -> ``"module:attr"`` of its :class:`DatasetAdapter` (imported on first use).
 DATASETS: dict[str, str] = {

@@ -205,7 +205,7 @@ class VertexCorpus(VocasetCorpus):
 
 
 def build_vertex_corpus(reader: str, root, out, *, workers: int | None = None, shapes: str = "speech",
-                        delta: float = 0.1, report: bool = True, progress: bool = True, pose_fit: str = "joint"):
+                        delta: float = 0.1, report: bool = True, pose_fit: str = "joint"):
     """Build BlendVOCA from a vertex corpus at ``root`` into ``out`` through ``reader``
     (``"module:open_function"``), the adapter of ``--dataset biwi`` and ``--dataset multiface``.
 
@@ -218,7 +218,7 @@ def build_vertex_corpus(reader: str, root, out, *, workers: int | None = None, s
     from blendvoca.builder.pipeline import build_dataset, open_corpus
 
     open_corpus(root, reader)
-    return build_dataset(out, root, workers=workers, shapes=shapes, delta=delta, report=report, progress=progress,
+    return build_dataset(out, root, workers=workers, shapes=shapes, delta=delta, report=report,
                          reader=reader, pose_fit=pose_fit)
 
 

@@ -37,6 +37,7 @@ from blendvoca.fit.resample import resample_sequence
 from blendvoca.format.manifest import write_dataset_manifest
 from blendvoca.io.atomic import atomic_write
 from blendvoca.names import ARKIT_FACE_ORDER, BLENDVOCA_NAMES, MissingShapesWarning, arkit_name, remap
+from blendvoca.runtime.progress import bar
 
 #: Audio and motion durations further apart than this share are reported (as the mesh build does).
 DURATION_TOLERANCE = 0.05
@@ -259,7 +260,7 @@ def _report(out: Path, dataset: dict, summary: BuildSummary, splits: dict, notes
 
 
 def build_coefficient_dataset(out, root, takes: Iterable[Take], *, dataset: str, title: str, convention: str,
-                              report: bool = True, progress: bool = True) -> BuildSummary:
+                              report: bool = True) -> BuildSummary:
     """Write the BlendVOCA folder of a coefficient corpus.
 
     Parameters
@@ -274,8 +275,8 @@ def build_coefficient_dataset(out, root, takes: Iterable[Take], *, dataset: str,
         The registry name (``beat``) and the name tables show (``BEAT``).
     convention : str
         The corpus's naming convention (:mod:`blendvoca.names`), for the record.
-    report, progress : bool
-        Write ``report/README.md``; show a progress bar.
+    report : bool
+        Write ``report/README.md``.
 
     Returns
     -------
@@ -303,13 +304,7 @@ def build_coefficient_dataset(out, root, takes: Iterable[Take], *, dataset: str,
     with build_lock(out):
         fmt.remove_manifest(out)
         files, tracks, sources, built_subjects = [], [], {}, set()
-        try:
-            from tqdm import tqdm
-
-            iterator = tqdm(takes, desc=f"{dataset} takes", disable=not progress, leave=False)
-        except ImportError:  # pragma: no cover - tqdm is a dependency
-            iterator = takes
-        for take in iterator:
+        for take in bar(takes, desc=f"{dataset} takes", leave=False):
             sentence = numbers[(take.subject, take.name)]
             where = f"{root / take.source}"
             try:
@@ -380,8 +375,8 @@ def coefficient_adapter(read_takes: Callable, *, dataset: str, title: str, conve
     do not apply: nothing is fitted, every shape of the corpus is kept)."""
 
     def build(root, out, *, workers: int | None = None, shapes: str = "speech", delta: float = 0.1,
-              report: bool = True, progress: bool = True) -> BuildSummary:
+              report: bool = True) -> BuildSummary:
         return build_coefficient_dataset(out, root, read_takes(root), dataset=dataset, title=title,
-                                         convention=convention, report=report, progress=progress)
+                                         convention=convention, report=report)
 
     return DatasetAdapter(build)

@@ -13,14 +13,13 @@ from blendvoca.datasets import DatasetAdapter
 
 
 def build(root, out, *, workers: int | None = None, shapes: str = "speech", delta: float = 0.1,
-          report: bool = True, progress: bool = True) -> BuildSummary:
+          report: bool = True) -> BuildSummary:
     """Build BlendVOCA from the VOCASET corpus at ``root`` (official or processed layout) into ``out``.
 
     ``root=None`` builds the bundled synthetic corpus. See
     :func:`blendvoca.builder.build_dataset` for the parameters and what it raises.
     """
-    return build_dataset(out, root, workers=workers, shapes=shapes, delta=delta, report=report,
-                         progress=progress)
+    return build_dataset(out, root, workers=workers, shapes=shapes, delta=delta, report=report)
 
 
 #: The ``--dataset vocaset`` adapter (:data:`blendvoca.datasets.DATASETS`).

@@ -103,7 +103,7 @@ def retarget_files(
     if sheet:
         import matplotlib.image
 
-        image = contact_sheet(rig.neutral, rig.deltas, rig.faces, rig.names, progress=True)
+        image = contact_sheet(rig.neutral, rig.deltas, rig.faces, rig.names)
         with atomic_write(out / "contact_sheet.png", "wb") as f:
             matplotlib.image.imsave(f, image, format="png")
     return report

@@ -11,6 +11,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from blendvoca.runtime.progress import bar
+
 from ._checks import as_faces, as_vertices
 from .registration import vertex_normals
 
@@ -163,7 +165,6 @@ def contact_sheet(
     tile: int = 200,
     highlight: bool = True,
     window: tuple[float, float, float, float] | None = None,
-    progress: bool = False,
 ) -> np.ndarray:
     """Render the neutral and every blendshape from the front (+z towards the viewer, +y up).
 
@@ -185,8 +186,6 @@ def contact_sheet(
         Region of the x-y plane drawn; default: a square around the vertices that
         move by more than 5 % of the rig's largest displacement (the face), or the
         whole mesh when nothing moves.
-    progress : bool
-        Show a tqdm progress bar over the tiles.
 
     Returns
     -------
@@ -213,9 +212,7 @@ def contact_sheet(
     strip = 16
     rows = int(np.ceil(len(titles) / columns))
     sheet = np.ones((rows * (tile + strip), columns * tile, 3))
-    from tqdm import tqdm
-
-    for k, title in enumerate(tqdm(titles, desc="contact sheet", unit="shape", disable=not progress)):
+    for k, title in enumerate(bar(titles, desc="contact sheet", unit="shape")):
         delta = np.zeros_like(N) if k == 0 else D[k - 1]
         X = N + delta
         colours = shaded_face_colours(X, F, np.linalg.norm(delta, axis=1) if highlight and k else None)

@@ -19,15 +19,13 @@ from __future__ import annotations
 
 import functools
 import json
-import os
-import shutil
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
 from blendvoca.errors import UserError
-from blendvoca.io.atomic import permissions_for
+from blendvoca.runtime.progress import bar, progress_bars, show_progress
+from blendvoca.runtime.staging import staged_folder
 from blendvoca.synthetic.audio import speech_audio
 from blendvoca.synthetic.groundtruth import write_npz
 from blendvoca.synthetic.headpose import apply_pose, head_motion as draw_head_motion
@@ -231,10 +229,8 @@ class _ShareMeter:
 
 def _write_corpus(out: Path, *, speakers: int, sentences: int, seed: int, layout: str,
                   duration: tuple[float, float], rate: int, max_lag_frames: int, frame_faces: bool,
-                  head_motion: float, progress: bool, audio_determined: float = 1.0,
+                  head_motion: float, audio_determined: float = 1.0,
                   oracle_samples: int = 0, scale: float | None = None) -> dict:
-    from tqdm.auto import tqdm
-
     from blendvoca.assets import load_index_list, resolve
     from blendvoca.io.mesh import read_ply
 
@@ -287,7 +283,7 @@ def _write_corpus(out: Path, *, speakers: int, sentences: int, seed: int, layout
                                "convention": "posed = unposed @ head_rotations[t].T + head_translations[t] "
                                              "(groundtruth npz, metres)"}
     meter = _ShareMeter() if oracle_samples else None
-    bar = tqdm(total=speakers * sentences, desc="synthetic VOCASET", unit="sentence", disable=not progress)
+    sentences_bar = bar(total=speakers * sentences, desc="synthetic VOCASET", unit="sentence")
     for i, subject in enumerate(names):
         rng = np.random.default_rng([seed, _SPEAKER, i])
         neutral = speaker_neutral(template, rng)
@@ -336,11 +332,11 @@ def _write_corpus(out: Path, *, speakers: int, sentences: int, seed: int, layout
                 "lag_seconds": item["lag_frames"] / FPS,
                 "num_syllables": item["plan"].num_syllables,
             }
-            bar.update()
+            sentences_bar.update()
         meta["subjects"][subject] = {"profile": profile, "sentences": items}
         if varied:
             meta["subjects"][subject]["style"] = style
-    bar.close()
+    sentences_bar.close()
     writer.finish()
     if posed is not None:
         posed.finish()
@@ -443,22 +439,13 @@ def generate_corpus(
         raise UserError(f"audio_determined: expected 0 < F <= 1, got {audio_determined!r}")
     if out.exists() and any(out.iterdir()) and not overwrite:
         raise FileExistsError(f"generate_corpus: {out} exists and is not empty; pass overwrite=True (--overwrite)")
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(dir=out.parent, prefix=f".{out.name}.tmp-"))
-    try:
+    with staged_folder(out, replace=True) as tmp, progress_bars(progress and show_progress()):
         _write_corpus(tmp, speakers=int(speakers), sentences=int(sentences), seed=int(seed), layout=layout,
                       duration=(float(duration[0]), float(duration[1])), rate=int(rate),
                       max_lag_frames=int(max_lag_frames), frame_faces=frame_faces,
-                      head_motion=_head_motion_degrees(head_motion), progress=progress,
+                      head_motion=_head_motion_degrees(head_motion),
                       audio_determined=float(audio_determined), oracle_samples=int(oracle_samples),
                       scale=None if _scale is None else float(_scale))
-        os.chmod(tmp, permissions_for(out, directory=True))
-        if out.exists():
-            shutil.rmtree(out)
-        os.rename(tmp, out)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
     return out
 
 

@@ -15,6 +15,7 @@ from blendvoca.assets import load_index_list
 from blendvoca.errors import DataError
 from blendvoca.io.audio import read_wav, to_mono
 from blendvoca.io.json_file import json_kind, read_json
+from blendvoca.runtime.progress import bar
 from blendvoca.vocaset.checks import first_bad_frame, wav_truncation
 from blendvoca.vocaset.errors import Problem, VocasetError
 from blendvoca.vocaset.splits import FPS, NUM_VERTICES, corpus_splits
@@ -106,20 +107,18 @@ class VocasetCorpus:
         """Every problem found so far (at open time, by reads, or by ``scan``), sorted."""
         return sorted(self._problems.values())
 
-    def scan(self, *, progress: bool = False) -> list[Problem]:
+    def scan(self) -> list[Problem]:
         """Read every template, frame sequence and audio clip; return all problems.
 
         Nothing raises: bad items are collected and the rest is read.
         """
-        from tqdm.auto import tqdm
-
         items = [(s, q) for s in self.subjects for q in self.sentences(s)]
         for subject in self.subjects:
             try:
                 self.template(subject)
             except VocasetError:
                 pass
-        for subject, sentence in tqdm(items, desc="scan VOCASET", disable=not progress):
+        for subject, sentence in bar(items, desc="scan VOCASET"):
             for read in (self.frames, self.audio):
                 try:
                     read(subject, sentence)

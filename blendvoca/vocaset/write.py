@@ -10,6 +10,7 @@ import numpy as np
 from blendvoca.errors import UserError
 from blendvoca.io.audio import write_wav
 from blendvoca.io.mesh import ply_face_block, ply_header, write_ply
+from blendvoca.runtime.progress import bar
 from blendvoca.vocaset.errors import VocasetError
 from blendvoca.vocaset.splits import NUM_VERTICES
 
@@ -134,7 +135,7 @@ class ProcessedWriter:
         return self.root
 
 
-def convert_corpus(corpus, out, *, layout: str = "processed", progress: bool = True) -> Path:
+def convert_corpus(corpus, out, *, layout: str = "processed") -> Path:
     """Write an opened corpus (any layout) to ``out`` in ``layout``; bad items are skipped.
 
     Parameters
@@ -148,8 +149,6 @@ def convert_corpus(corpus, out, *, layout: str = "processed", progress: bool = T
     Path
         ``out``. Skipped items are in ``corpus.problems``.
     """
-    from tqdm.auto import tqdm
-
     good = []
     for subject, sentence in corpus.items():
         try:
@@ -169,7 +168,7 @@ def convert_corpus(corpus, out, *, layout: str = "processed", progress: bool = T
             writer.add_template(subject, corpus.template(subject), corpus.faces)
         except VocasetError:
             continue
-    for subject, sentence, _ in tqdm(good, desc=f"write {layout}", disable=not progress):
+    for subject, sentence, _ in bar(good, desc=f"write {layout}"):
         samples, rate = corpus.audio(subject, sentence)
         writer.add_sentence(subject, sentence, corpus.frames(subject, sentence), samples, rate)
     return writer.finish()

@@ -15,15 +15,12 @@ See docs/site.md.
 
 from __future__ import annotations
 
-import os
 import re
 import shutil
-import tempfile
 from pathlib import Path
 
 from blendvoca.errors import OutputDirError
-from blendvoca.io.atomic import permissions_for
-from blendvoca.runtime.progress import progress_bars
+from blendvoca.runtime.staging import staged_folder
 
 from .data import load_site_runs, with_dataset, write_site_data
 from .vendor import copy_vendor_files
@@ -53,7 +50,7 @@ def _check_out(out: Path) -> None:
                          f"tool (no {SITE_MARKER}); choose an empty or new folder")
 
 
-def build_site(results_dir, out, *, data=None, max_samples: int = 3, node_modules=None, progress: bool = True) -> Path:
+def build_site(results_dir, out, *, data=None, max_samples: int = 3, node_modules=None) -> Path:
     """Generate the site for the runs in ``results_dir`` into ``out``.
 
     The site is written into a temporary folder beside ``out`` and moved into place
@@ -84,9 +81,7 @@ def build_site(results_dir, out, *, data=None, max_samples: int = 3, node_module
     runs = load_site_runs(results_dir)
     if data is not None:
         runs = with_dataset(runs, data)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".tmp", dir=out.parent))
-    try:
+    with staged_folder(out, replace=True) as tmp:  # _check_out: a site this tool wrote, or empty
         copy_vendor_files(tmp, node_modules)
         for page in sorted(_STATIC.iterdir()):
             if page.is_file():
@@ -96,18 +91,6 @@ def build_site(results_dir, out, *, data=None, max_samples: int = 3, node_module
                     target.write_text(framed_page(page), encoding="utf-8")
                 else:
                     shutil.copyfile(page, target)
-        with progress_bars(progress):
-            write_site_data(runs, tmp / "data", max_samples=max_samples)
+        write_site_data(runs, tmp / "data", max_samples=max_samples)
         (tmp / SITE_MARKER).write_text("written by python -m leaderboard.site\n")
-        os.chmod(tmp, permissions_for(out, directory=True))  # not mkdtemp's 0700: a web server reads it
-        if out.exists():
-            old = out.with_name(f".{out.name}.old.tmp")
-            out.rename(old)
-            tmp.rename(out)
-            shutil.rmtree(old)
-        else:
-            tmp.rename(out)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
     return out

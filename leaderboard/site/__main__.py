@@ -32,7 +32,7 @@ def main(argv=None) -> int:
     args = _parser().parse_args(argv)
     if args.samples < 1:
         raise UserError(f"--samples: expected >= 1, got {args.samples}")
-    out = build_site(args.results, args.out, data=args.data, max_samples=args.samples, progress=not args.quiet)
+    out = build_site(args.results, args.out, data=args.data, max_samples=args.samples)
     print(f"site written to {out}; open it through a web server (browsers refuse file:// modules), e.g. "
           f"python -m leaderboard.site --results {args.results} --out {args.out} --serve", file=sys.stderr)
     if args.serve:

@@ -18,7 +18,7 @@ from tests.datasets.corpora import write_beat, write_unitalker_layout
 
 
 def _build(name, root, out):
-    return adapter(name)(root, out, progress=False)
+    return adapter(name)(root, out)
 
 
 def _csv(out, subject, sentence):

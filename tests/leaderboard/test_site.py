@@ -71,7 +71,7 @@ def three_js():
 
 @pytest.fixture(scope="module")
 def site(tmp_path_factory, results_dir, three_js):
-    return build_site(results_dir, tmp_path_factory.mktemp("site") / "site", max_samples=2, progress=False)
+    return build_site(results_dir, tmp_path_factory.mktemp("site") / "site", max_samples=2)
 
 
 def test_site_data_files(site, results_dir):
@@ -119,10 +119,10 @@ def test_out_folder_is_never_a_users(tmp_path, results_dir, three_js):
     mine.mkdir()
     (mine / "notes.txt").write_text("keep me")
     with pytest.raises(ValueError, match="not a site written by this tool"):
-        build_site(results_dir, mine, progress=False)
+        build_site(results_dir, mine)
     assert (mine / "notes.txt").read_text() == "keep me"
-    again = build_site(results_dir, tmp_path / "site", progress=False)
-    build_site(results_dir, again, progress=False)  # a previous site is replaced
+    again = build_site(results_dir, tmp_path / "site")
+    build_site(results_dir, again)  # a previous site is replaced
     assert not list(tmp_path.glob(".*.tmp"))
 
 
@@ -243,7 +243,7 @@ def test_playback_moves_the_mouth_in_sync_with_the_audio(browser, served, site):
 
 
 def test_site_from_the_committed_results_loads(three_js, browser, tmp_path):
-    site = build_site(COMMITTED_RESULTS, tmp_path / "site", progress=False)
+    site = build_site(COMMITTED_RESULTS, tmp_path / "site")
     server, url = serve_site(site, port=0, background=True)
     try:
         assert open_page(browser, url + "index.html") == []
@@ -320,7 +320,7 @@ def test_leaderboard_page_shows_seed_ranges_settling_and_the_av_note(three_js, b
     results = tmp_path / "results"
     for run in _v3_runs(tmp_path):
         write(results / f"{run.id}.json", run.result)
-    site = build_site(results, tmp_path / "site", progress=False)
+    site = build_site(results, tmp_path / "site")
     server, url = serve_site(site, port=0, background=True)
     try:
         assert open_page(browser, url + "index.html") == []
@@ -377,7 +377,7 @@ def test_runs_without_stored_tracks_say_what_playback_needs(three_js, browser, t
     results.mkdir()
     for path in sorted(COMMITTED_RESULTS.glob("*.json"))[:3]:
         shutil.copyfile(path, results / path.name)
-    site = build_site(results, tmp_path / "site", progress=False)
+    site = build_site(results, tmp_path / "site")
     server, url = serve_site(site, port=0, background=True)
     try:
         assert open_page(browser, url + "play.html") == []

@@ -85,8 +85,8 @@ def test_integer_sentence_keys_are_read(synthetic_corpus_processed, tmp_path):
 
 def test_convert_official_to_processed_round_trip(synthetic_corpus, tmp_path):
     a = open_vocaset(synthetic_corpus)
-    b = open_vocaset(convert_corpus(a, tmp_path / "p", progress=False))
-    c = open_vocaset(convert_corpus(b, tmp_path / "o", layout="official", progress=False))
+    b = open_vocaset(convert_corpus(a, tmp_path / "p"))
+    c = open_vocaset(convert_corpus(b, tmp_path / "o", layout="official"))
     for subject, sentence in a.items()[:3]:
         assert np.array_equal(a.frames(subject, sentence), b.frames(subject, sentence))
         assert np.array_equal(a.frames(subject, sentence), c.frames(subject, sentence))
