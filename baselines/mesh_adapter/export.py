@@ -16,6 +16,7 @@ import numpy as np
 
 from blendvoca import cli
 from blendvoca.errors import UserError
+from blendvoca.runtime.progress import bar
 
 __all__ = ["exported_corpus_meshes", "main"]
 
@@ -65,12 +66,7 @@ def exported_corpus_meshes(vocaset_root: str | os.PathLike, out_dir: str | os.Pa
     vertex_dir = out_dir / "vertices"
     items = [(s, q) for s in corpus.splits[split] if s in corpus.subjects for q in corpus.sentences(s)
              if sentences is None or q in sentences]
-    try:
-        from tqdm import tqdm
-
-        items = tqdm(items, desc="export meshes", unit="sentence", disable=not progress, file=sys.stderr)
-    except ImportError:
-        pass
+    items = bar(items, desc="export meshes", unit="sentence", disable=not progress, file=sys.stderr)
     for subject, sentence in items:
         frames = np.asarray(corpus.frames(subject, sentence), dtype=np.float64)[:: 60 // fps]
         if offsets:
@@ -111,7 +107,7 @@ def main(argv=None) -> int:
 
         vocaset = default_corpus()
     path = exported_corpus_meshes(vocaset, args.out, split=args.split, fps=args.fps, offsets=args.offsets,
-                                  name=args.name, progress=not args.quiet)
+                                  name=args.name)
     print(path)
     return cli.EXIT_OK
 

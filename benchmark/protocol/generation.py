@@ -21,10 +21,10 @@ from benchmark.methods import (
     validated_tracks,
     validated_vertices,
 )
-from benchmark.methods.base import progress_bars
 from benchmark.protocol.limits import GenerateLimit, TimeLimit, generate_limit
 from benchmark.results import LATENCY_FIELDS
 from blendvoca.errors import DataError, MethodError, MethodOutputError, MethodTimeout, UserError
+from blendvoca.runtime.progress import bar, progress_bars, show_progress
 
 __all__ = ["LATENCY_FIELDS", "LATENCY_SENTENCES", "Generated", "generate", "generated_tracks", "measure_latency",
            "sentence_seed"]
@@ -229,11 +229,9 @@ def generated_tracks(method, dataset, *, split: str = "test", samples: int = 1, 
         groups = [by_length[i:i + int(sentence_batch)] for i in range(0, len(items), int(sentence_batch))]
     else:
         groups = [[i] for i in range(len(items))]
-    try:
-        from tqdm import tqdm
-        bar = tqdm(total=len(items), desc=f"{name}: generate", unit="sentence", disable=not progress, file=sys.stderr)
-    except ImportError:
-        bar = None
+    progress = progress and show_progress()
+    sentences_bar = bar(total=len(items), desc=f"{name}: generate", unit="sentence", disable=not progress,
+                        file=sys.stderr)
 
     def utterance_of(index):
         subject, sentence = items[index]
@@ -296,8 +294,6 @@ def generated_tracks(method, dataset, *, split: str = "test", samples: int = 1, 
             if store is not None:
                 store.write_tracks(subject, sentence, tracks)
             generated[(subject, sentence)] = tracks
-        if bar is not None:
-            bar.update(len(group))
-    if bar is not None:
-        bar.close()
+        sentences_bar.update(len(group))
+    sentences_bar.close()
     return {key: generated[key] for key in items}, n_clipped

@@ -77,7 +77,7 @@ def main(argv: list[str] | None = None) -> int:
     out = generate_corpus(args.out, speakers=args.speakers, sentences=args.sentences, seed=args.seed,
                           layout=args.layout, duration=(args.min_duration, args.max_duration),
                           frame_faces=args.frame_faces, head_motion=args.head_motion or False,
-                          overwrite=args.overwrite, progress=not args.quiet,
+                          overwrite=args.overwrite,
                           audio_determined=args.audio_determined, oracle_samples=args.oracle_samples)
     print(f"wrote {out} ({args.layout} layout, {args.speakers} x {args.sentences}) in {time.perf_counter() - start:.1f} s")
     print(share_summary(out))
