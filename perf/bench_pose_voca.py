@@ -43,7 +43,7 @@ sys.path.insert(0, str(ROOT))
 
 from blendvoca.assets import load_index_list  # noqa: E402
 from blendvoca.builder import lip_aperture, speaker_rig  # noqa: E402
-from blendvoca.builder.pipeline import LIP_LANDMARKS  # noqa: E402
+from blendvoca.builder.fit_stage import LIP_LANDMARKS  # noqa: E402
 from blendvoca.fit import fit_sequence, remove_head_pose  # noqa: E402
 from blendvoca.fit.joint_pose import fit_pose_and_coefficients  # noqa: E402
 from blendvoca.io.mesh import read_mesh  # noqa: E402

@@ -4,14 +4,15 @@ import json
 import shutil
 
 from blendvoca import format as fmt
-from blendvoca.builder.pipeline import _static_inputs, build_dataset, build_recipe
+from blendvoca.builder.pipeline import build_dataset, build_recipe
+from blendvoca.builder.worker import static_inputs
 from blendvoca.format.compare import compare_builds
 from blendvoca.format.hashing import array_digest
 from blendvoca.vocaset import open_vocaset
 
 
 def _expected_recipe(corpus_root, params):
-    assets = {**_static_inputs(params["shapes"])["assets"],
+    assets = {**static_inputs(params["shapes"])["assets"],
               "topology": array_digest(open_vocaset(corpus_root).faces)}
     return build_recipe(corpus_root, params, assets)
 

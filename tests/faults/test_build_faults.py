@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from blendvoca.builder import build_dataset, pipeline
+from blendvoca.builder import build_dataset, fit_stage, pipeline, rig_stage, worker
 from blendvoca.cli import EXIT_PARTIAL
 from blendvoca.errors import BlendVOCAError, DataError, MethodError, OutputDirError, UserError
 from blendvoca.runtime.processes import WorkerDied
@@ -75,7 +75,7 @@ def test_worker_start_up_failure_ends_the_build(tmp_path, small_corpus, monkeypa
     def broken_init(*args):
         raise ImportError("a module the worker needs is missing")
 
-    monkeypatch.setattr(pipeline, "_worker_init", broken_init)  # forked workers inherit it
+    monkeypatch.setattr(worker, "worker_init", broken_init)  # forked workers inherit it
     for workers in (2, 1):
         out = tmp_path / f"out{workers}"
         code, err = build_cli(capsys, "--vocaset", small_corpus, "--out", out, "--workers", workers)
@@ -89,7 +89,7 @@ def _die(subject):
 
 
 def test_a_worker_that_dies_ends_the_build(tmp_path, small_corpus, monkeypatch):
-    monkeypatch.setattr(pipeline, "_speaker_task", _die)
+    monkeypatch.setattr(rig_stage, "speaker_task", _die)
     with pytest.raises(WorkerDied, match="died"):
         build_dataset(tmp_path / "out", small_corpus, workers=2, progress=False)
 
@@ -235,10 +235,8 @@ def test_zero_length_wav_fails_its_sentence(copies, capsys):
 
 
 def test_interrupted_rebuild_leaves_no_manifest_claiming_old_outputs(copies, monkeypatch):
-    from blendvoca.builder import sentence as sentence_module
-
     corpus, out = copies
-    original = sentence_module.sentence_fit
+    original = fit_stage.sentence_fit
     calls = []
 
     def fit_then_interrupt(*args, **kwargs):
@@ -247,11 +245,11 @@ def test_interrupted_rebuild_leaves_no_manifest_claiming_old_outputs(copies, mon
             raise KeyboardInterrupt
         return original(*args, **kwargs)
 
-    monkeypatch.setattr(sentence_module, "sentence_fit", fit_then_interrupt)
+    monkeypatch.setattr(fit_stage, "sentence_fit", fit_then_interrupt)
     with pytest.raises(KeyboardInterrupt):
         build_dataset(out, corpus, workers=1, progress=False, delta=0.05)
     assert not (out / "manifest.json").exists()  # one sentence is already refitted: the old manifest is gone
-    monkeypatch.setattr(sentence_module, "sentence_fit", original)
+    monkeypatch.setattr(fit_stage, "sentence_fit", original)
     assert build_dataset(out, corpus, workers=1, progress=False, delta=0.05).ok
     assert _manifest(out)["parameters"]["delta"] == 0.05
 
