@@ -3,7 +3,7 @@
     BLENDVOCA_ASSETS=../shared/assets python perf/bench_render.py [--quick]
 
 1. Rasteriser (in process): ms per 512 px view of a FLAME-size head for the former numpy
-   rasteriser (``software.reference_rasterize``) and ``SoftwareRenderer``, and whether their
+   rasteriser (``tests/benchmark/reference_rasterizer.py``) and ``SoftwareRenderer``, and whether their
    images are identical (the largest pixel difference).
 2. The README's command ``python -m benchmark.render --coeffs CSV --rig NPZ --audio WAV
    --side --out MP4`` on a 5 s clip, run as a subprocess by the old code (``git archive``
@@ -178,7 +178,8 @@ def old_tree(commit: str, folder: Path) -> Path:
 
 def rasteriser_part(frames: int) -> None:
     from benchmark.render import face_camera, front_camera
-    from benchmark.render.software import SoftwareRenderer, reference_rasterize
+    from benchmark.render.software import SoftwareRenderer
+    from tests.benchmark.reference_rasterizer import reference_rasterize
     from tests.benchmark.fakes import fake_rig, flame_head
 
     assets = Path(os.environ.get("BLENDVOCA_ASSETS", ROOT.parent / "shared" / "assets"))

@@ -332,7 +332,8 @@ PIXEL_TOLERANCE = 1e-3
 
 
 def _assert_like_the_former_rasteriser(v, f, pose, size):
-    from benchmark.render.software import SoftwareRenderer, reference_rasterize
+    from benchmark.render.software import SoftwareRenderer
+    from tests.benchmark.reference_rasterizer import reference_rasterize
 
     new = SoftwareRenderer(f, pose, np.pi / 8, size, size).render(v)
     old = reference_rasterize(v, f, pose, np.pi / 8, size, size)
