@@ -52,7 +52,7 @@ def sentences(num_speakers=None):
     from blendvoca.vocaset import open_vocaset
 
     data = open_blendvoca(default_data_root(progress=False))
-    corpus = open_vocaset(default_corpus(progress=False))
+    corpus = open_vocaset(default_corpus())
     for subject in corpus.subjects[:num_speakers]:
         rig = data.rig(subject)
         for sentence in corpus.sentences(subject):

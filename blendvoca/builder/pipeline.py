@@ -191,7 +191,8 @@ def build_dataset(
     workers = check_workers(workers)
     delta = check_delta(delta)
     if vocaset is None:
-        vocaset = default_corpus(progress=progress)
+        with progress_bars(progress and show_progress()):
+            vocaset = default_corpus()
     out = Path(out).expanduser().resolve()
     vocaset = Path(vocaset).expanduser().resolve()
     check_output_dir(out, vocaset)

@@ -402,7 +402,7 @@ def generate_corpus(
     overwrite : bool
         Replace an existing ``out``.
     progress : bool
-        Show a tqdm progress bar.
+        Show a tqdm progress bar (while the progress switch, :mod:`blendvoca.runtime.progress`, is on).
     audio_determined : float
         F in (0, 1]: the share of the speech shapes' coefficient variance that
         the audio and the speaker id determine (default 0.7, docs/synthetic.md).
@@ -460,7 +460,7 @@ def _head_motion_degrees(head_motion) -> float:
                      f"got {head_motion!r}")
 
 
-def default_corpus(cache_dir=None, *, progress: bool = True) -> Path:
+def default_corpus(cache_dir=None) -> Path:
     """The bundled default corpus (official layout), generated once into the user cache.
 
     Parameters
@@ -484,7 +484,7 @@ def default_corpus(cache_dir=None, *, progress: bool = True) -> Path:
     if (root / "synthetic.json").is_file():
         return root
     try:
-        return generate_corpus(root, overwrite=True, progress=progress, **DEFAULT_CORPUS)
+        return generate_corpus(root, overwrite=True, **DEFAULT_CORPUS)
     except OSError:
         # Another process finished the same corpus first: theirs is identical.
         if (root / "synthetic.json").is_file():

@@ -128,17 +128,17 @@ def test_cli_and_bad_arguments(tmp_path, capsys):
 
 def test_default_corpus_is_generated_once_into_the_cache(tmp_path, monkeypatch):
     monkeypatch.setattr(corpus_module, "DEFAULT_CORPUS", dict(speakers=3, sentences=1, seed=0, duration=(1.0, 1.0)))
-    root = default_corpus(tmp_path, progress=False)
+    root = default_corpus(tmp_path)
     assert root.parent == tmp_path and (root / "synthetic.json").is_file()
     stamp = (root / "synthetic.json").stat().st_mtime_ns
-    assert default_corpus(tmp_path, progress=False) == root
+    assert default_corpus(tmp_path) == root
     assert (root / "synthetic.json").stat().st_mtime_ns == stamp
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]  # no temp folders left
 
 
 @pytest.mark.slow
 def test_bundled_default_corpus(tmp_path):
-    root = default_corpus(tmp_path, progress=False)
+    root = default_corpus(tmp_path)
     corpus = open_vocaset(root)
     assert len(corpus.subjects) == 6 and all(len(corpus.sentences(s)) == 4 for s in corpus.subjects)
     assert corpus.splits["test"] == ["Synth_005_TA"] and corpus.scan() == []
