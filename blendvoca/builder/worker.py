@@ -12,11 +12,10 @@ import os
 from pathlib import Path
 
 from blendvoca.assets import load_index_list, resolve
-from blendvoca.errors import BlendVOCAError
 from blendvoca.format.hashing import array_digest, file_digest
 from blendvoca.format.manifest import remove_manifest
 from blendvoca.rig import shape_names
-from blendvoca.runtime.processes import is_worker_process
+from blendvoca.runtime.processes import failure_reason, is_worker_process
 from blendvoca.runtime.threads import limit_threads
 from blendvoca.vocaset import open_vocaset
 
@@ -129,9 +128,3 @@ def recorded_failure(out: Path, path: Path, error: BaseException, base: dict) ->
     reason = failure_reason(error) + retire(out, read_record(path))
     write_record(path, {**base, "status": "failed", "reason": reason})
     return {**base, "status": "failed", "reason": reason}
-
-
-def failure_reason(error: BaseException) -> str:
-    if isinstance(error, BlendVOCAError):  # its message already says what and where
-        return str(error)
-    return f"{type(error).__name__}: {error}"

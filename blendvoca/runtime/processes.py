@@ -35,8 +35,8 @@ from blendvoca.errors import BlendVOCAError, UserError
 from .lifetime import die_with_parent, leave_interrupts_to_the_parent
 from .progress import bar
 
-__all__ = ["WorkerDied", "WorkerError", "WorkerStartError", "default_start_method", "is_worker_process",
-           "process_map"]
+__all__ = ["WorkerDied", "WorkerError", "WorkerStartError", "default_start_method", "failure_reason",
+           "is_worker_process", "process_map"]
 
 
 class WorkerError(UserError):
@@ -66,7 +66,9 @@ def default_start_method() -> str:
     return "fork" if sys.platform.startswith("linux") else "spawn"
 
 
-def _reason(error: BaseException) -> str:
+def failure_reason(error: BaseException) -> str:
+    """What went wrong, for a message: a project error's own message (it names what and
+    where), else the exception's type and message."""
     if isinstance(error, BlendVOCAError):  # its message already says what and where
         return str(error)
     return f"{type(error).__name__}: {error}"
@@ -80,7 +82,7 @@ def _guarded_init(initializer, initargs) -> None:
     try:
         initializer(*initargs)
     except Exception as error:  # reported to the parent by the tasks
-        _STATE["init_error"] = f"a worker process could not start: {_reason(error)}"
+        _STATE["init_error"] = f"a worker process could not start: {failure_reason(error)}"
 
 
 def _start_worker(parent: int, initializer, initargs) -> None:
