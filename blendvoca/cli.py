@@ -38,6 +38,7 @@ when it parses the command line, once per command: library code draws its bars w
 from __future__ import annotations
 
 import argparse
+import contextvars
 import functools
 import json
 import re
@@ -119,12 +120,14 @@ def report(error: BaseException, *, stream=None) -> int:
 def command(main):
     """Wrap a tool's ``main(argv=None) -> int | None`` so that what escapes it becomes
     one exit code (module table); ``SystemExit`` (argparse's ``--help``, usage errors)
-    passes through."""
+    passes through. ``main`` runs in a copy of the caller's context: the progress switch
+    its ``--quiet`` sets lasts for that command only (a caller that runs several tools
+    in one process, a test, keeps its own)."""
 
     @functools.wraps(main)
     def wrapped(argv=None) -> int:
         try:
-            code = main(argv)
+            code = contextvars.copy_context().run(main, argv)
         except SystemExit:
             raise
         except BaseException as error:  # noqa: BLE001 - every escape gets an exit code; bugs keep their traceback

@@ -419,3 +419,20 @@ def test_cli_module_imports_no_tool():
     imported = {n.module for n in ast.walk(tree) if isinstance(n, ast.ImportFrom) and n.module}
     assert {m for m in imported if m.split(".")[0] in PACKAGES} == {"blendvoca.errors", "blendvoca.runtime.progress"}
     assert "blendvoca.cli" in sys.modules
+
+
+def test_quiet_sets_the_progress_switch_for_its_command_only():
+    from blendvoca.runtime.progress import show_progress
+
+    seen = []
+
+    @cli.command
+    def tool(argv=None):
+        p = cli.parser("tool")
+        cli.add_quiet_option(p)
+        p.parse_args(argv)
+        seen.append(show_progress())
+
+    assert tool(["--quiet"]) == cli.EXIT_OK and tool([]) == cli.EXIT_OK
+    assert seen == [False, True]
+    assert show_progress()  # the caller's switch is its own
