@@ -109,7 +109,8 @@ class BuildSummary:
 def _run(tasks, function, *, workers, initargs, desc):
     """``function`` over ``tasks`` in ``workers`` processes (here for 1), each set up by
     :func:`.worker.worker_init`; the results in order."""
-    return list(process_map(function, tasks, workers=workers, initializer=worker.worker_init, initargs=initargs, desc=desc))
+    return list(process_map(function, tasks, workers=workers, initializer=worker.worker_init, initargs=initargs,
+                            desc=desc))
 
 
 def default_output_dir() -> Path:
