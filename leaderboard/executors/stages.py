@@ -127,9 +127,11 @@ def expert_stage(spec, root):
     """The learned lip-sync expert scoring every row, trained once on the build's
     training split (a step budget: deterministic) and cached; its checkpoint path."""
     from benchmark.lipsync.expert_training import cached_expert  # torch: loaded only when the expert is trained
+    from blendvoca.runtime.progress import progress_bars
 
     started = time.time()
-    _, path = cached_expert(root, max_seconds=None, max_steps=int(spec["expert_steps"]), progress=spec["progress"])
+    with progress_bars(spec["progress"]):
+        _, path = cached_expert(root, max_seconds=None, max_steps=int(spec["expert_steps"]))
     # trained now (a new checkpoint), or loaded from the cache: then nothing to time
     return str(path), ({} if Path(path).stat().st_mtime >= started - 1.0 else None)
 

@@ -16,7 +16,7 @@ from baselines.common.chunking import (
     generate_utterance_in_chunks,
     seam_report,
 )
-from benchmark.methods.base import Budget
+from benchmark.methods.base import Budget, TrainingRequest
 from benchmark.testing import FakeBlendVOCA
 
 
@@ -161,7 +161,7 @@ def test_said_chunks_long_audio_and_its_seams_stay_within_bounds():
 
     method = SAiDMethod(**TINY)
     dataset = small_dataset()
-    method.train(dataset, seed=0, budget=Budget(max_steps=6))
+    method.train(dataset, TrainingRequest(seed=0, budget=Budget(max_steps=6)))
     said = method.said
     said.config["sampling"]["chunk_frames"], said.config["sampling"]["chunk_overlap"] = 40, 15
     assert said.chunk_frames == 40 and said.chunk_overlap == 15 and method.lookahead_s == 40 / 60
@@ -203,7 +203,7 @@ def test_autoregressive_vertex_methods_chunk_with_bounded_seams(plugin):
         from tests.codetalker.test_plugin import TINY
     dataset = FakeBlendVOCA(0, train=2, sentences=1)
     method = cls(**TINY)
-    method.train(dataset, seed=0, budget=Budget(max_steps=8))
+    method.train(dataset, TrainingRequest(seed=0, budget=Budget(max_steps=8)))
     assert method.chunk_frames == 600 and method.chunk_overlap == 60 and method.lookahead_s == 10.0
     method.settings["training"]["chunk_frames"], method.settings["training"]["chunk_overlap"] = 120, 40
     utterance = long_utterance(dataset)
@@ -224,7 +224,7 @@ def test_cdface_chunks_long_audio_with_bounded_seams():
 
     dataset = FakeBlendVOCA(0, sentences=1)
     method = CDFaceMethod(**PLUGIN_TINY)
-    method.train(dataset, seed=0, budget=Budget(max_steps=4))
+    method.train(dataset, TrainingRequest(seed=0, budget=Budget(max_steps=4)))
     assert (method.chunk_frames, method.chunk_overlap) == (480, 48) and method.lookahead_s == 8.0
     method.resolved["training"]["chunk_frames"], method.resolved["training"]["chunk_overlap"] = 120, 40
     utterance = long_utterance(dataset, repeats=2)

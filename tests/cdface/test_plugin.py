@@ -97,7 +97,7 @@ def test_training_under_a_step_budget_gives_the_same_model_every_run():
     import torch
 
     from baselines.cdface.plugin import CDFaceMethod
-    from benchmark.methods.base import Budget
+    from benchmark.methods.base import Budget, TrainingRequest
     from benchmark.testing import FakeBlendVOCA
 
     dataset = FakeBlendVOCA(0, sentences=1)
@@ -105,7 +105,7 @@ def test_training_under_a_step_budget_gives_the_same_model_every_run():
     for run in range(2):
         torch.manual_seed(1000 + run)  # the global generator's state must not matter
         method = CDFaceMethod(**PLUGIN_TINY)
-        method.train(dataset, seed=3, budget=Budget(max_steps=2))
+        method.train(dataset, TrainingRequest(seed=3, budget=Budget(max_steps=2)))
         states.append(method.cdface.model.state_dict())
     for key, value in states[0].items():
         torch.testing.assert_close(value, states[1][key], rtol=0, atol=0, msg=key)
@@ -131,7 +131,7 @@ def test_cosine_schedule_sets_every_step_of_every_stage(monkeypatch):
 
     from baselines.cdface.plugin import CDFaceMethod
     from baselines.cdface.train import cosine_lr
-    from benchmark.methods.base import Budget
+    from benchmark.methods.base import Budget, TrainingRequest
     from benchmark.testing import FakeBlendVOCA
 
     seen = []

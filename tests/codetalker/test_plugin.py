@@ -10,7 +10,7 @@ from baselines.codetalker.plugin import CodeTalkerMethod
 from baselines.codetalker.train import split_budget, train_stage1
 from baselines.codetalker.vqvae import VQAutoEncoder
 from baselines.common.sequences import MotionSequence
-from benchmark.methods.base import Budget
+from benchmark.methods.base import Budget, TrainingRequest
 from benchmark.testing import FakeBlendVOCA, check_method
 
 TINY = {"feature_dim": 16, "vq_hidden_size": 16, "vq_zquant_dim": 4, "vq_n_embed": 16, "max_seconds": None}
@@ -52,7 +52,7 @@ def test_stage1_learns_a_codebook_that_reconstructs():
 def test_stage2_training_leaves_the_vq_vae_frozen():
     ds = FakeBlendVOCA(0, train=2, sentences=1)
     m = CodeTalkerMethod(**TINY)
-    m.train(ds, seed=0, budget=Budget(max_steps=6))
+    m.train(ds, TrainingRequest(seed=0, budget=Budget(max_steps=6)))
     assert m.history["stage1"]["steps"] == 2 and m.history["stage2"]["steps"] == 4
     vq_before = {k: v.clone() for k, v in m.network.autoencoder.state_dict().items()}
     from baselines.codetalker.train import train_stage2
@@ -68,7 +68,7 @@ def test_stage2_training_leaves_the_vq_vae_frozen():
 def test_save_load_round_trip(tmp_path):
     ds = FakeBlendVOCA(2, train=2, sentences=1)
     m = CodeTalkerMethod(**TINY)
-    m.train(ds, seed=0, budget=Budget(max_steps=3))
+    m.train(ds, TrainingRequest(seed=0, budget=Budget(max_steps=3)))
     m.save(tmp_path)
     back = CodeTalkerMethod.load(tmp_path)
     subject = ds.split("test")[0]

@@ -10,7 +10,7 @@ import pytest
 import torch
 
 from benchmark.methods import get_method
-from benchmark.methods.base import Budget, Method
+from benchmark.methods.base import Budget, TrainingRequest, Method
 from benchmark.methods.convert_checkpoint import convert_checkpoint
 from benchmark.methods.convert_checkpoint import main as convert_main
 from benchmark.run import main as run_main
@@ -223,7 +223,7 @@ def test_an_old_vertex_method_folder_converts_and_predicts_the_same(tmp_path, na
 
     ds = FakeBlendVOCA(1, train=2, sentences=1)
     method = get_method(name)(**METHODS[name][0])
-    method.train(ds, seed=0, budget=Budget(max_steps=2))
+    method.train(ds, TrainingRequest(seed=0, budget=Budget(max_steps=2)))
     method.save(tmp_path / "saved")
     old = tmp_path / "old"
     old.mkdir()

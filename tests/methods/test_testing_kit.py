@@ -4,7 +4,7 @@ names the step a broken one fails at; vertex outputs are fitted back to their co
 import numpy as np
 import pytest
 
-from benchmark.methods import Method, MethodOutputError, get_method
+from benchmark.methods import Method, MethodOutputError, TrainingRequest, get_method
 from benchmark.protocol import generated_tracks
 from benchmark.testing import FakeBlendVOCA, MethodCheckError, check_method
 
@@ -61,7 +61,7 @@ def test_vertex_method_passes_and_its_vertices_are_fitted_to_the_known_track():
     assert report.output == "vertices" and report.samples == 2
     dataset = FakeBlendVOCA(seed=3)
     method = RigDriven(level=0.4)
-    method.train(dataset, seed=0, budget=None)
+    method.train(dataset, TrainingRequest(seed=0))
     vertices = {}
     tracks, _ = generated_tracks(method, dataset, samples=2, seed=5, progress=False, vertices_out=vertices)
     for (subject, sentence), fitted in tracks.items():

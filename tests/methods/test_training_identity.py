@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 import torch
 
-from benchmark.methods.base import Budget
+from benchmark.methods.base import Budget, TrainingRequest
 from benchmark.protocol.convergence import preserved_random_state
 from benchmark.testing import FakeBlendVOCA
 from tests.methods.test_checkpoint_hook import CASES
@@ -88,7 +88,7 @@ def test_a_baseline_trains_the_recorded_weights(name):
         with preserved_random_state():
             calls.append((step, total_steps, np.asarray(method.generate(utterance, samples=2, seed=5))))
 
-    method.train(dataset, seed=3, budget=Budget(max_steps=steps), on_checkpoint=on_checkpoint)
+    method.train(dataset, TrainingRequest(seed=3, budget=Budget(max_steps=steps), on_checkpoint=on_checkpoint))
     modules = _modules(method)
     assert modules, f"{name}: no torch module found on the trained method"
     hook = _digest_arrays([np.array([s, -1 if t is None else t]) for s, t, _ in calls] + [c[2] for c in calls])
@@ -106,7 +106,7 @@ def test_the_sync_expert_trains_the_recorded_weights():
     rng = np.random.default_rng(11)
     items = [SyncItem(coeffs=track, audio=rng.normal(0, 0.1, size=len(track) * 16000 // 60).astype(np.float32),
                       lag=lag, name=f"s{i}") for i, (track, lag) in enumerate(zip(_coefficient_tracks(), (0, 1, -1)))]
-    expert = train_expert(items, max_steps=4, batch_size=4, crop=24, seed=3, progress=False,
+    expert = train_expert(items, max_steps=4, batch_size=4, crop=24, seed=3,
                           config={"channels": 8, "embedding": 8, "num_mels": 16})
     _check("sync_expert", _weights_digest([("net", expert.net)]), _digest_arrays([np.array([4])]))
 
@@ -114,5 +114,5 @@ def test_the_sync_expert_trains_the_recorded_weights():
 def test_the_vae_trainer_trains_the_recorded_weights():
     from benchmark.features.train import train_vae
 
-    model = train_vae(_coefficient_tracks(), np.full(32, 0.1), steps=5, batch_size=2, seed=3, progress=False)
+    model = train_vae(_coefficient_tracks(), np.full(32, 0.1), steps=5, batch_size=2, seed=3)
     _check("vae", _weights_digest([("vae", model)]), _digest_arrays([np.array([5])]))

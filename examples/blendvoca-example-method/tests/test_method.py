@@ -14,7 +14,7 @@ def test_passes_the_contract_checks():
 def test_jaw_follows_the_energy_of_the_speech():
     dataset = FakeBlendVOCA(seed=1)
     method = EnergyJawMethod(noise=0.0)
-    method.train(dataset, seed=0, budget=None)
+    method.train(dataset, TrainingRequest(seed=0))
     utterance = dataset.utterance(*next((s, q) for s in dataset.split("test") for q in dataset.sentences(s)))
     jaw = method.generate(utterance, samples=1, seed=0)[0, :, method.jaw]
     envelope = energy_envelope(utterance.audio, utterance.num_frames)
@@ -37,7 +37,7 @@ def test_half_budget_check_sees_the_fit_of_half_the_sentences():
     method.train(dataset, seed=0, budget=Budget(max_steps=10_000), on_checkpoint=on_checkpoint)
     assert [(step, total) for step, total, _ in calls] == [(n // 2, n)]
     half = EnergyJawMethod(noise=0.0)
-    half.train(dataset, seed=0, budget=Budget(max_steps=n // 2))
+    half.train(dataset, TrainingRequest(seed=0, budget=Budget(max_steps=n // 2)))
     assert calls[0][2] == half.gain  # the checkpoint saw exactly a run stopped there
     method.train(dataset, seed=0, budget=Budget(max_seconds=60), on_checkpoint=on_checkpoint)
     assert len(calls) == 1  # a time-limited run has no known half
