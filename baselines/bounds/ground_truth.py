@@ -28,7 +28,9 @@ class GroundTruthMethod(TrackLookupMethod):
     def __init__(self, split: str = "test"):
         super().__init__(split=split)
 
-    def train(self, dataset, *, seed, budget):
+    contract = 3
+
+    def train(self, dataset, request):
         self._tracks = {
             (subject, sentence): np.asarray(dataset.coeffs(subject, sentence), dtype=np.float64)
             for subject in dataset.split(self._config["split"])

@@ -74,7 +74,9 @@ class OracleSampleMethod(TrackLookupMethod):
     def __init__(self, split: str = "test"):
         super().__init__(split=split)
 
-    def train(self, dataset, *, seed, budget):
+    contract = 3
+
+    def train(self, dataset, request):
         self._tracks = oracle_tracks(dataset, self._config["split"], self.name)
 
     def generate(self, utterance, *, samples=1, seed=0):
@@ -108,6 +110,8 @@ class OracleMeanMethod(TrackLookupMethod):
     def __init__(self, split: str = "test"):
         super().__init__(split=split)
 
-    def train(self, dataset, *, seed, budget):
+    contract = 3
+
+    def train(self, dataset, request):
         self._tracks = {key: samples.mean(axis=0)
                         for key, samples in oracle_tracks(dataset, self._config["split"], self.name).items()}

@@ -65,7 +65,9 @@ class MeshAdapterMethod(TrackLookupMethod):
     def config(self) -> dict:
         return {**super().config(), "adapter": self.adapter.to_dict()}
 
-    def train(self, dataset, *, seed, budget, on_checkpoint=None):
+    contract = 3
+
+    def train(self, dataset, request):
         """Fit every stored output of a dataset subject with that speaker's rig.
 
         Nothing is learned (no steps, so no ``on_checkpoint`` call: the run is not

@@ -143,7 +143,7 @@ def test_cosine_schedule_sets_every_step_of_every_stage(monkeypatch):
 
     monkeypatch.setattr(torch.optim, "AdamW", Recording)
     method = CDFaceMethod(**PLUGIN_TINY, lr_schedule="cosine", lr=0.01)
-    method.train(FakeBlendVOCA(0, sentences=1), seed=0, budget=Budget(max_steps=4))
+    method.train(FakeBlendVOCA(0, sentences=1), TrainingRequest(seed=0, budget=Budget(max_steps=4)))
     expected = [cosine_lr(0.01, k, 4) for k in range(4)]
     assert seen == pytest.approx(expected * 3)  # lip prior, upper-face prior, querying
     with pytest.raises(ValueError, match="lr_schedule"):

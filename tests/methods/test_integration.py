@@ -71,7 +71,10 @@ def _replay_class():
         def __init__(self, offset=0.0):
             super().__init__(offset=offset)
 
-        def train(self, dataset, *, seed, budget):
+        contract = 3
+
+
+        def train(self, dataset, request):
             self._dataset = dataset
 
         def generate(self, utterance, *, samples=1, seed=0):

@@ -96,7 +96,7 @@ def test_wrong_topology_named(dataset, tmp_path):
         np.save(tmp_path / "out" / "S1" / f"{q}.npy", np.zeros((10, V + 1, 3)))
     with pytest.raises(ValueError, match=r"S1/sentence01.*\(T, 60, 3\)"):
         method = get_method("mesh-adapter")(vertices=str(tmp_path / "out"), split="test")
-        method.train(rig_dataset(test=["S1"]), seed=0, budget=Budget())
+        method.train(rig_dataset(test=["S1"]), TrainingRequest(seed=0, budget=Budget()))
 
 
 def test_config_validation(tmp_path):

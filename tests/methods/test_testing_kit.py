@@ -25,7 +25,10 @@ class RigDriven(Method):
     def __init__(self, level=0.3):
         super().__init__(level=level)
 
-    def train(self, dataset, *, seed, budget):
+    contract = 3
+
+
+    def train(self, dataset, request):
         self.rigs = {s: dataset.rig(s) for s in dataset.subjects}
 
     @staticmethod
@@ -81,7 +84,10 @@ class _Broken(Method):
         self.mode = mode
         self.state = None
 
-    def train(self, dataset, *, seed, budget):
+    contract = 3
+
+
+    def train(self, dataset, request):
         self.state = 0.5
 
     def generate(self, utterance, *, samples=1, seed=0):
