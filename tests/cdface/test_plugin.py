@@ -147,5 +147,5 @@ def test_cosine_schedule_sets_every_step_of_every_stage(monkeypatch):
     expected = [cosine_lr(0.01, k, 4) for k in range(4)]
     assert seen == pytest.approx(expected * 3)  # lip prior, upper-face prior, querying
     with pytest.raises(ValueError, match="lr_schedule"):
-        CDFaceMethod(**PLUGIN_TINY, lr_schedule="step").train(FakeBlendVOCA(0, sentences=1), seed=0,
-                                                               budget=Budget(max_steps=1))
+        CDFaceMethod(**PLUGIN_TINY, lr_schedule="step").train(FakeBlendVOCA(0, sentences=1),
+                                                               TrainingRequest(seed=0, budget=Budget(max_steps=1)))
