@@ -13,6 +13,7 @@ import numpy as np
 from benchmark.methods.base import Method, TrainingRequest
 from benchmark.methods.contract import OUTPUT_VERTICES
 from blendvoca.errors import DataError, UserError
+from blendvoca.runtime.progress import progress_bars
 
 CHECKPOINT_FILE = "cdface.pt"
 
@@ -173,8 +174,9 @@ class CDFaceMethod(Method):
             return self.cdface.generate(part.audio, part.num_frames, subject=part.subject, samples=samples, seed=seed,
                                         control=self.control, style=self.style)
 
-        return generate_utterance_in_chunks(whole, utterance, samples=int(samples), seed=int(seed),
-                                            chunk_frames=self.chunk_frames, overlap_frames=self.chunk_overlap)
+        with progress_bars(False):  # the per-frame bar of the sampler stays off (the runner draws one per split)
+            return generate_utterance_in_chunks(whole, utterance, samples=int(samples), seed=int(seed),
+                                                chunk_frames=self.chunk_frames, overlap_frames=self.chunk_overlap)
 
     def with_sampling_options(self, **options) -> CDFaceMethod:
         """The same trained model sampling with another ``control`` or ``style``."""

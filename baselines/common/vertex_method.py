@@ -26,8 +26,8 @@ from baselines.common.sequences import (
     speaker_templates,
     to_benchmark_rate,
 )
-from baselines.common.threads import torch_threads
 from benchmark.methods.base import Budget, Method, TrainingRequest
+from benchmark.methods.training_loop import torch_threads
 from blendvoca.errors import DataError
 
 __all__ = ["VOCASET_TRAIN_SUBJECTS", "StyleVertexMethod", "official_style_names", "style_indices", "training_limits"]

@@ -16,13 +16,13 @@ import numpy as np
 
 from blendvoca import cli
 from blendvoca.errors import UserError
+from blendvoca.runtime.progress import bar, progress_bars
 
 __all__ = ["exported_corpus_meshes", "main"]
 
 
 def exported_corpus_meshes(vocaset_root: str | os.PathLike, out_dir: str | os.PathLike, *, split: str = "test",
-                           fps: int = 60, offsets: bool = False, name: str | None = None, sentences=None,
-                           progress: bool = True) -> Path:
+                           fps: int = 60, offsets: bool = False, name: str | None = None, sentences=None) -> Path:
     """Write ``<out>/vertices/<subject>/<sentence>.npy`` and ``<out>/adapter.yaml``.
 
     Parameters
@@ -65,13 +65,7 @@ def exported_corpus_meshes(vocaset_root: str | os.PathLike, out_dir: str | os.Pa
     vertex_dir = out_dir / "vertices"
     items = [(s, q) for s in corpus.splits[split] if s in corpus.subjects for q in corpus.sentences(s)
              if sentences is None or q in sentences]
-    try:
-        from tqdm import tqdm
-
-        items = tqdm(items, desc="export meshes", unit="sentence", disable=not progress, file=sys.stderr)
-    except ImportError:
-        pass
-    for subject, sentence in items:
+    for subject, sentence in bar(items, desc="export meshes", unit="sentence", file=sys.stderr):
         frames = np.asarray(corpus.frames(subject, sentence), dtype=np.float64)[:: 60 // fps]
         if offsets:
             frames = frames - np.asarray(corpus.template(subject), dtype=np.float64)[None]
@@ -110,8 +104,9 @@ def main(argv=None) -> int:
         from blendvoca.synthetic import default_corpus
 
         vocaset = default_corpus()
-    path = exported_corpus_meshes(vocaset, args.out, split=args.split, fps=args.fps, offsets=args.offsets,
-                                  name=args.name, progress=not args.quiet)
+    with progress_bars(not args.quiet):
+        path = exported_corpus_meshes(vocaset, args.out, split=args.split, fps=args.fps, offsets=args.offsets,
+                                      name=args.name)
     print(path)
     return cli.EXIT_OK
 

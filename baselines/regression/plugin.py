@@ -74,7 +74,7 @@ class RegressionMethod(Method):
         ``checkpoint_fractions`` of the steps, the network then being the one training would
         keep at that point; its ``device``: where the network trains and then predicts
         (None: the CPU)."""
-        from baselines.common.threads import torch_threads
+        from benchmark.methods.training_loop import torch_threads
 
         from .training import feature_statistics, trained_regressor
 
@@ -118,7 +118,7 @@ class RegressionMethod(Method):
     def generate(self, utterance, *, samples=1, seed=0):
         import torch
 
-        from baselines.common.threads import torch_threads
+        from benchmark.methods.training_loop import torch_threads
 
         if self.model is None:
             raise RuntimeError("regression: generate called before train/load")

@@ -22,6 +22,7 @@ from baselines.said.train import train_said
 from benchmark.methods.base import Method, TrainingRequest
 from blendvoca.errors import DataError, UserError
 from blendvoca.names import BLENDVOCA_NAMES
+from blendvoca.runtime.progress import progress_bars
 
 CHECKPOINT_FILE = "said.pt"
 
@@ -117,13 +118,15 @@ class SAiDMethod(Method):
     def generate(self, utterance, *, samples=1, seed=0):
         """Return ``(S, T, 32)`` coefficient tracks in [0, 1] sampled for the utterance's audio (speaker-independent);
         an utterance longer than ``chunk_frames`` (default 10 training windows) goes chunk by chunk
-        (:mod:`baselines.common.chunking`)."""
-        return self.said.generate(utterance.audio, utterance.num_frames, samples=int(samples), seed=int(seed))
+        (:mod:`baselines.common.chunking`). The sampler's own bar stays off (the runner draws one per split)."""
+        with progress_bars(False):
+            return self.said.generate(utterance.audio, utterance.num_frames, samples=int(samples), seed=int(seed))
 
     def generate_many(self, utterances, *, samples=1, seeds):
         """``(S, T_i, 32)`` tracks for several utterances, batched into one chain (``benchmark.run --sentence-batch N``)."""
         pairs = [(utterance.audio, utterance.num_frames) for utterance in utterances]
-        return self.said.generate_many(pairs, samples=int(samples), seeds=[int(seed) for seed in seeds])
+        with progress_bars(False):
+            return self.said.generate_many(pairs, samples=int(samples), seeds=[int(seed) for seed in seeds])
 
     def with_sampling_options(self, **options) -> SAiDMethod:
         """The same trained network sampling with another ``sampler``, ``num_steps``, ``guidance`` or ``eta``."""

@@ -58,6 +58,7 @@ from blendvoca.builder.outdir import is_running
 from blendvoca.errors import UserError
 from blendvoca.format import manifest_path
 from blendvoca.io.atomic import atomic_write
+from blendvoca.runtime.progress import progress_bars
 from leaderboard.executors.core import log_progress
 
 __all__ = ["built_corpus", "data_stage", "expert_stage", "row_result_path", "score_stage", "single_stage",
@@ -127,7 +128,6 @@ def expert_stage(spec, root):
     """The learned lip-sync expert scoring every row, trained once on the build's
     training split (a step budget: deterministic) and cached; its checkpoint path."""
     from benchmark.lipsync.expert_training import cached_expert  # torch: loaded only when the expert is trained
-    from blendvoca.runtime.progress import progress_bars
 
     started = time.time()
     with progress_bars(spec["progress"]):
@@ -204,7 +204,8 @@ def _exported_meshes(spec) -> None:
     if not (corpus / "synthetic.json").is_file():
         raise UserError(f"corpus-meshes: exports the synthetic corpus's meshes, but {corpus} holds none "
                         "(with --data, leave this row out or generate the corpus there)")
-    exported_corpus_meshes(corpus, meshes, fps=60, progress=spec["progress"])
+    with progress_bars(spec["progress"]):
+        exported_corpus_meshes(corpus, meshes, fps=60)
 
 
 def _run_spec(spec, root, *, seed, checkpoint, expert=None, seeds=None):

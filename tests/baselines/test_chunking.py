@@ -175,7 +175,7 @@ def test_said_chunks_long_audio_and_its_seams_stay_within_bounds():
     parts = []
     again = generate_in_chunks(
         lambda wav, n, i: said._generate_whole(wav, n, samples=2, seed=0, sampler=None, num_steps=None,
-                                               guidance=None, eta=None, progress=False),
+                                               guidance=None, eta=None),
         audio, frames, plan, keep_chunks=parts)
     np.testing.assert_array_equal(out, again)  # generate is the chunked path
     # a batch holding a long utterance samples each on its own, the long one chunked
@@ -187,8 +187,7 @@ def test_said_chunks_long_audio_and_its_seams_stay_within_bounds():
     # an utterance of one chunk is the unchunked chain itself
     short = said.generate(base.audio, 40, samples=1, seed=3)
     np.testing.assert_array_equal(short, said._generate_whole(base.audio, 40, samples=1, seed=3, sampler=None,
-                                                              num_steps=None, guidance=None, eta=None,
-                                                              progress=False))
+                                                              num_steps=None, guidance=None, eta=None))
 
 
 @pytest.mark.parametrize("plugin", ["faceformer", "codetalker"])

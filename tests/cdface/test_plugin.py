@@ -52,13 +52,15 @@ def test_cli_writes_samples_for_any_wav(tmp_path, capsys):
 def test_cli_file_mistakes_are_one_error_line_and_paths_any_path_like(tmp_path, capsys):
     from baselines.cdface.generate import generate_file, main
     from blendvoca.io.audio import write_wav
+    from blendvoca.runtime.progress import progress_bars
 
     cdface, _template = _tiny_cdface()
     cdface.save(FsPath(tmp_path / "cdface.pt"))
     wav = tmp_path / "speech.wav"
     write_wav(wav, np.random.default_rng(0).normal(scale=0.1, size=8000).astype(np.float32), 16000)
-    out = generate_file(FsPath(wav), FsPath(tmp_path / "out.npy"), checkpoint=FsPath(tmp_path), samples=2,
-                        subject="A", progress=False)
+    with progress_bars(False):
+        out = generate_file(FsPath(wav), FsPath(tmp_path / "out.npy"), checkpoint=FsPath(tmp_path), samples=2,
+                            subject="A")
     assert out == tmp_path / "out.npy" and np.load(out).shape == (2, 30, 7, 3)
     (tmp_path / "ref.npy").write_text("not an array")
     (tmp_path / "bad").mkdir()
