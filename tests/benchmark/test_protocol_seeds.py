@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from benchmark.evaluation import Scores
-from benchmark.methods import Method, register, TrainingRequest, unregister
+from benchmark.methods import Method, TrainingRequest, register, unregister
 from benchmark.metrics.bootstrap import (
     bootstrap_indices,
     interval,
