@@ -104,12 +104,12 @@ class Method(abc.ABC):
         return dict(self._config)
 
     def train(self, dataset, request: TrainingRequest) -> None:
-        """Train on ``dataset.split("train")`` / ``("val")``; default: nothing to train.
+        """Train on ``dataset.split("train")`` / ``("val")`` as ``request`` asks; default: nothing to train.
 
-        Method contract v3: a plug-in that overrides ``train`` declares ``contract = 3``
-        in the same class body (:func:`~benchmark.methods.request.train_contract`); one
-        that does not is called as a contract-v2 plug-in, ``train(dataset, *, seed,
-        budget)``, with a ``DeprecationWarning``.
+        Method contract v3 (docs/methods.md, "The contract"): a plug-in that overrides
+        ``train`` declares ``contract = 3`` in the same class body
+        (:func:`~benchmark.methods.request.train_contract`); one that does not is called as a
+        contract-v2 plug-in, ``train(dataset, *, seed, budget)``, with a ``DeprecationWarning``.
 
         Parameters
         ----------
@@ -117,27 +117,10 @@ class Method(abc.ABC):
             As returned by ``benchmark.data.open_blendvoca``; vertex-trained methods
             read ``dataset.vertices(subject, sentence)`` and ``dataset.template(subject)``.
         request : TrainingRequest
-            ``seed`` (every random choice made while training), ``budget`` (step and/or
-            time limit), ``device`` and the runner's ``on_checkpoint`` hook with its
-            ``checkpoint_fractions``.
-
-            ``on_checkpoint`` (docs/methods.md, "Settled or not"): a method that trains a
-            known number of steps ``N`` (a step budget, or its own default step count, and
-            no time limit) calls ``on_checkpoint(step, total_steps=N)`` once right after
-            each step of ``request.checkpoint_steps(N)`` (by default ``N // 2``). A method
-            trained in stages calls it in its last stage, with the steps of every stage
-            counted. During the call the method must be able to :meth:`generate` as it
-            would be had its training stopped at that step (the weights it would keep then,
-            in eval mode, without gradients); afterwards it goes on as if nothing had
-            happened. The runner keeps the global random states unchanged around the call.
-            :class:`benchmark.methods.training_loop.StepLoop` does all of this.
-
-            ``device`` (``benchmark.run --device``: ``"cpu"``, ``"cuda"``, ``"cuda:N"``;
-            None: the method's own choice, the CPU for every bundled baseline): a method
-            that trains on a device stays there, so that :meth:`generate` runs there too; a
-            loaded method is moved by its ``to(device)`` when it has one. ``"cpu"`` must
-            train exactly what None trains; on a GPU a method may use mixed precision where
-            its config allows it.
+            The seed, the budget, the device and the runner's checkpoint hook with its
+            fractions (the hook's rules: docs/methods.md, "Settled or not"; the bundled
+            baselines make the calls through
+            :class:`benchmark.methods.training_loop.StepLoop`).
         """
         return
 

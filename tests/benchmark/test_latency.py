@@ -26,7 +26,6 @@ class ChunkedSleeper(Method):
 
     contract = 3
 
-
     def train(self, dataset, request):
         pass
 

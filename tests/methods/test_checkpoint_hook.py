@@ -160,3 +160,17 @@ def test_paused_training_restores_weights_modes_flags_and_rng():
     # the weights a best-on-validation loop would keep if it stopped now
     assert kept_state(None, None, 1.0) is None and kept_state(2.0, "best", 1.0) is None
     assert kept_state(1.0, "best", 2.0) == "best" and kept_state(1.0, "best", 1.0) == "best"
+
+
+def test_the_loop_calls_at_every_fraction_the_runner_asks_for():
+    factory, _, _ = CASES["regression"]
+    cls, config = factory()
+    dataset, weights = _dataset(), []
+    for fractions in ((0.5,), (0.25, 0.5)):
+        torch.manual_seed(1234)
+        method, calls = cls(**config), []
+        method.train(dataset, TrainingRequest(seed=0, budget=Budget(max_steps=8), checkpoint_fractions=fractions,
+                                              on_checkpoint=lambda step, total_steps=None: calls.append((step, total_steps))))
+        assert calls == [(round(8 * f), 8) for f in fractions]
+        weights.append([v.clone() for v in method.model.state_dict().values()])
+    assert all(torch.equal(a, b) for a, b in zip(*weights))  # a quarter-budget call changes nothing either

@@ -73,7 +73,6 @@ def _replay_class():
 
         contract = 3
 
-
         def train(self, dataset, request):
             self._dataset = dataset
 

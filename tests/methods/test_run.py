@@ -40,10 +40,7 @@ class _Broken(Method):
     def __init__(self, mode="ok"):
         super().__init__(mode=mode)
 
-    contract = 3
-
-
-    def train(self, dataset, request):
+    def train(self, dataset, *, seed, budget):  # contract v2: the old plug-in of these tests
         if self._config["mode"] == "train-raises":
             raise RuntimeError("boom in train")
 
@@ -271,7 +268,6 @@ class _Slow(Method):
 
     contract = 3
 
-
     def train(self, dataset, request):
         if self._config["where"] == "train":
             import time
@@ -312,7 +308,6 @@ class _Stuck(Method):
         super().__init__(sleep=sleep)
 
     contract = 3
-
 
     def train(self, dataset, request):
         pass
@@ -413,7 +408,6 @@ class _Tunable(Method):
 
     contract = 3
 
-
     def train(self, dataset, request):
         self.trained = True
 
@@ -480,7 +474,6 @@ class _Chatty(Method):
     """Draws its own tqdm bars in train and generate, as the built-in plug-ins do."""
 
     contract = 3
-
 
     def train(self, dataset, request):
         from tqdm.auto import tqdm

@@ -27,7 +27,6 @@ class RigDriven(Method):
 
     contract = 3
 
-
     def train(self, dataset, request):
         self.rigs = {s: dataset.rig(s) for s in dataset.subjects}
 
@@ -85,7 +84,6 @@ class _Broken(Method):
         self.state = None
 
     contract = 3
-
 
     def train(self, dataset, request):
         self.state = 0.5
