@@ -19,7 +19,7 @@ import sys
 import time
 import warnings
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, replace
+from dataclasses import asdict, dataclass
 
 import numpy as np
 
@@ -152,10 +152,6 @@ class TrainingRequest:
         if self.on_checkpoint is None or self.budget.max_seconds is not None:
             return ()
         return checkpoint_steps(total_steps, self.checkpoint_fractions)
-
-    def with_options(self, **changes) -> TrainingRequest:
-        """A copy with ``changes`` (e.g. ``seed=``)."""
-        return replace(self, **changes)
 
 
 def train_contract(cls) -> int:
