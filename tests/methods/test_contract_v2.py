@@ -9,7 +9,7 @@ import pytest
 
 from benchmark.methods import Budget, Method, TrainingRequest, available_methods, get_method, register, unregister
 from benchmark.methods.request import CONTRACT, call_train, train_contract
-from benchmark.run import run_method
+from benchmark.protocol import RunSpec, run
 from blendvoca.errors import MethodError
 
 from .fakes import fake_evaluate, speech_dataset
@@ -40,9 +40,9 @@ def test_an_old_plugin_still_scores_with_one_warning(tmp_path):
         dataset = speech_dataset(seed=0, sentences=2, seconds=1.0)
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            path = run_method("test-contract-v2", "unused", results_dir=tmp_path, evaluate=fake_evaluate,
-                              open_dataset=lambda root: dataset, progress=False, seed=2,
-                              budget=Budget(max_steps=3))
+            spec = RunSpec("test-contract-v2", data_root="unused", results_dir=tmp_path, progress=False, seed=2,
+                           budget=Budget(max_steps=3))
+            path = run(spec, evaluate=fake_evaluate, open_dataset=lambda root: dataset)
         deprecations = [w for w in caught if issubclass(w.category, DeprecationWarning)]
         assert len(deprecations) == 1, [str(w.message) for w in caught]
         message = str(deprecations[0].message)
