@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from benchmark.methods.base import Budget, Method
+from benchmark.methods.request import TrainingRequest, call_train
 from benchmark.methods.contract import AUDIO_RATE, COEFFICIENT_NAMES, FPS, OUTPUT_KINDS, Utterance
 from benchmark.protocol import generated_tracks
 
@@ -348,9 +349,9 @@ def check_method(cls, *, max_steps: int = 5, samples: int = 2, seed: int = 0, da
 
     dataset = dataset if dataset is not None else FakeBlendVOCA(seed=seed)
     try:
-        method.train(dataset, seed=seed, budget=Budget(max_steps=max_steps))
+        call_train(method, dataset, TrainingRequest(seed=seed, budget=Budget(max_steps=max_steps)))
     except Exception as exc:
-        _fail("train", cls, f"train(FakeBlendVOCA, seed={seed}, budget=Budget(max_steps={max_steps})) raised", exc)
+        _fail("train", cls, f"train(FakeBlendVOCA, TrainingRequest(seed={seed}, budget=Budget(max_steps={max_steps}))) raised", exc)
     num_samples = samples if cls.stochastic else 1
     tracks, vertices = _generated_or_fail("generate", cls, method, dataset, num_samples, seed)
     again, again_vertices = _generate_all(method, dataset, num_samples, seed)
@@ -362,7 +363,7 @@ def check_method(cls, *, max_steps: int = 5, samples: int = 2, seed: int = 0, da
     with _other_global_random_state(seed + 7919):
         try:
             twin = cls(**config)
-            twin.train(dataset, seed=seed, budget=Budget(max_steps=max_steps))
+            call_train(twin, dataset, TrainingRequest(seed=seed, budget=Budget(max_steps=max_steps)))
         except Exception as exc:
             _fail("same seed, same training", cls, "constructing and training a second instance raised", exc)
     twin_tracks, twin_vertices = _generated_or_fail("same seed, same training", cls, twin, dataset, num_samples, seed)

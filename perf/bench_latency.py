@@ -31,7 +31,7 @@ def main(argv=None) -> int:
 
     import torch
 
-    from benchmark.methods import Budget, get_method
+    from benchmark.methods import Budget, TrainingRequest, get_method
     from benchmark.protocol.generation import measure_latency
     from benchmark.protocol.spec import default_data_root, open_data
 
@@ -40,7 +40,7 @@ def main(argv=None) -> int:
     print(f"{'method':>11} {'lookahead (s)':>14} {'first frame (s)':>16} {'CPU s / audio s':>16} {'RTF':>7}")
     for name in args.methods:
         method = get_method(name)()
-        method.train(dataset, seed=0, budget=Budget(max_steps=args.max_steps))
+        method.train(dataset, TrainingRequest(seed=0, budget=Budget(max_steps=args.max_steps)))
         lat = measure_latency(method, dataset, split="test", seed=0, name=name, sentences=args.sentences)
         look = "whole" if lat["lookahead_s"] is None else f"{lat['lookahead_s']:.2f}"
         print(f"{name:>11} {look:>14} {lat['first_frame_s']:>16.3f} {lat['compute_per_audio_s']:>16.3f} "

@@ -31,7 +31,7 @@ import json, resource, sys, time
 sys.path.insert(0, {root!r})
 from baselines.said.generate import generate_files
 start = time.perf_counter()
-paths = generate_files({wav!r}, {out!r}, checkpoint={checkpoint!r}, num_steps={steps}, progress=False)
+paths = generate_files({wav!r}, {out!r}, checkpoint={checkpoint!r}, num_steps={steps})
 seconds = time.perf_counter() - start
 with open(paths[0]) as fh:
     frames = sum(1 for _ in fh) - 1

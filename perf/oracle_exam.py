@@ -36,7 +36,7 @@ from baselines.bounds.oracle import OracleMeanMethod, OracleSampleMethod  # noqa
 from baselines.regression.ridge import ridge_explained  # noqa: E402
 from benchmark.data import open_blendvoca  # noqa: E402
 from benchmark.evaluation import EvaluationSettings, evaluate_split  # noqa: E402
-from benchmark.methods import Budget  # noqa: E402
+from benchmark.methods import Budget, TrainingRequest  # noqa: E402
 from benchmark.metrics.bootstrap import probability_of_improvement  # noqa: E402
 from benchmark.protocol.generation import generated_tracks  # noqa: E402
 
@@ -90,7 +90,7 @@ def main(argv=None) -> int:
     rows = {}
     for method, samples in ((OracleSampleMethod(split=args.split), args.samples),
                             (OracleMeanMethod(split=args.split), 1)):
-        method.train(dataset, seed=args.seed, budget=Budget())
+        method.train(dataset, TrainingRequest(seed=args.seed, budget=Budget()))
         rows[method.name], _ = generated_tracks(method, dataset, split=args.split, samples=samples,
                                                 seed=args.seed, progress=False)
     rows["oracle-mean+noise"] = noisy(rows["oracle-mean"], std=args.noise, samples=args.samples, seed=args.seed)

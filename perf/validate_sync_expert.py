@@ -81,10 +81,10 @@ def main(argv=None) -> int:
     regression = None
     if args.regression_seconds > 0:
         from baselines.regression.plugin import RegressionMethod
-        from benchmark.methods.base import Budget
+        from benchmark.methods.base import Budget, TrainingRequest
 
         regression = RegressionMethod()
-        regression.train(dataset, seed=args.seed, budget=Budget(max_seconds=args.regression_seconds))
+        regression.train(dataset, TrainingRequest(seed=args.seed, budget=Budget(max_seconds=args.regression_seconds)))
 
     # Loudness follower fitted on the training split, as the example plug-in does.
     jaw = list(dataset.names).index("jawOpen")

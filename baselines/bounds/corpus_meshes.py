@@ -29,7 +29,9 @@ class CorpusMeshesMethod(Method):
     learns = False
     output = "vertices"
 
-    def train(self, dataset, *, seed, budget):
+    contract = 3
+
+    def train(self, dataset, request):
         self._dataset = dataset
 
     def generate(self, utterance, *, samples=1, seed=0):

@@ -53,7 +53,9 @@ class MeanMethod(Method):
         super().__init__(split=split)
         self.mean_: np.ndarray | None = None
 
-    def train(self, dataset, *, seed, budget):
+    contract = 3
+
+    def train(self, dataset, request):
         self.mean_ = mean_coefficients(
             dataset.coeffs(subject, sentence)
             for subject in dataset.split(self._config["split"])

@@ -54,7 +54,18 @@ def oracle_tracks(dataset, split: str, name: str) -> dict[tuple[str, str], np.nd
     return tracks
 
 
-class OracleSampleMethod(TrackLookupMethod):
+class _OracleMethod(TrackLookupMethod):
+    """The oracle references' shared part: a reference that learns nothing, reading the
+    tracks of ``split``."""
+
+    reference = True
+    learns = False
+
+    def __init__(self, split: str = "test"):
+        super().__init__(split=split)
+
+
+class OracleSampleMethod(_OracleMethod):
     """Reference: S of the K conditional samples the corpus drew for the sentence.
 
     ``generate(samples=S)`` returns S distinct samples; which ones depends on
@@ -68,14 +79,9 @@ class OracleSampleMethod(TrackLookupMethod):
 
     name = "oracle-sample"
     stochastic = True
-    reference = True
-    learns = False
 
-    def __init__(self, split: str = "test"):
-        super().__init__(split=split)
-
-    def train(self, dataset, *, seed, budget):
-        self._tracks = oracle_tracks(dataset, self._config["split"], self.name)
+    def read_tracks(self, dataset) -> dict:
+        return oracle_tracks(dataset, self._config["split"], self.name)
 
     def generate(self, utterance, *, samples=1, seed=0):
         stored = self.stored_track(utterance)
@@ -91,7 +97,7 @@ class OracleSampleMethod(TrackLookupMethod):
                                           where=where) for k in chosen])
 
 
-class OracleMeanMethod(TrackLookupMethod):
+class OracleMeanMethod(_OracleMethod):
     """Reference: the mean of the K conditional samples' fitted tracks (the Monte-Carlo conditional mean).
 
     Parameters
@@ -102,12 +108,7 @@ class OracleMeanMethod(TrackLookupMethod):
 
     name = "oracle-mean"
     stochastic = False
-    reference = True
-    learns = False
 
-    def __init__(self, split: str = "test"):
-        super().__init__(split=split)
-
-    def train(self, dataset, *, seed, budget):
-        self._tracks = {key: samples.mean(axis=0)
-                        for key, samples in oracle_tracks(dataset, self._config["split"], self.name).items()}
+    def read_tracks(self, dataset) -> dict:
+        return {key: samples.mean(axis=0)
+                for key, samples in oracle_tracks(dataset, self._config["split"], self.name).items()}

@@ -27,6 +27,7 @@ from baselines.common.chunking import chunk_plan, generate_in_chunks
 from benchmark.methods.contract import AUDIO_RATE, FPS
 from blendvoca import cli
 from blendvoca.errors import DataError, UserError
+from blendvoca.runtime.progress import progress_bars
 
 CHECKPOINT_FILE = "cdface.pt"
 
@@ -74,7 +75,7 @@ def reference_motion(path: str | os.PathLike) -> np.ndarray:
 def generate_file(audio_path: str | os.PathLike, out_path: str | os.PathLike, *, checkpoint: str | os.PathLike,
                   samples: int = 1, seed: int = 0, control: str = "none", reference: str | os.PathLike | None = None,
                   subject: str | None = None, template: str | os.PathLike | None = None, style: str | None = None,
-                  obj_dir: str | os.PathLike | None = None, progress: bool = True) -> Path:
+                  obj_dir: str | os.PathLike | None = None) -> Path:
     """Write the samples of one WAV to ``out_path`` (``.npy``, atomically); return the path.
 
     Paths are ``str`` or ``os.PathLike``; ``checkpoint`` is ``cdface.pt`` or its directory.
@@ -107,7 +108,7 @@ def generate_file(audio_path: str | os.PathLike, out_path: str | os.PathLike, *,
     if reference is not None:
         ref = reference_motion(reference)
     options = {"subject": subject, "template": template, "samples": samples, "seed": seed, "control": control,
-               "style": style, "progress": progress}
+               "style": style}
     chunk_frames, overlap = chunk_lengths(cdface.config)
     plan = chunk_plan(num_frames, chunk_frames, overlap)
     if plan.chunked and ref is None:  # a long WAV: chunk by chunk (a reference fixes the lips of the whole track)
@@ -148,9 +149,10 @@ def main(argv=None) -> int:
         p.error(f"--samples: expected >= 1, got {args.samples}")
     if args.reference is not None and args.control != "lips":
         p.error("--reference fixes the lips: add --control lips")
-    path = generate_file(args.audio, args.out, checkpoint=args.checkpoint, samples=args.samples, seed=args.seed,
-                         control=args.control, reference=args.reference, subject=args.subject,
-                         template=args.template, style=args.style, obj_dir=args.obj_dir, progress=not args.quiet)
+    with progress_bars(not args.quiet):
+        path = generate_file(args.audio, args.out, checkpoint=args.checkpoint, samples=args.samples, seed=args.seed,
+                             control=args.control, reference=args.reference, subject=args.subject,
+                             template=args.template, style=args.style, obj_dir=args.obj_dir)
     print(path)
     return cli.EXIT_OK
 

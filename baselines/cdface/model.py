@@ -157,7 +157,7 @@ class CDFaceModel(nn.Module):
                 "upper_codes": z_u, "upper_quantized": q_u, "upper": x_u}
 
     @torch.no_grad()
-    def sample(self, features, style: int, pairs, *, lip_codes=None, progress=None):
+    def sample(self, features, style: int, pairs, *, lip_codes=None, on_frame=None):
         """Auto-regressive synthesis of the samples ``pairs`` for one utterance.
 
         Parameters
@@ -168,7 +168,7 @@ class CDFaceModel(nn.Module):
         lip_codes : (T, C_l) Tensor, optional
             Fixed lip codes (e.g. of a reference sequence): every sample gets these
             lips and only the upper-face codes are queried.
-        progress : callable, optional
+        on_frame : callable, optional
             Called with the frame index after each frame.
 
         Returns
@@ -223,8 +223,8 @@ class CDFaceModel(nn.Module):
                 upper_past[:, t + 1] = self.upper_vq.decode(codes_u[:, d:t + 1], offset=d, last=True)
                 tok_l[:, t + 1] = self.lip_query.embed(lip_past[:, t + 1:t + 2])[:, 0]
                 tok_u[:, t + 1] = self.upper_query.embed(upper_past[:, t + 1:t + 2], lip_past[stream_t, t + 1:t + 2])[:, 0]
-            if progress is not None:
-                progress(t)
+            if on_frame is not None:
+                on_frame(t)
         lips = self.lip_vq.decode(codes_l)
         upper = self.upper_vq.decode(codes_u)
         return lips[stream_t].to(home), upper.to(home)

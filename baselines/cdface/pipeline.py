@@ -21,8 +21,9 @@ from baselines.cdface.parts import FaceParts
 from baselines.cdface.presets import DEFAULT_PRESET, resolve_config
 from baselines.common.checkpoint import load_checkpoint_file, old_format_hint, safe_payload, save_checkpoint_file
 from baselines.common.encoders import build_encoder
-from baselines.common.threads import torch_threads
+from benchmark.methods.training_loop import torch_threads
 from blendvoca.errors import DataError, UserError
+from blendvoca.runtime.progress import bar
 
 __all__ = ["CONTROL_MODES", "CDFace"]
 
@@ -106,7 +107,7 @@ class CDFace:
         return self.templates[subject]
 
     def generate(self, audio, num_frames: int, *, subject=None, template=None, samples: int = 1, seed: int = 0,
-                 control: str = "none", reference=None, style=None, progress: bool = False) -> np.ndarray:
+                 control: str = "none", reference=None, style=None) -> np.ndarray:
         """Animate ``S`` samples of a speaker's mesh for one utterance.
 
         Parameters
@@ -127,7 +128,6 @@ class CDFace:
             With ``control="lips"``: the lips are this sequence's lip codes.
         style : str or int, optional
             Training speaker whose style token is used (default the first).
-        progress : bool
 
         Returns
         -------
@@ -152,17 +152,13 @@ class CDFace:
                 reference = np.concatenate([reference, np.repeat(reference[-1:], num_frames - len(reference), 0)])
             lip_codes = self.model.encode_lips(self.split_motion(reference, tpl)[0])
         self.model.eval()
-        bar = None
-        if progress:
-            from tqdm import tqdm
-            bar = tqdm(total=num_frames, desc="CDFace: frames", unit="frame")
+        frames = bar(total=num_frames, desc="CDFace: frames", unit="frame")
         try:
             with torch_threads(self.config["training"]["num_threads"]):
                 lips, upper = self.model.sample(self.features(audio, num_frames), self.style_index(style), pairs,
-                                                lip_codes=lip_codes, progress=(lambda t: bar.update(1)) if bar else None)
+                                                lip_codes=lip_codes, on_frame=lambda t: frames.update(1))
         finally:
-            if bar is not None:
-                bar.close()
+            frames.close()
         disp = self.parts.compose(lips.double().numpy(), upper.double().numpy()) / self.motion_scale
         return tpl[None, None] + disp
 

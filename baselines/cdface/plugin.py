@@ -10,9 +10,10 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmark.methods.base import Budget, Method, show_progress
+from benchmark.methods.base import Method, TrainingRequest
 from benchmark.methods.contract import OUTPUT_VERTICES
 from blendvoca.errors import DataError, UserError
+from blendvoca.runtime.progress import progress_bars
 
 CHECKPOINT_FILE = "cdface.pt"
 
@@ -96,11 +97,13 @@ class CDFaceMethod(Method):
         """Constructor arguments plus the resolved nested config."""
         return {**super().config(), "resolved": self.resolved}
 
-    def train(self, dataset, *, seed: int, budget: Budget, on_checkpoint=None, device=None) -> None:
-        """Train the two part priors and the querying model on the train split within ``budget``;
-        ``on_checkpoint``: the runner's half-budget call, made at half of the querying stage
-        (the last one) when it has a step limit (:func:`baselines.cdface.train.train_cdface`).
-        ``device``: where the networks train and then sample (None: the CPU); they are built
+    contract = 3
+
+    def train(self, dataset, request: TrainingRequest) -> None:
+        """Train the two part priors and the querying model on the train split within
+        ``request.budget``; ``request.on_checkpoint``: the runner's checkpoint call, made at the
+        ``checkpoint_fractions`` of the querying stage (the last one) when it has a step limit
+        (:func:`baselines.cdface.train.train_cdface`). ``request.device``: where the networks train and then sample (None: the CPU); they are built
         and the frozen audio features computed on the CPU first, so a seed gives the same
         initial weights and inputs on every device."""
         from baselines.cdface.closure import lip_pair_for
@@ -117,14 +120,16 @@ class CDFaceMethod(Method):
         parts = dataset_parts(dataset, everyone, active)
         import torch
 
-        torch.manual_seed(int(seed))  # the initial weights too: a step budget then gives the same model every run
+        torch.manual_seed(int(request.seed))  # the initial weights too: a step budget then gives the same model every run
         self.cdface = CDFace(self.resolved, parts, train, {s: dataset.template(s) for s in everyone})
         sentences = prepare_sentences(self.cdface, loaded, epsilon=self.resolved["loss"]["epsilon"],
                                       lip_pair=lip_pair_for(dataset.template(train[0]), dataset_lips(dataset, train)))
         del loaded
-        self.cdface.model.to(method_device(device))
-        train_cdface(self.cdface, sentences, seed=seed, max_steps=budget.max_steps, max_seconds=budget.max_seconds,
-                     progress=show_progress(), on_checkpoint=on_checkpoint, mixed_precision=self.mixed_precision)
+        self.cdface.model.to(method_device(request.device))
+        budget = request.budget
+        train_cdface(self.cdface, sentences, seed=request.seed, max_steps=budget.max_steps,
+                     max_seconds=budget.max_seconds, on_checkpoint=request.on_checkpoint,
+                     fractions=request.checkpoint_fractions, mixed_precision=self.mixed_precision)
 
     def to(self, device):
         """This method with its networks on ``device`` (sampling runs there; the frozen audio encoder
@@ -169,8 +174,9 @@ class CDFaceMethod(Method):
             return self.cdface.generate(part.audio, part.num_frames, subject=part.subject, samples=samples, seed=seed,
                                         control=self.control, style=self.style)
 
-        return generate_utterance_in_chunks(whole, utterance, samples=int(samples), seed=int(seed),
-                                            chunk_frames=self.chunk_frames, overlap_frames=self.chunk_overlap)
+        with progress_bars(False):  # the per-frame bar of the sampler stays off (the runner draws one per split)
+            return generate_utterance_in_chunks(whole, utterance, samples=int(samples), seed=int(seed),
+                                                chunk_frames=self.chunk_frames, overlap_frames=self.chunk_overlap)
 
     def with_sampling_options(self, **options) -> CDFaceMethod:
         """The same trained model sampling with another ``control`` or ``style``."""

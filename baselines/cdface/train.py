@@ -11,7 +11,6 @@ from the training sentences and stops at its step limit or time limit.
 from __future__ import annotations
 
 import math
-import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -22,9 +21,7 @@ from baselines.cdface.losses import lip_losses, upper_face_losses
 from baselines.cdface.vqvae import vq_loss
 from baselines.common.dataset import sentence_audio
 from baselines.common.device import MixedPrecision, module_device
-from baselines.common.threads import torch_threads
-from baselines.common.training import call_checkpoint
-from benchmark.methods.base import checkpoint_step
+from benchmark.methods.training_loop import StepLoop, optimiser_step, torch_threads
 from blendvoca.errors import UserError
 
 __all__ = ["LR_SCHEDULES", "SentenceData", "WindowSampler", "cosine_lr", "load_sentences", "moving_vertices", "prepare_sentences", "stage_limits",
@@ -142,13 +139,12 @@ def cosine_lr(lr: float, step: int, steps=None, elapsed: float = 0.0, seconds=No
     return float(lr) * 0.5 * (1.0 + math.cos(math.pi * f))
 
 
-def _run_stage(name, params, loss_fn, sampler, steps, seconds, training, progress, at_half=None, amp=None) -> list:
+def _run_stage(name, params, loss_fn, sampler, steps, seconds, training, amp=None, **loop) -> list:
     """Optimise ``params`` on ``loss_fn`` of ``sampler``'s batches for ``steps`` steps and/or
-    ``seconds``; ``at_half(step)`` is called once after half the steps (a stage with a
-    step limit). ``amp`` (:class:`~baselines.common.device.MixedPrecision`) says where the
-    batches go and whether the losses are autocast (default: the CPU, plain)."""
-    from tqdm import tqdm
-
+    ``seconds`` on the one training loop (``loop``: :class:`~benchmark.methods.training_loop.StepLoop`'s
+    ``model``, ``on_checkpoint``, ``fractions``, ``step_offset``). ``amp``
+    (:class:`~baselines.common.device.MixedPrecision`) says where the batches go and whether
+    the losses are autocast (default: the CPU, plain)."""
     amp = amp or MixedPrecision(None, "cpu")
     params = [p for p in params if p.requires_grad]
     opt = torch.optim.AdamW(params, lr=training["lr"], weight_decay=training["weight_decay"])
@@ -156,33 +152,19 @@ def _run_stage(name, params, loss_fn, sampler, steps, seconds, training, progres
     if schedule not in LR_SCHEDULES:
         raise UserError(f"CDFace training: expected lr_schedule in {LR_SCHEDULES}, got {schedule!r}")
     history = []
-    started = time.perf_counter()
-    bar = tqdm(total=steps, desc=f"CDFace: {name}", unit="step", disable=not progress)
-    half = checkpoint_step(steps) if at_half is not None else None
-    step = 0
-    try:
-        while (steps is None or step < steps) and (seconds is None or time.perf_counter() - started < seconds):
-            if schedule == "cosine":
-                for group in opt.param_groups:
-                    group["lr"] = cosine_lr(training["lr"], step, steps, time.perf_counter() - started, seconds)
-            batch = {key: value.to(amp.device) for key, value in sampler.batch().items()}  # the CPU: no copy
-            with amp.autocast():
-                losses = loss_fn(batch)
-            opt.zero_grad(set_to_none=True)
-            amp.backward(losses["total"])
-            if training["grad_clip"]:
-                amp.unscale(opt)
-                torch.nn.utils.clip_grad_norm_(params, training["grad_clip"])
-            amp.step(opt)
-            history.append({k: float(v.detach()) for k, v in losses.items()})
-            step += 1
-            bar.update(1)
-            if step % 50 == 0:
-                bar.set_postfix(loss=f"{history[-1]['total']:.4g}")
-            if step == half:
-                at_half(step)
-    finally:
-        bar.close()
+
+    def step(run):
+        if schedule == "cosine":
+            for group in opt.param_groups:
+                group["lr"] = cosine_lr(training["lr"], run.step, steps, run.elapsed(), seconds)
+        batch = {key: value.to(amp.device) for key, value in sampler.batch().items()}  # the CPU: no copy
+        with amp.autocast():
+            losses = loss_fn(batch)
+        optimiser_step(losses["total"], opt, amp=amp, grad_clip=training["grad_clip"], params=params)
+        history.append({k: float(v.detach()) for k, v in losses.items()})
+        return history[-1]["total"]
+
+    StepLoop(max_steps=steps, max_seconds=seconds, desc=f"CDFace: {name}", **loop).run(step)
     return history
 
 
@@ -228,13 +210,13 @@ def prepare_sentences(cdface, sentences, *, epsilon: float, lip_pair) -> list:
     return out
 
 
-def train_cdface(cdface, sentences, *, seed: int = 0, max_steps=None, max_seconds=None, progress: bool = True,
-                 on_checkpoint=None, mixed_precision=None) -> dict:
+def train_cdface(cdface, sentences, *, seed: int = 0, max_steps=None, max_seconds=None, on_checkpoint=None,
+                 fractions=(0.5,), mixed_precision=None) -> dict:
     """Train ``cdface`` in place on ``sentences`` (list of :class:`SentenceData`).
 
-    ``on_checkpoint``: the runner's half-budget call (``Method.train``), made once after
-    half the steps of the last stage (the querying model; it has no validation, so the
-    weights are the current ones) when that stage has a step limit, as
+    ``on_checkpoint``: the runner's checkpoint call (``TrainingRequest.on_checkpoint``), made
+    after the ``fractions`` of the steps of the last stage (the querying model; it has no
+    validation, so the weights are the current ones) when that stage has a step limit, as
     ``on_checkpoint(step, total_steps=...)`` with the steps of the two VQ stages counted
     in; ``cdface`` generates during the call (eval mode, no gradients) and training then
     goes on exactly as without it.
@@ -261,7 +243,7 @@ def train_cdface(cdface, sentences, *, seed: int = 0, max_steps=None, max_second
             sampler = WindowSampler(sentences, training["window"], training["vq_batch_size"], rng)
             steps, seconds = limits[0 if key == "lip_vq" else 1]
             history[key] = _run_stage(key, vq.parameters(), lambda b, vq=vq, part=part: vq_loss(vq, b[part], b["offset"]),
-                                      sampler, steps, seconds, training, progress, amp=amp)
+                                      sampler, steps, seconds, training, amp=amp)
         for vq in (model.lip_vq, model.upper_vq):
             vq.eval()
             vq.requires_grad_(False)
@@ -284,14 +266,9 @@ def train_cdface(cdface, sentences, *, seed: int = 0, max_steps=None, max_second
 
         sampler = WindowSampler(sentences, training["window"], training["batch_size"], rng)
         done = len(history["lip_vq"]) + len(history["upper_vq"])
-        query_steps = limits[2][0]
-
-        def at_half(step):
-            call_checkpoint(on_checkpoint, done + step, model, total_steps=done + int(query_steps))
-
-        checked = on_checkpoint is not None and query_steps is not None
         history["query"] = _run_stage("query", model.query_parameters(), query_loss, sampler, *limits[2], training,
-                                      progress, at_half=at_half if checked else None, amp=amp)
+                                      amp=amp, model=model, on_checkpoint=on_checkpoint, fractions=fractions,
+                                      step_offset=done)
         model.eval()
         model.requires_grad_(False)  # trained: inference only, as after CDFace.load
     return history

@@ -18,7 +18,6 @@ from baselines.common.chunking import ChunkedDecoder
 from baselines.common.device import checked_precision, method_device, precision_config
 from baselines.common.encoders.trainable import load_pretrained_wav2vec2
 from baselines.common.vertex_method import StyleVertexMethod, official_style_names, training_limits
-from benchmark.methods import show_progress
 from blendvoca.errors import UserError
 
 __all__ = ["CodeTalkerMethod"]
@@ -108,21 +107,23 @@ class CodeTalkerMethod(ChunkedDecoder, StyleVertexMethod):
         if self.settings["model"]["audio"]["kind"] == "wav2vec2" and self.settings.get("wav2vec2_path"):
             load_pretrained_wav2vec2(self.network.audio_encoder, self.settings["wav2vec2_path"])
 
-    def fit(self, train, val, *, seed, budget, on_checkpoint=None):
+    def fit(self, train, val, request):
         t = self.settings["training"]
-        steps, seconds = training_limits(budget, t["max_steps"], t["max_seconds"])
+        seed = int(request.seed)
+        steps, seconds = training_limits(request.budget, t["max_steps"], t["max_seconds"])
         (s1, t1), (s2, t2) = split_budget(steps, seconds, t["stage1_fraction"])
         self.network.to(self.device)  # built on the CPU from the seed, then moved
         vq = self.network.autoencoder
         for p in vq.parameters():
             p.requires_grad_(True)
         h1 = train_stage1(vq, train, val, training=t, seed=seed, max_steps=s1, max_seconds=t1,
-                          progress=show_progress(), mixed_precision=self.mixed_precision)
+                          mixed_precision=self.mixed_precision)
         for p in vq.parameters():
             p.requires_grad_(False)
         # the half-budget call (``on_checkpoint``) comes in stage 2, the stage that makes the animation
         h2 = train_stage2(self.network, train, val, self.subjects, training=t, seed=seed + 1, max_steps=s2,
-                          max_seconds=t2, progress=show_progress(), on_checkpoint=on_checkpoint,
+                          max_seconds=t2, on_checkpoint=request.on_checkpoint,
+                          fractions=request.checkpoint_fractions,
                           step_offset=int(h1["steps"]), mixed_precision=self.mixed_precision)
         return {"stage1": h1, "stage2": h2, "steps": h1["steps"] + h2["steps"], "seconds": h1["seconds"] + h2["seconds"]}
 

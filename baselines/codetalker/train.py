@@ -47,7 +47,7 @@ def _moved(tensors, device) -> tuple:
     return tuple(x.to(device) for x in tensors)
 
 
-def train_stage1(vq, train, val, *, training: dict, seed: int, max_steps: float, max_seconds: float, progress=True,
+def train_stage1(vq, train, val, *, training: dict, seed: int, max_steps: float, max_seconds: float,
                  mixed_precision=None) -> dict:
     """Train the VQ-VAE ``vq`` in place on displacement sequences, on the device ``vq`` is on
     (``mixed_precision`` there when it is a GPU)."""
@@ -70,18 +70,18 @@ def train_stage1(vq, train, val, *, training: dict, seed: int, max_steps: float,
     return fit_sequences(vq, loss, items, val_loss if val_items else None, lr=training["stage1_lr"], seed=seed,
                          max_steps=max_steps, max_seconds=max_seconds, optimizer="adamw",
                          num_threads=training.get("num_threads"), grad_clip=training.get("grad_clip"),
-                         desc="CodeTalker stage 1 (VQ-VAE)", progress=progress, loss_scale=scale,
+                         desc="CodeTalker stage 1 (VQ-VAE)", loss_scale=scale,
                          lr_step_every=(int(training["stage1_step_epochs"]) * len(items)
                                         if training.get("stage1_step_epochs") else None),
                          mixed_precision=mixed_precision)
 
 
 def train_stage2(model, train, val, subjects, *, training: dict, seed: int, max_steps: float, max_seconds: float,
-                 progress=True, on_checkpoint=None, step_offset: int = 0, mixed_precision=None) -> dict:
+                 on_checkpoint=None, fractions=(0.5,), step_offset: int = 0, mixed_precision=None) -> dict:
     """Train the stage-2 parts of ``model`` (a :class:`~baselines.codetalker.model.CodeTalker`) in place.
 
-    ``on_checkpoint``: the runner's half-budget call, made at half of this (the last)
-    stage, the stage-1 steps ``step_offset`` counted in (:func:`~baselines.common.training.fit_sequences`).
+    ``on_checkpoint``: the runner's checkpoint calls, made at the ``fractions`` of this (the
+    last) stage, the stage-1 steps ``step_offset`` counted in (:func:`~baselines.common.training.fit_sequences`).
     It trains on the device ``model`` is on (``mixed_precision`` there when it is a GPU); the
     scheduled-sampling draws stay on a CPU generator, so that a seed feeds back the same frames
     on every device.
@@ -125,6 +125,6 @@ def train_stage2(model, train, val, subjects, *, training: dict, seed: int, max_
     return fit_sequences(model, loss, items, val_loss if val_items else None, lr=training["lr"], seed=seed,
                          max_steps=steps,
                          max_seconds=max_seconds, num_threads=training.get("num_threads"),
-                         grad_clip=training.get("grad_clip"), desc="CodeTalker stage 2", progress=progress,
-                         loss_scale=scale**2, on_checkpoint=on_checkpoint, step_offset=step_offset,
+                         grad_clip=training.get("grad_clip"), desc="CodeTalker stage 2",
+                         loss_scale=scale**2, on_checkpoint=on_checkpoint, fractions=fractions, step_offset=step_offset,
                          mixed_precision=mixed_precision)

@@ -56,16 +56,26 @@ def fit_track_length(track, num_frames: int, *, max_mismatch: int, where: str):
 class TrackLookupMethod(Method):
     """A method whose output is one stored ``(T, 32)`` track per (subject, sentence).
 
-    Subclasses fill ``self._tracks[(subject, sentence)] = track`` (in :meth:`train`
-    or on demand in :meth:`stored_track`); save/load store them in ``tracks.npz``.
+    Subclasses return the tracks from :meth:`read_tracks` (stored by :meth:`train`), or
+    fill ``self._tracks[(subject, sentence)] = track`` themselves; save/load store them
+    in ``tracks.npz``.
     """
 
     #: largest frame-count mismatch padded or cropped in :meth:`generate`
     max_frame_mismatch: int = 0
+    contract = 3
 
     def __init__(self, **config):
         super().__init__(**config)
         self._tracks: dict[tuple[str, str], np.ndarray] = {}
+
+    def train(self, dataset, request) -> None:
+        """Store :meth:`read_tracks` of ``dataset`` (nothing is learned: seed and budget play no part)."""
+        self._tracks = self.read_tracks(dataset)
+
+    def read_tracks(self, dataset) -> dict:
+        """``{(subject, sentence): track}`` of ``dataset`` this method returns."""
+        raise NotImplementedError(f"{type(self).__name__} defines neither read_tracks nor train")
 
     def stored_track(self, utterance) -> np.ndarray:
         """The ``(T', 32)`` track stored for the utterance (KeyError naming it if none)."""

@@ -26,8 +26,8 @@ from baselines.common.sequences import (
     speaker_templates,
     to_benchmark_rate,
 )
-from baselines.common.threads import torch_threads
-from benchmark.methods.base import Budget, Method, takes_checkpoint_hook
+from benchmark.methods.base import Budget, Method, TrainingRequest
+from benchmark.methods.training_loop import torch_threads
 from blendvoca.errors import DataError
 
 __all__ = ["VOCASET_TRAIN_SUBJECTS", "StyleVertexMethod", "official_style_names", "style_indices", "training_limits"]
@@ -90,11 +90,10 @@ class StyleVertexMethod(Method):
         """Create ``self.network`` (untrained)."""
         raise NotImplementedError
 
-    def fit(self, train, val, *, seed: int, budget: Budget, on_checkpoint=None) -> dict:
-        """Train ``self.network`` on :class:`~baselines.common.sequences.MotionSequence` lists; return a history.
-
-        ``on_checkpoint``: the runner's half-budget call (``Method.train``); the network is
-        ``self.network`` from the start, so :meth:`generate` works during the call."""
+    def fit(self, train, val, request: TrainingRequest) -> dict:
+        """Train ``self.network`` on :class:`~baselines.common.sequences.MotionSequence` lists under
+        ``request`` (its seed, budget and checkpoint calls); return a history. The network is
+        ``self.network`` from the start, so :meth:`generate` works during a checkpoint call."""
         raise NotImplementedError
 
     def predict_motion(self, audio: np.ndarray, template: np.ndarray, style, num_frames: int) -> np.ndarray:
@@ -129,13 +128,15 @@ class StyleVertexMethod(Method):
         self.network.load_state_dict(payload["state_dict"])
 
     # -- the contract -------------------------------------------------------------------
-    def train(self, dataset, *, seed: int, budget: Budget, on_checkpoint=None, device=None) -> None:
+    contract = 3
+
+    def train(self, dataset, request: TrainingRequest) -> None:
         """Train on the train split's vertex sequences (styles = its speakers) on ``device``
         (None: the CPU; ``"cuda"``: the network and the sentences move there, the plug-in's
         ``mixed_precision`` applies); the network is built on the CPU from the seed, so its
         initial weights are the same on every device. The authors' weights (given to the
         constructor) train nothing, make no ``on_checkpoint`` call and move to ``device``."""
-        self.device = method_device(device)
+        self.device = method_device(request.device)
         self.templates = speaker_templates(dataset)
         if self.network is None or not self.subjects:
             self.subjects = list(dataset.split("train"))
@@ -143,10 +144,9 @@ class StyleVertexMethod(Method):
                 raise DataError(f"{type(self).__name__}.train: the dataset has no training speakers")
             train = motion_sequences(dataset, "train")
             val = motion_sequences(dataset, "val") if dataset.split("val") else []
-            torch.manual_seed(int(seed))  # the initial weights too: a step budget then trains the same network in every process
+            torch.manual_seed(int(request.seed))  # the initial weights too: a step budget then trains the same network in every process
             self.build_network(len(self.subjects), int(train[0].template.size))
-            hook = {"on_checkpoint": on_checkpoint} if on_checkpoint is not None and takes_checkpoint_hook(self.fit) else {}
-            self.history = self.fit(train, val, seed=int(seed), budget=budget, **hook)
+            self.history = self.fit(train, val, request)
         self.to(self.device)
 
     def to(self, device):

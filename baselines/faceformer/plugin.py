@@ -17,7 +17,6 @@ from baselines.faceformer.model import Faceformer
 from baselines.faceformer.official import load_official
 from baselines.faceformer.presets import resolve_config
 from baselines.faceformer.train import train_faceformer
-from benchmark.methods import show_progress
 
 __all__ = ["FaceFormerMethod"]
 
@@ -82,13 +81,13 @@ class FaceFormerMethod(ChunkedDecoder, StyleVertexMethod):
         if self.settings["model"]["audio"]["kind"] == "wav2vec2" and self.settings.get("wav2vec2_path"):
             load_pretrained_wav2vec2(self.network.audio_encoder, self.settings["wav2vec2_path"])
 
-    def fit(self, train, val, *, seed, budget, on_checkpoint=None):
+    def fit(self, train, val, request):
         t = self.settings["training"]
-        steps, seconds = training_limits(budget, t["max_steps"], t["max_seconds"])
+        steps, seconds = training_limits(request.budget, t["max_steps"], t["max_seconds"])
         self.network.to(self.device)  # built on the CPU from the seed, then moved
-        return train_faceformer(self.network, train, val, self.subjects, training=t, seed=seed,
-                                max_steps=steps, max_seconds=seconds, progress=show_progress(),
-                                on_checkpoint=on_checkpoint, mixed_precision=self.mixed_precision)
+        return train_faceformer(self.network, train, val, self.subjects, training=t, seed=int(request.seed),
+                                max_steps=steps, max_seconds=seconds, on_checkpoint=request.on_checkpoint,
+                                fractions=request.checkpoint_fractions, mixed_precision=self.mixed_precision)
 
     def network_state(self) -> dict:
         return {"state_dict": self.network.state_dict(), "model_config": self.network.config,

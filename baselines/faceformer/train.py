@@ -12,13 +12,13 @@ __all__ = ["train_faceformer"]
 
 
 def train_faceformer(model, train, val, subjects, *, training: dict, seed: int, max_steps: float, max_seconds: float,
-                     progress: bool = True, on_checkpoint=None, mixed_precision=None) -> dict:
+                     on_checkpoint=None, fractions=(0.5,), mixed_precision=None) -> dict:
     """Train ``model`` (a :class:`~baselines.faceformer.model.Faceformer`) in place.
 
     One sentence per step (batch 1, as the authors), teacher-forced MSE on the
     vertices, Adam; keeps the weights with the lowest validation MSE (teacher-forced,
     averaged over two styles since validation speakers are unseen) when ``val`` is given.
-    ``on_checkpoint``: the runner's half-budget call (:func:`~baselines.common.training.fit_sequences`).
+    ``on_checkpoint``, ``fractions``: the runner's checkpoint calls (:func:`~baselines.common.training.fit_sequences`).
     The sentences move once to the device ``model`` is on; ``mixed_precision``
     (``"off"``, ``"bf16"``, ``"fp16"``) applies there when it is a GPU.
     """
@@ -46,5 +46,6 @@ def train_faceformer(model, train, val, subjects, *, training: dict, seed: int, 
     return fit_sequences(model, step_loss, items, val_loss if val_items else None, lr=training["lr"], seed=seed,
                          max_steps=epochs_to_steps(training, len(items), max_steps, max_seconds),
                          max_seconds=max_seconds, num_threads=training.get("num_threads"),
-                         grad_clip=training.get("grad_clip"), desc="FaceFormer training", progress=progress,
-                         loss_scale=scale**2, on_checkpoint=on_checkpoint, mixed_precision=mixed_precision)
+                         grad_clip=training.get("grad_clip"), desc="FaceFormer training",
+                         loss_scale=scale**2, on_checkpoint=on_checkpoint, fractions=fractions,
+                         mixed_precision=mixed_precision)

@@ -22,8 +22,7 @@ __all__ = ["exported_corpus_meshes", "main"]
 
 
 def exported_corpus_meshes(vocaset_root: str | os.PathLike, out_dir: str | os.PathLike, *, split: str = "test",
-                           fps: int = 60, offsets: bool = False, name: str | None = None, sentences=None,
-                           progress: bool = True) -> Path:
+                           fps: int = 60, offsets: bool = False, name: str | None = None, sentences=None) -> Path:
     """Write ``<out>/vertices/<subject>/<sentence>.npy`` and ``<out>/adapter.yaml``.
 
     Parameters
@@ -66,8 +65,7 @@ def exported_corpus_meshes(vocaset_root: str | os.PathLike, out_dir: str | os.Pa
     vertex_dir = out_dir / "vertices"
     items = [(s, q) for s in corpus.splits[split] if s in corpus.subjects for q in corpus.sentences(s)
              if sentences is None or q in sentences]
-    items = bar(items, desc="export meshes", unit="sentence", disable=not progress, file=sys.stderr)
-    for subject, sentence in items:
+    for subject, sentence in bar(items, desc="export meshes", unit="sentence", file=sys.stderr):
         frames = np.asarray(corpus.frames(subject, sentence), dtype=np.float64)[:: 60 // fps]
         if offsets:
             frames = frames - np.asarray(corpus.template(subject), dtype=np.float64)[None]

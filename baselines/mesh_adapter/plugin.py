@@ -6,8 +6,8 @@ import os
 import sys
 
 from baselines.common.track_lookup import TrackLookupMethod
-from benchmark.methods import show_progress
 from blendvoca.errors import UserError
+from blendvoca.runtime.progress import bar
 
 from .adapt import adapted_coefficients, resolve_vertex_subset
 from .config import adapter_config, read_adapter_config
@@ -65,7 +65,9 @@ class MeshAdapterMethod(TrackLookupMethod):
     def config(self) -> dict:
         return {**super().config(), "adapter": self.adapter.to_dict()}
 
-    def train(self, dataset, *, seed, budget, on_checkpoint=None):
+    contract = 3
+
+    def train(self, dataset, request):
         """Fit every stored output of a dataset subject with that speaker's rig.
 
         Nothing is learned (no steps, so no ``on_checkpoint`` call: the run is not
@@ -90,13 +92,7 @@ class MeshAdapterMethod(TrackLookupMethod):
         known = set(dataset.subjects)
         items = sorted(key for key in outputs if key[0] in known)
         rigs = {}
-        try:
-            from tqdm import tqdm
-
-            iterator = tqdm(items, desc=f"mesh-adapter ({self.adapter.name}): fit", unit="sentence", file=sys.stderr,
-                            disable=not show_progress())
-        except ImportError:
-            iterator = items
+        iterator = bar(items, desc=f"mesh-adapter ({self.adapter.name}): fit", unit="sentence", file=sys.stderr)
         tracks, poses = {}, {}
         for subject, sentence in iterator:
             if subject not in rigs:

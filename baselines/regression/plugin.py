@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from benchmark.methods.base import Budget, Method, show_progress
+from benchmark.methods.base import Method, TrainingRequest
 from blendvoca.errors import DataError
 
 from .features import motion_rate_features
@@ -66,12 +66,15 @@ class RegressionMethod(Method):
                 targets.append(coeffs)
         return feats, targets
 
-    def train(self, dataset, *, seed: int, budget: Budget, on_checkpoint=None, device=None) -> None:
-        """Train on the train split (the val split picks the kept weights); ``on_checkpoint``:
-        the runner's half-budget call, made when a run without a time limit has done half
-        its steps, the network then being the one training would keep at that point.
-        ``device``: where the network trains and then predicts (None: the CPU)."""
-        from baselines.common.threads import torch_threads
+    contract = 3
+
+    def train(self, dataset, request: TrainingRequest) -> None:
+        """Train on the train split (the val split picks the kept weights) under ``request``;
+        its ``on_checkpoint`` is called when a run without a time limit has done its
+        ``checkpoint_fractions`` of the steps, the network then being the one training would
+        keep at that point; its ``device``: where the network trains and then predicts
+        (None: the CPU)."""
+        from benchmark.methods.training_loop import torch_threads
 
         from .training import feature_statistics, trained_regressor
 
@@ -91,15 +94,16 @@ class RegressionMethod(Method):
             def at_half(step, *, model, total_steps):
                 self.model = model  # generate() uses the network as it is at this step
                 try:
-                    on_checkpoint(step, total_steps=total_steps)
+                    request.on_checkpoint(step, total_steps=total_steps)
                 finally:
                     self.model = None
 
             self.model, self.history = trained_regressor(
-                norm(feats), targets, val_features=norm(val_feats), val_targets=val_targets, seed=seed,
-                budget=budget, default_steps=cfg["steps"], batch=cfg["batch"], window=cfg["window"], lr=cfg["lr"],
-                model_kwargs={"channels": cfg["channels"], "hidden": cfg["hidden"]}, progress=show_progress(),
-                on_checkpoint=None if on_checkpoint is None else at_half, device=device,
+                norm(feats), targets, val_features=norm(val_feats), val_targets=val_targets, seed=request.seed,
+                budget=request.budget, default_steps=cfg["steps"], batch=cfg["batch"], window=cfg["window"], lr=cfg["lr"],
+                model_kwargs={"channels": cfg["channels"], "hidden": cfg["hidden"]},
+                on_checkpoint=None if request.on_checkpoint is None else at_half,
+                fractions=request.checkpoint_fractions, device=request.device,
                 mixed_precision=self.mixed_precision,
             )
 
@@ -114,7 +118,7 @@ class RegressionMethod(Method):
     def generate(self, utterance, *, samples=1, seed=0):
         import torch
 
-        from baselines.common.threads import torch_threads
+        from benchmark.methods.training_loop import torch_threads
 
         if self.model is None:
             raise RuntimeError("regression: generate called before train/load")

@@ -2,16 +2,12 @@
 
 from __future__ import annotations
 
-import copy
-import sys
-import time
-
 import numpy as np
 import torch
 
 from baselines.common.device import MixedPrecision, method_device
-from baselines.common.training import kept_state, paused_training
-from benchmark.methods.base import Budget, checkpoint_step
+from benchmark.methods.base import Budget
+from benchmark.methods.training_loop import StepLoop, optimiser_step
 
 from .model import AudioToCoefficients
 
@@ -78,8 +74,8 @@ def _mse(model, features, targets) -> float:
 
 def trained_regressor(features, targets, *, val_features=(), val_targets=(), seed: int = 0,
                       budget: Budget | None = None, default_steps: int = 1500, batch: int = 16, window: int = 120,
-                      lr: float = 2e-3, eval_every: int = 250, model_kwargs=None, progress: bool = True,
-                      on_checkpoint=None, device=None, mixed_precision=None):
+                      lr: float = 2e-3, eval_every: int = 250, model_kwargs=None, on_checkpoint=None,
+                      fractions=(0.5,), device=None, mixed_precision=None):
     """Train an :class:`AudioToCoefficients` with MSE on random windows.
 
     Parameters
@@ -96,11 +92,10 @@ def trained_regressor(features, targets, *, val_features=(), val_targets=(), see
     budget : Budget
         ``max_steps`` replaces ``default_steps``; ``max_seconds`` stops early.
     on_checkpoint : callable, optional
-        Called once, in a run without ``max_seconds``, after half the steps, as
+        Called in a run without ``max_seconds`` after each step of the ``fractions`` of the
+        steps (:class:`~benchmark.methods.training_loop.StepLoop`), as
         ``on_checkpoint(step, model=model, total_steps=steps)``, ``model`` holding the
-        weights this function would return if it stopped there (the best on validation,
-        a validation at that step included, not recorded), in eval mode without
-        gradients; afterwards training goes on exactly as without the call.
+        weights this function would return if it stopped there, paused.
     device : str or torch.device, optional
         Where it trains (None: the CPU). The network is initialised and the windows drawn
         on the CPU, so a seed trains on the same batches from the same weights everywhere.
@@ -138,55 +133,23 @@ def trained_regressor(features, targets, *, val_features=(), val_targets=(), see
     amp = MixedPrecision(mixed_precision, device)
     optimiser = torch.optim.Adam(model.parameters(), lr=lr)
     steps = budget.steps(default_steps)
-    started = time.perf_counter()
-    losses, val_history = [], []
-    best = (float("inf"), None, 0)
-    try:
-        from tqdm import tqdm
-        bar = tqdm(total=steps, desc="regression: train", unit="step", disable=not progress, file=sys.stderr)
-    except ImportError:
-        bar = None
-    half = checkpoint_step(steps) if on_checkpoint is not None and budget.max_seconds is None else None
-    step = 0
-    while not budget.exhausted(step, started) and step < steps:
+
+    def step(loop):
         x, y = window_batch(rng, features, targets, batch=batch, window=window)
         with amp.autocast():
             loss = torch.nn.functional.mse_loss(model(torch.from_numpy(x).to(device)), torch.from_numpy(y).to(device))
-        optimiser.zero_grad()
-        amp.backward(loss)
-        amp.step(optimiser)
-        losses.append(loss.item())
-        step += 1
-        if bar is not None:
-            bar.update(1)
-            if step % 50 == 0:
-                bar.set_postfix(loss=f"{np.mean(losses[-50:]):.5f}")
-        if len(val_features) and (step % eval_every == 0):
-            mse = _mse(model, val_features, val_targets)
-            val_history.append([step, mse])
-            if mse < best[0]:
-                best = (mse, copy.deepcopy(model.state_dict()), step)
-        if step == half:
-            if val_history and val_history[-1][0] == step:
-                state = best[1]
-            elif len(val_features):
-                with paused_training(model):
-                    state = kept_state(best[0], best[1], _mse(model, val_features, val_targets))
-            else:
-                state = None
-            with paused_training(model, state):
-                on_checkpoint(step, model=model, total_steps=steps)
-    if bar is not None:
-        bar.close()
-    if len(val_features) and (not val_history or val_history[-1][0] != step):
-        mse = _mse(model, val_features, val_targets)
-        val_history.append([step, mse])
-        if mse < best[0]:
-            best = (mse, copy.deepcopy(model.state_dict()), step)
-    if best[1] is not None:
-        model.load_state_dict(best[1])
-    model.eval()
-    history = {"steps": step, "seconds": round(time.perf_counter() - started, 3),
-               "train_loss": float(np.mean(losses[-50:])) if losses else None, "val_mse": val_history,
-               "best_step": best[2] if best[1] is not None else step}
+        optimiser_step(loss, optimiser, amp=amp)
+        return loss.item()
+
+    hook = None
+    if on_checkpoint is not None and budget.max_seconds is None:
+        def hook(at, total_steps):
+            on_checkpoint(at, model=model, total_steps=total_steps)
+
+    validate = (lambda: _mse(model, val_features, val_targets)) if len(val_features) else None
+    done = StepLoop(model=model, max_steps=steps, max_seconds=budget.max_seconds, desc="regression: train",
+                    validate=validate, validate_every=eval_every, on_checkpoint=hook, fractions=fractions).run(step)
+    history = {"steps": done.steps, "seconds": round(done.seconds, 3),
+               "train_loss": float(np.mean(done.train_loss[-50:])) if done.train_loss else None, "val_mse": done.val,
+               "best_step": done.steps if done.best_step is None else done.best_step}
     return model, history

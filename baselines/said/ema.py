@@ -7,14 +7,7 @@ import copy
 import torch
 from torch import nn
 
-
-def ema_decay_at(step: int, max_decay: float) -> float:
-    """Return the EMA decay after ``step`` updates, ``min(max_decay, (1 + step) / (10 + step))``.
-
-    The warm-up keeps a short run's average from being dominated by the random
-    initialisation; long runs reach ``max_decay`` (SAiD: 0.9999).
-    """
-    return min(max_decay, (1.0 + step) / (10.0 + step))
+from benchmark.methods.training_loop import ema_decay_at
 
 
 class EMA:

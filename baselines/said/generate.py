@@ -40,6 +40,7 @@ from baselines.said.official_pipeline import OfficialSAiD
 from baselines.said.pipeline import SAiD
 from blendvoca import cli
 from blendvoca.errors import DataError, UserError
+from blendvoca.runtime.progress import progress_bars
 
 CHECKPOINT_ENV = "BLENDVOCA_SAID_CHECKPOINT"
 
@@ -120,7 +121,6 @@ def generate_files(
     sampler: str | None = None,
     num_steps: int | None = None,
     guidance: float | None = None,
-    progress: bool = True,
     export: str = "csv",
     rig=None,
     official: bool | None = None,
@@ -184,7 +184,7 @@ def generate_files(
         extra = {"guidance_rescale": guidance_rescale, "strength": strength, "return_intermediates": intermediates_dir is not None}
     tracks = said.generate(
         audio, num_frames, samples=samples, seed=seed, reference=reference, mask=mask,
-        sampler=sampler, num_steps=num_steps, guidance=guidance, eta=eta, progress=progress, **extra,
+        sampler=sampler, num_steps=num_steps, guidance=guidance, eta=eta, **extra,
     )
     if intermediates_dir is not None:
         tracks, states = tracks
@@ -229,14 +229,15 @@ def main(argv=None) -> int:
     cli.add_device_option(p, default="cpu")
     cli.add_quiet_option(p)
     args = p.parse_args(argv)
-    paths = generate_files(
-        args.audio, args.out, checkpoint=args.checkpoint, samples=args.samples, seed=args.seed,
-        reference_path=args.reference, mask_path=args.mask, sampler=args.sampler,
-        num_steps=args.steps, guidance=args.guidance, export=args.export, rig=args.rig,
-        official=args.official or None, eta=args.eta, guidance_rescale=args.guidance_rescale,
-        strength=args.strength, intermediates_dir=args.intermediates, image_path=args.image,
-        device=args.device, progress=not args.quiet,
-    )
+    with progress_bars(not args.quiet):
+        paths = generate_files(
+            args.audio, args.out, checkpoint=args.checkpoint, samples=args.samples, seed=args.seed,
+            reference_path=args.reference, mask_path=args.mask, sampler=args.sampler,
+            num_steps=args.steps, guidance=args.guidance, export=args.export, rig=args.rig,
+            official=args.official or None, eta=args.eta, guidance_rescale=args.guidance_rescale,
+            strength=args.strength, intermediates_dir=args.intermediates, image_path=args.image,
+            device=args.device,
+        )
     for path in paths:
         print(path)
     return cli.EXIT_OK

@@ -19,12 +19,12 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import torch
-from tqdm.auto import tqdm
 
 from baselines.said.guidance import classifier_free_guidance, rescale_guidance
 from baselines.said.samplers import SAMPLERS, ddim_step, ddpm_step
 from baselines.said.schedule import add_noise, authors_alphas_cumprod, leading_timesteps
 from blendvoca.errors import UserError
+from blendvoca.runtime.progress import bar
 
 PREDICTION_TYPES = ("epsilon", "v_prediction", "sample")
 
@@ -69,7 +69,6 @@ def said_inference(
     save_intermediates: bool = False,
     clip_sample: bool = True,
     use_cache: bool = True,
-    progress: bool = False,
 ) -> InferenceOutput:
     """Sample coefficient tracks with a :class:`baselines.said.official.SAID_UNet1D`-like model.
 
@@ -109,7 +108,6 @@ def said_inference(
         Clip the predicted ``x0`` to ``[-1, 1]`` (the schedulers' default).
     use_cache : bool, default True
         Precompute the cross-attention keys/values (same result, faster).
-    progress : bool, default False
 
     Returns
     -------
@@ -166,7 +164,7 @@ def said_inference(
             raise ValueError(f"said_inference: expected lengths of shape ({batch},), got {tuple(lengths.shape)}")
 
     intermediates = []
-    for idx, t in enumerate(tqdm(timesteps[start:], desc=f"SAiD {sampler}", disable=not progress)):
+    for idx, t in enumerate(bar(timesteps[start:], desc=f"SAiD {sampler}")):
         if save_intermediates:
             intermediates.append(latents.clone())
         # with guidance the context has 2B rows: the network repeats the latents itself after the

@@ -75,7 +75,7 @@ class OfficialSAiD:
     @torch.no_grad()
     def generate(self, audio, num_frames=None, *, samples=1, seed=0, reference=None, mask=None, sampler=None,
                  num_steps=None, guidance=None, eta=None, guidance_rescale=None, strength=1.0,
-                 save_intermediates=False, progress=False, return_intermediates=False):
+                 save_intermediates=False, return_intermediates=False):
         """Return ``(S, T, 32)`` tracks in [0, 1] (float64) for mono 16 kHz ``audio (N,)``.
 
         ``reference``/``mask`` ``(T, 32)``: edit (the authors' ``init_samples``/``mask``,
@@ -106,7 +106,7 @@ class OfficialSAiD:
             guidance_rescale=s["guidance_rescale"] if guidance_rescale is None else float(guidance_rescale),
             eta=s["eta"] if eta is None else float(eta), strength=float(strength),
             init_samples=init, mask=edit_mask, generator=gen,
-            save_intermediates=save_intermediates or return_intermediates, progress=progress,
+            save_intermediates=save_intermediates or return_intermediates,
         )
         tracks = out.result[:, :out_frames].double().cpu().numpy()
         if return_intermediates:
@@ -115,7 +115,7 @@ class OfficialSAiD:
 
     @torch.no_grad()
     def generate_many(self, utterances, *, samples=1, seeds, sampler=None, num_steps=None, guidance=None, eta=None,
-                      guidance_rescale=None, progress=False) -> list[np.ndarray]:
+                      guidance_rescale=None) -> list[np.ndarray]:
         """Return the tracks of several utterances, sampled as one batched chain.
 
         The same as ``[self.generate(audio, T, samples=samples, seed=seed, ...) for ...]``
@@ -139,7 +139,7 @@ class OfficialSAiD:
             raise ValueError(f"OfficialSAiD.generate_many: expected one seed per utterance, got {len(seeds)} "
                              f"for {len(utterances)}")
         options = {"sampler": sampler, "num_steps": num_steps, "guidance": guidance, "eta": eta,
-                   "guidance_rescale": guidance_rescale, "progress": progress}
+                   "guidance_rescale": guidance_rescale}
         if len(utterances) <= 1:
             return [self.generate(audio, frames, samples=samples, seed=seed, **options)
                     for (audio, frames), seed in zip(utterances, seeds)]
@@ -166,7 +166,7 @@ class OfficialSAiD:
             guidance=s["guidance"] if guidance is None else float(guidance),
             guidance_rescale=s["guidance_rescale"] if guidance_rescale is None else float(guidance_rescale),
             eta=s["eta"] if eta is None else float(eta), draw=draw,
-            lengths=torch.tensor(lengths, device=self.device).repeat_interleave(samples), progress=progress,
+            lengths=torch.tensor(lengths, device=self.device).repeat_interleave(samples),
         )
         result = out.result.double().cpu().numpy()
         return [result[i * samples:(i + 1) * samples, :frames] for i, frames in enumerate(out_frames)]

@@ -9,7 +9,6 @@ import numpy as np
 import torch
 
 from baselines.common.chunking import chunk_plan, chunk_setting, generate_in_chunks
-from baselines.common.threads import torch_threads
 from baselines.said.checkpoint import read_checkpoint, save_checkpoint
 from baselines.said.edit import check_edit_inputs
 from baselines.said.guidance import classifier_free_guidance
@@ -24,6 +23,7 @@ from baselines.said.presets import resolve_config
 from baselines.said.sample import padded_batch, sample_diffusion, utterance_noise
 from baselines.said.samplers import SAMPLERS
 from baselines.said.schedule import alphas_cumprod_schedule, alphas_of
+from benchmark.methods.training_loop import torch_threads
 from blendvoca.errors import DataError, UserError
 
 FPS = 60
@@ -132,7 +132,6 @@ class SAiD:
         num_steps: int | None = None,
         guidance: float | None = None,
         eta: float | None = None,
-        progress: bool = False,
     ) -> np.ndarray:
         """Return coefficient tracks sampled for one utterance.
 
@@ -151,7 +150,6 @@ class SAiD:
             constraints).  Columns in ``self.names`` order.
         sampler, num_steps, guidance, eta : optional
             Override the config's sampling section.
-        progress : bool, default False
 
         Returns
         -------
@@ -168,7 +166,7 @@ class SAiD:
         k = len(self.names)
         check_edit_inputs(reference, mask, num_frames, k)
         options = {"samples": samples, "seed": seed, "sampler": sampler, "num_steps": num_steps,
-                   "guidance": guidance, "eta": eta, "progress": progress}
+                   "guidance": guidance, "eta": eta}
         plan = chunk_plan(num_frames, self.chunk_frames, self.chunk_overlap)
         if plan.chunked and reference is None:
             # a long utterance: chunk by chunk (each its own audio features and chain, the
@@ -178,7 +176,7 @@ class SAiD:
         return self._generate_whole(audio, num_frames, reference=reference, mask=mask, **options)
 
     @torch.no_grad()
-    def _generate_whole(self, audio, num_frames: int, *, samples, seed, sampler, num_steps, guidance, eta, progress,
+    def _generate_whole(self, audio, num_frames: int, *, samples, seed, sampler, num_steps, guidance, eta,
                         reference=None, mask=None) -> np.ndarray:
         """:meth:`generate` of ``num_frames`` frames in one chain, whatever the chunk length."""
         s = self.config["sampling"]
@@ -198,7 +196,7 @@ class SAiD:
         with torch_threads(self.config["training"].get("num_threads")):
             wav = torch.from_numpy(audio.astype(np.float32))[None].to(self.device)
             x = self._sample([wav], [num_frames], [int(seed)], samples=samples, sampler=sampler, num_steps=num_steps,
-                             guidance=guidance, eta=eta, reference=ref_x, mask=mask_t, progress=progress)
+                             guidance=guidance, eta=eta, reference=ref_x, mask=mask_t)
         out = self.from_diffusion(x.double()).cpu().numpy()
         if reference is not None:
             # exact, not float32-rounded, reference values where the mask keeps them
@@ -217,7 +215,6 @@ class SAiD:
         num_steps: int | None = None,
         guidance: float | None = None,
         eta: float | None = None,
-        progress: bool = False,
     ) -> list[np.ndarray]:
         """Return the tracks of several utterances, sampled as one batched chain.
 
@@ -234,7 +231,7 @@ class SAiD:
         samples : int, default 1
         seeds : sequence of int
             One per utterance.
-        sampler, num_steps, guidance, eta, progress
+        sampler, num_steps, guidance, eta
             As for :meth:`generate`.
 
         Returns
@@ -246,7 +243,7 @@ class SAiD:
             raise ValueError(f"SAiD.generate_many: expected one seed per utterance, got {len(seeds)} for {len(utterances)}")
         if not utterances:
             return []
-        options = {"sampler": sampler, "num_steps": num_steps, "guidance": guidance, "eta": eta, "progress": progress}
+        options = {"sampler": sampler, "num_steps": num_steps, "guidance": guidance, "eta": eta}
         def long(audio, frames):
             return (frames_for_audio(np.asarray(audio).shape[0]) if frames is None else int(frames)) > self.chunk_frames
 
@@ -272,12 +269,12 @@ class SAiD:
             x = self._sample(waves, lengths, seeds, samples=int(samples), sampler=sampler or s["sampler"],
                              num_steps=int(num_steps or s["num_steps"]),
                              guidance=s["guidance"] if guidance is None else float(guidance),
-                             eta=s["eta"] if eta is None else float(eta), progress=progress)
+                             eta=s["eta"] if eta is None else float(eta))
         out = self.from_diffusion(x.double()).cpu().numpy()
         return [out[i * samples:(i + 1) * samples, :frames] for i, frames in enumerate(lengths)]
 
-    def _sample(self, waves, lengths, seeds, *, samples, sampler, num_steps, guidance, eta, reference=None, mask=None,
-                progress=False) -> torch.Tensor:
+    def _sample(self, waves, lengths, seeds, *, samples, sampler, num_steps, guidance, eta, reference=None,
+                mask=None) -> torch.Tensor:
         """The diffusion samples ``(n S, max T, K)`` of ``n`` utterances (rows ``i S .. i S + S - 1``: utterance ``i``,
         zero beyond its ``lengths[i]`` frames), each drawing its noise from ``torch.Generator().manual_seed(seeds[i])``."""
         model = self.model.eval()
@@ -325,7 +322,6 @@ class SAiD:
             generator=generators[0],
             draw=utterance_noise(generators, lengths, samples, k, num_frames=num_frames,
                                  dtype=self.alphas_cumprod.dtype, device=self.device),
-            progress=progress,
         )
 
     # ---- persistence -------------------------------------------------------------

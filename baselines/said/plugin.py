@@ -19,9 +19,10 @@ from baselines.said.official import is_official_state, model_from_state
 from baselines.said.official_pipeline import OfficialSAiD
 from baselines.said.pipeline import SAiD, check_sampling
 from baselines.said.train import train_said
-from benchmark.methods.base import Budget, Method, show_progress
+from benchmark.methods.base import Method, TrainingRequest
 from blendvoca.errors import DataError, UserError
 from blendvoca.names import BLENDVOCA_NAMES
+from blendvoca.runtime.progress import progress_bars
 
 CHECKPOINT_FILE = "said.pt"
 
@@ -67,13 +68,16 @@ class SAiDMethod(Method):
         """Constructor arguments plus the resolved nested config."""
         return {**super().config(), "resolved": self.said.config}
 
-    def train(self, dataset, *, seed: int, budget: Budget, on_checkpoint=None, device=None) -> None:
-        """Train on the dataset's train split, select on its val split, within ``budget``;
-        ``on_checkpoint``: the runner's half-budget call, made when a run without a time
-        limit has done half its steps (:func:`baselines.said.train.train_said`); the
-        authors' weights train nothing and make no call. ``device``: where the network
+    contract = 3
+
+    def train(self, dataset, request: TrainingRequest) -> None:
+        """Train on the dataset's train split, select on its val split, within ``request.budget``;
+        ``request.on_checkpoint``: the runner's checkpoint call, made when a run without a time
+        limit has done the ``checkpoint_fractions`` of its steps (:func:`baselines.said.train.train_said`);
+        the authors' weights train nothing and make no call. ``request.device``: where the network
         trains and then samples (None: where it is, the CPU unless moved by :meth:`to`);
         the initial weights are drawn on the CPU, so they are the same on every device."""
+        device = request.device
         if isinstance(self.said, OfficialSAiD):
             if device is not None:
                 self.to(device)
@@ -83,7 +87,7 @@ class SAiDMethod(Method):
             raise DataError(f"SAiDMethod.train: expected dataset columns {self.said.names}, got {names}")
         # the initial weights from the seed too (the constructor drew them from the global RNG):
         # a step budget then gives the same model in every process
-        torch.manual_seed(int(seed))
+        torch.manual_seed(int(request.seed))
         target = self.said.device if device is None else method_device(device)
         self.said = SAiD(self.said.config, self.said.names).to(target)
         val = dataset_pairs(dataset, "val") if dataset.split("val") else None
@@ -91,12 +95,12 @@ class SAiDMethod(Method):
             self.said,
             dataset_pairs(dataset, "train"),
             val,
-            seed=seed,
-            max_steps=budget.max_steps,
-            max_seconds=budget.max_seconds,
+            seed=request.seed,
+            max_steps=request.budget.max_steps,
+            max_seconds=request.budget.max_seconds,
             mirror=mirror_for(names),
-            progress=show_progress(),
-            on_checkpoint=on_checkpoint,
+            on_checkpoint=request.on_checkpoint,
+            fractions=request.checkpoint_fractions,
             mixed_precision=self.mixed_precision,
         )
 
@@ -114,13 +118,15 @@ class SAiDMethod(Method):
     def generate(self, utterance, *, samples=1, seed=0):
         """Return ``(S, T, 32)`` coefficient tracks in [0, 1] sampled for the utterance's audio (speaker-independent);
         an utterance longer than ``chunk_frames`` (default 10 training windows) goes chunk by chunk
-        (:mod:`baselines.common.chunking`)."""
-        return self.said.generate(utterance.audio, utterance.num_frames, samples=int(samples), seed=int(seed))
+        (:mod:`baselines.common.chunking`). The sampler's own bar stays off (the runner draws one per split)."""
+        with progress_bars(False):
+            return self.said.generate(utterance.audio, utterance.num_frames, samples=int(samples), seed=int(seed))
 
     def generate_many(self, utterances, *, samples=1, seeds):
         """``(S, T_i, 32)`` tracks for several utterances, batched into one chain (``benchmark.run --sentence-batch N``)."""
         pairs = [(utterance.audio, utterance.num_frames) for utterance in utterances]
-        return self.said.generate_many(pairs, samples=int(samples), seeds=[int(seed) for seed in seeds])
+        with progress_bars(False):
+            return self.said.generate_many(pairs, samples=int(samples), seeds=[int(seed) for seed in seeds])
 
     def with_sampling_options(self, **options) -> SAiDMethod:
         """The same trained network sampling with another ``sampler``, ``num_steps``, ``guidance`` or ``eta``."""

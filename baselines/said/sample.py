@@ -5,12 +5,12 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import torch
-from tqdm.auto import tqdm
 
 from baselines.said.edit import masked_replace, noised_reference
 from baselines.said.samplers import SAMPLERS, ddim_step, ddpm_step
 from baselines.said.schedule import sampling_timesteps
 from blendvoca.errors import UserError
+from blendvoca.runtime.progress import bar
 
 NoiseFn = Callable[[torch.Tensor, torch.Tensor], torch.Tensor]
 
@@ -54,7 +54,6 @@ def sample_diffusion(
     mask: torch.Tensor | None = None,
     generator: torch.Generator | None = None,
     draw: Callable[[], torch.Tensor] | None = None,
-    progress: bool = False,
 ) -> torch.Tensor:
     """Return samples ``x0`` drawn by running the reverse chain from pure noise.
 
@@ -85,8 +84,6 @@ def sample_diffusion(
     draw : callable ``() -> (B, T, K) Tensor``, optional
         Draws the initial and the step noise instead of ``generator`` (e.g. one
         generator per utterance of a batch); ``generator`` still noises the reference.
-    progress : bool, default False
-        Show a tqdm bar over the steps.
 
     Returns
     -------
@@ -112,7 +109,7 @@ def sample_diffusion(
         reference = reference.to(dtype=dtype, device=device)
         mask = mask.to(dtype=dtype, device=device)
         x = masked_replace(x, noised_reference(reference, steps[0], alphas_cumprod, batch=batch, generator=generator), mask)
-    for t, t_prev in tqdm(list(zip(steps, prevs)), desc=f"{sampler} sampling", disable=not progress):
+    for t, t_prev in bar(list(zip(steps, prevs)), desc=f"{sampler} sampling"):
         tt = torch.full((batch,), t, dtype=torch.long, device=device)
         eps = noise_fn(x, tt).to(dtype)
         ab = alphas_cumprod[t]

@@ -9,20 +9,15 @@ Command line (needs a built BlendVOCA directory)::
 
 from __future__ import annotations
 
-import copy
 import math
 import os
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
 import torch
-from tqdm.auto import tqdm
 
 from baselines.common.device import MixedPrecision, torch_device
-from baselines.common.threads import torch_threads
-from baselines.common.training import call_checkpoint, kept_state
 from baselines.said.augment import training_batch, validation_windows
 from baselines.said.dataset import dataset_pairs, mirror_for
 from baselines.said.ema import EMA
@@ -31,9 +26,10 @@ from baselines.said.normalization import coefficient_normalization
 from baselines.said.parametrization import noise_from_output
 from baselines.said.pipeline import SAiD
 from baselines.said.schedule import add_noise, alphas_of
-from benchmark.methods.base import checkpoint_step
+from benchmark.methods.training_loop import StepLoop, optimiser_step
 from blendvoca import cli
 from blendvoca.errors import DataError, UserError
+from blendvoca.runtime.progress import progress_bars
 
 
 def _check_pairs(pairs, k: int, where: str):
@@ -124,8 +120,8 @@ def train_said(
     max_steps: int | None = None,
     max_seconds: float | None = None,
     mirror: np.ndarray | None = None,
-    progress: bool = True,
     on_checkpoint=None,
+    fractions=(0.5,),
     mixed_precision=None,
 ) -> dict:
     """Train ``said`` in place; at the end it holds the EMA weights with the best validation loss.
@@ -144,14 +140,12 @@ def train_said(
         deterministic).
     mirror : (K,) int ndarray, optional
         Mirror permutation of the columns for the swap augmentation; None disables it.
-    progress : bool, default True
     on_checkpoint : callable, optional
-        The runner's half-budget call (``Method.train``): in a run without a time limit,
-        called once after ``max_steps // 2`` steps as ``on_checkpoint(step,
-        total_steps=max_steps)`` with ``said`` holding the weights this function would
-        leave if it stopped there (the EMA weights best on validation, a validation at
-        that step included but not recorded; the EMA weights without validation), in
-        eval mode without gradients; afterwards training goes on exactly as without it.
+        The runner's checkpoint call (``TrainingRequest.on_checkpoint``): in a run without a
+        time limit, called after the ``fractions`` of ``max_steps`` as ``on_checkpoint(step,
+        total_steps=max_steps)`` with ``said`` holding the weights this function would leave
+        if it stopped there (the EMA weights best on validation; the EMA weights without
+        validation), paused (:class:`~benchmark.methods.training_loop.StepLoop`).
     mixed_precision : {"off", "bf16", "fp16"}, optional
         Autocast of the training loss when ``said`` is on a GPU
         (:class:`~baselines.common.device.MixedPrecision`); nothing on the CPU. The
@@ -213,84 +207,48 @@ def train_said(
                 count += len(c)
         return total / count
 
-    history = {"train_loss": [], "lr": [], "val": [], "best_step": None, "best_val_loss": None}
-    best_state = None
-    start = time.perf_counter()  # the budget counts the training loop only
     warmup = max(1, int(cfg["warmup_steps"]))
     decay = cfg.get("lr_decay", "constant")
+    loop = StepLoop(model=model, max_steps=max_steps, max_seconds=max_seconds, desc="SAiD training",
+                    threads=cfg.get("num_threads"), validate=val_loss if val_batches else None,
+                    validate_every=cfg["val_every"], kept_from=ema.model,
+                    on_checkpoint=on_checkpoint if math.isinf(max_seconds) else None, fractions=fractions)
 
     def lr_factor(step: int) -> float:
         done = max(step / max_steps if max_steps > 0 else 1.0,
-                   (time.perf_counter() - start) / max_seconds if max_seconds > 0 else 1.0)
+                   loop.elapsed() / max_seconds if max_seconds > 0 else 1.0)
         return min(1.0, (step + 1) / warmup) * budget_decay(decay, done)
 
     sched = torch.optim.lr_scheduler.LambdaLR(opt, lr_factor)
-    half = checkpoint_step(max_steps) if on_checkpoint is not None and math.isinf(max_seconds) else None
+    rates = []
 
-    def at_half(step: int) -> None:
-        if val_batches and history["val"] and history["val"][-1][0] == step:
-            state = best_state  # validated at this very step
-        elif val_batches:
-            state = kept_state(history["best_val_loss"], best_state, val_loss())
-        else:
-            state = None
-        if state is None:  # the EMA weights as they are now
-            state = {k: v.detach().clone() for k, v in ema.model.state_dict().items()}
-        call_checkpoint(on_checkpoint, step, model, total_steps=max_steps, state=state)
-
-    step = 0
-    bar = tqdm(total=None if math.isinf(max_steps) else max_steps, desc="SAiD training", disable=not progress)
-    with torch_threads(cfg.get("num_threads")):
-        while step < max_steps and time.perf_counter() - start < max_seconds:
-            model.train()
-            c, a = training_batch(
-                train_pairs, cfg["batch_size"], cfg["window"], rng,
-                mirror=mirror, mirror_prob=cfg["mirror_prob"], shift_prob=cfg["audio_shift_prob"],
+    def step(loop):
+        model.train()
+        c, a = training_batch(
+            train_pairs, cfg["batch_size"], cfg["window"], rng,
+            mirror=mirror, mirror_prob=cfg["mirror_prob"], shift_prob=cfg["audio_shift_prob"],
+        )
+        with amp.autocast():
+            loss = diffusion_loss(
+                said, torch.from_numpy(c).to(said.device), torch.from_numpy(a).to(said.device), generator=gen,
+                cond_drop_prob=cfg["cond_drop_prob"], velocity_weight=cfg["velocity_weight"],
             )
-            with amp.autocast():
-                loss = diffusion_loss(
-                    said, torch.from_numpy(c).to(said.device), torch.from_numpy(a).to(said.device), generator=gen,
-                    cond_drop_prob=cfg["cond_drop_prob"], velocity_weight=cfg["velocity_weight"],
-                )
-            opt.zero_grad(set_to_none=True)
-            amp.backward(loss)
-            history["lr"].append(opt.param_groups[0]["lr"])
-            if cfg.get("grad_clip"):
-                amp.unscale(opt)
-                torch.nn.utils.clip_grad_norm_(params, cfg["grad_clip"], foreach=True)
-            amp.step(opt)
-            sched.step()
-            ema.update(model)
-            step += 1
-            history["train_loss"].append(loss.item())
-            bar.update(1)
-            bar.set_postfix(loss=f"{history['train_loss'][-1]:.4f}", refresh=False)
-            if val_batches and step % cfg["val_every"] == 0:
-                v = val_loss()
-                history["val"].append([step, v])
-                if history["best_val_loss"] is None or v < history["best_val_loss"]:
-                    history["best_val_loss"], history["best_step"] = v, step
-                    best_state = copy.deepcopy(ema.model.state_dict())
-            if step == half:
-                at_half(step)
-        if val_batches and (not history["val"] or history["val"][-1][0] != step) and step > 0:
-            v = val_loss()
-            history["val"].append([step, v])
-            if history["best_val_loss"] is None or v < history["best_val_loss"]:
-                history["best_val_loss"], history["best_step"] = v, step
-                best_state = copy.deepcopy(ema.model.state_dict())
-    bar.close()
-    model.load_state_dict(best_state if best_state is not None else ema.model.state_dict())
-    model.eval()
-    history["steps"] = step
-    history["seconds"] = time.perf_counter() - start
+        rates.append(opt.param_groups[0]["lr"])
+        optimiser_step(loss, opt, amp=amp, grad_clip=cfg.get("grad_clip"), params=params, clip_foreach=True,
+                       scheduler=sched)
+        ema.update(model)
+        return loss.item()
+
+    done = loop.run(step)
+    history = {"train_loss": done.train_loss, "lr": rates, "val": done.val, "best_step": done.best_step,
+               "best_val_loss": done.best_loss, "steps": done.steps, "seconds": done.seconds}
     said.history = history
     return history
 
 
 def train_file(data: str | os.PathLike, out: str | os.PathLike, *, preset: str = "cpu-demo", config: dict | None = None,
                seed: int = 0, max_steps: int | None = None, max_seconds: float | None = None,
-               device: str = "cpu", progress: bool = True) -> dict:
+               device: str = "cpu") -> dict:
     """Train SAiD on the BlendVOCA build ``data`` and write the checkpoint ``out``.
 
     Parameters
@@ -308,7 +266,6 @@ def train_file(data: str | os.PathLike, out: str | os.PathLike, *, preset: str =
         As :func:`train_said`.
     device : str
         ``auto``, ``cpu``, ``cuda`` or ``cuda:N``.
-    progress : bool
 
     Returns
     -------
@@ -330,7 +287,7 @@ def train_file(data: str | os.PathLike, out: str | os.PathLike, *, preset: str =
     said = SAiD.from_preset(tuple(dataset.names), preset, **(config or {})).to(device)
     history = train_said(
         said, dataset_pairs(dataset, "train"), dataset_pairs(dataset, "val"),
-        seed=seed, max_steps=max_steps, max_seconds=max_seconds, mirror=mirror_for(dataset.names), progress=progress,
+        seed=seed, max_steps=max_steps, max_seconds=max_seconds, mirror=mirror_for(dataset.names),
     )
     said.save(out)
     return history
@@ -353,8 +310,9 @@ def main(argv=None) -> int:
     config = cli.parse_config(args.config)
     if args.wav2vec2_path:
         config["wav2vec2_path"] = args.wav2vec2_path
-    history = train_file(args.data, args.out, preset=args.preset, config=config, seed=args.seed,
-                         max_steps=max_steps, max_seconds=max_seconds, device=args.device, progress=not args.quiet)
+    with progress_bars(not args.quiet):
+        history = train_file(args.data, args.out, preset=args.preset, config=config, seed=args.seed,
+                             max_steps=max_steps, max_seconds=max_seconds, device=args.device)
     print(f"wrote {args.out}: {history['steps']} steps in {history['seconds']:.0f} s, "
           f"best validation loss {history['best_val_loss']}")
     return cli.EXIT_OK

@@ -18,14 +18,13 @@ from __future__ import annotations
 
 import copy
 import sys
-import time
 from collections.abc import Sequence
 
 import numpy as np
 import torch
-from tqdm import tqdm
 
 from benchmark.features.vae import CoeffsVAE
+from benchmark.methods.training_loop import StepLoop, ema_decay_at, optimiser_step
 from benchmark.metrics.windows import WINDOW
 from blendvoca import cli
 from blendvoca.errors import DataError, UserError
@@ -57,12 +56,6 @@ def warmup_lr_factor(step: int, warmup_steps: int) -> float:
     if warmup_steps <= 0:
         return 1.0
     return float(min(1.0, step / warmup_steps))
-
-
-def ema_decay_at(step: int, decay: float = 0.99) -> float:
-    """EMA decay at an optimisation step: ``min(decay, (1 + step) / (10 + step))``,
-    so the average forgets the random initialisation early on (as diffusers' EMAModel)."""
-    return float(min(decay, (1 + step) / (10 + step)))
 
 
 def vae_losses(model: CoeffsVAE, coeffs: torch.Tensor, std: torch.Tensor, sample: bool = True):
@@ -119,7 +112,6 @@ def train_vae(
     warmup_fraction: float = 0.1,
     n_cycles: int = 10,
     seed: int = 0,
-    progress: bool = True,
 ) -> CoeffsVAE:
     """Train a VAE on random windows of coefficient tracks.
 
@@ -154,28 +146,23 @@ def train_vae(
     warmup = int(warmup_fraction * steps)
     scheduler = torch.optim.lr_scheduler.LambdaLR(optimizer, lambda s: warmup_lr_factor(s, warmup))
     std = torch.as_tensor(coeffs_std)
-    model.train()
-    bar = tqdm(range(steps), disable=not progress, desc="VAE")
-    start = time.perf_counter()
-    for step in bar:
-        if max_seconds is not None and time.perf_counter() - start >= max_seconds:
-            break
+
+    def step(loop):
+        at = loop.step
         batch = torch.as_tensor(random_windows(tracks, batch_size, rng))
         reconst, kl, velocity = vae_losses(model, batch, std)
-        b = cyclical_beta(step, steps, n_cycles, stop=beta)
-        loss = reconst + b * kl + weight_vel * velocity
-        optimizer.zero_grad()
-        loss.backward()
-        torch.nn.utils.clip_grad_norm_(model.parameters(), 1.0)
-        optimizer.step()
-        scheduler.step()
+        loss = reconst + cyclical_beta(at, steps, n_cycles, stop=beta) * kl + weight_vel * velocity
+        optimiser_step(loss, optimizer, grad_clip=1.0, params=model.parameters(), scheduler=scheduler)
         with torch.no_grad():
-            decay = ema_decay_at(step, ema_decay)
+            decay = ema_decay_at(at, ema_decay)
             for p_ema, p in zip(ema.parameters(), model.parameters()):
                 p_ema.mul_(decay).add_(p.detach(), alpha=1 - decay)
             for b_ema, b_cur in zip(ema.buffers(), model.buffers()):
                 b_ema.copy_(b_cur)
-        bar.set_postfix(loss=f"{loss.item():.3g}", beta=f"{b:.2f}")
+        return loss.item()
+
+    model.train()
+    StepLoop(max_steps=steps, max_seconds=max_seconds, desc="VAE").run(step)
     return ema.eval()
 
 

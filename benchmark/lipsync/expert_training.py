@@ -12,14 +12,15 @@ step-budgeted, with a cosine learning-rate decay over whichever ends first.
 
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass
 
 import numpy as np
 import torch
 
 from benchmark.lipsync.expert import DEFAULT_CONFIG, SyncExpert, audio_features, build_expert
+from benchmark.methods.training_loop import StepLoop, optimiser_step
 from blendvoca.errors import BlendVOCAError, DataError, UserError
+from blendvoca.names import BLENDVOCA_NAMES
 
 
 #: Smallest per-shape standard deviation used to standardise coefficients.
@@ -74,7 +75,7 @@ def _shift_logits(net, motion: torch.Tensor, mel: torch.Tensor, crop: int, max_s
 
 def train_expert(items, *, max_steps: int | None = None, max_seconds: float | None = None, batch_size: int = 32,
                  crop: int = 48, lr: float = 2e-3, temperature: float = 0.1, seed: int = 0, config=None,
-                 trained_on: dict | None = None, progress: bool = True, stop=None, threads: int = 1) -> SyncExpert:
+                 trained_on: dict | None = None, stop=None, threads: int = 1) -> SyncExpert:
     """Train a :class:`SyncExpert` on sentences.
 
     Parameters
@@ -94,8 +95,6 @@ def train_expert(items, *, max_steps: int | None = None, max_seconds: float | No
         Overrides of :data:`benchmark.lipsync.expert.DEFAULT_CONFIG`.
     trained_on : dict, optional
         Provenance stored in the checkpoint (steps and seconds are added).
-    progress : bool
-        tqdm bar.
     stop : callable, optional
         Checked each step; training ends early (keeping the model) when it returns True.
     threads : int
@@ -107,8 +106,6 @@ def train_expert(items, *, max_steps: int | None = None, max_seconds: float | No
     SyncExpert
         In eval mode. Interrupting (Ctrl-C) also returns the model trained so far.
     """
-    from tqdm.auto import tqdm
-
     if max_steps is None and max_seconds is None:
         raise UserError("train_expert: give max_steps or max_seconds")
     if not items:
@@ -120,8 +117,6 @@ def train_expert(items, *, max_steps: int | None = None, max_seconds: float | No
     if all_coeffs.shape[1] != cfg["num_coeffs"]:
         raise DataError(f"train_expert: coefficient tracks have {all_coeffs.shape[1]} columns, "
                          f"expected {cfg['num_coeffs']}")
-    from blendvoca.names import BLENDVOCA_NAMES
-
     # A floor on the scale: shapes the training data hardly uses must not turn a
     # small deviation of a generated track into a huge input.
     expert = build_expert(cfg, all_coeffs.mean(axis=0), np.maximum(all_coeffs.std(axis=0), STD_FLOOR),
@@ -141,55 +136,39 @@ def train_expert(items, *, max_steps: int | None = None, max_seconds: float | No
     crop = int(min(crop, lengths.min()))
     weights = lengths / lengths.sum()
     opt = torch.optim.AdamW(net.parameters(), lr=lr, weight_decay=1e-4)
-    start = time.perf_counter()
-    step, loss_value = 0, float("nan")
-    bar = tqdm(total=max_steps, desc="sync expert", unit="step", disable=not progress)
+
+    def step(loop):
+        done = loop.fraction_done()
+        for group in opt.param_groups:
+            group["lr"] = lr * 0.5 * (1.0 + np.cos(np.pi * done))
+        which = rng.choice(len(items), size=batch_size, p=weights)
+        m_batch, a_batch, targets = [], [], []
+        for i in which:
+            c = int(rng.integers(0, lengths[i] - crop + 1))
+            m_batch.append(motions[i][c:c + crop + 2 * r])
+            a_batch.append(mels[i][c:c + crop + 2 * S + 2 * r])
+            targets.append(S - lags[i])
+        m_t = torch.from_numpy(np.stack(m_batch)).transpose(1, 2)
+        a_t = torch.from_numpy(np.stack(a_batch)).transpose(1, 2)
+        m_t = m_t + 0.05 * torch.randn_like(m_t)
+        a_t = a_t + 0.05 * torch.randn_like(a_t)
+        logits = _shift_logits(net, m_t, a_t, crop, S, temperature)
+        target = torch.tensor(targets)[:, None].expand(-1, crop)
+        loss = torch.nn.functional.cross_entropy(logits, target)
+        optimiser_step(loss, opt)
+        return loss.item()
+
     net.train()
-    saved_threads = torch.get_num_threads()
-    torch.set_num_threads(int(threads))
-    try:
-        while True:
-            elapsed = time.perf_counter() - start
-            done = max(step / max_steps if max_steps else 0.0, elapsed / max_seconds if max_seconds else 0.0)
-            if done >= 1.0 or (stop is not None and stop()):
-                break
-            for group in opt.param_groups:
-                group["lr"] = lr * 0.5 * (1.0 + np.cos(np.pi * done))
-            which = rng.choice(len(items), size=batch_size, p=weights)
-            m_batch, a_batch, targets = [], [], []
-            for i in which:
-                c = int(rng.integers(0, lengths[i] - crop + 1))
-                m_batch.append(motions[i][c:c + crop + 2 * r])
-                a_batch.append(mels[i][c:c + crop + 2 * S + 2 * r])
-                targets.append(S - lags[i])
-            m_t = torch.from_numpy(np.stack(m_batch)).transpose(1, 2)
-            a_t = torch.from_numpy(np.stack(a_batch)).transpose(1, 2)
-            m_t = m_t + 0.05 * torch.randn_like(m_t)
-            a_t = a_t + 0.05 * torch.randn_like(a_t)
-            logits = _shift_logits(net, m_t, a_t, crop, S, temperature)
-            target = torch.tensor(targets)[:, None].expand(-1, crop)
-            loss = torch.nn.functional.cross_entropy(logits, target)
-            opt.zero_grad()
-            loss.backward()
-            opt.step()
-            step += 1
-            loss_value = float(loss.item())
-            bar.update()
-            if step % 20 == 0:
-                bar.set_postfix(loss=f"{loss_value:.3f}", s=f"{elapsed:.0f}")
-    except KeyboardInterrupt:
-        pass
-    finally:
-        torch.set_num_threads(saved_threads)
-    bar.close()
-    net.eval()
-    expert.trained_on.update(steps=step, seconds=round(time.perf_counter() - start, 1), final_loss=loss_value,
+    done = StepLoop(model=net, max_steps=max_steps, max_seconds=max_seconds, desc="sync expert", threads=threads,
+                    stop=stop, interruptible=True).run(step)
+    expert.trained_on.update(steps=done.steps, seconds=round(done.seconds, 1),
+                             final_loss=done.train_loss[-1] if done.train_loss else float("nan"),
                              sentences=len(items), crop=crop, batch_size=batch_size, seed=seed)
     return expert
 
 
 def cached_expert(data, *, max_seconds: float | None = 240.0, max_steps: int | None = None, seed: int = 0,
-                  cache_dir=None, progress: bool = True):
+                  cache_dir=None):
     """The expert trained on a build's training split, trained once and cached.
 
     The checkpoint is ``<cache>/sync-expert/<manifest hash[:16]>-<budget>-seed<seed>.pt``
@@ -225,7 +204,6 @@ def cached_expert(data, *, max_seconds: float | None = 240.0, max_steps: int | N
     if path.is_file():
         return load_expert(path), path
     expert = train_expert(dataset_items(dataset, "train"), max_steps=max_steps, max_seconds=max_seconds, seed=seed,
-                          progress=progress,
                           trained_on={"data": str(Path(data).expanduser().resolve()), "split": "train",
                                       "subjects": dataset.split("train"), "recipe_id": key,
                                       "manifest_hash": dataset.manifest_hash})

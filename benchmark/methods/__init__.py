@@ -5,7 +5,7 @@ Built-in methods are registered lazily here, so importing this package imports n
 baseline (and no torch).
 """
 
-from .base import Budget, Method, progress_bars, show_progress
+from .base import Budget, Method, TrainingRequest, progress_bars, show_progress
 from .contract import (
     AUDIO_RATE,
     COEFFICIENT_NAMES,
@@ -43,6 +43,7 @@ __all__ = [
     "ENTRY_POINT_GROUP",
     "Budget",
     "Method",
+    "TrainingRequest",
     "MethodError",
     "MethodOutputError",
     "UnknownMethodError",

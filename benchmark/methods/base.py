@@ -10,123 +10,18 @@ under a :class:`Budget`, and it can save and reload its trained state.
 from __future__ import annotations
 
 import abc
-import inspect
 import json
-import math
-import time
-from dataclasses import asdict, dataclass
 from pathlib import Path
-
-import numpy as np
 
 from blendvoca.runtime.progress import progress_bars, show_progress
 
 from .contract import OUTPUT_COEFFICIENTS, OUTPUT_KINDS
+from .request import CONTRACT, Budget, TrainingRequest
 
-__all__ = ["CONFIG_FILE", "Budget", "Method", "checkpoint_step", "progress_bars", "show_progress",
-           "takes_checkpoint_hook", "takes_device"]
+__all__ = ["CONFIG_FILE", "Budget", "Method", "TrainingRequest", "progress_bars", "show_progress"]
 
 #: File in which :meth:`Method.save` stores the constructor config.
 CONFIG_FILE = "method_config.json"
-
-@dataclass(frozen=True)
-class Budget:
-    """Limits on training: a number of optimisation steps and/or wall seconds.
-
-    Parameters
-    ----------
-    max_steps : int or None
-        Stop after this many optimisation steps; ``None`` means no step limit.
-    max_seconds : float or None
-        Stop once this many seconds of wall time have passed; ``None`` means no
-        time limit.
-    """
-
-    max_steps: int | None = None
-    max_seconds: float | None = None
-
-    def __post_init__(self):
-        if self.max_steps is not None:
-            if isinstance(self.max_steps, bool) or not isinstance(self.max_steps, (int, np.integer)):
-                raise TypeError(f"Budget.max_steps: expected an int or None, got {type(self.max_steps).__name__}")
-            if self.max_steps < 0:
-                raise ValueError(f"Budget.max_steps: expected >= 0, got {self.max_steps}")
-        if self.max_seconds is not None:
-            if not isinstance(self.max_seconds, (int, float, np.floating)) or isinstance(self.max_seconds, bool):
-                raise TypeError(
-                    f"Budget.max_seconds: expected a number or None, got {type(self.max_seconds).__name__}"
-                )
-            if not math.isfinite(self.max_seconds) or self.max_seconds < 0:
-                raise ValueError(f"Budget.max_seconds: expected a finite number >= 0, got {self.max_seconds}")
-
-    def steps(self, default: int) -> int:
-        """Number of steps to run: ``max_steps`` when set, else ``default``."""
-        return int(default if self.max_steps is None else self.max_steps)
-
-    def exhausted(self, step: int, started: float) -> bool:
-        """True once ``step`` steps have run or the time limit since ``started`` has passed.
-
-        Parameters
-        ----------
-        step : int
-            Steps completed so far.
-        started : float
-            ``time.perf_counter()`` value taken when training began.
-        """
-        if self.max_steps is not None and step >= self.max_steps:
-            return True
-        return bool(self.max_seconds is not None and time.perf_counter() - started >= self.max_seconds)
-
-    def to_dict(self) -> dict:
-        """JSON-serialisable form, as stored in result files."""
-        return asdict(self)
-
-
-def checkpoint_step(total_steps) -> int | None:
-    """The step after which a method that trains ``total_steps`` steps calls
-    ``on_checkpoint``: half of them (rounded down), or None when there is no half
-    (fewer than 2 steps, or no step count: a time-limited run).
-
-    Parameters
-    ----------
-    total_steps : int, float or None
-        The steps the run will take (``math.inf`` or None: not known in advance).
-    """
-    if total_steps is None or isinstance(total_steps, bool):
-        return None
-    try:
-        total = float(total_steps)
-    except (TypeError, ValueError):
-        return None
-    if not math.isfinite(total) or total < 2:
-        return None
-    return int(total) // 2
-
-
-def _takes_keyword(function, name: str) -> bool:
-    """Whether ``function`` accepts the keyword ``name`` (by that name, or ``**kwargs``)."""
-    try:
-        parameters = inspect.signature(function).parameters.values()
-    except (TypeError, ValueError):
-        return False
-    return any(p.name == name and p.kind in (p.KEYWORD_ONLY, p.POSITIONAL_OR_KEYWORD)
-               or p.kind == p.VAR_KEYWORD for p in parameters)
-
-
-def takes_device(train) -> bool:
-    """Whether the bound or unbound ``train`` accepts ``device=`` (a keyword of that
-    name, or ``**kwargs``). Plug-ins written before the option existed do not: the
-    runner then calls ``train`` without it and the method trains where it always did."""
-    return _takes_keyword(train, "device")
-
-
-def takes_checkpoint_hook(train) -> bool:
-    """Whether the bound or unbound ``train`` accepts ``on_checkpoint=`` (a keyword of
-    that name, or ``**kwargs``). Plug-ins written before the hook existed do not: the
-    runner then calls ``train(dataset, seed=..., budget=...)`` and records the run as
-    not checked for convergence."""
-    return _takes_keyword(train, "on_checkpoint")
-
 
 class Method(abc.ABC):
     """Base class of a speech-to-face method plug-in.
@@ -170,6 +65,9 @@ class Method(abc.ABC):
     #: on a loaded method through :meth:`with_sampling_options`; any other key must
     #: equal the checkpoint's.
     sampling_options: tuple = ()
+    #: The method contract of the ``train`` defined in this class body (v3:
+    #: ``train(dataset, request)``); a subclass that overrides ``train`` declares it again.
+    contract: int = CONTRACT
 
     @classmethod
     def config_schema(cls):
@@ -205,49 +103,24 @@ class Method(abc.ABC):
         ``type(self)(**self.config())`` rebuilds the method."""
         return dict(self._config)
 
-    def train(self, dataset, *, seed: int, budget: Budget, on_checkpoint=None, device=None) -> None:
-        """Train on ``dataset.split("train")`` / ``("val")``; default: nothing to train.
+    def train(self, dataset, request: TrainingRequest) -> None:
+        """Train on ``dataset.split("train")`` / ``("val")`` as ``request`` asks; default: nothing to train.
+
+        Method contract v3 (docs/methods.md, "The contract"): a plug-in that overrides
+        ``train`` declares ``contract = 3`` in the same class body
+        (:func:`~benchmark.methods.request.train_contract`); one that does not is called as a
+        contract-v2 plug-in, ``train(dataset, *, seed, budget)``, with a ``DeprecationWarning``.
 
         Parameters
         ----------
         dataset : benchmark.data dataset
             As returned by ``benchmark.data.open_blendvoca``; vertex-trained methods
             read ``dataset.vertices(subject, sentence)`` and ``dataset.template(subject)``.
-        seed : int
-            Seed for every random choice made while training.
-        budget : Budget
-            Step and/or time limit.
-        on_checkpoint : callable, optional
-            The runner's half-budget check (docs/methods.md, "Settled or not"). A method
-            that trains a known number of steps ``N`` (a step budget, or its own
-            default step count, and no time limit) calls ``on_checkpoint(step)`` once,
-            right after step ``checkpoint_step(N)`` (``N // 2``); it may add
-            ``total_steps=N`` (the runner otherwise takes ``budget.max_steps``). A
-            method trained in stages calls it in its last stage, with the steps of
-            every stage counted (``step`` = earlier stages + half the last one).
-
-            During the call the method must be able to :meth:`generate` as it would be
-            had its training stopped at that step: the weights it would keep then
-            (e.g. the best on validation so far, or its EMA weights), in eval mode and
-            without gradients; afterwards it restores its training state (weights,
-            train mode) and goes on as if nothing had happened. The runner keeps the
-            global random states (Python, numpy, torch) unchanged around the call, so
-            a run with the check trains the same model as one without.
-
-            A time-limited run (its half is not known in advance) and a method that
-            does not train in steps do not call it; plug-ins whose ``train`` does not
-            take ``on_checkpoint`` still work (the run is recorded as not checked).
-        device : str or torch.device, optional
-            Where a method that runs a network trains it and then generates
-            (``benchmark.run --device``: ``"cpu"``, ``"cuda"``, ``"cuda:N"``). None: the
-            method's own choice, the CPU for every bundled baseline. A method that
-            trains on a device stays there, so that :meth:`generate` runs there too; a
-            loaded method is moved by its ``to(device)`` when it has one. ``"cpu"`` must
-            train exactly what None trains (the same seed, the same weights); on a GPU
-            a method may use mixed precision where its config allows it. Plug-ins
-            whose ``train`` does not take ``device`` still work: the runner passes it
-            only to a ``train`` that accepts it (:func:`takes_device`), as for
-            ``on_checkpoint``.
+        request : TrainingRequest
+            The seed, the budget, the device and the runner's checkpoint hook with its
+            fractions (the hook's rules: docs/methods.md, "Settled or not"; the bundled
+            baselines make the calls through
+            :class:`benchmark.methods.training_loop.StepLoop`).
         """
         return
 

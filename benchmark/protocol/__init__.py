@@ -122,7 +122,7 @@ def run(spec: RunSpec, *, evaluate=None, open_dataset=None) -> Path:
     ----------
     spec : RunSpec
     evaluate : callable, optional
-        ``evaluate(tracks, dataset, split=...) -> {metric: {...}}`` in place of
+        ``evaluate(tracks, dataset, split=..., metrics=None) -> {metric: {...}}`` in place of
         ``benchmark.evaluation.evaluate_split`` (its assets are then not checked).
     open_dataset : callable, optional
         ``open_dataset(root) -> dataset`` in place of ``benchmark.data.open_blendvoca``.

@@ -12,7 +12,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from benchmark.methods import OUTPUT_COEFFICIENTS, Budget, get_method
-from benchmark.methods.base import CONFIG_FILE, progress_bars, takes_checkpoint_hook, takes_device
+from benchmark.methods.base import CONFIG_FILE, progress_bars
+from benchmark.methods.request import CONTRACT, TrainingRequest, call_train
 from benchmark.protocol.limits import TimeLimit
 from blendvoca.errors import DataError, MethodError, MethodTimeout, UserError
 
@@ -154,14 +155,17 @@ def prepared_method(name: str, config: dict, dataset, *, seed: int, budget: Budg
         (``from_official_checkpoint``).
     checkpoint_hook : callable, optional
         ``checkpoint_hook(method, step, total_steps)``, handed to a method that is
-        trained (not loaded) and whose ``train`` takes ``on_checkpoint`` as
-        ``on_checkpoint(step, total_steps=None)`` (``Method.train``). What the hook
-        raises leaves ``train`` unchanged (not wrapped as the method's failure).
+        trained (not loaded) as the request's ``on_checkpoint(step, total_steps=None)``
+        (``Method.train``). What the hook raises leaves ``train`` unchanged (not wrapped as
+        the method's failure).
     device : str, optional
-        ``"cpu"``, ``"cuda"`` or ``"cuda:N"`` (:func:`blendvoca.cli.checked_device`): handed to a
-        ``train`` that takes ``device`` (``Method.train``), and the trained or loaded
-        method is then moved there (:func:`moved_to`) to generate. None: nothing is
-        passed or moved, each method trains and generates where it always did.
+        ``"cpu"``, ``"cuda"`` or ``"cuda:N"`` (:func:`blendvoca.cli.checked_device`): the
+        request's ``device``, and the trained or loaded method is then moved there
+        (:func:`moved_to`) to generate. None: each method trains and generates where it
+        always did.
+
+    The method is called through :func:`benchmark.methods.request.call_train` (contract
+    v3, ``train(dataset, request)``; a contract-v2 plug-in with one ``DeprecationWarning``).
 
     Returns
     -------
@@ -203,8 +207,9 @@ def prepared_method(name: str, config: dict, dataset, *, seed: int, budget: Budg
     method = make_method(name, config)
     start = time.perf_counter()
     limit = None if budget.max_seconds is None else budget.max_seconds * 1.1 + TRAIN_GRACE_S
-    hook, raised = {}, []
-    if checkpoint_hook is not None and takes_checkpoint_hook(method.train):
+    raised = []
+    on_checkpoint = None
+    if checkpoint_hook is not None:
         def on_checkpoint(step, total_steps=None):
             try:
                 checkpoint_hook(method, step, total_steps)
@@ -212,13 +217,11 @@ def prepared_method(name: str, config: dict, dataset, *, seed: int, budget: Budg
                 raised.append(exc)
                 raise
 
-        hook = {"on_checkpoint": on_checkpoint}
-    if device is not None and takes_device(method.train):
-        hook["device"] = device  # older plug-ins are called as they always were
+    request = TrainingRequest(seed=seed, budget=budget, device=device, on_checkpoint=on_checkpoint)
     try:
         with TimeLimit(limit, f"method {name!r}: train (budget {budget.max_seconds:g} s + grace)"
                        if limit else ""):
-            method.train(dataset, seed=seed, budget=budget, **hook)
+            call_train(method, dataset, request)
     except (MethodTimeout, UserError, DataError, OSError):
         # a build file that is missing or wrong is the data's fault, not the method's
         raise
@@ -226,7 +229,8 @@ def prepared_method(name: str, config: dict, dataset, *, seed: int, budget: Budg
         for error in raised:  # the check's own failure (e.g. the half-trained method's output), unwrapped
             if _caused_by(exc, error):
                 raise error from None
-        raise MethodError(f"method {name!r}: train failed: {type(exc).__name__}: {exc}") from exc
+        contract = f" (method contract v{CONTRACT}: train(dataset, request))" if isinstance(exc, TypeError) else ""
+        raise MethodError(f"method {name!r}: train failed{contract}: {type(exc).__name__}: {exc}") from exc
     method = moved_to(method, device)
     timings["train_s"] = time.perf_counter() - start
     if path is not None:
@@ -266,7 +270,7 @@ def _from_released_file(cls, name: str, config: dict, dataset, *, seed: int, bud
     _check_archive(path)
     try:
         method = loader(str(path), **config)
-        method.train(dataset, seed=seed, budget=budget)
+        call_train(method, dataset, TrainingRequest(seed=seed, budget=budget))
     except (UserError, DataError):
         raise
     except MethodError as exc:

@@ -85,7 +85,7 @@ def _threads(cpus: int):
     one thread per reserved CPU; this process with as many as the machine has)."""
     from threadpoolctl import threadpool_limits
 
-    from baselines.common.threads import torch_threads
+    from benchmark.methods.training_loop import torch_threads
 
     threads = max(1, int(cpus))
     with torch_threads(threads), threadpool_limits(limits=threads):

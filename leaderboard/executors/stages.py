@@ -58,6 +58,7 @@ from blendvoca.builder.outdir import is_running
 from blendvoca.errors import UserError
 from blendvoca.format import manifest_path
 from blendvoca.io.atomic import atomic_write
+from blendvoca.runtime.progress import progress_bars
 from leaderboard.executors.core import log_progress
 
 __all__ = ["built_corpus", "data_stage", "expert_stage", "row_result_path", "score_stage", "single_stage",
@@ -129,7 +130,8 @@ def expert_stage(spec, root):
     from benchmark.lipsync.expert_training import cached_expert  # torch: loaded only when the expert is trained
 
     started = time.time()
-    _, path = cached_expert(root, max_seconds=None, max_steps=int(spec["expert_steps"]), progress=spec["progress"])
+    with progress_bars(spec["progress"]):
+        _, path = cached_expert(root, max_seconds=None, max_steps=int(spec["expert_steps"]))
     # trained now (a new checkpoint), or loaded from the cache: then nothing to time
     return str(path), ({} if Path(path).stat().st_mtime >= started - 1.0 else None)
 
@@ -202,7 +204,8 @@ def _exported_meshes(spec) -> None:
     if not (corpus / "synthetic.json").is_file():
         raise UserError(f"corpus-meshes: exports the synthetic corpus's meshes, but {corpus} holds none "
                         "(with --data, leave this row out or generate the corpus there)")
-    exported_corpus_meshes(corpus, meshes, fps=60, progress=spec["progress"])
+    with progress_bars(spec["progress"]):
+        exported_corpus_meshes(corpus, meshes, fps=60)
 
 
 def _run_spec(spec, root, *, seed, checkpoint, expert=None, seeds=None):

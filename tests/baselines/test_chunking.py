@@ -16,7 +16,7 @@ from baselines.common.chunking import (
     generate_utterance_in_chunks,
     seam_report,
 )
-from benchmark.methods.base import Budget
+from benchmark.methods.base import Budget, TrainingRequest
 from benchmark.testing import FakeBlendVOCA
 
 
@@ -161,7 +161,7 @@ def test_said_chunks_long_audio_and_its_seams_stay_within_bounds():
 
     method = SAiDMethod(**TINY)
     dataset = small_dataset()
-    method.train(dataset, seed=0, budget=Budget(max_steps=6))
+    method.train(dataset, TrainingRequest(seed=0, budget=Budget(max_steps=6)))
     said = method.said
     said.config["sampling"]["chunk_frames"], said.config["sampling"]["chunk_overlap"] = 40, 15
     assert said.chunk_frames == 40 and said.chunk_overlap == 15 and method.lookahead_s == 40 / 60
@@ -175,7 +175,7 @@ def test_said_chunks_long_audio_and_its_seams_stay_within_bounds():
     parts = []
     again = generate_in_chunks(
         lambda wav, n, i: said._generate_whole(wav, n, samples=2, seed=0, sampler=None, num_steps=None,
-                                               guidance=None, eta=None, progress=False),
+                                               guidance=None, eta=None),
         audio, frames, plan, keep_chunks=parts)
     np.testing.assert_array_equal(out, again)  # generate is the chunked path
     # a batch holding a long utterance samples each on its own, the long one chunked
@@ -187,8 +187,7 @@ def test_said_chunks_long_audio_and_its_seams_stay_within_bounds():
     # an utterance of one chunk is the unchunked chain itself
     short = said.generate(base.audio, 40, samples=1, seed=3)
     np.testing.assert_array_equal(short, said._generate_whole(base.audio, 40, samples=1, seed=3, sampler=None,
-                                                              num_steps=None, guidance=None, eta=None,
-                                                              progress=False))
+                                                              num_steps=None, guidance=None, eta=None))
 
 
 @pytest.mark.parametrize("plugin", ["faceformer", "codetalker"])
@@ -203,7 +202,7 @@ def test_autoregressive_vertex_methods_chunk_with_bounded_seams(plugin):
         from tests.codetalker.test_plugin import TINY
     dataset = FakeBlendVOCA(0, train=2, sentences=1)
     method = cls(**TINY)
-    method.train(dataset, seed=0, budget=Budget(max_steps=8))
+    method.train(dataset, TrainingRequest(seed=0, budget=Budget(max_steps=8)))
     assert method.chunk_frames == 600 and method.chunk_overlap == 60 and method.lookahead_s == 10.0
     method.settings["training"]["chunk_frames"], method.settings["training"]["chunk_overlap"] = 120, 40
     utterance = long_utterance(dataset)
@@ -224,7 +223,7 @@ def test_cdface_chunks_long_audio_with_bounded_seams():
 
     dataset = FakeBlendVOCA(0, sentences=1)
     method = CDFaceMethod(**PLUGIN_TINY)
-    method.train(dataset, seed=0, budget=Budget(max_steps=4))
+    method.train(dataset, TrainingRequest(seed=0, budget=Budget(max_steps=4)))
     assert (method.chunk_frames, method.chunk_overlap) == (480, 48) and method.lookahead_s == 8.0
     method.resolved["training"]["chunk_frames"], method.resolved["training"]["chunk_overlap"] = 120, 40
     utterance = long_utterance(dataset, repeats=2)

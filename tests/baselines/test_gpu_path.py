@@ -21,7 +21,8 @@ import numpy as np
 import pytest
 import torch
 
-from benchmark.methods.base import Budget, Method, takes_device
+from benchmark.methods.base import Budget, Method
+from benchmark.methods.request import CONTRACT, train_contract
 from benchmark.protocol.training import moved_to, prepared_method
 from blendvoca.cli import checked_device
 from benchmark.run import main
@@ -92,7 +93,7 @@ def test_device_cpu_through_the_runner_is_bit_identical_to_no_device(name):
         torch.manual_seed(1234)  # the same global state before both runs
         method, _ = prepared_method(name, config, dataset, seed=0, budget=Budget(max_steps=steps), device=device)
         outputs.append(np.asarray(method.generate(utterance, samples=2, seed=5)))
-    assert takes_device(type(method).train)
+    assert train_contract(type(method)) == CONTRACT
     np.testing.assert_array_equal(outputs[1], outputs[0], err_msg=f"{name}: device='cpu' changed the result")
 
 
@@ -127,8 +128,10 @@ class _Recorder(Method):
 
     calls: list = []
 
-    def train(self, dataset, *, seed, budget, device=None):
-        type(self).calls.append(("train", device))
+    contract = 3
+
+    def train(self, dataset, request):
+        type(self).calls.append(("train", request.device))
 
     def to(self, device):
         type(self).calls.append(("to", device))
@@ -138,10 +141,10 @@ class _Recorder(Method):
         return np.full((samples, utterance.num_frames, 32), 0.5)
 
 
-def test_the_runner_passes_device_only_to_a_train_that_takes_it_and_moves_the_method(tmp_path):
+def test_the_runner_passes_device_only_to_a_v3_train_and_moves_the_method(tmp_path):
     dataset = _dataset()
     method, _ = prepared_method(f"{__name__}:_OldPlugin", {}, dataset, seed=0, budget=Budget(max_steps=1), device="cpu")
-    assert method.trained and not takes_device(_OldPlugin.train)
+    assert method.trained and train_contract(_OldPlugin) == 2
     _Recorder.calls = []
     method, _ = prepared_method(f"{__name__}:_Recorder", {}, dataset, seed=0, budget=Budget(max_steps=1),
                                 device="cpu", checkpoint=tmp_path / "saved")

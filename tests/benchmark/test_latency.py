@@ -24,7 +24,9 @@ class ChunkedSleeper(Method):
         super().__init__()
         self.base, self.per_second, self.calls = base, per_second, []
 
-    def train(self, dataset, *, seed, budget):
+    contract = 3
+
+    def train(self, dataset, request):
         pass
 
     def generate(self, utterance, *, samples=1, seed=0):

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from benchmark.evaluation import Scores
-from benchmark.methods import Method, register, unregister
+from benchmark.methods import Method, TrainingRequest, register, unregister
 from benchmark.metrics.bootstrap import (
     bootstrap_indices,
     interval,
@@ -47,7 +47,10 @@ class Stepper(Method):
         super().__init__(rate=rate, mode=mode)
         self.level = None
 
-    def train(self, dataset, *, seed, budget, on_checkpoint=None):
+    contract = 3
+
+    def train(self, dataset, request):
+        seed, budget = request.seed, request.budget
         TRAINED.append((seed, budget.max_steps))
         if self._config["mode"] == "fail-seed-1" and seed == 1:
             raise RuntimeError("seed 1 fails")
@@ -55,8 +58,8 @@ class Stepper(Method):
         steps = budget.steps(8)
         for step in range(1, steps + 1):
             self.level += self._config["rate"] * (0.05 - self.level)
-            if on_checkpoint is not None and budget.max_seconds is None and step == steps // 2:
-                on_checkpoint(step)
+            if step in request.checkpoint_steps(steps):
+                request.on_checkpoint(step)
 
     def generate(self, utterance, *, samples=1, seed=0):
         rng = np.random.default_rng(seed)
@@ -65,10 +68,10 @@ class Stepper(Method):
 
 
 class OldStepper(Stepper):
-    """A plug-in written before the hook: its train takes no on_checkpoint."""
+    """A plug-in written before contract v3: its train takes seed= and budget=, no request."""
 
     def train(self, dataset, *, seed, budget):
-        super().train(dataset, seed=seed, budget=budget)
+        super().train(dataset, TrainingRequest(seed=seed, budget=budget))
 
 
 EVALUATIONS = []  # the metrics= of every fake evaluation

@@ -107,7 +107,7 @@ def test_short_training_learns_the_offset_sign():
     lag = 3  # the motion 3 frames after the sound
     rng = np.random.default_rng(3)
     items = _items(rng, count=4, lag=lag)
-    expert = train_expert(items, max_steps=40, batch_size=16, progress=False, seed=0)
+    expert = train_expert(items, max_steps=40, batch_size=16, seed=0)
     assert expert.trained_on["steps"] == 40
     held_out = _items(np.random.default_rng(4), count=2, lag=lag)
     for it in held_out:
@@ -158,9 +158,9 @@ def test_dataset_items_carry_the_true_lags(built_dataset):
 def test_cached_expert_trains_once_per_build(built_dataset, tmp_path):
     from benchmark.lipsync.expert_training import cached_expert
 
-    expert, path = cached_expert(built_dataset, max_steps=2, cache_dir=tmp_path, progress=False)
+    expert, path = cached_expert(built_dataset, max_steps=2, cache_dir=tmp_path)
     assert path.is_file() and path.parent == tmp_path / "sync-expert"
     stamp = path.stat().st_mtime_ns
-    again, same = cached_expert(built_dataset, max_steps=2, cache_dir=tmp_path, progress=False)
+    again, same = cached_expert(built_dataset, max_steps=2, cache_dir=tmp_path)
     assert same == path and path.stat().st_mtime_ns == stamp
     assert again.trained_on == expert.trained_on and again.trained_on["steps"] == 2

@@ -82,7 +82,7 @@ def test_training_reduces_loss(one_thread):
     windows = torch.as_tensor(np.stack([tr[:120] for tr in tracks]), dtype=torch.float32)
     torch.manual_seed(0)
     before = CoeffsVAE().eval()
-    model = train_vae(tracks, std, steps=40, batch_size=8, lr=3e-3, seed=0, progress=False, n_cycles=1)
+    model = train_vae(tracks, std, steps=40, batch_size=8, lr=3e-3, seed=0, n_cycles=1)
     with torch.no_grad():
         loss_before = vae_losses(before, windows, torch.as_tensor(std, dtype=torch.float32), sample=False)[0]
         loss_after = vae_losses(model, windows, torch.as_tensor(std, dtype=torch.float32), sample=False)[0]
@@ -136,5 +136,5 @@ def test_training_stops_at_the_time_budget(one_thread):
     rng = np.random.default_rng(0)
     tracks = [rng.uniform(size=(150, 32)) for _ in range(2)]
     start = time.perf_counter()
-    model = train_vae(tracks, np.full(32, 0.3), steps=10**6, max_seconds=0.5, batch_size=2, progress=False)
+    model = train_vae(tracks, np.full(32, 0.3), steps=10**6, max_seconds=0.5, batch_size=2)
     assert time.perf_counter() - start < 30 and not model.training

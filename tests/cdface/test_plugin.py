@@ -52,13 +52,15 @@ def test_cli_writes_samples_for_any_wav(tmp_path, capsys):
 def test_cli_file_mistakes_are_one_error_line_and_paths_any_path_like(tmp_path, capsys):
     from baselines.cdface.generate import generate_file, main
     from blendvoca.io.audio import write_wav
+    from blendvoca.runtime.progress import progress_bars
 
     cdface, _template = _tiny_cdface()
     cdface.save(FsPath(tmp_path / "cdface.pt"))
     wav = tmp_path / "speech.wav"
     write_wav(wav, np.random.default_rng(0).normal(scale=0.1, size=8000).astype(np.float32), 16000)
-    out = generate_file(FsPath(wav), FsPath(tmp_path / "out.npy"), checkpoint=FsPath(tmp_path), samples=2,
-                        subject="A", progress=False)
+    with progress_bars(False):
+        out = generate_file(FsPath(wav), FsPath(tmp_path / "out.npy"), checkpoint=FsPath(tmp_path), samples=2,
+                            subject="A")
     assert out == tmp_path / "out.npy" and np.load(out).shape == (2, 30, 7, 3)
     (tmp_path / "ref.npy").write_text("not an array")
     (tmp_path / "bad").mkdir()
@@ -97,7 +99,7 @@ def test_training_under_a_step_budget_gives_the_same_model_every_run():
     import torch
 
     from baselines.cdface.plugin import CDFaceMethod
-    from benchmark.methods.base import Budget
+    from benchmark.methods.base import Budget, TrainingRequest
     from benchmark.testing import FakeBlendVOCA
 
     dataset = FakeBlendVOCA(0, sentences=1)
@@ -105,7 +107,7 @@ def test_training_under_a_step_budget_gives_the_same_model_every_run():
     for run in range(2):
         torch.manual_seed(1000 + run)  # the global generator's state must not matter
         method = CDFaceMethod(**PLUGIN_TINY)
-        method.train(dataset, seed=3, budget=Budget(max_steps=2))
+        method.train(dataset, TrainingRequest(seed=3, budget=Budget(max_steps=2)))
         states.append(method.cdface.model.state_dict())
     for key, value in states[0].items():
         torch.testing.assert_close(value, states[1][key], rtol=0, atol=0, msg=key)
@@ -131,7 +133,7 @@ def test_cosine_schedule_sets_every_step_of_every_stage(monkeypatch):
 
     from baselines.cdface.plugin import CDFaceMethod
     from baselines.cdface.train import cosine_lr
-    from benchmark.methods.base import Budget
+    from benchmark.methods.base import Budget, TrainingRequest
     from benchmark.testing import FakeBlendVOCA
 
     seen = []
@@ -143,9 +145,9 @@ def test_cosine_schedule_sets_every_step_of_every_stage(monkeypatch):
 
     monkeypatch.setattr(torch.optim, "AdamW", Recording)
     method = CDFaceMethod(**PLUGIN_TINY, lr_schedule="cosine", lr=0.01)
-    method.train(FakeBlendVOCA(0, sentences=1), seed=0, budget=Budget(max_steps=4))
+    method.train(FakeBlendVOCA(0, sentences=1), TrainingRequest(seed=0, budget=Budget(max_steps=4)))
     expected = [cosine_lr(0.01, k, 4) for k in range(4)]
     assert seen == pytest.approx(expected * 3)  # lip prior, upper-face prior, querying
     with pytest.raises(ValueError, match="lr_schedule"):
-        CDFaceMethod(**PLUGIN_TINY, lr_schedule="step").train(FakeBlendVOCA(0, sentences=1), seed=0,
-                                                               budget=Budget(max_steps=1))
+        CDFaceMethod(**PLUGIN_TINY, lr_schedule="step").train(FakeBlendVOCA(0, sentences=1),
+                                                               TrainingRequest(seed=0, budget=Budget(max_steps=1)))

@@ -10,7 +10,7 @@ from baselines.codetalker.plugin import CodeTalkerMethod
 from baselines.codetalker.train import split_budget, train_stage1
 from baselines.codetalker.vqvae import VQAutoEncoder
 from baselines.common.sequences import MotionSequence
-from benchmark.methods.base import Budget
+from benchmark.methods.base import Budget, TrainingRequest
 from benchmark.testing import FakeBlendVOCA, check_method
 
 TINY = {"feature_dim": 16, "vq_hidden_size": 16, "vq_zquant_dim": 4, "vq_n_embed": 16, "max_seconds": None}
@@ -38,7 +38,7 @@ def test_stage1_learns_a_codebook_that_reconstructs():
                         "intermediate_size": 32, "face_quan_num": 2, "zquant_dim": 8, "n_embed": 32})
     before = vq.quantize.embedding.weight.detach().clone()
     training = {"motion_scale": 1.0, "quant_loss_weight": 1.0, "stage1_lr": 3e-3, "num_threads": 1, "grad_clip": 1.0}
-    hist = train_stage1(vq, seqs, [], training=training, seed=0, max_steps=400, max_seconds=float("inf"), progress=False)
+    hist = train_stage1(vq, seqs, [], training=training, seed=0, max_steps=400, max_seconds=float("inf"))
     assert hist["steps"] == 400
     assert not torch.equal(vq.quantize.embedding.weight, before)
     x = torch.from_numpy(seqs[0].vertices)[None]
@@ -52,14 +52,14 @@ def test_stage1_learns_a_codebook_that_reconstructs():
 def test_stage2_training_leaves_the_vq_vae_frozen():
     ds = FakeBlendVOCA(0, train=2, sentences=1)
     m = CodeTalkerMethod(**TINY)
-    m.train(ds, seed=0, budget=Budget(max_steps=6))
+    m.train(ds, TrainingRequest(seed=0, budget=Budget(max_steps=6)))
     assert m.history["stage1"]["steps"] == 2 and m.history["stage2"]["steps"] == 4
     vq_before = {k: v.clone() for k, v in m.network.autoencoder.state_dict().items()}
     from baselines.codetalker.train import train_stage2
     from baselines.common.sequences import motion_sequences
 
     train_stage2(m.network, motion_sequences(ds, "train"), [], m.subjects, training=m.settings["training"], seed=0,
-                 max_steps=2, max_seconds=float("inf"), progress=False)
+                 max_steps=2, max_seconds=float("inf"))
     for k, v in m.network.autoencoder.state_dict().items():
         assert torch.equal(v, vq_before[k]), k
     assert not any(p.requires_grad for p in m.network.autoencoder.parameters())
@@ -68,7 +68,7 @@ def test_stage2_training_leaves_the_vq_vae_frozen():
 def test_save_load_round_trip(tmp_path):
     ds = FakeBlendVOCA(2, train=2, sentences=1)
     m = CodeTalkerMethod(**TINY)
-    m.train(ds, seed=0, budget=Budget(max_steps=3))
+    m.train(ds, TrainingRequest(seed=0, budget=Budget(max_steps=3)))
     m.save(tmp_path)
     back = CodeTalkerMethod.load(tmp_path)
     subject = ds.split("test")[0]
@@ -177,7 +177,7 @@ def test_own_input_feeding_is_switchable_and_seeded():
         m.build_network(len(subjects), int(train[0].template.size))
         torch.nn.init.normal_(m.network.feat_map.weight, std=0.1)
         train_stage2(m.network, train, [], subjects, training=m.settings["training"],
-                     seed=0, max_steps=4, max_seconds=float("inf"), progress=False)
+                     seed=0, max_steps=4, max_seconds=float("inf"))
         weights.append(m.network.vertice_map.weight.detach().clone())
     assert not torch.allclose(weights[0], weights[1])
     torch.testing.assert_close(weights[1], weights[2])

@@ -29,10 +29,10 @@ def test_benchmark_rate_resampling_closed_form():
 def test_samples_are_training_speaker_styles():
     assert style_indices(5, 1, 3) == [1, 2, 0, 1, 2]
     ds = FakeBlendVOCA(0, train=2, sentences=1)
-    from benchmark.methods.base import Budget
+    from benchmark.methods.base import Budget, TrainingRequest
 
     m = FaceFormerMethod(**TINY)
-    m.train(ds, seed=0, budget=Budget(max_steps=3))
+    m.train(ds, TrainingRequest(seed=0, budget=Budget(max_steps=3)))
     # push the style embedding apart so that styles visibly differ
     with torch.no_grad():
         m.network.obj_vector.weight.normal_()
@@ -83,11 +83,11 @@ def test_teacher_forcing_and_autoregression_agree_on_a_trained_toy():
 
 
 def test_save_load_round_trip(tmp_path):
-    from benchmark.methods.base import Budget
+    from benchmark.methods.base import Budget, TrainingRequest
 
     ds = FakeBlendVOCA(1, train=2, sentences=1)
     m = FaceFormerMethod(**TINY)
-    m.train(ds, seed=0, budget=Budget(max_steps=2))
+    m.train(ds, TrainingRequest(seed=0, budget=Budget(max_steps=2)))
     m.save(tmp_path)
     back = FaceFormerMethod.load(tmp_path)
     subject = ds.split("test")[0]
@@ -101,7 +101,7 @@ def test_save_load_round_trip(tmp_path):
 def test_official_checkpoint_through_the_runner(tmp_path):
     """``benchmark.run --checkpoint vocaset.pth``: the authors' weights, their 8 styles, no training."""
     from baselines.faceformer import load_official
-    from benchmark.methods.base import Budget
+    from benchmark.methods.base import Budget, TrainingRequest
     from benchmark.protocol import prepared_method
     from tests.faceformer.test_official import authors_state
 
@@ -132,13 +132,13 @@ def test_official_checkpoint_through_the_runner(tmp_path):
 @pytest.mark.parametrize("plugin", ["faceformer", "codetalker"])
 def test_all_styles_in_one_batch_equal_one_call_per_style(plugin):
     from benchmark.methods import get_method
-    from benchmark.methods.base import Budget
+    from benchmark.methods.base import Budget, TrainingRequest
 
     config = TINY if plugin == "faceformer" else {"feature_dim": 16, "vq_hidden_size": 16, "vq_zquant_dim": 4,
                                                    "vq_n_embed": 16, "max_seconds": None}
     ds = FakeBlendVOCA(1, train=3, sentences=1)
     m = get_method(plugin)(**config)
-    m.train(ds, seed=0, budget=Budget(max_steps=3))
+    m.train(ds, TrainingRequest(seed=0, budget=Budget(max_steps=3)))
     with torch.no_grad():  # styles far apart
         (m.network.obj_vector if plugin == "faceformer" else m.network.learnable_style_emb).weight.normal_()
     subject = ds.split("test")[0]

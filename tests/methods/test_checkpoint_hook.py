@@ -1,4 +1,4 @@
-"""The half-budget call of every trained baseline (``Method.train(..., on_checkpoint=...)``):
+"""The half-budget call of every trained baseline (``TrainingRequest.on_checkpoint``):
 made once, after half the steps (the last stage's half for staged methods), with a
 method that can generate then; and a run with the call trains exactly the model of a
 run without it (weights, train/eval modes and random states restored)."""
@@ -9,7 +9,9 @@ import numpy as np
 import pytest
 import torch
 
-from benchmark.methods.base import Budget, checkpoint_step, takes_checkpoint_hook
+from benchmark.methods.base import Budget, Method, TrainingRequest
+from benchmark.methods.request import CONTRACT, checkpoint_steps, train_contract
+from benchmark.methods.training_loop import kept_state, paused_training
 from benchmark.protocol.convergence import preserved_random_state
 from benchmark.testing import FakeBlendVOCA
 
@@ -77,8 +79,8 @@ def _train(factory, steps, dataset, *, hooked):
             torch.manual_seed(99)  # what a generator may do to the global state
         calls.append((step, total_steps, out))
 
-    hook = {"on_checkpoint": on_checkpoint} if hooked else {}
-    method.train(dataset, seed=0, budget=Budget(max_steps=steps), **hook)
+    method.train(dataset, TrainingRequest(seed=0, budget=Budget(max_steps=steps),
+                                          on_checkpoint=on_checkpoint if hooked else None))
     final = np.asarray(method.generate(utterance, samples=2, seed=5))
     return calls, final
 
@@ -87,7 +89,7 @@ def _train(factory, steps, dataset, *, hooked):
 def test_the_half_budget_call_is_made_once_and_changes_nothing(name):
     factory, steps, expected = CASES[name]
     cls, _ = factory()
-    assert takes_checkpoint_hook(cls.train)
+    assert train_contract(cls) == CONTRACT
     dataset = _dataset()
     calls, final = _train(factory, steps, dataset, hooked=True)
     assert [(step, total) for step, total, _ in calls] == [expected], name
@@ -101,26 +103,43 @@ def test_a_time_limited_run_makes_no_call():
     factory, _, _ = CASES["regression"]
     cls, config = factory()
     method, calls = cls(**config), []
-    method.train(_dataset(), seed=0, budget=Budget(max_steps=6, max_seconds=60.0),
-                 on_checkpoint=lambda step, total_steps=None: calls.append(step))
+    method.train(_dataset(), TrainingRequest(seed=0, budget=Budget(max_steps=6, max_seconds=60.0),
+                                             on_checkpoint=lambda step, total_steps=None: calls.append(step)))
     assert calls == []
 
 
-def test_checkpoint_step_and_signature_inspection():
-    assert checkpoint_step(60) == 30 and checkpoint_step(7) == 3 and checkpoint_step(2) == 1
-    assert checkpoint_step(1) is None and checkpoint_step(0) is None and checkpoint_step(None) is None
-    assert checkpoint_step(math.inf) is None and checkpoint_step(True) is None
+def test_checkpoint_steps_and_declared_contracts():
+    assert checkpoint_steps(60) == (30,) and checkpoint_steps(7) == (3,) and checkpoint_steps(2) == (1,)
+    assert checkpoint_steps(1) == () and checkpoint_steps(0) == () and checkpoint_steps(None) == ()
+    assert checkpoint_steps(math.inf) == () and checkpoint_steps(True) == ()
+    assert checkpoint_steps(100, (0.25, 0.5)) == (25, 50) and checkpoint_steps(7, (0.5, 0.25)) == (1, 3)
+    hooked = TrainingRequest(budget=Budget(max_steps=8), on_checkpoint=print, checkpoint_fractions=(0.25, 0.5))
+    assert hooked.checkpoint_steps(8) == (2, 4) and TrainingRequest().checkpoint_steps(8) == ()
+    assert TrainingRequest(budget=Budget(max_seconds=5.0), on_checkpoint=print).checkpoint_steps(8) == ()
+    with pytest.raises(ValueError, match="checkpoint_fractions"):
+        TrainingRequest(checkpoint_fractions=(1.0,))
+    with pytest.raises(TypeError, match="Budget"):
+        TrainingRequest(budget=None)
 
-    def old(self, dataset, *, seed, budget): ...
-    def new(self, dataset, *, seed, budget, on_checkpoint=None): ...
-    def open_ended(self, dataset, **kwargs): ...
-    assert not takes_checkpoint_hook(old) and takes_checkpoint_hook(new) and takes_checkpoint_hook(open_ended)
-    assert not takes_checkpoint_hook(42)
+    class Untrained(Method):
+        def generate(self, utterance, *, samples=1, seed=0): ...
+
+    class Old(Untrained):
+        def train(self, dataset, *, seed, budget): ...
+
+    class New(Old):
+        contract = 3
+
+        def train(self, dataset, request): ...
+
+    class Inherits(New):
+        pass
+
+    assert train_contract(Untrained) == train_contract(New) == train_contract(Inherits) == CONTRACT
+    assert train_contract(Old) == 2
 
 
 def test_paused_training_restores_weights_modes_flags_and_rng():
-    from baselines.common.training import kept_state, paused_training
-
     torch.manual_seed(0)
     model = torch.nn.Sequential(torch.nn.Linear(3, 3), torch.nn.Dropout(0.5), torch.nn.Linear(3, 1))
     model.train()
@@ -141,3 +160,17 @@ def test_paused_training_restores_weights_modes_flags_and_rng():
     # the weights a best-on-validation loop would keep if it stopped now
     assert kept_state(None, None, 1.0) is None and kept_state(2.0, "best", 1.0) is None
     assert kept_state(1.0, "best", 2.0) == "best" and kept_state(1.0, "best", 1.0) == "best"
+
+
+def test_the_loop_calls_at_every_fraction_the_runner_asks_for():
+    factory, _, _ = CASES["regression"]
+    cls, config = factory()
+    dataset, weights = _dataset(), []
+    for fractions in ((0.5,), (0.25, 0.5)):
+        torch.manual_seed(1234)
+        method, calls = cls(**config), []
+        method.train(dataset, TrainingRequest(seed=0, budget=Budget(max_steps=8), checkpoint_fractions=fractions,
+                                              on_checkpoint=lambda step, total_steps=None: calls.append((step, total_steps))))
+        assert calls == [(round(8 * f), 8) for f in fractions]
+        weights.append([v.clone() for v in method.model.state_dict().values()])
+    assert all(torch.equal(a, b) for a, b in zip(*weights))  # a quarter-budget call changes nothing either

@@ -10,7 +10,7 @@ import pytest
 import torch
 
 from benchmark.methods import get_method
-from benchmark.methods.base import Budget, Method
+from benchmark.methods.base import Budget, TrainingRequest, Method
 from benchmark.methods.convert_checkpoint import convert_checkpoint
 from benchmark.methods.convert_checkpoint import main as convert_main
 from benchmark.run import main as run_main
@@ -184,12 +184,14 @@ def _old_cdface_file(cdface, path):
 
 def test_an_old_cdface_file_is_refused_then_converted_once_knowingly(tmp_path, capsys):
     from baselines.cdface.pipeline import CDFace
+    from blendvoca.runtime.progress import progress_bars
     from tests.cdface.test_model import _tiny_cdface
 
     cdface, _template = _tiny_cdface()
     cdface.model.requires_grad_(False)  # as load leaves it (autograd off takes other, equally exact kernels)
     audio = np.random.default_rng(0).normal(scale=0.1, size=8000).astype(np.float32)
-    expected = cdface.generate(audio, 30, subject="A", samples=2, seed=1)
+    with progress_bars(False):  # no frame bar in the captured stderr
+        expected = cdface.generate(audio, 30, subject="A", samples=2, seed=1)
     old, new = tmp_path / "old.pt", tmp_path / "new.pt"
     _old_cdface_file(cdface, old)
     with pytest.raises(DataError, match=rf"{old}.*numpy.*convert_checkpoint {old} NEW --trust"):
@@ -200,7 +202,8 @@ def test_an_old_cdface_file_is_refused_then_converted_once_knowingly(tmp_path, c
     assert convert_main([str(old), str(new), "--trust"]) == 0
     assert f"converted: {new}" in capsys.readouterr().out
     again = CDFace.load(new)
-    np.testing.assert_array_equal(again.generate(audio, 30, subject="A", samples=2, seed=1), expected)
+    with progress_bars(False):
+        np.testing.assert_array_equal(again.generate(audio, 30, subject="A", samples=2, seed=1), expected)
     assert again.parts.lips.dtype == np.int64 and again.templates["C"].dtype == np.float64
     assert convert_main([str(old), str(new), "--trust"]) == 2  # nothing is overwritten
     _one_error_line(capsys, "exists")
@@ -223,7 +226,7 @@ def test_an_old_vertex_method_folder_converts_and_predicts_the_same(tmp_path, na
 
     ds = FakeBlendVOCA(1, train=2, sentences=1)
     method = get_method(name)(**METHODS[name][0])
-    method.train(ds, seed=0, budget=Budget(max_steps=2))
+    method.train(ds, TrainingRequest(seed=0, budget=Budget(max_steps=2)))
     method.save(tmp_path / "saved")
     old = tmp_path / "old"
     old.mkdir()

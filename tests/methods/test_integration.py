@@ -45,7 +45,7 @@ def test_reference_rows_and_mesh_adapter_on_real_build(built_dataset, synthetic_
     assert gt["dataset"]["manifest_hash"] == static["dataset"]["manifest_hash"]
 
     for fps in (60, 30):
-        config = exported_corpus_meshes(synthetic_corpus, tmp_path / f"meshes{fps}", fps=fps, progress=False)
+        config = exported_corpus_meshes(synthetic_corpus, tmp_path / f"meshes{fps}", fps=fps)
         adapted = _run("mesh-adapter", built_dataset, tmp_path, config={"config": str(config)})
         assert adapted["method"]["label"] == f"corpus meshes ({fps} fps)"
         # the corpus meshes are what the build fitted: the adapter's fit lands near the ground
@@ -71,7 +71,9 @@ def _replay_class():
         def __init__(self, offset=0.0):
             super().__init__(offset=offset)
 
-        def train(self, dataset, *, seed, budget):
+        contract = 3
+
+        def train(self, dataset, request):
             self._dataset = dataset
 
         def generate(self, utterance, *, samples=1, seed=0):

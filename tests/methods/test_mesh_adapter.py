@@ -4,7 +4,7 @@ import pytest
 from baselines.mesh_adapter.adapt import adapted_coefficients
 from baselines.mesh_adapter.config import adapter_config, read_adapter_config
 from baselines.mesh_adapter.sequences import find_sequences, read_vertex_sequence
-from benchmark.methods import Budget, get_method
+from benchmark.methods import Budget, TrainingRequest, get_method
 from benchmark.protocol import generated_tracks
 from benchmark.testing import RANDOM_RIG_VERTICES, FakeBlendVOCA
 
@@ -38,7 +38,7 @@ def test_adapter_recovers_known_coefficients_at_60fps(dataset, tmp_path):
     (tmp_path / "m.yaml").write_text("name: Fake VOCA\nvertices: out\nfps: 60\n")
     method = get_method("mesh-adapter")(config=str(tmp_path / "m.yaml"))
     assert method.label == "Fake VOCA"
-    method.train(dataset, seed=0, budget=Budget())
+    method.train(dataset, TrainingRequest(seed=0, budget=Budget()))
     generated, _ = generated_tracks(method, dataset, progress=False)
     for (subject, sentence), tracks in generated.items():
         np.testing.assert_allclose(tracks[0], dataset.coeffs(subject, sentence), atol=1e-5)
@@ -47,7 +47,7 @@ def test_adapter_recovers_known_coefficients_at_60fps(dataset, tmp_path):
 def test_adapter_30fps_offsets_close_and_same_length(dataset, tmp_path):
     _write_npy(dataset, tmp_path / "out", step=2, offsets=True)
     method = get_method("mesh-adapter")(vertices=str(tmp_path / "out"), fps=30, template="offsets")
-    method.train(dataset, seed=0, budget=Budget())
+    method.train(dataset, TrainingRequest(seed=0, budget=Budget()))
     generated, _ = generated_tracks(method, dataset, progress=False)
     for key, tracks in generated.items():
         truth = dataset.coeffs(*key)
@@ -73,7 +73,7 @@ def test_adapter_reads_per_frame_mesh_folders(dataset, tmp_path):
 def test_adapter_save_load_round_trip(dataset, tmp_path):
     _write_npy(dataset, tmp_path / "out")
     method = get_method("mesh-adapter")(vertices=str(tmp_path / "out"))
-    method.train(dataset, seed=0, budget=Budget())
+    method.train(dataset, TrainingRequest(seed=0, budget=Budget()))
     method.save(tmp_path / "ckpt")
     loaded = get_method("mesh-adapter").load(tmp_path / "ckpt")
     assert loaded.config() == method.config()
@@ -87,7 +87,7 @@ def test_missing_outputs_named(dataset, tmp_path):
     (tmp_path / "out" / "S2" / "sentence02.npy").unlink()
     method = get_method("mesh-adapter")(vertices=str(tmp_path / "out"))
     with pytest.raises(FileNotFoundError, match=r"1 of 4 sentences.*S2/sentence02"):
-        method.train(dataset, seed=0, budget=Budget())
+        method.train(dataset, TrainingRequest(seed=0, budget=Budget()))
 
 
 def test_wrong_topology_named(dataset, tmp_path):
@@ -96,7 +96,7 @@ def test_wrong_topology_named(dataset, tmp_path):
         np.save(tmp_path / "out" / "S1" / f"{q}.npy", np.zeros((10, V + 1, 3)))
     with pytest.raises(ValueError, match=r"S1/sentence01.*\(T, 60, 3\)"):
         method = get_method("mesh-adapter")(vertices=str(tmp_path / "out"), split="test")
-        method.train(rig_dataset(test=["S1"]), seed=0, budget=Budget())
+        method.train(rig_dataset(test=["S1"]), TrainingRequest(seed=0, budget=Budget()))
 
 
 def test_config_validation(tmp_path):

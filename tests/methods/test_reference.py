@@ -4,7 +4,7 @@ import pytest
 from baselines.common.track_lookup import fit_track_length
 from baselines.bounds.mean import mean_coefficients
 from baselines.bounds.random_walk import random_tracks
-from benchmark.methods import Budget, Utterance, get_method
+from benchmark.methods import Budget, TrainingRequest, Utterance, get_method
 from benchmark.protocol import generated_tracks
 
 from .fakes import speech_dataset
@@ -17,7 +17,7 @@ def dataset():
 
 def test_ground_truth_returns_the_dataset_tracks_and_round_trips(dataset, tmp_path):
     gt = get_method("ground-truth")()
-    gt.train(dataset, seed=0, budget=Budget())
+    gt.train(dataset, TrainingRequest(seed=0, budget=Budget()))
     generated, _ = generated_tracks(gt, dataset, progress=False)
     for (subject, sentence), tracks in generated.items():
         np.testing.assert_array_equal(tracks[0], dataset.coeffs(subject, sentence))
@@ -34,7 +34,7 @@ def _utterance(subject="D", sentence="sentence01", num_frames=5):
 
 def test_ground_truth_unknown_sentence_is_explained(dataset):
     gt = get_method("ground-truth")()
-    gt.train(dataset, seed=0, budget=Budget())
+    gt.train(dataset, TrainingRequest(seed=0, budget=Budget()))
     with pytest.raises(KeyError, match="no stored track for D/sentence99"):
         gt.generate(_utterance(sentence="sentence99"))
 
@@ -43,7 +43,7 @@ def test_mean_is_frame_weighted_mean(dataset, tmp_path):
     tracks = [np.ones((2, 3)), np.zeros((6, 3))]
     np.testing.assert_allclose(mean_coefficients(tracks), np.full(3, 0.25))
     mean = get_method("mean")()
-    mean.train(dataset, seed=0, budget=Budget())
+    mean.train(dataset, TrainingRequest(seed=0, budget=Budget()))
     all_train = np.concatenate([dataset.coeffs(s, q) for s in dataset.split("train") for q in dataset.sentences(s)])
     np.testing.assert_allclose(mean.mean_, all_train.mean(axis=0))
     out = mean.generate(_utterance(num_frames=4), samples=1)

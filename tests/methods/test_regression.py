@@ -9,7 +9,7 @@ from baselines.regression.mel import (
     mel_to_hz,
 )
 from baselines.regression.training import window_batch
-from benchmark.methods import Budget, Utterance, get_method
+from benchmark.methods import Budget, TrainingRequest, Utterance, get_method
 from benchmark.protocol import generated_tracks
 
 from .fakes import fake_evaluate, speech_dataset
@@ -67,14 +67,14 @@ def dataset():
 @pytest.fixture(scope="module")
 def trained(dataset):
     method = get_method("regression")(**SMALL)
-    method.train(dataset, seed=0, budget=Budget())
+    method.train(dataset, TrainingRequest(seed=0, budget=Budget()))
     return method
 
 
 def test_regression_learns_speech_driven_motion(dataset, trained):
     """jawOpen follows the audio envelope: the regression must beat the mean baseline."""
     mean = get_method("mean")()
-    mean.train(dataset, seed=0, budget=Budget())
+    mean.train(dataset, TrainingRequest(seed=0, budget=Budget()))
     reg_out, _ = generated_tracks(trained, dataset, progress=False)
     mean_out, _ = generated_tracks(mean, dataset, progress=False)
     assert fake_evaluate(reg_out, dataset)["coeff_mse"]["mean"] < 0.5 * fake_evaluate(mean_out, dataset)["coeff_mse"]["mean"]
@@ -85,7 +85,7 @@ def test_regression_deterministic_with_seed_and_budget(dataset):
     runs = []
     for seed in (0, 0, 1):
         method = get_method("regression")(**SMALL)
-        method.train(dataset, seed=seed, budget=Budget(max_steps=5))
+        method.train(dataset, TrainingRequest(seed=seed, budget=Budget(max_steps=5)))
         assert method.history["steps"] == 5
         runs.append([v.numpy().copy() for v in method.model.state_dict().values()])
     assert all(np.array_equal(a, b) for a, b in zip(runs[0], runs[1]))

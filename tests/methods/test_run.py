@@ -40,7 +40,7 @@ class _Broken(Method):
     def __init__(self, mode="ok"):
         super().__init__(mode=mode)
 
-    def train(self, dataset, *, seed, budget):
+    def train(self, dataset, *, seed, budget):  # contract v2: the old plug-in of these tests
         if self._config["mode"] == "train-raises":
             raise RuntimeError("boom in train")
 
@@ -266,7 +266,9 @@ class _Slow(Method):
     def __init__(self, where="generate"):
         super().__init__(where=where)
 
-    def train(self, dataset, *, seed, budget):
+    contract = 3
+
+    def train(self, dataset, request):
         if self._config["where"] == "train":
             import time
 
@@ -305,7 +307,9 @@ class _Stuck(Method):
     def __init__(self, sleep=None):
         super().__init__(sleep=sleep)
 
-    def train(self, dataset, *, seed, budget):
+    contract = 3
+
+    def train(self, dataset, request):
         pass
 
     def generate(self, utterance, *, samples=1, seed=0):
@@ -402,7 +406,9 @@ class _Tunable(Method):
         super().__init__(level=level, width=width)
         self.trained = False
 
-    def train(self, dataset, *, seed, budget):
+    contract = 3
+
+    def train(self, dataset, request):
         self.trained = True
 
     def generate(self, utterance, *, samples=1, seed=0):
@@ -467,7 +473,9 @@ def test_the_base_method_has_no_sampling_options():
 class _Chatty(Method):
     """Draws its own tqdm bars in train and generate, as the built-in plug-ins do."""
 
-    def train(self, dataset, *, seed, budget):
+    contract = 3
+
+    def train(self, dataset, request):
         from tqdm.auto import tqdm
 
         for _ in tqdm(range(3), desc="chatty training", disable=not show_progress()):

@@ -4,7 +4,7 @@ names the step a broken one fails at; vertex outputs are fitted back to their co
 import numpy as np
 import pytest
 
-from benchmark.methods import Method, MethodOutputError, get_method
+from benchmark.methods import Method, MethodOutputError, TrainingRequest, get_method
 from benchmark.protocol import generated_tracks
 from benchmark.testing import FakeBlendVOCA, MethodCheckError, check_method
 
@@ -25,7 +25,9 @@ class RigDriven(Method):
     def __init__(self, level=0.3):
         super().__init__(level=level)
 
-    def train(self, dataset, *, seed, budget):
+    contract = 3
+
+    def train(self, dataset, request):
         self.rigs = {s: dataset.rig(s) for s in dataset.subjects}
 
     @staticmethod
@@ -61,7 +63,7 @@ def test_vertex_method_passes_and_its_vertices_are_fitted_to_the_known_track():
     assert report.output == "vertices" and report.samples == 2
     dataset = FakeBlendVOCA(seed=3)
     method = RigDriven(level=0.4)
-    method.train(dataset, seed=0, budget=None)
+    method.train(dataset, TrainingRequest(seed=0))
     vertices = {}
     tracks, _ = generated_tracks(method, dataset, samples=2, seed=5, progress=False, vertices_out=vertices)
     for (subject, sentence), fitted in tracks.items():
@@ -81,7 +83,9 @@ class _Broken(Method):
         self.mode = mode
         self.state = None
 
-    def train(self, dataset, *, seed, budget):
+    contract = 3
+
+    def train(self, dataset, request):
         self.state = 0.5
 
     def generate(self, utterance, *, samples=1, seed=0):

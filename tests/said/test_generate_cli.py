@@ -89,7 +89,7 @@ def test_entry_points_take_any_path_like(tmp_path, checkpoint, wav):
     said = SAiD.load(FsPath(checkpoint))
     said.save(FsPath(tmp_path / "again.pt"))
     paths = generate_files(FsPath(wav), FsPath(tmp_path / "y.csv"), checkpoint=FsPath(tmp_path / "again.pt"),
-                           image_path=FsPath(tmp_path / "y.png"), progress=False)
+                           image_path=FsPath(tmp_path / "y.png"))
     assert paths == [tmp_path / "y.csv"] and (tmp_path / "y.png").is_file()
 
 

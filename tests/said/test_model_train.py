@@ -54,7 +54,7 @@ def test_short_training_reduces_the_loss():
             return float(diffusion_loss(said, c, a, generator=torch.Generator().manual_seed(5)))
 
     before = loss()
-    history = train_said(said, pairs, toy_pairs(2, 1), seed=0, max_steps=80, progress=False)
+    history = train_said(said, pairs, toy_pairs(2, 1), seed=0, max_steps=80)
     after = loss()
     assert history["steps"] == 80 and len(history["train_loss"]) == 80
     assert history["best_step"] in (20, 40, 60, 80)
@@ -64,7 +64,7 @@ def test_short_training_reduces_the_loss():
 @pytest.mark.parametrize("encoder", ["logmel", "wav2vec2-tiny"])
 def test_save_load_round_trip_is_exact(tmp_path, encoder):
     said = SAiD.from_preset(NAMES, encoder=encoder, **TINY)
-    train_said(said, toy_pairs(3, 2), seed=1, max_steps=3, progress=False)
+    train_said(said, toy_pairs(3, 2), seed=1, max_steps=3)
     path = said.save(tmp_path / "ck" / "said.pt")
     back = SAiD.load(path)
     assert back.config == said.config and back.names == NAMES and back.history == said.history
@@ -102,9 +102,9 @@ def test_config_resolution_and_errors():
 def test_train_rejects_bad_pairs():
     said = SAiD.from_preset(NAMES, **TINY)
     with pytest.raises(ValueError, match=r"\(T>=2, 4\)"):
-        train_said(said, [(np.zeros((10, 3)), np.zeros(100, np.float32))], max_steps=1, progress=False)
+        train_said(said, [(np.zeros((10, 3)), np.zeros(100, np.float32))], max_steps=1)
     with pytest.raises(TypeError, match="pairs"):
-        train_said(said, [np.zeros((10, 4))], max_steps=1, progress=False)
+        train_said(said, [np.zeros((10, 4))], max_steps=1)
 
 
 def test_v_loss_space_is_l1_plus_velocity_on_the_v_target():
@@ -135,11 +135,11 @@ def test_v_loss_space_is_l1_plus_velocity_on_the_v_target():
 def test_a_step_budget_alone_ignores_the_presets_time_cap():
     said = SAiD.from_preset(NAMES, **TINY)
     said.config["training"]["max_seconds"] = 0.0  # a time cap that would stop at once
-    history = train_said(said, toy_pairs(3, 2), seed=1, max_steps=3, progress=False)
+    history = train_said(said, toy_pairs(3, 2), seed=1, max_steps=3)
     assert history["steps"] == 3
     said = SAiD.from_preset(NAMES, **TINY)
     said.config["training"]["max_seconds"] = 0.0
-    assert train_said(said, toy_pairs(3, 2), seed=1, progress=False)["steps"] == 0  # no budget: the preset's cap
+    assert train_said(said, toy_pairs(3, 2), seed=1)["steps"] == 0  # no budget: the preset's cap
 
 
 @pytest.mark.slow
@@ -171,13 +171,13 @@ def test_budget_decay_closed_forms():
 def test_linear_lr_decay_reaches_zero_at_the_end_of_a_step_budget():
     lr = resolve_config(**TINY)["training"]["lr"]
     said = SAiD.from_preset(NAMES, **{**TINY, "warmup_steps": 1}, lr_decay="linear")
-    history = train_said(said, toy_pairs(3, 2), seed=1, max_steps=4, progress=False)
+    history = train_said(said, toy_pairs(3, 2), seed=1, max_steps=4)
     np.testing.assert_allclose(history["lr"], [lr, 0.75 * lr, 0.5 * lr, 0.25 * lr], rtol=1e-12)
     said = SAiD.from_preset(NAMES, **{**TINY, "warmup_steps": 2})  # constant: warm-up, then the preset's rate
-    np.testing.assert_allclose(train_said(said, toy_pairs(3, 2), seed=1, max_steps=3, progress=False)["lr"],
+    np.testing.assert_allclose(train_said(said, toy_pairs(3, 2), seed=1, max_steps=3)["lr"],
                                [0.5 * lr, lr, lr], rtol=1e-12)
     with pytest.raises(ValueError, match="lr_decay"):
-        train_said(SAiD.from_preset(NAMES, **TINY, lr_decay="exp"), toy_pairs(3, 2), max_steps=1, progress=False)
+        train_said(SAiD.from_preset(NAMES, **TINY, lr_decay="exp"), toy_pairs(3, 2), max_steps=1)
 
 
 def test_zero_init_starts_the_authors_output_layers_at_zero_or_not():

@@ -21,10 +21,10 @@ def test_said_is_registered():
 
 def test_plugin_train_generate_save_load(tmp_path):
     from baselines.said.plugin import SAiDMethod
-    from benchmark.methods.base import Budget
+    from benchmark.methods.base import Budget, TrainingRequest
 
     method = SAiDMethod(**TINY)
-    method.train(small_dataset(), seed=0, budget=Budget(max_steps=4))
+    method.train(small_dataset(), TrainingRequest(seed=0, budget=Budget(max_steps=4)))
     assert method.said.history["steps"] == 4 and method.said.history["best_step"] in (2, 4)
     audio = np.random.default_rng(1).standard_normal(16000).astype(np.float32) * 0.1
     from benchmark.methods import Utterance
@@ -44,13 +44,13 @@ def test_a_step_budget_trains_the_same_weights_whatever_the_global_rng():
     import torch
 
     from baselines.said.plugin import SAiDMethod
-    from benchmark.methods.base import Budget
+    from benchmark.methods.base import Budget, TrainingRequest
 
     states = []
     for global_seed in (1, 2):
         torch.manual_seed(global_seed)
         method = SAiDMethod(**TINY)
-        method.train(small_dataset(), seed=3, budget=Budget(max_steps=3))
+        method.train(small_dataset(), TrainingRequest(seed=3, budget=Budget(max_steps=3)))
         states.append(method.said.model.state_dict())
     assert states[0].keys() == states[1].keys()
     for key in states[0]:
@@ -59,11 +59,11 @@ def test_a_step_budget_trains_the_same_weights_whatever_the_global_rng():
 
 def test_plugin_batches_sentences_through_the_runner():
     from baselines.said.plugin import SAiDMethod
-    from benchmark.methods.base import Budget
+    from benchmark.methods.base import Budget, TrainingRequest
     from benchmark.protocol import generated_tracks
 
     method = SAiDMethod(**TINY)
-    method.train(small_dataset(), seed=0, budget=Budget(max_steps=2))
+    method.train(small_dataset(), TrainingRequest(seed=0, budget=Budget(max_steps=2)))
     data = small_dataset(test=["s0", "s1", "s3"])  # six sentences
     alone, _ = generated_tracks(method, data, samples=2, seed=3, progress=False)
     batched, _ = generated_tracks(method, data, samples=2, seed=3, progress=False, sentence_batch=4)
@@ -85,11 +85,11 @@ def test_plugin_rejects_unknown_option():
 def test_a_trained_checkpoint_samples_with_other_sampling_options(tmp_path):
     from baselines.said.plugin import SAiDMethod
     from benchmark.methods import Utterance
-    from benchmark.methods.base import Budget
+    from benchmark.methods.base import Budget, TrainingRequest
     from benchmark.protocol import prepared_method
 
     method = SAiDMethod(**TINY)
-    method.train(small_dataset(), seed=0, budget=Budget(max_steps=2))
+    method.train(small_dataset(), TrainingRequest(seed=0, budget=Budget(max_steps=2)))
     method.save(tmp_path)
     audio = np.random.default_rng(1).standard_normal(16000).astype(np.float32) * 0.1
     utterance = Utterance(subject="s3", sentence="sentence01", split="test", audio=audio, num_frames=61)

@@ -9,7 +9,7 @@ import pytest
 from baselines.bounds.oracle import OracleMeanMethod, OracleSampleMethod
 from baselines.regression.ridge import context_frames, ridge_explained
 from benchmark.data import open_blendvoca
-from benchmark.methods import Budget
+from benchmark.methods import Budget, TrainingRequest
 from blendvoca.errors import UserError
 from blendvoca.synthetic.corpus import DEFAULT_AUDIO_DETERMINED
 
@@ -31,7 +31,7 @@ def oracle_build(tmp_path_factory, assets_dir):
 
 
 def _tracks(method, dataset, split):
-    method.train(dataset, seed=0, budget=Budget())
+    method.train(dataset, TrainingRequest(seed=0, budget=Budget()))
     out = {}
     for subject in dataset.split(split):
         for sentence in dataset.sentences(subject):
@@ -99,7 +99,7 @@ def test_oracle_mean_explains_f_and_a_ridge_on_log_mel_less(oracle_build):
 def test_oracle_sample_returns_distinct_samples_and_refuses_more_than_k(oracle_build):
     dataset = open_blendvoca(oracle_build)
     method = OracleSampleMethod()
-    method.train(dataset, seed=0, budget=Budget())
+    method.train(dataset, TrainingRequest(seed=0, budget=Budget()))
     utterance = dataset.utterance("Synth_002_TA", "sentence01")
     every = method.generate(utterance, samples=K, seed=3)
     np.testing.assert_array_equal(every, dataset.oracle_coeffs("Synth_002_TA", "sentence01"))
@@ -109,7 +109,7 @@ def test_oracle_sample_returns_distinct_samples_and_refuses_more_than_k(oracle_b
     with pytest.raises(UserError, match=rf"--samples {K + 1} but the build has {K} oracle tracks"):
         method.generate(utterance, samples=K + 1, seed=0)
     mean = OracleMeanMethod()
-    mean.train(dataset, seed=0, budget=Budget())
+    mean.train(dataset, TrainingRequest(seed=0, budget=Budget()))
     np.testing.assert_allclose(mean.generate(utterance, samples=2)[1], every.mean(axis=0))
 
 
@@ -118,7 +118,7 @@ def test_oracle_methods_refuse_a_build_without_oracle_tracks(built_dataset):
     assert not dataset.has_oracle()
     for method in (OracleSampleMethod(), OracleMeanMethod()):
         with pytest.raises(UserError, match="has no oracle tracks"):
-            method.train(dataset, seed=0, budget=Budget())
+            method.train(dataset, TrainingRequest(seed=0, budget=Budget()))
     with pytest.raises(UserError, match="lists no oracle samples"):
         dataset.oracle_coeffs(dataset.subjects[0], dataset.sentences(dataset.subjects[0])[0])
 
@@ -126,7 +126,7 @@ def test_oracle_methods_refuse_a_build_without_oracle_tracks(built_dataset):
 def test_the_checkpoint_round_trip(oracle_build, tmp_path):
     dataset = open_blendvoca(oracle_build)
     method = OracleSampleMethod()
-    method.train(dataset, seed=0, budget=Budget())
+    method.train(dataset, TrainingRequest(seed=0, budget=Budget()))
     method.save(tmp_path / "ckpt")
     again = OracleSampleMethod.load(tmp_path / "ckpt")
     utterance = dataset.utterance("Synth_002_TA", "sentence02")

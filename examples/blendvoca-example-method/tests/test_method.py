@@ -2,6 +2,7 @@
 
 import numpy as np
 
+from benchmark.methods import Budget, TrainingRequest
 from benchmark.testing import FakeBlendVOCA, check_method
 from blendvoca_example_method import EnergyJawMethod, energy_envelope
 
@@ -14,7 +15,7 @@ def test_passes_the_contract_checks():
 def test_jaw_follows_the_energy_of_the_speech():
     dataset = FakeBlendVOCA(seed=1)
     method = EnergyJawMethod(noise=0.0)
-    method.train(dataset, seed=0, budget=None)
+    method.train(dataset, TrainingRequest(seed=0))
     utterance = dataset.utterance(*next((s, q) for s in dataset.split("test") for q in dataset.sentences(s)))
     jaw = method.generate(utterance, samples=1, seed=0)[0, :, method.jaw]
     envelope = energy_envelope(utterance.audio, utterance.num_frames)
@@ -24,8 +25,6 @@ def test_jaw_follows_the_energy_of_the_speech():
 
 
 def test_half_budget_check_sees_the_fit_of_half_the_sentences():
-    from benchmark.methods import Budget
-
     dataset = FakeBlendVOCA(seed=1)
     n = sum(len(dataset.sentences(s)) for s in dataset.split("train"))
     method = EnergyJawMethod(noise=0.0)
@@ -34,10 +33,10 @@ def test_half_budget_check_sees_the_fit_of_half_the_sentences():
     def on_checkpoint(step, total_steps=None):
         calls.append((step, total_steps, method.gain))
 
-    method.train(dataset, seed=0, budget=Budget(max_steps=10_000), on_checkpoint=on_checkpoint)
+    method.train(dataset, TrainingRequest(seed=0, budget=Budget(max_steps=10_000), on_checkpoint=on_checkpoint))
     assert [(step, total) for step, total, _ in calls] == [(n // 2, n)]
     half = EnergyJawMethod(noise=0.0)
-    half.train(dataset, seed=0, budget=Budget(max_steps=n // 2))
+    half.train(dataset, TrainingRequest(seed=0, budget=Budget(max_steps=n // 2)))
     assert calls[0][2] == half.gain  # the checkpoint saw exactly a run stopped there
-    method.train(dataset, seed=0, budget=Budget(max_seconds=60), on_checkpoint=on_checkpoint)
+    method.train(dataset, TrainingRequest(seed=0, budget=Budget(max_seconds=60), on_checkpoint=on_checkpoint))
     assert len(calls) == 1  # a time-limited run has no known half

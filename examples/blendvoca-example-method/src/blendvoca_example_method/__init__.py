@@ -9,7 +9,6 @@ import numpy as np
 
 from benchmark.methods import AUDIO_RATE as RATE
 from benchmark.methods import FPS, Method
-from benchmark.methods.base import checkpoint_step
 
 __all__ = ["EnergyJawMethod", "energy_envelope"]
 
@@ -58,20 +57,22 @@ class EnergyJawMethod(Method):
         self.gain = None
         self.mean = None
 
-    def train(self, dataset, *, seed, budget, on_checkpoint=None, device=None):
+    contract = 3  # train(dataset, request): method contract v3
+
+    def train(self, dataset, request):
         """Least squares of jawOpen on the energy envelope, one training sentence a step.
 
-        A step budget (``budget.max_steps``) stops it after that many sentences. Halfway
-        through its ``N`` steps it calls ``on_checkpoint(N // 2, total_steps=N)`` with
-        the fit so far in place, for the runner's half-budget check (docs/methods.md,
-        "Settled or not"); a time-limited run has no known half and makes no call.
-        ``device`` is accepted for the contract and unused: the fit is numpy on the CPU.
+        A step budget (``request.budget.max_steps``) stops it after that many sentences.
+        After each step of ``request.checkpoint_steps(N)`` of its ``N`` steps (halfway, unless
+        the runner asks for other fractions) it calls ``request.on_checkpoint(step,
+        total_steps=N)`` with the fit so far in place, for the runner's check
+        (docs/methods.md, "Settled or not"); a time-limited run has no known fractions and
+        makes no call. ``request.device`` is unused: the fit is numpy on the CPU.
         """
         self.jaw = list(dataset.names).index("jawOpen")
         sentences = [(s, q) for s in dataset.split("train") for q in dataset.sentences(s)]
-        total = len(sentences) if budget is None else min(len(sentences), budget.steps(len(sentences)))
-        timed = budget is not None and budget.max_seconds is not None
-        half = None if timed else checkpoint_step(total)
+        total = min(len(sentences), request.budget.steps(len(sentences)))
+        checkpoints = request.checkpoint_steps(total)
         xy = xx = 0.0
         coeff_sum, frames = 0.0, 0
         for step, (subject, sentence) in enumerate(sentences[:total], start=1):
@@ -82,8 +83,8 @@ class EnergyJawMethod(Method):
             coeff_sum, frames = coeff_sum + coeffs.sum(axis=0), frames + coeffs.shape[0]
             self.gain = xy / max(xx, 1e-12)  # least squares through the origin, over the sentences so far
             self.mean = coeff_sum / frames
-            if on_checkpoint is not None and step == half:
-                on_checkpoint(step, total_steps=total)
+            if step in checkpoints:
+                request.on_checkpoint(step, total_steps=total)
 
     def generate(self, utterance, *, samples=1, seed=0):
         rng = np.random.default_rng(seed)
