@@ -51,3 +51,23 @@ def check_rate_bound(rate_bound, where: str) -> float | None:
     if not np.isfinite(rate_bound) or rate_bound <= 0.0:
         raise UserError(f"{where}: rate_bound must be a positive finite number, got {rate_bound}")
     return rate_bound
+
+
+def vertex_indices(indices, num_vertices: int, where: str, name: str = "vertex_subset") -> np.ndarray:
+    """Return ``indices`` as a non-empty 1-D integer array of vertex indices in ``0 .. num_vertices - 1``.
+
+    Raises
+    ------
+    TypeError
+        Not a 1-D integer array.
+    UserError
+        Empty, or an index out of range (naming the range found).
+    """
+    subset = np.asarray(indices)
+    if subset.ndim != 1 or not np.issubdtype(subset.dtype, np.integer):
+        raise TypeError(f"{where}: {name} must be a 1-D integer array, got dtype {subset.dtype} and shape "
+                        f"{subset.shape}")
+    if subset.size == 0 or subset.min() < 0 or subset.max() >= num_vertices:
+        found = f"[{subset.min()}, {subset.max()}]" if subset.size else "no index"
+        raise UserError(f"{where}: {name} must index 0..{num_vertices - 1}, got {found}")
+    return subset

@@ -104,26 +104,10 @@ def fit_sequence(
 
 
 @renamed_keywords(delta="rate_bound", method="solver")
-def fit_coefficients(
-    neutral,
-    deltas,
-    frames,
-    *,
-    rate_bound=0.1,
-    vertex_subset=None,
-    bounds=True,
-    rate=True,
-    solver="banded",
-    warm_start=None,
-    framewise=False,
-    fps=60.0,
-    unposed=None,
-    stable=None,
-    pose_fit="joint",
-) -> np.ndarray:
+def fit_coefficients(neutral, deltas, frames, **options) -> np.ndarray:
     """Return the coefficient track ``(T, K)`` that best reproduces ``frames``.
 
-    Same parameters as :func:`fit_sequence` (which also returns diagnostics):
+    Same parameters and defaults as :func:`fit_sequence` (which also returns diagnostics):
     ``neutral (V, 3)``, ``deltas (K, V, 3)``, ``frames (T, V, 3)``; by default
     the exact optimum of ``min sum_t ||B u_t - (p_t - n)||^2`` subject to
     ``0 <= u <= 1`` and ``|u_{t+1} - u_t| <= rate_bound``, with the head pose
@@ -134,7 +118,11 @@ def fit_coefficients(
     (T, K) ndarray
         Coefficients at 60 fps, columns in the order of ``deltas``.
     """
-    return _fit(neutral, deltas, frames, where="fit_coefficients", diagnostics=False, **_options(locals()))
+    unknown = sorted(set(options) - set(_DEFAULTS))
+    if unknown:
+        raise TypeError(f"fit_coefficients() got unexpected keyword arguments {unknown}; it takes "
+                        f"{sorted(_DEFAULTS)} (as fit_sequence)")
+    return _fit(neutral, deltas, frames, where="fit_coefficients", diagnostics=False, **{**_DEFAULTS, **options})
 
 
 def fit_rig(rig, frames, **kwargs) -> np.ndarray:
@@ -146,6 +134,10 @@ def fit_rig(rig, frames, **kwargs) -> np.ndarray:
 def _options(arguments: dict) -> dict:
     """The keyword arguments of an entry point (its ``locals()`` on entry), rig and frames left out."""
     return {name: value for name, value in arguments.items() if name not in ("neutral", "deltas", "frames")}
+
+
+#: The keywords of :func:`fit_sequence` and :func:`fit_coefficients` with their defaults.
+_DEFAULTS = dict(fit_sequence.__wrapped__.__kwdefaults__)
 
 
 def _fit(neutral, deltas, frames, *, where, diagnostics, unposed, stable, pose_fit, **options):

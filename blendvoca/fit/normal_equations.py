@@ -14,7 +14,7 @@ import numpy as np
 
 from blendvoca.errors import UserError
 
-from ._checks import as_float_array
+from ._checks import as_float_array, vertex_indices
 from .frame_crop import FrameCrop
 
 
@@ -48,6 +48,19 @@ class NormalEquations:
         return float(quad - 2.0 * np.sum(coeffs * self.rhs) + np.sum(self.offset_sq))
 
 
+def check_rig(neutral, deltas, where: str) -> tuple[np.ndarray, np.ndarray]:
+    """Return ``neutral (V, 3)`` and ``deltas (K >= 1, V, 3)`` as finite float64 arrays, or a
+    :class:`UserError` naming ``where`` and the shapes."""
+    neutral = as_float_array(neutral, "neutral", 2, where)
+    deltas = as_float_array(deltas, "deltas", 3, where)
+    if neutral.shape[1] != 3:
+        raise UserError(f"{where}: neutral must be (V, 3), got shape {neutral.shape}")
+    if deltas.shape[1:] != neutral.shape or deltas.shape[0] == 0:
+        raise UserError(f"{where}: deltas must be (K >= 1, {neutral.shape[0]}, 3) to match neutral, "
+                        f"got {deltas.shape}")
+    return neutral, deltas
+
+
 def check_rig_and_frames(neutral, deltas, frames, vertex_subset=None, where="fit", *, lazy=False):
     """Validate and convert rig arrays and frames; apply the vertex subset.
 
@@ -69,18 +82,9 @@ def check_rig_and_frames(neutral, deltas, frames, vertex_subset=None, where="fit
     frames : (T, S, 3) ndarray, or FrameCrop
     """
     lazy = bool(lazy and vertex_subset is not None)
-    neutral = as_float_array(neutral, "neutral", 2, where)
-    deltas = as_float_array(deltas, "deltas", 3, where)
+    neutral, deltas = check_rig(neutral, deltas, where)
     frames = as_float_array(frames, "frames", 3, where, keep_float=lazy)
     num_vertices = neutral.shape[0]
-    if neutral.shape[1] != 3:
-        raise UserError(f"{where}: neutral must be (V, 3), got shape {neutral.shape}")
-    if deltas.shape[1:] != neutral.shape:
-        raise UserError(
-            f"{where}: deltas must be (K, {num_vertices}, 3) to match neutral, got {deltas.shape}"
-        )
-    if deltas.shape[0] == 0:
-        raise UserError(f"{where}: deltas must hold at least one blendshape, got {deltas.shape}")
     if frames.shape[1:] != neutral.shape:
         raise UserError(
             f"{where}: frames must be (T, {num_vertices}, 3) to match neutral, got {frames.shape}"
@@ -88,17 +92,7 @@ def check_rig_and_frames(neutral, deltas, frames, vertex_subset=None, where="fit
     if frames.shape[0] == 0:
         raise UserError(f"{where}: frames must hold at least one frame, got {frames.shape}")
     if vertex_subset is not None:
-        subset = np.asarray(vertex_subset)
-        if subset.ndim != 1 or not np.issubdtype(subset.dtype, np.integer):
-            raise TypeError(
-                f"{where}: vertex_subset must be a 1-D integer array, got dtype "
-                f"{subset.dtype} and shape {subset.shape}"
-            )
-        if subset.size == 0 or subset.min() < 0 or subset.max() >= num_vertices:
-            raise UserError(
-                f"{where}: vertex_subset must index 0..{num_vertices - 1}, got range "
-                f"[{subset.min() if subset.size else None}, {subset.max() if subset.size else None}]"
-            )
+        subset = vertex_indices(vertex_subset, num_vertices, where)
         # np.take along the vertex axis gives C-contiguous crops (frames[:, subset]
         # does not), so the reshapes of the fit are views, not copies.
         neutral = np.take(neutral, subset, axis=0)

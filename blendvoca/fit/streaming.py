@@ -48,10 +48,11 @@ from blendvoca.io.arrays import float_array
 from blendvoca.io.json_file import read_json
 from blendvoca.names import BLENDVOCA_NAMES, arkit_name, mirror_pairs
 
-from ._checks import as_float_array
+from ._checks import as_float_array, vertex_indices
 from .banded_qp import solve_banded_qp
 from .box_qp import solve_box_qp
 from .framewise import framewise_coefficients
+from .normal_equations import check_rig
 from .pose import FLAME_NUM_VERTICES
 from .qp_fit import _one_blas_thread
 
@@ -392,14 +393,7 @@ def _resolve_subset(vertex_subset, num_vertices: int, where: str):
         vertex_subset = load_index_list("flame-head-idx")
     if vertex_subset is None:
         return None
-    subset = np.asarray(vertex_subset)
-    if subset.ndim != 1 or subset.size == 0 or not np.issubdtype(subset.dtype, np.integer):
-        raise UserError(f"{where}: vertex_subset must be a non-empty 1-D array of vertex indices, got dtype "
-                        f"{subset.dtype} and shape {subset.shape}")
-    if subset.min() < 0 or subset.max() >= num_vertices:
-        raise UserError(f"{where}: vertex_subset must index 0..{num_vertices - 1}, got range "
-                        f"[{subset.min()}, {subset.max()}]")
-    subset = subset.astype(np.int64)
+    subset = vertex_indices(vertex_subset, num_vertices, where).astype(np.int64)
     return None if subset.size == num_vertices and np.array_equal(subset, np.arange(num_vertices)) else subset
 
 
@@ -434,13 +428,7 @@ class StreamingSolver:
             config = StreamingSolverConfig()
         if not isinstance(config, StreamingSolverConfig):
             raise UserError(f"{where}: config must be a StreamingSolverConfig, got {type(config).__name__}")
-        neutral = as_float_array(neutral, "neutral", 2, where)
-        deltas = as_float_array(deltas, "deltas", 3, where)
-        if neutral.shape[1] != 3:
-            raise UserError(f"{where}: neutral must be (V, 3), got shape {neutral.shape}")
-        if deltas.shape[1:] != neutral.shape or deltas.shape[0] == 0:
-            raise UserError(f"{where}: deltas must be (K >= 1, {neutral.shape[0]}, 3) to match neutral, "
-                            f"got {deltas.shape}")
+        neutral, deltas = check_rig(neutral, deltas, where)
         num_shapes, num_vertices = deltas.shape[0], neutral.shape[0]
         if names is None and num_shapes == len(BLENDVOCA_NAMES):
             names = BLENDVOCA_NAMES
