@@ -34,6 +34,7 @@ import yaml
 from blendvoca import cli
 from blendvoca.errors import CheckFailed, DataError, UserError
 from blendvoca.io.atomic import permissions_for
+from blendvoca.io.mesh import read_index_list
 
 MANIFEST_PATH = Path(__file__).with_name("data_manifest.yaml")
 
@@ -205,8 +206,6 @@ def resolve(asset_id: str, *, download_missing: bool = True) -> Path:
 
 def load_index_list(asset_id: str) -> np.ndarray:
     """An index list asset (landmarks, crop) as ``(N,) int64``."""
-    from blendvoca.io.mesh import read_index_list
-
     return read_index_list(resolve(asset_id))
 
 

@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
+from blendvoca.assets import resolve
 from blendvoca.errors import DataError, UserError
 from blendvoca.io.arrays import float_array
 from blendvoca.io.atomic import atomic_write
@@ -238,6 +239,11 @@ class Rig:
         return cls(neutral, np.array(deltas).reshape(len(names), *neutral.shape), tuple(names), faces)
 
 
+def load_rig(path) -> Rig:
+    """A rig from a ``.npz`` (:meth:`Rig.save`) or a SAiD folder (``Neutral.obj`` + ``<name>.obj``)."""
+    return Rig.load_said_folder(path) if Path(os.fspath(path)).is_dir() else Rig.load(path)
+
+
 def read_rig_zip(path, names: Sequence[str]) -> Rig:
     """A rig from a zip (str or os.PathLike) of ``<folder>/Neutral.obj`` and ``<folder>/<name>.obj`` files."""
     path = Path(os.fspath(path))
@@ -270,8 +276,6 @@ def load_arkit_reference(shapes: str | Sequence[str] = "speech") -> Rig:
     shapes : "speech" (the 32 BlendVOCA names in BlendVOCA order), "all" (the 51
         shapes of the reference rig, ARKit order) or an explicit list of names.
     """
-    from blendvoca.assets import resolve
-
     return read_rig_zip(resolve("arkit-reference-rig"), shape_names(shapes))
 
 

@@ -35,7 +35,7 @@ from blendvoca.export._support import read_json_object
 from blendvoca.export.align import AlignedTrack, align_track, check_track, unit_range_track
 from blendvoca.export.base import ExportFormat, ExportOptions
 from blendvoca.registry import Registry
-from blendvoca.rig import Rig
+from blendvoca.rig import load_rig
 
 #: Format name -> ``"module:Class"`` of its :class:`~blendvoca.export.base.ExportFormat`;
 #: adding a format is its module and one line here.
@@ -171,14 +171,6 @@ def read_track(path, fmt: str | None = None, *, fps: float = 60.0) -> tuple[np.n
     """
     fmt = fmt or detect_format(path)
     return export_format(fmt, where="read_track").read(path, fps=fps)
-
-
-def load_rig(path):
-    """A rig from a ``.npz`` (blendvoca.rig.Rig) or a SAiD folder (Neutral.obj + <name>.obj)."""
-    path = Path(os.fspath(path))
-    if path.is_dir():
-        return Rig.load_said_folder(path)
-    return Rig.load(path)
 
 
 __all__ = ["FORMATS", "FORMAT_REGISTRY", "AlignedTrack", "ExportFormat", "ExportOptions", "align_track",

@@ -31,16 +31,9 @@ import numpy as np
 from blendvoca import cli
 from blendvoca.errors import DataError, UserError
 from blendvoca.io.coeffs import write_coeffs_csv
-from blendvoca.rig import Rig
+from blendvoca.rig import load_rig
 
 from .streaming import StreamingSolver, StreamingSolverConfig
-
-
-def load_rig(path: Path):
-    """A rig from a ``.npz`` (``Rig.save``) or a SAiD folder (``Neutral.obj`` + ``<name>.obj``)."""
-    if Path(path).is_dir():
-        return Rig.load_said_folder(path)
-    return Rig.load(path)
 
 
 def load_frames(path: Path) -> np.ndarray:

@@ -18,6 +18,8 @@ from pathlib import Path
 import numpy as np
 
 from blendvoca.errors import DataError
+from blendvoca.io.mesh import read_obj
+from blendvoca.io.pickle_file import load_data_pickle
 
 from .layout import is_report_file
 from .manifest import listed_files, read_manifest
@@ -78,13 +80,9 @@ def _read_arrays(path: Path) -> dict:
         with np.load(path, allow_pickle=False) as data:
             return {name: data[name] for name in data.files}
     if suffix == ".obj":
-        from blendvoca.io.mesh import read_obj
-
         vertices, faces = read_obj(path)
         return {"vertices": vertices, "faces": faces}
     if suffix in (".pickle", ".pkl"):
-        from blendvoca.io.pickle_file import load_data_pickle
-
         return _flatten(load_data_pickle(path))
     raise DataError(f"{path}: no reader for {suffix!r} files; such files are compared byte for byte")
 

@@ -10,14 +10,18 @@ return the relative path they wrote (the key ``manifest.json`` lists it under).
 from __future__ import annotations
 
 import json
-import os
 from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
 from blendvoca.errors import DataError
+from blendvoca.io.atomic import atomic_write
+from blendvoca.io.audio import load_audio, resample_audio, to_mono, write_wav
+from blendvoca.io.coeffs import read_coeffs_csv, write_coeffs_csv
 from blendvoca.io.json_file import read_json
+from blendvoca.io.mesh import obj_face_records, write_obj
+from blendvoca.rig import Rig
 
 from .layout import (
     AUDIO_RATE,
@@ -55,10 +59,6 @@ __all__ = [
 ]
 
 
-def _root(root) -> Path:
-    return Path(os.fspath(root))
-
-
 # ----------------------------------------------------------------------------- coefficient tracks
 
 
@@ -73,10 +73,8 @@ def write_coeffs(root, subject: str, sentence: str, coeffs, names: Sequence[str]
     names : sequence of str
         The K column names.
     """
-    from blendvoca.io import coeffs as coeffs_io
-
     rel = coeffs_relpath(subject, sentence, sample)
-    coeffs_io.write_coeffs_csv(_root(root) / rel, coeffs, names)
+    write_coeffs_csv(Path(root) / rel, coeffs, names)
     return rel
 
 
@@ -89,9 +87,7 @@ def read_coeffs_file(root, relpath: str, *, names: Sequence[str] | None = None) 
         Columns in ``names`` order (default: the file's).
     names : tuple of str
     """
-    from blendvoca.io.coeffs import read_coeffs_csv
-
-    return read_coeffs_csv(_root(root) / relpath, names=names)
+    return read_coeffs_csv(Path(root) / relpath, names=names)
 
 
 def read_coeffs(root, subject: str, sentence: str, *, names: Sequence[str] | None = None,
@@ -102,10 +98,8 @@ def read_coeffs(root, subject: str, sentence: str, *, names: Sequence[str] | Non
 
 def write_oracle_coeffs(root, subject: str, sentence: str, sample: int, coeffs, names: Sequence[str]) -> str:
     """Write a sentence's fitted oracle sample ``sample`` (0-based) as SAiD's CSV; return its relative path."""
-    from blendvoca.io import coeffs as coeffs_io
-
     rel = oracle_coeffs_relpath(subject, sentence, sample)
-    coeffs_io.write_coeffs_csv(_root(root) / rel, coeffs, names)
+    write_coeffs_csv(Path(root) / rel, coeffs, names)
     return rel
 
 
@@ -123,9 +117,7 @@ def write_coeffs_std(root, std, names: Sequence[str]) -> str:
     std : (K,) array_like
     names : sequence of str
     """
-    from blendvoca.io.atomic import atomic_write
-
-    with atomic_write(_root(root) / COEFFS_STD_FILE, "w", encoding="utf-8", newline="") as f:
+    with atomic_write(Path(root) / COEFFS_STD_FILE, "w", encoding="utf-8", newline="") as f:
         f.write(",".join(names) + "\n" + ",".join("%.4f" % v for v in std) + "\n")
     return COEFFS_STD_FILE
 
@@ -142,17 +134,13 @@ def write_audio(root, subject: str, sentence: str, samples, rate: int) -> str:
         Float audio in [-1, 1] at ``rate`` Hz; channels are averaged, then resampled.
     rate : int
     """
-    from blendvoca.io.audio import resample_audio, to_mono, write_wav
-
     rel = audio_relpath(subject, sentence)
-    write_wav(_root(root) / rel, resample_audio(to_mono(samples), rate, AUDIO_RATE), AUDIO_RATE)
+    write_wav(Path(root) / rel, resample_audio(to_mono(samples), rate, AUDIO_RATE), AUDIO_RATE)
     return rel
 
 
 def read_audio(root, subject: str, sentence: str) -> tuple[np.ndarray, int]:
     """A sentence's speech: ``((N,) float32 mono, 16000)``."""
-    from blendvoca.io.audio import load_audio
-
     return np.asarray(load_audio(audio_path(root, subject, sentence), rate=AUDIO_RATE), dtype=np.float32), AUDIO_RATE
 
 
@@ -162,14 +150,12 @@ def read_audio(root, subject: str, sentence: str) -> tuple[np.ndarray, int]:
 def write_rig(root, subject: str, rig) -> str:
     """Write the speaker's full-topology rig (:class:`blendvoca.rig.Rig`) as ``.npz``; return its relative path."""
     rel = rig_relpath(subject)
-    rig.save(_root(root) / rel)
+    rig.save(Path(root) / rel)
     return rel
 
 
 def read_rig(root, subject: str):
     """The speaker's rig from ``rigs/<subject>.npz`` (:class:`blendvoca.rig.Rig`)."""
-    from blendvoca.rig import Rig
-
     return Rig.load(rig_path(root, subject))
 
 
@@ -193,9 +179,7 @@ def write_said_rig(root, subject: str, neutral, deltas, names: Sequence[str], fa
     list of str
         The relative paths written: the template, then each blendshape in ``names`` order.
     """
-    from blendvoca.io.mesh import obj_face_records, write_obj
-
-    root = _root(root)
+    root = Path(root)
     neutral = np.asarray(neutral)
     face_records = obj_face_records(faces)  # one topology: the face records of every file
     files = [template_relpath(subject)]
@@ -216,9 +200,7 @@ def read_said_rig(root, subject: str, names: Sequence[str]):
     DataError
         Neither the template nor the blendshape folder is there.
     """
-    from blendvoca.rig import Rig
-
-    root = _root(root)
+    root = Path(root)
     template = template_path(root, subject)
     shape_dir = blendshapes_dir(root, subject)
     if not template.exists() or not shape_dir.is_dir():
@@ -232,8 +214,6 @@ def read_said_rig(root, subject: str, names: Sequence[str]):
 
 def write_splits(root, splits: dict) -> str:
     """Write ``splits.json`` (split name -> subjects; sorted keys, so identical splits give identical bytes)."""
-    from blendvoca.io.atomic import atomic_write
-
     with atomic_write(splits_path(root), "w", encoding="utf-8") as f:
         f.write(json.dumps(splits, indent=2, sort_keys=True) + "\n")
     return SPLITS_FILE

@@ -25,9 +25,10 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
 from pathlib import Path
 
+import blendvoca
+from blendvoca.assets import resolve
 from blendvoca.errors import DataError
 from blendvoca.io.json_file import read_json
 from blendvoca.io.atomic import atomic_write
@@ -70,10 +71,6 @@ class ManifestError(DataError):
     """A dataset folder without a usable ``manifest.json``; the message says how to make one."""
 
 
-def _root(root) -> Path:
-    return Path(os.fspath(root))
-
-
 def _how_to_make(root: Path) -> str:
     return (f"Build it with `python -m blendvoca.build --vocaset <VOCASET folder> --out {root}` (or "
             f"`python -m blendvoca.build` for the bundled default); for a hand-made SAiD-layout folder, list its "
@@ -89,7 +86,7 @@ def read_manifest(root) -> dict:
         No manifest, one that is not readable JSON, or not a JSON object; the
         message gives the command that (re)makes it.
     """
-    root = _root(root)
+    root = Path(root)
     path = manifest_path(root)
     if not path.is_file():
         raise ManifestError(f"{root} has no {MANIFEST_NAME}, so which of its files are current is unknown "
@@ -116,7 +113,7 @@ def listed_files(root) -> dict[str, str]:
         object of path -> sha256, or paths leaving the folder); the message
         gives the command that (re)makes it.
     """
-    root = _root(root)
+    root = Path(root)
     path = manifest_path(root)
     files = read_manifest(root).get("files")
     if not isinstance(files, dict) or not all(isinstance(k, str) and isinstance(v, str) for k, v in files.items()):
@@ -143,7 +140,7 @@ def manifest_hash(root) -> str:
     str
         64 hex digits.
     """
-    root = _root(root)
+    root = Path(root)
     path = manifest_path(root)
     digest = hashlib.sha256()
     if path.exists():
@@ -250,7 +247,7 @@ def manifest_dict(out, *, files, vocaset, corpus, params, records, rig_records, 
         ``{relpath: atol}`` for the array files; default
         :func:`blendvoca.format.recipe.default_tolerances` of ``files``.
     """
-    out = _root(out)
+    out = Path(out)
     inputs = {"vocaset": {"root_name": Path(vocaset).name, "path": str(Path(vocaset).resolve()),
                           "layout": getattr(corpus, "layout", "")},
               "speakers": {}}
@@ -261,8 +258,6 @@ def manifest_dict(out, *, files, vocaset, corpus, params, records, rig_records, 
             for (subj, sentence), rec in sorted(records.items()) if subj == subject
         }
         inputs["speakers"][subject] = {"template": rig_rec.get("inputs", {}), "sentences": sentences}
-    from blendvoca.assets import resolve
-
     inputs["assets"] = {asset: file_digest(resolve(asset)) for asset in
                         ("arkit-reference-rig", "arkit-landmarks", "flame-landmarks", "flame-head-idx")}
     synthetic = getattr(corpus, "synthetic", None)
@@ -300,9 +295,7 @@ def write_dataset_manifest(out, *, files, dataset: dict, params: dict, failures:
     """Write ``<out>/manifest.json`` of a build from a coefficient corpus (``blendvoca.datasets``:
     BEAT, UniTalker, 3D-ETF) atomically: the files with their sha256, the dataset record, the
     recipe (the dataset's identity) and the per-file tolerances; return its path."""
-    import blendvoca
-
-    out = _root(out)
+    out = Path(out)
     listed = sorted(set(files))
     data = {
         "tool": BUILD_TOOL,
@@ -321,7 +314,7 @@ def write_dataset_manifest(out, *, files, dataset: dict, params: dict, failures:
 def folder_files(root) -> list[str]:
     """Data files of a hand-made SAiD-layout folder: everything under :data:`DATA_DIRS` and
     the top-level :data:`DATA_FILES` (hidden files and temporaries skipped)."""
-    root = _root(root)
+    root = Path(root)
     found = [name for name in DATA_FILES if (root / name).is_file()]
     for folder in DATA_DIRS:
         for path in sorted((root / folder).rglob("*")):
@@ -341,7 +334,7 @@ def write_folder_manifest(root) -> Path:
     ManifestError
         A build's folder, or no ``blendshape_coeffs/<subject>/<sentence>.csv`` in it.
     """
-    root = _root(root)
+    root = Path(root)
     if (root / STATE_DIR).is_dir():
         raise ManifestError(f"{root} is a blendvoca.build output: rerun the build to refresh its {MANIFEST_NAME}")
     files = folder_files(root)
