@@ -115,13 +115,22 @@ def default_cancel_pairs(names: Sequence[str]) -> tuple[tuple[str, str], ...]:
     return tuple(p for p in mirror_pairs(names) if _side_base(p) in _SIDEWAYS)
 
 
+def _is_number(value) -> bool:
+    """A finite real number (a bool is none)."""
+    return not isinstance(value, bool) and isinstance(value, numbers.Real) and math.isfinite(float(value))
+
+
+def _is_count(value) -> bool:
+    """An integer >= 0 (a bool is none)."""
+    return not isinstance(value, bool) and isinstance(value, numbers.Integral) and int(value) >= 0
+
+
 def _is_key(value) -> bool:
-    return isinstance(value, str) or (isinstance(value, numbers.Integral) and not isinstance(value, bool)
-                                      and int(value) >= 0)
+    return isinstance(value, str) or _is_count(value)
 
 
 def _strength(value, name: str, where: str, *, positive: bool = False) -> float:
-    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(float(value)):
+    if not _is_number(value):
         raise UserError(f"{where}: {name} must be a finite number, got {value!r}")
     value = float(value)
     if value < 0.0 or (positive and value == 0.0):
@@ -154,7 +163,7 @@ def _per_shape(value, name: str, where: str) -> dict:
     for key, number in value.items():
         if not _is_key(key):
             raise UserError(f"{where}: {name} keys must be shape names or indices >= 0, got {key!r}")
-        if isinstance(number, bool) or not isinstance(number, numbers.Real) or not math.isfinite(float(number)):
+        if not _is_number(number):
             raise UserError(f"{where}: {name}[{key!r}] must be a finite number, got {number!r}")
         out[key if isinstance(key, str) else int(key)] = float(number)
     return out
@@ -246,16 +255,13 @@ class StreamingSolverConfig:
         if self.backend not in BACKENDS:
             raise UserError(f"{where}: backend must be one of {BACKENDS}, got {self.backend!r}")
         if self.rate_bound is not None:
-            if isinstance(self.rate_bound, bool) or not isinstance(self.rate_bound, numbers.Real) or not (
-                    math.isfinite(float(self.rate_bound)) and self.rate_bound > 0):
+            if not (_is_number(self.rate_bound) and self.rate_bound > 0):
                 raise UserError(f"{where}: rate_bound must be a number > 0 (or None: no rate bound), "
                                 f"got {self.rate_bound!r}")
             put(self, "rate_bound", float(self.rate_bound))
         if self.pose_names is not None:
             put(self, "pose_names", tuple(str(n) for n in self.pose_names))
-        if self.num_poses is not None and (isinstance(self.num_poses, bool)
-                                           or not isinstance(self.num_poses, numbers.Integral)
-                                           or self.num_poses < 1):
+        if self.num_poses is not None and not (_is_count(self.num_poses) and self.num_poses >= 1):
             raise UserError(f"{where}: num_poses must be a positive integer, got {self.num_poses!r}")
 
     @classmethod
@@ -317,12 +323,12 @@ class StreamingSolverConfig:
                     return default
                 raise DataError(f"{where}: {A2F_SECTION}.{key} is missing")
             value = data[key]
-            if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(float(value)):
+            if not _is_number(value):
                 raise DataError(f"{where}: {A2F_SECTION}.{key}: expected a number, got {value!r}")
             return float(value)
 
         num_poses = data["numPoses"]
-        if isinstance(num_poses, bool) or not isinstance(num_poses, numbers.Integral) or num_poses < 1:
+        if not (_is_count(num_poses) and num_poses >= 1):
             raise DataError(f"{where}: {A2F_SECTION}.numPoses: expected a positive integer, got {num_poses!r}")
         arrays = {}
         for key in _A2F_ARRAYS:
@@ -331,8 +337,7 @@ class StreamingSolverConfig:
             value = data[key]
             integer = not key.startswith("bsWeight")
             ok = isinstance(value, list) and all(
-                not isinstance(v, bool) and (isinstance(v, numbers.Integral) if integer
-                                             else isinstance(v, numbers.Real) and math.isfinite(float(v)))
+                (not isinstance(v, bool) and isinstance(v, numbers.Integral)) if integer else _is_number(v)
                 for v in value)
             if not ok or len(value) != num_poses:
                 kind = "integers" if integer else "numbers"
