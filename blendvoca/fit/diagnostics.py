@@ -14,16 +14,8 @@ from .normal_equations import check_rig_and_frames
 def vertex_errors(neutral, deltas, frames, coeffs, *, vertex_subset=None):
     """Return per-frame RMSE and maximum vertex error of a coefficient track.
 
-    Parameters
-    ----------
-    neutral : (V, 3) array_like
-    deltas : (K, V, 3) array_like
-    frames : (T, V, 3) array_like
-        Target meshes.
-    coeffs : (T, K) array_like
-        Fitted coefficients.
-    vertex_subset : (S,) array_like of int, optional
-        Measure on these vertices only.
+    ``neutral``, ``deltas``, target ``frames`` and ``vertex_subset`` (measure on these vertices
+    only) as in :func:`blendvoca.fit.normal_equations`; ``coeffs (T, K)`` the fitted track.
 
     Returns
     -------

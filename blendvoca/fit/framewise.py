@@ -21,14 +21,11 @@ def framewise_coefficients(gram, rhs, *, lower=0.0, upper=1.0, rate_bound=0.1, w
     first frame is bounded by ``lower``/``upper`` only (or by ``warm_start``'s
     first row +- rate_bound when given, e.g. the last frame of a previous chunk).
 
+    ``gram``, ``rhs`` as in :func:`solve_banded_qp`; ``lower``, ``upper`` float box bounds;
+    ``rate_bound`` None gives independent per-frame box QPs.
+
     Parameters
     ----------
-    gram : (K, K) array_like
-    rhs : (T, K) array_like
-    lower, upper : float
-        Box bounds.
-    rate_bound : float or None
-        Per-frame rate bound (None: independent per-frame box QPs).
     warm_start : (1, K) or (K,) array_like, optional
         The frame before the first one.
 

@@ -13,12 +13,7 @@ from ._checks import as_float_array
 def least_squares_coefficients(gram, rhs) -> np.ndarray:
     """Return the unconstrained minimiser ``u_t = G^{-1} c_t`` of every frame.
 
-    Parameters
-    ----------
-    gram : (K, K) array_like
-        ``B^T B``.
-    rhs : (T, K) array_like
-        ``B^T (p_t - n)``.
+    ``gram (K, K)`` and ``rhs (T, K)`` as in :func:`blendvoca.fit.solve_banded_qp`.
 
     Returns
     -------

@@ -104,16 +104,8 @@ def check_rig_and_frames(neutral, deltas, frames, vertex_subset=None, where="fit
 def normal_equations(neutral, deltas, frames, *, vertex_subset=None) -> NormalEquations:
     """Return the K x K normal equations of the per-sentence fitting objective.
 
-    Parameters
-    ----------
-    neutral : (V, 3) array_like
-        Rig neutral.
-    deltas : (K, V, 3) array_like
-        Blendshape offsets from the neutral.
-    frames : (T, V, 3) array_like
-        Mesh sequence to fit.
-    vertex_subset : (S,) array_like of int, optional
-        Fit on these vertices only.
+    ``neutral (V, 3)``, ``deltas (K, V, 3)``, ``frames (T, V, 3)`` and ``vertex_subset`` (fit on
+    these vertices only) as in :func:`check_rig_and_frames`.
 
     Returns
     -------

@@ -59,16 +59,10 @@ def solve_sparse_qp(
 ) -> np.ndarray:
     """Solve the temporally constrained QP with a general solver from qpsolvers.
 
+    ``gram``, ``rhs``, ``lower``, ``upper`` and ``rate_bound`` as in :func:`blendvoca.fit.solve_banded_qp`.
+
     Parameters
     ----------
-    gram : (K, K) array_like
-        ``B^T B``.
-    rhs : (T, K) array_like
-        ``B^T (p_t - n)``.
-    lower, upper : float or (T, K) array_like or None
-        Box bounds (None: no bound).
-    rate_bound : float or None
-        Rate bound (None: no rate constraints).
     solver : {"piqp", "clarabel", "osqp", "cvxopt"}
         qpsolvers backend; "cvxopt" gets dense matrices.
     warm_start : (T, K) array_like, optional
@@ -111,12 +105,7 @@ def solve_published_qp(neutral, deltas, frames, *, rate_bound=0.1) -> np.ndarray
     frame's 3V-long offset, sparse difference constraints, bounds, solved by
     cvxopt through qpsolvers at its default tolerances and clipped to [0, 1].
 
-    Parameters
-    ----------
-    neutral : (V, 3) ndarray
-    deltas : (K, V, 3) ndarray
-    frames : (T, V, 3) ndarray
-    rate_bound : float
+    Parameters as :func:`blendvoca.fit.fit_coefficients` (arrays, float ``rate_bound``).
 
     Returns
     -------
