@@ -25,7 +25,6 @@ the dataset's structure (subjects, sentences, samples) off a manifest's listing.
 
 from __future__ import annotations
 
-import os
 import re
 from pathlib import Path
 
@@ -112,10 +111,6 @@ _SENTENCE_NAME = re.compile(r"^(sentence\d+)\.csv$")
 _SAMPLE_NAME = re.compile(r"^(sentence\d+)-(\d+)\.csv$")
 
 
-def _root(root) -> Path:
-    return Path(os.fspath(root))
-
-
 # ----------------------------------------------------------------------------- relative paths (manifest keys)
 
 
@@ -165,62 +160,62 @@ def is_report_file(relpath: str) -> bool:
 
 def coeffs_dir(root, subject: str) -> Path:
     """``<root>/blendshape_coeffs/<subject>``."""
-    return _root(root) / COEFFS_DIR / subject
+    return Path(root) / COEFFS_DIR / subject
 
 
 def coeffs_path(root, subject: str, sentence: str, sample: int | None = None) -> Path:
     """``<root>/blendshape_coeffs/<subject>/<sentence>.csv`` (or ``<sentence>-<sample>.csv``)."""
-    return _root(root) / coeffs_relpath(subject, sentence, sample)
+    return Path(root) / coeffs_relpath(subject, sentence, sample)
 
 
 def audio_path(root, subject: str, sentence: str) -> Path:
     """``<root>/audio/<subject>/<sentence>.wav``."""
-    return _root(root) / audio_relpath(subject, sentence)
+    return Path(root) / audio_relpath(subject, sentence)
 
 
 def rig_path(root, subject: str) -> Path:
     """``<root>/rigs/<subject>.npz``."""
-    return _root(root) / rig_relpath(subject)
+    return Path(root) / rig_relpath(subject)
 
 
 def template_path(root, subject: str) -> Path:
     """``<root>/templates_head/<subject>.obj``."""
-    return _root(root) / template_relpath(subject)
+    return Path(root) / template_relpath(subject)
 
 
 def blendshapes_dir(root, subject: str) -> Path:
     """``<root>/blendshapes_head/<subject>``."""
-    return _root(root) / blendshapes_relpath(subject)
+    return Path(root) / blendshapes_relpath(subject)
 
 
 def blendshape_path(root, subject: str, name: str) -> Path:
     """``<root>/blendshapes_head/<subject>/<name>.obj``."""
-    return _root(root) / blendshape_relpath(subject, name)
+    return Path(root) / blendshape_relpath(subject, name)
 
 
 def manifest_path(root) -> Path:
     """``<root>/manifest.json``."""
-    return _root(root) / MANIFEST_FILE
+    return Path(root) / MANIFEST_FILE
 
 
 def splits_path(root) -> Path:
     """``<root>/splits.json``."""
-    return _root(root) / SPLITS_FILE
+    return Path(root) / SPLITS_FILE
 
 
 def coeffs_std_path(root) -> Path:
     """``<root>/coeffs_std.csv``."""
-    return _root(root) / COEFFS_STD_FILE
+    return Path(root) / COEFFS_STD_FILE
 
 
 def residuals_path(root) -> Path:
     """``<root>/blendshape_residuals.pickle``."""
-    return _root(root) / RESIDUALS_FILE
+    return Path(root) / RESIDUALS_FILE
 
 
 def report_dir(root) -> Path:
     """``<root>/report``."""
-    return _root(root) / REPORT_DIR
+    return Path(root) / REPORT_DIR
 
 
 # ----------------------------------------------------------------------------- structure of a listing
@@ -253,16 +248,17 @@ def listed_sentences(listed, subject: str) -> list[str]:
 def listed_samples(listed, subject: str, sentence: str) -> list[str]:
     """Relative paths of the listed extra samples ``<sentence>-<k>.csv`` of a sentence, in ``k`` order
     (empty when the sentence has only its ground truth)."""
-    folder = f"{COEFFS_DIR}/{subject}"
-    found = sorted((int(m.group(2)), name) for name in _names_in(listed, folder)
-                   if (m := _SAMPLE_NAME.match(name)) and m.group(1) == sentence)
-    return [f"{folder}/{name}" for _, name in found]
+    return _listed_samples(listed, f"{COEFFS_DIR}/{subject}", sentence)
 
 
 def listed_oracle_samples(listed, subject: str, sentence: str) -> list[str]:
     """Relative paths of the listed oracle samples ``oracle_coeffs/<subject>/<sentence>-<k>.csv``
     of a sentence, in ``k`` order (empty when the build has none)."""
-    folder = f"{ORACLE_COEFFS_DIR}/{subject}"
+    return _listed_samples(listed, f"{ORACLE_COEFFS_DIR}/{subject}", sentence)
+
+
+def _listed_samples(listed, folder: str, sentence: str) -> list[str]:
+    """Relative paths of the listed ``<folder>/<sentence>-<k>.csv``, in ``k`` order."""
     found = sorted((int(m.group(2)), name) for name in _names_in(listed, folder)
                    if (m := _SAMPLE_NAME.match(name)) and m.group(1) == sentence)
     return [f"{folder}/{name}" for _, name in found]

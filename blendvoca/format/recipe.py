@@ -25,6 +25,7 @@ id by the same rule.
 
 from __future__ import annotations
 
+import hashlib
 import os
 from pathlib import Path
 from typing import Iterable, Mapping
@@ -88,12 +89,7 @@ def file_tolerance(relpath: str) -> float | None:
 
 def default_tolerances(relpaths: Iterable[str]) -> dict[str, float]:
     """``{relpath: atol}`` for the array files among ``relpaths`` (:func:`file_tolerance`); others are left out."""
-    found = {}
-    for rel in sorted(relpaths):
-        atol = file_tolerance(rel)
-        if atol is not None:
-            found[rel] = atol
-    return found
+    return {rel: atol for rel in sorted(relpaths) if (atol := file_tolerance(rel)) is not None}
 
 
 def corpus_files(root) -> list[Path]:
@@ -133,8 +129,6 @@ def _input_digests(files, root) -> dict[str, str]:
 def _listing_digest(digests: dict) -> str:
     """sha256 over ``name\tsha256`` lines: one digest for any number of input files (a corpus
     of per-frame meshes has a hundred thousand; the manifest stores this, not the list)."""
-    import hashlib
-
     h = hashlib.sha256()
     for name, digest in digests.items():
         h.update(f"{name}\t{digest}\n".encode("utf-8"))
