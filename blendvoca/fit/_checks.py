@@ -53,6 +53,19 @@ def check_rate_bound(rate_bound, where: str) -> float | None:
     return rate_bound
 
 
+def region_indices(indices, num_vertices: int, name: str, where: str) -> np.ndarray:
+    """Return ``indices`` (integers of any shape, or a boolean mask) as ``(N,) int64`` vertex indices:
+    at least 3 in ``[0, num_vertices)``, as a rigid alignment needs, else a :class:`UserError`."""
+    indices = np.asarray(indices)
+    if indices.dtype == bool:
+        indices = np.flatnonzero(indices)
+    indices = indices.astype(np.int64).reshape(-1)
+    if len(indices) < 3 or indices.min() < 0 or indices.max() >= num_vertices:
+        raise UserError(f"{where}: {name} must hold at least 3 vertex indices in [0, {num_vertices}), "
+                        f"got {len(indices)} indices")
+    return indices
+
+
 def vertex_indices(indices, num_vertices: int, where: str, name: str = "vertex_subset") -> np.ndarray:
     """Return ``indices`` as a non-empty 1-D integer array of vertex indices in ``0 .. num_vertices - 1``.
 

@@ -30,7 +30,7 @@ import numpy as np
 
 from blendvoca.errors import UserError
 
-from ._checks import as_float_array
+from ._checks import as_float_array, region_indices
 from ._renamed import renamed_keywords
 from .pose import FLAME_NUM_VERTICES, HeadPose, remove_head_pose
 from .qp_fit import FitResult, fit_unposed
@@ -131,17 +131,6 @@ def robust_weights(residuals: np.ndarray, loss: str, floor: float) -> np.ndarray
     return 1.0 / (1.0 + (residuals / c) ** 2) ** 2
 
 
-def _check_indices(indices, num_vertices: int, name: str, where: str) -> np.ndarray:
-    indices = np.asarray(indices)
-    if indices.dtype == bool:
-        indices = np.flatnonzero(indices)
-    indices = indices.astype(np.int64).reshape(-1)
-    if len(indices) < 3 or indices.min() < 0 or indices.max() >= num_vertices:
-        raise UserError(f"{where}: {name} must hold at least 3 vertex indices in [0, {num_vertices}), "
-                        f"got {len(indices)} indices")
-    return indices
-
-
 @renamed_keywords(delta="rate_bound", method="solver")
 def fit_pose_and_coefficients(
     neutral,
@@ -229,10 +218,10 @@ def fit_pose_and_coefficients(
         frames = resample_sequence(frames, fps, 60.0)
     num_vertices = len(neutral)
     if vertex_subset is not None:
-        vertex_subset = _check_indices(vertex_subset, num_vertices, "vertex_subset", where)
+        vertex_subset = region_indices(vertex_subset, num_vertices, "vertex_subset", where)
     if region is None:
         region = vertex_subset if vertex_subset is not None else np.arange(num_vertices)
-    region = _check_indices(region, num_vertices, "region", where)
+    region = region_indices(region, num_vertices, "region", where)
     if max_region_vertices is not None and len(region) > int(max_region_vertices):
         if int(max_region_vertices) < 3:
             raise UserError(f"{where}: max_region_vertices must be at least 3, got {max_region_vertices!r}")

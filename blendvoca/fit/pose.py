@@ -22,7 +22,7 @@ import numpy as np
 from blendvoca.assets import load_index_list
 from blendvoca.errors import UserError
 
-from ._checks import as_float_array
+from ._checks import as_float_array, region_indices
 
 #: Vertex count of the FLAME topology (and its eyeballs: vertices 3931-5022).
 FLAME_NUM_VERTICES = 5023
@@ -197,13 +197,7 @@ def remove_head_pose(frames, neutral, *, stable=None, iterations: int = 20, tol:
             stable = flame_stable_vertices(neutral)
         else:
             stable = least_moving_vertices(frames, neutral)
-    stable = np.asarray(stable)
-    if stable.dtype == bool:
-        stable = np.flatnonzero(stable)
-    stable = stable.astype(np.int64).reshape(-1)
-    if len(stable) < 3 or stable.min() < 0 or stable.max() >= len(neutral):
-        raise UserError(f"{where}: stable must hold at least 3 vertex indices in [0, {len(neutral)}), "
-                         f"got {len(stable)} indices")
+    stable = region_indices(stable, len(neutral), "stable", where)
     src = neutral[stable]
     if np.linalg.matrix_rank(src - src.mean(axis=0), tol=1e-9) < 2:
         raise UserError(f"{where}: the {len(stable)} stable vertices are collinear; a rotation is not determined")
