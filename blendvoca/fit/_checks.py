@@ -41,6 +41,17 @@ def as_float_array(value, name: str, ndim: int, where: str, *, keep_float: bool 
     return array
 
 
+def check_system(gram, rhs, where: str) -> tuple[np.ndarray, np.ndarray]:
+    """Return the normal equations' ``gram (K, K)`` and ``rhs (T, K)`` as finite float64 arrays
+    (:func:`as_float_array`), or a :class:`UserError` when their shapes disagree."""
+    gram = as_float_array(gram, "gram", 2, where)
+    rhs = as_float_array(rhs, "rhs", 2, where)
+    k = rhs.shape[1]
+    if gram.shape != (k, k):
+        raise UserError(f"{where}: gram must be ({k}, {k}) to match rhs {rhs.shape}, got {gram.shape}")
+    return gram, rhs
+
+
 def check_rate_bound(rate_bound, where: str) -> float | None:
     """Return the rate bound as a positive float, or None for no rate constraint."""
     if rate_bound is None:

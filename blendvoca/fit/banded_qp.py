@@ -31,7 +31,7 @@ from scipy.linalg.lapack import dpbtrf, dpbtrs
 
 from blendvoca.errors import UserError
 
-from ._checks import as_float_array, check_rate_bound
+from ._checks import as_float_array, check_rate_bound, check_system
 from ._renamed import renamed_keywords
 
 
@@ -449,13 +449,7 @@ def solve_banded_qp(
     QPSolution
     """
     where = "solve_banded_qp"
-    gram = as_float_array(gram, "gram", 2, where)
-    rhs = as_float_array(rhs, "rhs", 2, where)
-    num_frames, k = rhs.shape
-    if gram.shape != (k, k):
-        raise UserError(
-            f"{where}: gram must be ({k}, {k}) to match rhs {rhs.shape}, got {gram.shape}"
-        )
+    gram, rhs = check_system(gram, rhs, where)
     rate_bound = check_rate_bound(rate_bound, where)
     lo = _broadcast_bound(lower, rhs.shape, "lower")
     hi = _broadcast_bound(upper, rhs.shape, "upper")

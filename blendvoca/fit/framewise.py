@@ -6,7 +6,7 @@ import numpy as np
 
 from blendvoca.errors import UserError
 
-from ._checks import as_float_array, check_rate_bound
+from ._checks import check_rate_bound, check_system
 from ._renamed import renamed_keywords
 from .banded_qp import solve_banded_qp
 
@@ -34,8 +34,7 @@ def framewise_coefficients(gram, rhs, *, lower=0.0, upper=1.0, rate_bound=0.1, w
     (T, K) ndarray
     """
     where = "framewise_coefficients"
-    gram = as_float_array(gram, "gram", 2, where)
-    rhs = as_float_array(rhs, "rhs", 2, where)
+    gram, rhs = check_system(gram, rhs, where)
     rate_bound = check_rate_bound(rate_bound, where)
     lower = float(lower)
     upper = float(upper)

@@ -5,9 +5,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.linalg import cho_factor, cho_solve, lstsq
 
-from blendvoca.errors import UserError
-
-from ._checks import as_float_array
+from ._checks import check_system
 
 
 def least_squares_coefficients(gram, rhs) -> np.ndarray:
@@ -20,13 +18,7 @@ def least_squares_coefficients(gram, rhs) -> np.ndarray:
     (T, K) ndarray
         Coefficients (unbounded; the minimum-norm solution if G is singular).
     """
-    gram = as_float_array(gram, "gram", 2, "least_squares_coefficients")
-    rhs = as_float_array(rhs, "rhs", 2, "least_squares_coefficients")
-    if gram.shape != (rhs.shape[1], rhs.shape[1]):
-        raise UserError(
-            f"least_squares_coefficients: gram must be ({rhs.shape[1]}, {rhs.shape[1]}) to "
-            f"match rhs {rhs.shape}, got {gram.shape}"
-        )
+    gram, rhs = check_system(gram, rhs, "least_squares_coefficients")
     try:
         return cho_solve(cho_factor(gram, check_finite=False), rhs.T, check_finite=False).T
     except np.linalg.LinAlgError:

@@ -14,7 +14,7 @@ import scipy.sparse as sp
 
 from blendvoca.errors import UserError
 
-from ._checks import as_float_array, check_rate_bound
+from ._checks import check_rate_bound, check_system
 from ._renamed import renamed_keywords
 
 #: Solver options that make each general solver's answer match an exact solver.
@@ -77,8 +77,7 @@ def solve_sparse_qp(
     import qpsolvers
 
     where = "solve_sparse_qp"
-    gram = as_float_array(gram, "gram", 2, where)
-    rhs = as_float_array(rhs, "rhs", 2, where)
+    gram, rhs = check_system(gram, rhs, where)
     rate_bound = check_rate_bound(rate_bound, where)
     if solver not in SOLVER_OPTIONS:
         raise UserError(f"{where}: solver must be one of {sorted(SOLVER_OPTIONS)}, got {solver!r}")
