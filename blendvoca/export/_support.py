@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import contextlib
 import importlib
+import json
 import math
 from collections.abc import Iterator
 from types import ModuleType
@@ -14,6 +15,7 @@ from types import ModuleType
 import numpy as np
 
 from blendvoca.errors import BlendVOCAError, DataError, UserError
+from blendvoca.io.atomic import atomic_write
 from blendvoca.io.json_file import json_kind, read_json
 
 
@@ -34,6 +36,12 @@ def read_json_object(path, what: str, required: tuple[str, ...] = ()) -> dict:
         if key not in doc:
             raise DataError(f"{path}: not {what}: missing key {key!r}")
     return doc
+
+
+def write_json_document(path, doc: dict, **dump_options) -> None:
+    """Write ``doc`` as JSON to ``path`` atomically (``dump_options`` as for :func:`json.dump`)."""
+    with atomic_write(path, "w", encoding="utf-8") as f:
+        json.dump(doc, f, **dump_options)
 
 
 def _finite(value) -> float | None:

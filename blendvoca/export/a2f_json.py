@@ -7,17 +7,16 @@ weights" writes and Maya/Unreal importers read):
 
 from __future__ import annotations
 
-import json
 from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
 from blendvoca.errors import DataError
-from blendvoca.export._support import count, positive_number, read_json_object, string_list, weight_matrix
+from blendvoca.export._support import (count, positive_number, read_json_object, string_list, weight_matrix,
+                                       write_json_document)
 from blendvoca.export.align import AlignedTrack, align_track
 from blendvoca.export.base import ExportFormat, ExportOptions
-from blendvoca.io.atomic import atomic_write
 
 
 def a2f_document(coeffs, names: Sequence[str], fps: float = 60.0, track_path: str = "") -> tuple[dict, AlignedTrack]:
@@ -37,8 +36,7 @@ def a2f_document(coeffs, names: Sequence[str], fps: float = 60.0, track_path: st
 def write_a2f_json(path, coeffs, names: Sequence[str], fps: float = 60.0, track_path: str = "") -> AlignedTrack:
     """Write the A2F JSON of a track, atomically; ``track_path`` names the audio."""
     doc, aligned = a2f_document(coeffs, names, fps, track_path)
-    with atomic_write(path, "w", encoding="utf-8") as f:
-        json.dump(doc, f, indent=1)
+    write_json_document(path, doc, indent=1)
     return aligned
 
 

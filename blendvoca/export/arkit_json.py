@@ -7,16 +7,14 @@ rate and one weight vector per frame.
 
 from __future__ import annotations
 
-import json
 from collections.abc import Sequence
 
 import numpy as np
 
 from blendvoca.errors import DataError
-from blendvoca.export._support import positive_number, read_json_object, string_list, weight_matrix
+from blendvoca.export._support import positive_number, read_json_object, string_list, weight_matrix, write_json_document
 from blendvoca.export.align import AlignedTrack, align_track
 from blendvoca.export.base import ExportFormat, ExportOptions
-from blendvoca.io.atomic import atomic_write
 
 FORMAT_NAME = "arkit-blendshapes"
 
@@ -39,8 +37,7 @@ def arkit_json_document(coeffs, names: Sequence[str], fps: float = 60.0) -> tupl
 def write_arkit_json(path, coeffs, names: Sequence[str], fps: float = 60.0) -> AlignedTrack:
     """Write the ARKit JSON of a track, atomically."""
     doc, aligned = arkit_json_document(coeffs, names, fps)
-    with atomic_write(path, "w", encoding="utf-8") as f:
-        json.dump(doc, f)
+    write_json_document(path, doc)
     return aligned
 
 
