@@ -117,10 +117,6 @@ class Rig:
         flat = coeffs.reshape(-1, len(self.names)) @ self.deltas.reshape(len(self.names), -1)
         return self.neutral + flat.reshape(*coeffs.shape[:-1], *self.neutral.shape)
 
-    def shape_vertices(self, name: str) -> np.ndarray:
-        """Absolute vertices of one shape at full weight, ``(V, 3)``."""
-        return self.neutral + self.deltas[self.names.index(name)]
-
     def delta_matrix(self) -> np.ndarray:
         """The ``(3V, K)`` matrix B whose column k is shape k's flattened offsets."""
         return self.deltas.reshape(len(self.names), -1).T
