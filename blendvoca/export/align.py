@@ -14,7 +14,7 @@ import numpy as np
 
 from blendvoca.errors import UserError
 from blendvoca.io.arrays import float_array
-from blendvoca.names import MissingShapesWarning, arkit_name, convention_names, remap, remap_columns
+from blendvoca.names import MissingShapesWarning, arkit_name, canonical_names, convention_names, remap, remap_columns
 
 
 @dataclass(frozen=True)
@@ -65,13 +65,7 @@ def check_track(coeffs, names: Sequence[str], *, where: str) -> tuple[np.ndarray
         raise UserError(f"{where}: expected a (T, {len(names)}) track for {len(names)} names, got shape {coeffs.shape}")
     if len(coeffs) == 0:
         raise UserError(f"{where}: the track has no frames")
-    unknown = [n for n in names if arkit_name(n) is None]
-    if unknown:
-        raise UserError(f"{where}: unknown blendshape names {unknown}; expected ARKit names (any case)")
-    canonical = tuple(arkit_name(n) for n in names)
-    repeated = sorted({n for n in canonical if canonical.count(n) > 1})
-    if repeated:
-        raise UserError(f"{where}: blendshape names repeated: {repeated}")
+    canonical = canonical_names(names, where=where)
     if not np.all(np.isfinite(coeffs)):
         t, k = np.argwhere(~np.isfinite(coeffs))[0]
         raise UserError(f"{where}: NaN/inf at frame {t}, column {names[k]!r}")

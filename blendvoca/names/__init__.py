@@ -161,15 +161,28 @@ def _names_of(spec, role: str) -> tuple[str, ...]:
     """Canonical camelCase names of a convention name or of a sequence of names (any case)."""
     if isinstance(spec, str):
         return convention_names(spec)
-    names = tuple(str(n) for n in spec)
+    return canonical_names(spec, where="remap", what=f"{role} blendshape names",
+                           hint=f" or a convention: {', '.join(CONVENTIONS)}")
+
+
+def canonical_names(names: Sequence[str], *, where: str, what: str = "blendshape names",
+                    hint: str = "") -> tuple[str, ...]:
+    """``names`` (ARKit names in any case) as camelCase ARKit names.
+
+    Raises
+    ------
+    UserError
+        ``"<where>: unknown <what> [...]; expected ARKit names (any case)<hint>"``, or naming the
+        names that are repeated once spelled alike.
+    """
+    names = tuple(str(n) for n in names)
     unknown = [n for n in names if arkit_name(n) is None]
     if unknown:
-        raise UserError(f"remap: unknown {role} blendshape names {unknown}; expected ARKit names (any case) "
-                        f"or a convention: {', '.join(CONVENTIONS)}")
+        raise UserError(f"{where}: unknown {what} {unknown}; expected ARKit names (any case){hint}")
     canonical = tuple(arkit_name(n) for n in names)
     repeated = sorted({n for n in canonical if canonical.count(n) > 1})
     if repeated:
-        raise UserError(f"remap: {role} blendshape names repeated: {repeated}")
+        raise UserError(f"{where}: {what} repeated: {repeated}")
     return canonical
 
 
