@@ -167,14 +167,8 @@ def _names_of(spec, role: str) -> tuple[str, ...]:
 
 def canonical_names(names: Sequence[str], *, where: str, what: str = "blendshape names",
                     hint: str = "") -> tuple[str, ...]:
-    """``names`` (ARKit names in any case) as camelCase ARKit names.
-
-    Raises
-    ------
-    UserError
-        ``"<where>: unknown <what> [...]; expected ARKit names (any case)<hint>"``, or naming the
-        names that are repeated once spelled alike.
-    """
+    """``names`` (ARKit names in any case) as camelCase ARKit names, or a :class:`UserError` naming
+    ``where`` and the unknown names (then ``hint``) or those repeated once spelled alike."""
     names = tuple(str(n) for n in names)
     unknown = [n for n in names if arkit_name(n) is None]
     if unknown:
