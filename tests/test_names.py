@@ -140,3 +140,13 @@ def test_export_writes_a_conventions_columns_and_reads_back_by_name(tmp_path):
     np.testing.assert_allclose(got, remap(track, BLENDVOCA_NAMES, shared), atol=5e-7)
     with pytest.raises(UserError, match="csv format only"):
         export_track(tmp_path / "t.json", track, BLENDVOCA_NAMES, "arkit-json", convention="metahuman")
+
+
+def test_canonical_names_any_case_and_refusals():
+    from blendvoca.names import canonical_names
+
+    assert canonical_names(["JawOpen", "mouthclose"], where="here") == ("jawOpen", "mouthClose")
+    with pytest.raises(UserError, match=r"^here: unknown blendshape names \['nose'\]; expected ARKit names \(any case\)$"):
+        canonical_names(["jawOpen", "nose"], where="here")
+    with pytest.raises(UserError, match=r"^here: blendshape names repeated: \['jawOpen'\]$"):
+        canonical_names(["jawOpen", "JawOpen"], where="here")

@@ -3,7 +3,7 @@ import pytest
 
 from blendvoca.errors import DataError, UserError
 from blendvoca.names import ARKIT_NAMES, BLENDVOCA_NAMES
-from blendvoca.rig import Rig, load_arkit_reference
+from blendvoca.rig import Rig, load_arkit_reference, load_rig
 from tests.fixtures.paths import FsPath
 
 
@@ -141,3 +141,15 @@ def test_a_file_that_is_no_archive_is_called_so_not_a_pickle(tmp_path, content, 
     message = str(caught.value)
     assert message.startswith(f"{path}: not a .npz archive") and begins in message, message
     assert "pickle" not in message, message
+
+
+def test_load_rig_reads_either_file_kind(tmp_path, rig):
+    rig.save(tmp_path / "rig.npz")
+    rig.save_said_folder(tmp_path / "said")
+    assert load_rig(tmp_path / "rig.npz") == rig
+    from_folder = load_rig(str(tmp_path / "said")).select(rig.names)  # a folder loads in ARKit order
+    np.testing.assert_allclose(from_folder.deltas, rig.deltas, atol=1e-8)
+    np.testing.assert_array_equal(from_folder.faces, rig.faces)
+    from blendvoca.export import load_rig as export_load_rig
+
+    assert export_load_rig is load_rig

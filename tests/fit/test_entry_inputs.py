@@ -49,3 +49,23 @@ def test_input_that_is_not_numbers_says_what_is_needed(problem):
         fit_coefficients(neutral, deltas, frames, rate_bound=-1.0, unposed=True)
     with pytest.raises(UserError, match="solver must be one of"):
         fit_coefficients(neutral, deltas, frames, solver="newton", unposed=True)
+
+
+def test_fit_coefficients_takes_fit_sequences_keywords_and_defaults(problem):
+    neutral, deltas, frames, _ = problem
+    options = dict(unposed=True, rate_bound=0.05, vertex_subset=np.arange(0, 120, 2))
+    expected = fit_sequence(neutral, deltas, frames, **options).coeffs
+    np.testing.assert_array_equal(fit_coefficients(neutral, deltas, frames, **options), expected)
+    with pytest.warns(DeprecationWarning, match="delta= is removed after"):
+        old = fit_coefficients(neutral, deltas, frames, unposed=True, delta=0.05, vertex_subset=options["vertex_subset"])
+    np.testing.assert_array_equal(old, expected)
+    with pytest.raises(TypeError, match=r"fit_coefficients\(\) got unexpected keyword arguments \['rate_bnd'\]"):
+        fit_coefficients(neutral, deltas, frames, rate_bnd=0.1)
+
+
+def test_the_qp_solvers_refuse_a_gram_of_another_size(problem):
+    from blendvoca.fit import framewise_coefficients, least_squares_coefficients, solve_banded_qp
+
+    for solve in (framewise_coefficients, least_squares_coefficients, solve_banded_qp):
+        with pytest.raises(UserError, match=r"gram must be \(4, 4\) to match rhs \(3, 4\), got \(3, 3\)"):
+            solve(np.eye(3), np.zeros((3, 4)))
