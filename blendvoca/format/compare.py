@@ -24,7 +24,7 @@ from blendvoca.io.pickle_file import load_data_pickle
 from .layout import is_report_file
 from .manifest import listed_files, read_manifest
 
-__all__ = ["Comparison", "compare_builds", "file_difference", "main"]
+__all__ = ["Comparison", "compare_builds", "file_difference"]
 
 
 @dataclass
