@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from blendvoca.errors import UserError
+from blendvoca.runtime.threads import limited_threads
 
 from ._checks import check_rate_bound
 from .banded_qp import solve_banded_qp
@@ -24,24 +25,6 @@ from .sparse_qp import SOLVER_OPTIONS, solve_sparse_qp
 
 #: Accepted values of ``solver``.
 SOLVERS = ("banded",) + tuple(SOLVER_OPTIONS)
-
-_CONTROLLER = None
-
-
-def _one_blas_thread():
-    """Context limiting BLAS to one thread: the small banded factorizations run
-    several times slower with two threads on these machines (DESIGN.md)."""
-    global _CONTROLLER
-    try:
-        from threadpoolctl import ThreadpoolController
-    except ImportError:  # pragma: no cover - threadpoolctl comes with scikit-learn
-        import contextlib
-
-        return contextlib.nullcontext()
-    if _CONTROLLER is None:
-        _CONTROLLER = ThreadpoolController()
-    return _CONTROLLER.limit(limits=1, user_api="blas")
-
 
 @dataclass(frozen=True)
 class FitResult:
@@ -104,7 +87,8 @@ def fit_unposed(neutral, deltas, frames, *, rate_bound, vertex_subset, bounds, r
     if fps != 60.0:
         frames = resample_sequence(frames, fps, 60.0)
     lower, upper = (0.0, 1.0) if bounds else (None, None)
-    with _one_blas_thread():
+    # BLAS on one thread: the small banded factorizations run several times slower with two (DESIGN.md).
+    with limited_threads(1, openmp=False):
         system = normal_equations_of_checked(neutral, deltas, frames, offset_sq=diagnostics)
         iterations, converged = 0, True
         if framewise:
