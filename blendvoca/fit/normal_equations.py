@@ -126,24 +126,20 @@ def normal_equations_of_checked(neutral, deltas, frames, *, offset_sq: bool = Tr
     ``offset_sq`` None (no objective value): a caller that only needs the
     minimiser saves a pass over the frames.
     """
-    want_offset_sq = offset_sq
     num_shapes = deltas.shape[0]
     basis = deltas.reshape(num_shapes, -1)  # (K, 3S)
     gram = basis @ basis.T
     if isinstance(frames, FrameCrop):
         rhs = np.empty((frames.shape[0], num_shapes))
-        offset_sq = np.empty(frames.shape[0])
+        squares = np.empty(frames.shape[0]) if offset_sq else None
         for start, crop in frames.chunks():
             crop -= neutral[None]  # the chunk is ours: the offsets in place
             offsets = crop.reshape(crop.shape[0], -1)
             rhs[start:start + crop.shape[0]] = offsets @ basis.T
-            if want_offset_sq:
-                offset_sq[start:start + crop.shape[0]] = np.einsum("ij,ij->i", offsets, offsets)
+            if offset_sq:
+                squares[start:start + crop.shape[0]] = np.einsum("ij,ij->i", offsets, offsets)
     else:
         offsets = (frames - neutral[None]).reshape(frames.shape[0], -1)  # (T, 3S)
         rhs = offsets @ basis.T
-        offset_sq = np.einsum("ij,ij->i", offsets, offsets) if want_offset_sq else None
-    return NormalEquations(
-        gram=0.5 * (gram + gram.T), rhs=rhs, offset_sq=offset_sq if want_offset_sq else None,
-        num_vertices=neutral.shape[0]
-    )
+        squares = np.einsum("ij,ij->i", offsets, offsets) if offset_sq else None
+    return NormalEquations(gram=0.5 * (gram + gram.T), rhs=rhs, offset_sq=squares, num_vertices=neutral.shape[0])
