@@ -141,7 +141,7 @@ def read_usd(path) -> UsdContents:
 
 def _usd_contents(path) -> UsdContents:
     """The contents of the stage at ``path`` (:func:`read_usd`)."""
-    from pxr import Usd, UsdMedia, UsdSkel
+    from pxr import Usd, UsdGeom, UsdMedia, UsdSkel
 
     stage = Usd.Stage.Open(os.fspath(path))
     if stage is None:
@@ -150,8 +150,6 @@ def _usd_contents(path) -> UsdContents:
                       and UsdSkel.BindingAPI(p).GetBlendShapesAttr().HasAuthoredValue()), None)
     if mesh_prim is None:
         raise DataError(f"{path}: no mesh with UsdSkel blend shapes")
-    from pxr import UsdGeom
-
     mesh = UsdGeom.Mesh(mesh_prim)
     binding = UsdSkel.BindingAPI(mesh_prim)
     neutral = np.asarray(mesh.GetPointsAttr().Get(), dtype=np.float64)
