@@ -37,7 +37,7 @@ from __future__ import annotations
 import math
 import numbers
 import os
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -238,14 +238,9 @@ class StreamingSolverConfig:
         put(self, "template_bb_size", _strength(self.template_bb_size, "template_bb_size", where, positive=True))
         put(self, "symmetry_pairs", _pairs(self.symmetry_pairs, "symmetry_pairs", where))
         put(self, "cancel_pairs", _pairs(self.cancel_pairs, "cancel_pairs", where))
-        inactive = self.inactive
-        if _is_key(inactive):
-            inactive = (inactive,)
-        try:
-            inactive = tuple(inactive)
-        except TypeError:
-            raise UserError(f"{where}: inactive must list shape names or indices >= 0, got {self.inactive!r}") from None
-        if not all(_is_key(k) for k in inactive):
+        inactive = (self.inactive,) if _is_key(self.inactive) else self.inactive
+        inactive = tuple(inactive) if isinstance(inactive, Iterable) else None
+        if inactive is None or not all(_is_key(k) for k in inactive):
             raise UserError(f"{where}: inactive must list shape names or indices >= 0, got {self.inactive!r}")
         put(self, "inactive", tuple(k if isinstance(k, str) else int(k) for k in inactive))
         put(self, "multipliers", _per_shape(self.multipliers, "multipliers", where))
