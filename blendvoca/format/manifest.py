@@ -247,7 +247,6 @@ def manifest_dict(out, *, files, vocaset, corpus, params, records, rig_records, 
         ``{relpath: atol}`` for the array files; default
         :func:`blendvoca.format.recipe.default_tolerances` of ``files``.
     """
-    out = Path(out)
     inputs = {"vocaset": {"root_name": Path(vocaset).name, "path": str(Path(vocaset).resolve()),
                           "layout": getattr(corpus, "layout", "")},
               "speakers": {}}
@@ -263,17 +262,16 @@ def manifest_dict(out, *, files, vocaset, corpus, params, records, rig_records, 
     synthetic = getattr(corpus, "synthetic", None)
     if synthetic:
         inputs["synthetic"] = {"seed": synthetic.get("seed"), "version": synthetic.get("version")}
+    return _build_record(out, files, version=version, params=params, failures=failures, recipe=recipe,
+                         tolerances=tolerances, inputs=inputs, blas=blas_kernels())
+
+
+def _build_record(out, files, *, version, params, failures, recipe, tolerances, **parts) -> dict:
+    """A build's manifest: ``parts`` (its inputs or dataset record) with what every build's records."""
     listed = sorted(set(files))
-    data = {
-        "tool": BUILD_TOOL,
-        "version": version,
-        "parameters": params,
-        "inputs": inputs,
-        "failures": failures,
-        "blas": blas_kernels(),
-        "files": {rel: file_digest(out / rel) for rel in listed},
-        "tolerances": default_tolerances(listed) if tolerances is None else dict(sorted(tolerances.items())),
-    }
+    data = {"tool": BUILD_TOOL, "version": version, "parameters": params, "failures": failures, **parts,
+            "files": {rel: file_digest(Path(out) / rel) for rel in listed},
+            "tolerances": default_tolerances(listed) if tolerances is None else dict(sorted(tolerances.items()))}
     if recipe is not None:
         data["recipe"] = recipe
     return data
@@ -295,20 +293,9 @@ def write_dataset_manifest(out, *, files, dataset: dict, params: dict, failures:
     """Write ``<out>/manifest.json`` of a build from a coefficient corpus (``blendvoca.datasets``:
     BEAT, UniTalker, 3D-ETF) atomically: the files with their sha256, the dataset record, the
     recipe (the dataset's identity) and the per-file tolerances; return its path."""
-    out = Path(out)
-    listed = sorted(set(files))
-    data = {
-        "tool": BUILD_TOOL,
-        "version": blendvoca.__version__,
-        "parameters": params,
-        "dataset": dataset,
-        "failures": failures,
-        "files": {rel: file_digest(out / rel) for rel in listed},
-        "tolerances": default_tolerances(listed),
-    }
-    if recipe is not None:
-        data["recipe"] = recipe
-    return _write(manifest_path(out), data)
+    return _write(manifest_path(out), _build_record(out, files, version=blendvoca.__version__, params=params,
+                                                    failures=failures, recipe=recipe, tolerances=None,
+                                                    dataset=dataset))
 
 
 def folder_files(root) -> list[str]:
