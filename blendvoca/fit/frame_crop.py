@@ -40,7 +40,3 @@ class FrameCrop:
         for start in range(0, self.shape[0], size):
             crop = np.take(self.frames[start:start + size], self.subset, axis=1)
             yield start, crop.astype(np.float64, copy=False)  # float32 -> float64 is exact
-
-    def whole(self) -> np.ndarray:
-        """The crop ``(T, S, 3)`` float64 in one array."""
-        return np.take(self.frames, self.subset, axis=1).astype(np.float64, copy=False)
