@@ -12,7 +12,7 @@ REMOVED_AFTER = "2027-06-30"
 def renamed_keywords(**renames: str):
     """Decorator: accept each ``old=`` keyword as its ``new`` name with a ``DeprecationWarning``.
 
-    ``@renamed_keywords(rate_bound="rate_bound")`` makes ``f(rate_bound=0.2)`` call ``f(rate_bound=0.2)``;
+    ``@renamed_keywords(delta="rate_bound")`` makes ``f(delta=0.2)`` call ``f(rate_bound=0.2)``;
     giving both spellings is a ``TypeError``.
     """
 
