@@ -67,8 +67,7 @@ def positive_number(doc: dict, key: str, path) -> float:
     value = doc[key]
     number = _finite(value)
     if number is None or number <= 0:
-        shown = json_kind(value) if isinstance(value, (list, dict)) else repr(value)
-        raise DataError(f"{path}: {key!r} is {_short(shown)}, expected a finite positive number")
+        raise DataError(f"{path}: {key!r} is {_shown(value)}, expected a finite positive number")
     return number
 
 
@@ -84,8 +83,7 @@ def count(doc: dict, key: str, path) -> int:
     if isinstance(value, float) and value.is_integer():
         value = int(value)
     if not isinstance(value, int) or isinstance(value, bool) or value < 0:
-        shown = json_kind(value) if isinstance(value, (list, dict)) else repr(value)
-        raise DataError(f"{path}: {key!r} is {_short(shown)}, expected a whole number >= 0")
+        raise DataError(f"{path}: {key!r} is {_shown(value)}, expected a whole number >= 0")
     return value
 
 
@@ -127,8 +125,7 @@ def weight_matrix(doc: dict, key: str, names: tuple[str, ...], path) -> np.ndarr
         for k, value in enumerate(row):
             number = _finite(value)
             if number is None:
-                shown = json_kind(value) if isinstance(value, (list, dict)) else repr(value)
-                raise DataError(f"{path}: frame {t}, {names[k]!r}: weight {_short(shown)} is not a finite number")
+                raise DataError(f"{path}: frame {t}, {names[k]!r}: weight {_shown(value)} is not a finite number")
             out[t, k] = number
     return out
 
@@ -151,6 +148,11 @@ def foreign_parser(path, what: str) -> Iterator[None]:
         raise DataError(f"{path}: not a readable {what} ({_brief(error)})") from error
     except Exception as error:  # noqa: BLE001 - parsers of binary formats raise many types on junk
         raise DataError(f"{path}: not a readable {what} ({_brief(error)})") from error
+
+
+def _shown(value) -> str:
+    """A JSON value for a message: a container by its kind, anything else by its (cut) ``repr``."""
+    return _short(json_kind(value) if isinstance(value, (list, dict)) else repr(value))
 
 
 def _short(text: str, limit: int = 80) -> str:
