@@ -33,7 +33,7 @@ from blendvoca.errors import DataError
 from blendvoca.io.json_file import read_json
 from blendvoca.io.atomic import atomic_write
 
-from .hashing import file_digest
+from .hashing import file_digest, files_digests
 from .recipe import default_tolerances, make_recipe
 from .layout import COEFFS_DIR, DATA_DIRS, DATA_FILES, MANIFEST_FILE, STATE_DIR, is_report_file, manifest_path
 
@@ -270,7 +270,7 @@ def _build_record(out, files, *, version, params, failures, recipe, tolerances, 
     """A build's manifest: ``parts`` (its inputs or dataset record) with what every build's records."""
     listed = sorted(set(files))
     data = {"tool": BUILD_TOOL, "version": version, "parameters": params, "failures": failures, **parts,
-            "files": {rel: file_digest(Path(out) / rel) for rel in listed},
+            "files": files_digests(out, listed),
             "tolerances": default_tolerances(listed) if tolerances is None else dict(sorted(tolerances.items()))}
     if recipe is not None:
         data["recipe"] = recipe
@@ -328,7 +328,7 @@ def write_folder_manifest(root) -> Path:
     if not any(rel.startswith(f"{COEFFS_DIR}/") for rel in files):
         raise ManifestError(f"{root}: no {COEFFS_DIR}/<subject>/<sentence>.csv found; not a SAiD-layout folder")
     # A hand-made folder is its own input: its recipe is its files (by name and digest).
-    data = {"tool": FOLDER_TOOL, "files": {rel: file_digest(root / rel) for rel in files},
+    data = {"tool": FOLDER_TOOL, "files": files_digests(root, files),
             "recipe": make_recipe([(rel, root / rel) for rel in files], {"tool": FOLDER_TOOL}),
             "tolerances": default_tolerances(files)}
     return _write(manifest_path(root), data)
