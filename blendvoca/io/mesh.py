@@ -382,6 +382,7 @@ def write_ply(path, vertices, faces=None, *, binary: bool = True) -> None:
 
 
 _READERS = {".obj": read_obj, ".ply": read_ply}
+_WRITERS = {".obj": write_obj, ".ply": write_ply}
 
 
 def read_mesh(path) -> tuple[np.ndarray, np.ndarray]:
@@ -417,12 +418,9 @@ def read_mesh(path) -> tuple[np.ndarray, np.ndarray]:
 def write_mesh(path, vertices, faces) -> None:
     """Write an OBJ or PLY mesh (by suffix): ``vertices (V, 3)`` of any real dtype, ``faces (F, 3)``."""
     suffix = Path(os.fspath(path)).suffix.lower()
-    if suffix == ".obj":
-        write_obj(path, vertices, faces)
-    elif suffix == ".ply":
-        write_ply(path, vertices, faces)
-    else:
+    if suffix not in _WRITERS:
         raise UserError(f"{path}: unsupported mesh format {suffix!r}; expected .obj or .ply")
+    _WRITERS[suffix](path, vertices, faces)
 
 
 def _vertices(vertices, where) -> np.ndarray:

@@ -9,6 +9,8 @@ are read by an unpickler that allows only numpy's array and scalar reconstructio
 
 from __future__ import annotations
 
+import builtins
+import copyreg
 import pickle
 from pathlib import Path
 
@@ -46,12 +48,8 @@ class _DataUnpickler(pickle.Unpickler):
                 "numbers, strings and numpy arrays (a pickle naming other classes or functions could run code)"
             )
         if module in ("copy_reg", "copyreg"):
-            import copyreg
-
             return copyreg._reconstructor
         if module in ("builtins", "__builtin__"):
-            import builtins
-
             return getattr(builtins, name)
         return super().find_class(module, name)
 
