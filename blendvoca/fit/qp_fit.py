@@ -26,6 +26,7 @@ from .sparse_qp import SOLVER_OPTIONS, solve_sparse_qp
 #: Accepted values of ``solver``.
 SOLVERS = ("banded",) + tuple(SOLVER_OPTIONS)
 
+
 @dataclass(frozen=True)
 class FitResult:
     """A fitted coefficient track with its diagnostics.
