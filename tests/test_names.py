@@ -146,7 +146,8 @@ def test_canonical_names_any_case_and_refusals():
     from blendvoca.names import canonical_names
 
     assert canonical_names(["JawOpen", "mouthclose"], where="here") == ("jawOpen", "mouthClose")
-    with pytest.raises(UserError, match=r"^here: unknown blendshape names \['nose'\]; expected ARKit names \(any case\)$"):
+    unknown = r"^here: unknown blendshape names \['nose'\]; expected ARKit names \(any case\)$"
+    with pytest.raises(UserError, match=unknown):
         canonical_names(["jawOpen", "nose"], where="here")
     with pytest.raises(UserError, match=r"^here: blendshape names repeated: \['jawOpen'\]$"):
         canonical_names(["jawOpen", "JawOpen"], where="here")

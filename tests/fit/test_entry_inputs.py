@@ -57,7 +57,8 @@ def test_fit_coefficients_takes_fit_sequences_keywords_and_defaults(problem):
     expected = fit_sequence(neutral, deltas, frames, **options).coeffs
     np.testing.assert_array_equal(fit_coefficients(neutral, deltas, frames, **options), expected)
     with pytest.warns(DeprecationWarning, match="delta= is removed after"):
-        old = fit_coefficients(neutral, deltas, frames, unposed=True, delta=0.05, vertex_subset=options["vertex_subset"])
+        old = fit_coefficients(neutral, deltas, frames, unposed=True, delta=0.05,
+                               vertex_subset=options["vertex_subset"])
     np.testing.assert_array_equal(old, expected)
     with pytest.raises(TypeError, match=r"fit_coefficients\(\) got unexpected keyword arguments \['rate_bnd'\]"):
         fit_coefficients(neutral, deltas, frames, rate_bnd=0.1)
