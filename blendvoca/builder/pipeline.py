@@ -45,6 +45,7 @@ from blendvoca.format.hashing import array_digest
 from blendvoca.format.manifest import remove_manifest
 from blendvoca.runtime.processes import WorkerStartError, process_map
 from blendvoca.runtime.progress import progress_bars, show_progress
+from blendvoca.runtime.threads import limited_threads
 from blendvoca.synthetic import default_corpus
 from blendvoca.synthetic.oracle import oracle_count
 
@@ -108,9 +109,11 @@ class BuildSummary:
 
 def _run(tasks, function, *, workers, initargs, desc):
     """``function`` over ``tasks`` in ``workers`` processes (here for 1), each set up by
-    :func:`.worker.worker_init`; the results in order."""
-    return list(process_map(function, tasks, workers=workers, initializer=worker.worker_init, initargs=initargs,
-                            desc=desc))
+    :func:`.worker.worker_init`; the results in order. One BLAS thread while it runs (a
+    worker process keeps it for its life); this process's counts are restored after."""
+    with limited_threads(1):
+        return list(process_map(function, tasks, workers=workers, initializer=worker.worker_init,
+                                initargs=initargs, desc=desc))
 
 
 def default_output_dir() -> Path:

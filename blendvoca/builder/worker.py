@@ -100,9 +100,9 @@ def worker_init(corpus_root, out, params, shared=None):
     In a worker process it first closes its copies of the build lock
     (:func:`blendvoca.builder.outdir.drop_inherited_locks`).
     """
-    if is_worker_process():
+    if is_worker_process():  # the build process itself limits its threads for the run (pipeline._run)
         drop_inherited_locks()
-    limit_threads(1)
+        limit_threads(1)
     keep_freed_memory()
     opened = OPENED.get(str(corpus_root))
     forked = opened is not None and opened[0] != os.getpid()

@@ -142,9 +142,9 @@ def test_a_method_pointing_to_a_missing_module_or_a_non_method_class_is_one_erro
 
     registry.register_lazy("fault-missing-module", "no_such_module_xyz:Method")
     registry.register_lazy("fault-not-a-method", f"{__name__}:NotAMethod")
-    real = registry._entry_points
+    real = registry.METHODS._entry_points
     broken = importlib.metadata.EntryPoint("fault-entry-point", "no_such_plugin_xyz:Method", registry.ENTRY_POINT_GROUP)
-    monkeypatch.setattr(registry, "_entry_points", lambda: {**real(), "fault-entry-point": broken})
+    monkeypatch.setattr(registry.METHODS, "_entry_points", lambda: {**real(), "fault-entry-point": broken})
     try:
         for name, fragments in (("fault-missing-module", ("cannot import module", "no_such_module_xyz")),
                                 ("fault-not-a-method", ("must subclass", "NotAMethod")),
