@@ -32,6 +32,7 @@ import shutil
 import socket
 import time
 from pathlib import Path
+from types import SimpleNamespace
 
 from benchmark.data import open_blendvoca
 from benchmark.methods import get_method
@@ -52,9 +53,8 @@ from benchmark.protocol.convergence import NOT_CHECKED, HalfBudget, checked_conv
 from benchmark.protocol.seeds import combined_seed_scores, seed_stream
 from benchmark.protocol.storing import dataset_identity, store_seeds, track_writer
 from benchmark.results import Result, build_result, current_provenance, read, result_filename, write
-from benchmark.runs import TrackWriter
+from benchmark.runs import TrackWriter, process_tag, remove_dead_stagings
 from blendvoca.builder import build_dataset
-from blendvoca.builder.outdir import is_running
 from blendvoca.errors import UserError
 from blendvoca.format import manifest_path
 from blendvoca.io.atomic import atomic_write
@@ -63,24 +63,6 @@ from leaderboard.executors.core import log_progress
 
 __all__ = ["built_corpus", "data_stage", "expert_stage", "row_result_path", "score_stage", "single_stage",
            "store_stage", "train_stage"]
-
-
-def _host_tag() -> str:
-    return f"{socket.gethostname()}-{os.getpid()}"
-
-
-def _remove_dead_partials(folder: Path, prefix: str) -> None:
-    """Remove ``<prefix>.<this host>-<pid>.partial`` folders of processes of this host
-    that are gone (a killed worker's half-trained method); other hosts' stay."""
-    if not folder.is_dir():
-        return
-    head = f"{prefix}.{socket.gethostname()}-"
-    for path in folder.iterdir():
-        name = path.name
-        if name.startswith(head) and name.endswith(".partial"):
-            pid = name[len(head):-len(".partial")]
-            if pid.isdigit() and not is_running(int(pid)):
-                shutil.rmtree(path, ignore_errors=True)
 
 
 def _write_json(path: Path, record: dict) -> None:
@@ -235,10 +217,10 @@ def train_stage(spec, root):
     if all(_row_done(row, root) is not None for row in spec["rows"]):
         return {"seed": seed, "stored": True}, None  # every row of this training is stored: nothing to train for
     final.parent.mkdir(parents=True, exist_ok=True)
-    _remove_dead_partials(final.parent, f".{final.name}")
+    remove_dead_stagings(final.parent, f".{final.name}")
     # trained into a folder of this process, renamed once saved: a worker killed while
     # training leaves no folder that a rerun would load as a trained method
-    partial = final.parent / f".{final.name}.{_host_tag()}.partial"
+    partial = final.parent / f".{final.name}.{process_tag()}.partial"
     shutil.rmtree(partial, ignore_errors=True)
     partial.mkdir()
     try:
@@ -259,18 +241,6 @@ def train_stage(spec, root):
         shutil.rmtree(partial, ignore_errors=True)
     return record, {"train_s": trained.train_s, "convergence_s": trained.convergence_s,
                     "training": spec["training"]}
-
-
-class _Half:
-    """The half-budget check as the training saw it, for ``checked_convergence``."""
-
-    def __init__(self, record: dict):
-        half = record.get("half_budget")
-        self.result = None if half is None else HalfBudget(**half)
-
-    @property
-    def called(self) -> bool:
-        return self.result is not None
 
 
 def _seed_paths(spec, seed: int):
@@ -335,7 +305,9 @@ def score_stage(spec, root, expert, record):
         writer.discard()
         raise
     if spec["owns_training"] and record.get("checked"):
-        convergence, reason = checked_convergence(_Half(record), None, scored.metrics)
+        half = record.get("half_budget")  # the check as the training saw it
+        seen = SimpleNamespace(result=None if half is None else HalfBudget(**half), called=half is not None)
+        convergence, reason = checked_convergence(seen, None, scored.metrics)
     elif spec["owns_training"]:
         convergence, reason = None, record.get("reason")
     else:
