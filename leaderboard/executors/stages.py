@@ -50,7 +50,7 @@ from benchmark.protocol import (
     train,
 )
 from benchmark.protocol.convergence import NOT_CHECKED, HalfBudget, checked_convergence, shared_convergence
-from benchmark.protocol.seeds import combined_seed_scores, seed_stream
+from benchmark.protocol.seeds import combined_seed_scores, seed_stream, summed_timings
 from benchmark.protocol.storing import dataset_identity, store_seeds, track_writer
 from benchmark.results import Result, build_result, current_provenance, read, result_filename, write
 from benchmark.runs import TrackWriter, process_tag, remove_dead_stagings
@@ -312,14 +312,10 @@ def score_stage(spec, root, expert, record):
         convergence, reason = None, record.get("reason")
     else:
         convergence, reason = None, NOT_CHECKED["loaded"]
-    seed_run = SeedRun(
-        seed=seed, metrics=dict(scored.metrics), per_sentence=list(scored.per_sentence),
-        replicates=dict(getattr(scored.metrics, "replicates", {}) or {}), convergence=convergence,
-        evaluation=dict(getattr(scored.metrics, "protocol", {}) or {}), n_clipped=generated.n_clipped,
-        num_subjects=len({s for s, _ in generated.tracks}), num_sentences=len(generated.tracks),
-        timings={"train_s": record.get("train_s") if spec["owns_training"] else None, "load_s": trained.load_s,
-                 "convergence_s": record.get("convergence_s") if spec["owns_training"] else None,
-                 "generate_s": generated.seconds, "evaluate_s": scored.seconds})
+    owns = spec["owns_training"]
+    seed_run = SeedRun.scored(seed, generated, scored, convergence=convergence, timings={
+        "train_s": record.get("train_s") if owns else None, "load_s": trained.load_s,
+        "convergence_s": record.get("convergence_s") if owns else None})
     writer.commit()
     write(scores_path, _seed_result(spec, inputs, seed_run, label=trained.label, reason=reason))
     return str(scores_path), {"generate_s": generated.seconds, "evaluate_s": scored.seconds,
@@ -382,10 +378,7 @@ def store_stage(spec, root, expert, *scores_paths):
     try:
         for seed in seeds:
             shutil.copytree(_seed_paths(spec, seed)[1], writer.staging / f"seed{seed}")
-        timings = {}
-        for key in ("train_s", "load_s", "generate_s", "evaluate_s", "convergence_s"):
-            values = [r.timings.get(key) for r in runs]
-            timings[key] = None if all(v is None for v in values) else float(sum(v for v in values if v is not None))
+        timings = summed_timings(runs)
         timings["total_s"] = sum(v for v in timings.values() if v is not None)
         path = store_seeds(run, inputs, first, runs, combined, writer=writer, timings=timings,
                            provenance=provenance, convergence_check=reason)
