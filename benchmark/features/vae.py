@@ -17,6 +17,7 @@ import numpy as np
 import torch
 from torch import nn
 
+from blendvoca.assets import resolve
 from blendvoca.errors import DataError, UserError
 from blendvoca.io.torch_file import read_torch_file
 
@@ -199,8 +200,6 @@ def load_published_vae(path: str | PathLike | None = None) -> CoeffsVAE:
         In eval mode; ``encode(coeffs (B, 120, 32)) -> mean (B, 64)``.
     """
     if path is None:
-        from blendvoca.assets import resolve
-
         path = resolve("said-vae")
     state = read_torch_file(path, where="load_published_vae", error=VaeWeightsError)
     if not isinstance(state, Mapping):

@@ -28,6 +28,7 @@ from torch import nn
 from benchmark.lipsync.geometric import SyncEstimate, offset_from_scores
 from benchmark.lipsync.mfcc import mel_filterbank
 from blendvoca.errors import DataError, UserError
+from blendvoca.io.audio import resample_audio
 from blendvoca.io.torch_file import read_torch_file, write_torch_file
 
 FPS = 60
@@ -151,8 +152,6 @@ class SyncExpert:
         if audio.ndim != 1 or audio.size == 0:
             raise UserError(f"SyncExpert.sync: expected mono audio (N,), got shape {audio.shape}")
         if rate != RATE:
-            from blendvoca.io.audio import resample_audio
-
             audio = resample_audio(audio, rate, RATE)
         T, r, S = len(coeffs), self.net.reach, self.max_shift
         mel = audio_features(audio, num_frames=T, num_mels=self.config["num_mels"], nfft=self.config["nfft"])

@@ -8,11 +8,13 @@ import contextlib
 import json
 import os
 import socket
+import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from benchmark.results import read
+from blendvoca.io.atomic import atomic_write
 
 __all__ = ["EXECUTORS", "Resources", "Task", "check_order", "execute", "log_progress", "record_timing",
            "result_timing_table", "run_sequential", "timing_records", "timing_table"]
@@ -95,8 +97,6 @@ def _threads(cpus: int):
 def record_timing(work, task: Task, details: dict, wall_s: float) -> Path:
     """Write ``<work>/stages/timings/<key>.json``: the stage's wall time and where it ran
     (replaced atomically; a stage that did nothing writes none)."""
-    from blendvoca.io.atomic import atomic_write
-
     path = Path(work) / "stages" / "timings" / (task.key.replace("/", "__") + ".json")
     path.parent.mkdir(parents=True, exist_ok=True)
     record = {"key": task.key, "stage": task.stage, "row": task.row, "seed": task.seed,
@@ -128,8 +128,6 @@ def execute(task: Task, *values):
 
 def log_progress(message: str) -> None:
     """A progress line of ``leaderboard.reproduce`` on stderr."""
-    import sys
-
     print(f"[reproduce] {message}", file=sys.stderr, flush=True)
 
 
