@@ -83,13 +83,12 @@ def data_stage(spec):
         return str(root), None
     work = Path(spec["work"])
     done = manifest_path(work / spec["build_name"]).is_file()
-    root = built_corpus(work, spec["corpus"], corpus_name=spec["corpus_name"], build_name=spec["build_name"],
-                        progress=spec["progress"])
+    with progress_bars(spec["progress"]):
+        root = built_corpus(work, spec["corpus"], corpus_name=spec["corpus_name"], build_name=spec["build_name"])
     return str(root), (None if done else {})
 
 
-def built_corpus(work, corpus: dict, *, corpus_name: str, build_name: str, workers: int = 2,
-                 progress: bool = True) -> Path:
+def built_corpus(work, corpus: dict, *, corpus_name: str, build_name: str, workers: int = 2) -> Path:
     """The synthetic corpus ``generate_corpus(**corpus)`` in ``<work>/<corpus_name>`` and
     its BlendVOCA build in ``<work>/<build_name>``, each made when missing (both resumable)."""
     from blendvoca.synthetic import generate_corpus  # igl: loaded only when the corpus is made
@@ -98,9 +97,9 @@ def built_corpus(work, corpus: dict, *, corpus_name: str, build_name: str, worke
     source = work / corpus_name
     if not (source / "synthetic.json").is_file():
         log_progress(f"generating the synthetic corpus into {source}")
-        generate_corpus(source, progress=progress, **corpus)
+        generate_corpus(source, **corpus)
     root = work / build_name
-    summary = build_dataset(root, source, workers=workers, progress=progress)
+    summary = build_dataset(root, source, workers=workers)
     if summary.failures:
         raise RuntimeError(f"build of {root} had {len(summary.failures)} failure(s), e.g. {summary.failures[0]}")
     return root
