@@ -18,6 +18,8 @@ convention of the synthetic corpus's ``lag_frames`` and of the geometric score.
 
 from __future__ import annotations
 
+import hashlib
+import json
 from dataclasses import dataclass, field
 from os import PathLike
 
@@ -202,9 +204,6 @@ class SyncExpert:
         coefficient normalisation and names. Unlike the checkpoint file's digest it
         leaves out ``trained_on`` (the data path, the wall seconds), so the same
         training repeated elsewhere gives the same digest."""
-        import hashlib
-        import json
-
         digest = hashlib.sha256(json.dumps({"config": self.config, "names": list(self.names)}, sort_keys=True,
                                            default=list).encode())
         tensors = {**{f"net.{k}": v for k, v in self.net.state_dict().items()},
