@@ -105,12 +105,7 @@ def load_site_runs(results_dir) -> list[SiteRun]:
 def _round(values) -> list:
     """Nested lists of floats at the site's precision (JSON has no NaN: None)."""
     arr = np.asarray(values, dtype=np.float64)
-    out = np.round(arr, _DECIMALS).tolist()
-    if not np.isfinite(arr).all():
-        def clean(x):
-            return [clean(v) for v in x] if isinstance(x, list) else (x if math.isfinite(x) else None)
-        out = clean(out)
-    return out
+    return np.where(np.isfinite(arr), np.round(arr, _DECIMALS), None).tolist()
 
 
 def _number(x):
