@@ -258,9 +258,8 @@ def combined_seed_scores(runs, *, resamples: int = BOOTSTRAP_RESAMPLES, stream: 
         if reps is not None:
             ci = interval(reps, point, level)
         else:  # nothing to resample: the envelope of the seeds' intervals (and means)
-            lows = [float((run.metrics[name].get("ci95") or [m, m])[0]) for run, m in zip(runs, means)]
-            highs = [float((run.metrics[name].get("ci95") or [m, m])[1]) for run, m in zip(runs, means)]
-            ci = [min(min(lows), point), max(max(highs), point)]
+            cis = np.array([run.metrics[name].get("ci95") or [m, m] for run, m in zip(runs, means)], dtype=np.float64)
+            ci = [min(float(cis[:, 0].min()), point), max(float(cis[:, 1].max()), point)]
         sample_stds = [run.metrics[name].get("sample_std") for run in runs]
         if all(_finite(s) for s in sample_stds):
             entry["sample_std"] = float(np.mean(sample_stds))

@@ -303,15 +303,12 @@ def score_stage(spec, root, expert, record):
     except BaseException:
         writer.discard()
         raise
-    if spec["owns_training"] and record.get("checked"):
-        half = record.get("half_budget")  # the check as the training saw it
-        seen = SimpleNamespace(result=None if half is None else HalfBudget(**half), called=half is not None)
-        convergence, reason = checked_convergence(seen, None, scored.metrics)
-    elif spec["owns_training"]:
-        convergence, reason = None, record.get("reason")
-    else:
-        convergence, reason = None, NOT_CHECKED["loaded"]
-    owns = spec["owns_training"]
+    owns, half = spec["owns_training"], record.get("half_budget")
+    # the half-budget check as the training saw it (a row scoring another's training has none)
+    seen = (SimpleNamespace(result=None if half is None else HalfBudget(**half), called=half is not None)
+            if owns and record.get("checked") else None)
+    convergence, reason = checked_convergence(seen, record.get("reason") if owns else NOT_CHECKED["loaded"],
+                                              scored.metrics)
     seed_run = SeedRun.scored(seed, generated, scored, convergence=convergence, timings={
         "train_s": record.get("train_s") if owns else None, "load_s": trained.load_s,
         "convergence_s": record.get("convergence_s") if owns else None})
