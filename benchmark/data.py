@@ -202,8 +202,8 @@ class BlendVOCADataset:
                                 "rebuild the dataset")
             tracks.append(np.asarray(fmt.read_coeffs_file(self.root, rel, names=self.names)[0], dtype=np.float64))
         if len({len(t) for t in tracks}) != 1:
-            raise DataError(f"{self.root / fmt.ORACLE_COEFFS_DIR / subject}: the oracle samples of {sentence} differ in "
-                            f"length ({sorted({len(t) for t in tracks})} frames)")
+            raise DataError(f"{self.root / fmt.ORACLE_COEFFS_DIR / subject}: the oracle samples of {sentence} "
+                            f"differ in length ({sorted({len(t) for t in tracks})} frames)")
         return np.stack(tracks)
 
     def audio(self, subject: str, sentence: str) -> tuple[np.ndarray, int]:

@@ -24,8 +24,10 @@ def _real_array(output, where: str, expected: tuple, kind: str) -> np.ndarray:
     try:
         array = np.asarray(output.detach().cpu().numpy() if hasattr(output, "detach") else output)
     except Exception as exc:
-        raise MethodOutputError(f"{where}: generate returned {type(output).__name__}, which is not an array ({exc})") from exc
-    if array.dtype == object or not np.issubdtype(array.dtype, np.number) or np.issubdtype(array.dtype, np.complexfloating):
+        raise MethodOutputError(f"{where}: generate returned {type(output).__name__}, which is not an array "
+                                f"({exc})") from exc
+    dtype = array.dtype
+    if dtype == object or not np.issubdtype(dtype, np.number) or np.issubdtype(dtype, np.complexfloating):
         raise MethodOutputError(f"{where}: expected a real-valued {kind}, got dtype {array.dtype}")
     return array
 
