@@ -35,8 +35,11 @@ from pathlib import Path
 
 import numpy as np
 
+from benchmark.methods.contract import AUDIO_RATE, Utterance
 from blendvoca import format as fmt
 from blendvoca.errors import CheckFailed, DataError, UserError
+from blendvoca.names import BLENDVOCA_NAMES
+from blendvoca.vocaset import VOCASET_SPLITS, open_vocaset
 
 
 class BlendVOCADataset:
@@ -78,8 +81,6 @@ class BlendVOCADataset:
     """
 
     def __init__(self, root: str | PathLike, vocaset: str | PathLike | None = None):
-        from blendvoca.names import BLENDVOCA_NAMES
-
         root = Path(os.fspath(root))
         self.root = root
         self._vocaset = None if vocaset is None else Path(os.fspath(vocaset)).expanduser()
@@ -114,12 +115,7 @@ class BlendVOCADataset:
         return path if relpath in self._listed and path.exists() else None
 
     def _read_splits(self) -> dict:
-        if fmt.SPLITS_FILE in self._listed:
-            splits = fmt.read_splits(self.root)
-        else:
-            from blendvoca.vocaset import VOCASET_SPLITS
-
-            splits = VOCASET_SPLITS
+        splits = fmt.read_splits(self.root) if fmt.SPLITS_FILE in self._listed else VOCASET_SPLITS
         return {name: [s for s in subjects if s in self.subjects] for name, subjects in splits.items()}
 
     @property
@@ -165,10 +161,8 @@ class BlendVOCADataset:
 
     def oracle_count(self, subject: str, sentence: str) -> int:
         """K, the fitted oracle samples of a sentence the build lists (0: none)."""
-        from blendvoca.format.layout import listed_oracle_samples
-
         self._check_subject(subject)
-        return len(listed_oracle_samples(self._listed, subject, sentence))
+        return len(fmt.listed_oracle_samples(self._listed, subject, sentence))
 
     def has_oracle(self, subject: str | None = None, sentence: str | None = None) -> bool:
         """Whether the build has fitted oracle samples (of a sentence, of a subject, or at all).
@@ -177,13 +171,11 @@ class BlendVOCADataset:
         audio and speaker (``python -m blendvoca.synthetic --oracle-samples K``), fitted
         by the build like the ground truth: ``oracle_coeffs/<subject>/<sentence>-<k>.csv``.
         """
-        from blendvoca.format.layout import ORACLE_COEFFS_DIR
-
         if subject is None:
-            return any(rel.startswith(f"{ORACLE_COEFFS_DIR}/") for rel in self._listed)
+            return any(rel.startswith(f"{fmt.ORACLE_COEFFS_DIR}/") for rel in self._listed)
         if sentence is None:
             self._check_subject(subject)
-            return any(rel.startswith(f"{ORACLE_COEFFS_DIR}/{subject}/") for rel in self._listed)
+            return any(rel.startswith(f"{fmt.ORACLE_COEFFS_DIR}/{subject}/") for rel in self._listed)
         return self.oracle_count(subject, sentence) > 0
 
     def oracle_coeffs(self, subject: str, sentence: str) -> np.ndarray:
@@ -197,13 +189,11 @@ class BlendVOCADataset:
         DataError
             A listed file is missing or unreadable, or the samples differ in length.
         """
-        from blendvoca.format.layout import ORACLE_COEFFS_DIR, listed_oracle_samples
-
         self._check_subject(subject)
-        found = listed_oracle_samples(self._listed, subject, sentence)
+        found = fmt.listed_oracle_samples(self._listed, subject, sentence)
         if not found:
             raise UserError(f"BlendVOCADataset.oracle_coeffs: {fmt.manifest_path(self.root)} lists no oracle "
-                            f"samples {ORACLE_COEFFS_DIR}/{subject}/{sentence}-<k>.csv; generate the corpus with "
+                            f"samples {fmt.ORACLE_COEFFS_DIR}/{subject}/{sentence}-<k>.csv; generate the corpus with "
                             "`python -m blendvoca.synthetic --oracle-samples K` and build it")
         tracks = []
         for rel in found:
@@ -212,8 +202,8 @@ class BlendVOCADataset:
                                 "rebuild the dataset")
             tracks.append(np.asarray(fmt.read_coeffs_file(self.root, rel, names=self.names)[0], dtype=np.float64))
         if len({len(t) for t in tracks}) != 1:
-            raise DataError(f"{self.root / ORACLE_COEFFS_DIR / subject}: the oracle samples of {sentence} differ in "
-                            f"length ({sorted({len(t) for t in tracks})} frames)")
+            raise DataError(f"{self.root / fmt.ORACLE_COEFFS_DIR / subject}: the oracle samples of {sentence} "
+                            f"differ in length ({sorted({len(t) for t in tracks})} frames)")
         return np.stack(tracks)
 
     def audio(self, subject: str, sentence: str) -> tuple[np.ndarray, int]:
@@ -223,12 +213,9 @@ class BlendVOCADataset:
                             f"(in {fmt.MANIFEST_FILE} and on disk)")
         return fmt.read_audio(self.root, subject, sentence)
 
+    @functools.cache  # noqa: B019 - one dataset object per run
     def rig(self, subject: str):
         """The speaker's rig (:class:`blendvoca.rig.Rig`), cached."""
-        return self._rig(subject)
-
-    @functools.cache  # noqa: B019 - one dataset object per run
-    def _rig(self, subject: str):
         self._check_subject(subject)
         if self._listed_path(fmt.rig_relpath(subject)) is not None:
             return fmt.read_rig(self.root, subject)
@@ -236,7 +223,7 @@ class BlendVOCADataset:
             raise DataError(f"said_layout_rig: subject {subject!r} has neither {fmt.rig_relpath(subject)} nor "
                             f"{fmt.template_relpath(subject)} + {fmt.blendshapes_relpath(subject)}/ listed in "
                             f"{fmt.manifest_path(self.root)}")
-        return said_layout_rig(self.root, subject, self.names)
+        return fmt.read_said_rig(self.root, subject, self.names)
 
     def scored_files(self, subjects) -> list[str]:
         """The files a run that scores ``subjects`` reads of them, as the manifest lists
@@ -293,8 +280,6 @@ class BlendVOCADataset:
 
     def utterance(self, subject: str, sentence: str, split: str | None = None):
         """The :class:`benchmark.methods.contract.Utterance` of a sentence (what ``generate`` receives)."""
-        from benchmark.methods.contract import AUDIO_RATE, Utterance
-
         if split is None:
             split = next((name for name, subjects in self._splits.items() if subject in subjects), "")
         audio, rate = self.audio(subject, sentence)
@@ -339,8 +324,6 @@ class BlendVOCADataset:
     @functools.cached_property
     def corpus(self):
         """The source corpus (:class:`blendvoca.vocaset.VocasetCorpus`), opened on first use."""
-        from blendvoca.vocaset import open_vocaset
-
         return open_vocaset(self.corpus_root())
 
     def vertices(self, subject: str, sentence: str) -> np.ndarray:
@@ -363,12 +346,6 @@ class BlendVOCADataset:
 
     def __repr__(self) -> str:
         return f"BlendVOCADataset({str(self.root)!r}, subjects={len(self.subjects)})"
-
-
-def said_layout_rig(root: str | PathLike, subject: str, names):
-    """Rig from ``templates_head/<subject>.obj`` and ``blendshapes_head/<subject>/<name>.obj``
-    (:func:`blendvoca.format.read_said_rig`)."""
-    return fmt.read_said_rig(root, subject, names)
 
 
 def open_blendvoca(root: str | PathLike, *, vocaset: str | PathLike | None = None) -> BlendVOCADataset:

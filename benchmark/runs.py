@@ -29,6 +29,7 @@ import os
 import re
 import shutil
 import socket
+import zipfile
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -38,6 +39,8 @@ import numpy as np
 from benchmark.results import Result, read
 from blendvoca.builder.outdir import is_running
 from blendvoca.errors import DataError
+from blendvoca.io.atomic import atomic_write
+from blendvoca.io.coeffs import read_coeffs_csv, write_coeffs_csv
 
 __all__ = [
     "TRACKS_KEY",
@@ -106,8 +109,6 @@ def _read_vertices(folder, subject: str, sentence: str) -> np.ndarray:
 def _write_npz(handle, **arrays) -> None:
     """``np.savez_compressed`` at deflate level 1: the same ``.npz`` format (``np.load``
     reads it), about 6x faster to write than the default level for 10 % more bytes."""
-    import zipfile
-
     with zipfile.ZipFile(handle, "w", compression=zipfile.ZIP_DEFLATED, compresslevel=1) as archive:
         for name, array in arrays.items():
             with archive.open(f"{name}.npy", "w", force_zip64=True) as member:
@@ -140,14 +141,21 @@ class StoredVertices(Mapping):
         return len(self._keys())
 
 
-def _host() -> str:
-    """This machine's name as staging folders carry it."""
-    return socket.gethostname() or "host"
+def process_tag(pid: int | None = None) -> str:
+    """``<host>-<pid>`` (this process's by default): names a staging folder by its process
+    (dots of the host name kept)."""
+    return f"{socket.gethostname() or 'host'}-{os.getpid() if pid is None else pid}"
 
 
-def _process_tag(pid: int) -> str:
-    """``<host>-<pid>``: names a staging folder by its process (dots of the host name kept)."""
-    return f"{_host()}-{pid}"
+def remove_dead_stagings(folder: Path, prefix: str) -> None:
+    """Remove the ``<prefix>.<this host>-<pid>.partial`` folders in ``folder`` left by killed
+    processes of this host (a kill -9 skips any cleanup); those of live processes, or of
+    another host sharing the folder, stay."""
+    head, tail = f"{prefix}.{socket.gethostname() or 'host'}-", ".partial"
+    for path in folder.iterdir() if folder.is_dir() else ():
+        pid = path.name[len(head):-len(tail)]
+        if path.name.startswith(head) and path.name.endswith(tail) and pid.isdigit() and not is_running(int(pid)):
+            shutil.rmtree(path, ignore_errors=True)
 
 
 class TrackWriter:
@@ -165,32 +173,15 @@ class TrackWriter:
         self.folder = Path(folder)
         self.names = tuple(names)
         # one staging folder per process: two runs of the same setting never share files
-        self.staging = self.folder.with_name(f".{self.folder.name}.{_process_tag(os.getpid())}.partial")
+        self.staging = self.folder.with_name(f".{self.folder.name}.{process_tag()}.partial")
         if self.staging.exists():  # leftover of an interrupted run of this process id
             shutil.rmtree(self.staging)
-        self._remove_dead_stagings()
+        remove_dead_stagings(self.folder.parent, f".{self.folder.name}")
         self.staging.mkdir(parents=True)
         self._templates = set()
 
-    def _remove_dead_stagings(self) -> None:
-        """Remove this run's staging folders left by killed processes of this host
-        (a kill -9 skips :meth:`discard`); those of live processes, or of another
-        host sharing the folder, stay."""
-        prefix, suffix = f".{self.folder.name}.{_host()}-", ".partial"
-        if not self.folder.parent.is_dir():
-            return
-        for path in self.folder.parent.iterdir():
-            name = path.name
-            if not (name.startswith(prefix) and name.endswith(suffix) and path.is_dir()):
-                continue
-            pid = name[len(prefix):-len(suffix)]
-            if pid.isdigit() and not is_running(int(pid)):
-                shutil.rmtree(path, ignore_errors=True)
-
     def write_tracks(self, subject: str, sentence: str, tracks) -> list[Path]:
         """One CSV per sample of ``tracks`` (S, T, K); returns the final paths."""
-        from blendvoca.io.coeffs import write_coeffs_csv
-
         tracks = np.asarray(tracks, dtype=np.float64)
         for k, track in enumerate(tracks):
             write_coeffs_csv(track_path(self.staging, subject, sentence, k), track, self.names)
@@ -198,8 +189,6 @@ class TrackWriter:
 
     def write_vertices(self, subject: str, sentence: str, vertices, template) -> None:
         """The method's own vertices (S, T, V, 3) as float16 offsets from ``template`` (V, 3)."""
-        from blendvoca.io.atomic import atomic_write
-
         template = np.asarray(template, dtype=np.float64)
         if subject not in self._templates:
             with atomic_write(template_path(self.staging, subject), "wb") as handle:
@@ -302,14 +291,8 @@ class StoredRun:
         DataError
             A stored CSV does not read (``blendvoca.io.coeffs``: the message names it and the row).
         """
-        from blendvoca.io.coeffs import read_coeffs_csv
-
         return np.stack([np.asarray(read_coeffs_csv(p)[0], dtype=np.float64)
                          for p in self.track_paths(subject, sentence)])
-
-    def all_tracks(self) -> dict:
-        """``{(subject, sentence): (S, T, 32)}`` of the whole run."""
-        return {key: self.tracks(*key) for key in self.keys}
 
     def has_vertices(self) -> bool:
         """True for runs of ``output = "vertices"`` methods."""

@@ -176,28 +176,6 @@ def load_results(results_dir) -> list[Result]:
     return results
 
 
-def _disagreements(results: list, paths: list, values_of) -> list:
-    """``(dataset key, name, {value: [files]})`` for every dataset whose results give
-    more than one value under one name; ``values_of(result)`` yields ``(name, value)``
-    pairs (a value of None is not compared). Sorted by dataset and name."""
-    groups: dict = {}
-    for result, path in zip(results, paths):
-        for name, value in values_of(result):
-            if value is not None:
-                groups.setdefault((result.key, name), {}).setdefault(value, []).append(str(path))
-    return [(manifest, name, values) for (manifest, name), values in sorted(groups.items()) if len(values) > 1]
-
-
-def _model_digests(result: dict):
-    """``(model name, digest)`` of each lip-sync model a result names: the weights'
-    digest where recorded (a file's also covers its path and training time), else the
-    checkpoint file's."""
-    models = result.protocol.lipsync_models or {}
-    for name, record in models.items():
-        if isinstance(record, dict):
-            yield name, record.get("weights_sha256") or record.get("sha256") or None
-
-
 def check_scoring_models(results: list, paths: list) -> None:
     """Refuse results on one dataset manifest (one table) scored by different learned
     models of the same name (``protocol.lipsync_models``: the lip-sync expert, SyncNet).
@@ -212,9 +190,16 @@ def check_scoring_models(results: list, paths: list) -> None:
     DataError
         Naming, for each digest of a model, the files scored with it.
     """
+    found: dict = {}  # {(dataset key, model): {digest: [files]}}
+    for result, path in zip(results, paths):
+        for name, record in (result.protocol.lipsync_models or {}).items():
+            # the weights' digest where recorded (a file's also covers its path and training time)
+            digest = (record.get("weights_sha256") or record.get("sha256")) if isinstance(record, dict) else None
+            if digest:
+                found.setdefault((result.key, name), {}).setdefault(digest, []).append(str(path))
     problems = ["dataset {}, {}: {}".format(manifest[:12], name, "; ".join(f"{digest[:12]}: {', '.join(files)}"
                                                                           for digest, files in sorted(digests.items())))
-                for manifest, name, digests in _disagreements(results, paths, _model_digests)]
+                for (manifest, name), digests in sorted(found.items()) if len(digests) > 1]
     if problems:
         raise DataError("results scored by different lip-sync models cannot share a table (rescore the rows of "
                         "the other checkpoint with one model, or keep them in another --results folder): "
@@ -341,26 +326,14 @@ def ranks(values, higher_is_better, decimals: int) -> list:
     return [None if v is None else distinct.index(v) + 1 for v in shown]
 
 
-def _metric_seed(name: str) -> int:
-    """Seed of a metric's resamples (as ``benchmark.evaluation``: seed 0 + crc32 of the name),
-    the same for every row, so rows scored on the same sentences are paired."""
-    return zlib.crc32(name.encode())
-
-
-def _sentence_value(row: dict, name: str):
-    values = row.get("metrics") if isinstance(row.get("metrics"), dict) else row
-    value = values.get(name)
-    finite = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
-    return float(value) if finite else None
-
-
 def _by_sentence(rows, name: str) -> dict:
-    """``{(subject, sentence): value}`` of the finite values of ``name`` in per-sentence rows."""
+    """``{(subject, sentence): value}`` of the finite values of ``name`` in per-sentence rows
+    (``{"subject", "sentence", name: value}``, or the values under ``"metrics"``)."""
     out = {}
     for row in rows or []:
-        value = _sentence_value(row, name)
-        if value is not None:
-            out[(row["subject"], row["sentence"])] = value
+        value = (row["metrics"] if isinstance(row.get("metrics"), dict) else row).get(name)
+        if isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value):
+            out[(row["subject"], row["sentence"])] = float(value)
     return out
 
 
@@ -403,7 +376,9 @@ def pair_replicates(a: Row, b: Row, name: str, *, streams=(0, 1), resamples: int
         return None
     cache = {} if cache is None else cache
     info = METRICS.get(name)
-    seed = _metric_seed(name)
+    # one seed per metric (as benchmark.evaluation: seed 0 + crc32 of the name), the same
+    # for every row, so rows scored on the same sentences are paired
+    seed = zlib.crc32(name.encode())
 
     def cached(key, compute):
         if key not in cache:

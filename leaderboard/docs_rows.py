@@ -87,11 +87,13 @@ def rows_block(tables_md: str) -> str:
     return "\n".join(out + ["", END])
 
 
-def _split(page_text: str, page: Path) -> tuple[str, str]:
-    if page_text.count(BEGIN) != 1 or page_text.count(END) != 1 or page_text.index(BEGIN) > page_text.index(END):
+def _page_texts(page: Path, tables) -> tuple[str, str]:
+    """``(page's text, the text with its block regenerated from the tables file)``."""
+    text = page.read_text(encoding="utf-8")
+    if text.count(BEGIN) != 1 or text.count(END) != 1 or text.index(BEGIN) > text.index(END):
         raise DataError(f"{page}: expected one generated block between {BEGIN!r} and {END!r}")
-    head, rest = page_text.split(BEGIN, 1)
-    return head, rest.split(END, 1)[1]
+    head, rest = text.split(BEGIN, 1)
+    return text, head + rows_block(Path(tables).read_text(encoding="utf-8")) + rest.split(END, 1)[1]
 
 
 def refresh_page(page, tables) -> bool:
@@ -108,9 +110,7 @@ def refresh_page(page, tables) -> bool:
     if not page.is_file():
         raise UserError(f"--docs {page}: expected a Markdown page with a generated rows block "
                         f"({BEGIN!r} ... {END!r}); no such file")
-    text = page.read_text(encoding="utf-8")
-    head, tail = _split(text, page)
-    new = head + rows_block(Path(tables).read_text(encoding="utf-8")) + tail
+    text, new = _page_texts(page, tables)
     if new == text:
         return False
     with atomic_write(page, "w", encoding="utf-8") as handle:
@@ -120,9 +120,7 @@ def refresh_page(page, tables) -> bool:
 
 def check_page(page, tables) -> None:
     """Raise DataError when ``page``'s generated block is not :func:`rows_block` of ``tables``."""
-    page = Path(page)
-    text = page.read_text(encoding="utf-8")
-    head, tail = _split(text, page)
-    if head + rows_block(Path(tables).read_text(encoding="utf-8")) + tail != text:
+    text, new = _page_texts(Path(page), tables)
+    if new != text:
         raise DataError(f"{page}: the generated rows differ from {tables}; run "
                         f"python -m leaderboard.build --docs {page}")

@@ -69,10 +69,8 @@ def _cell_texts(rows: list, column: Column, decimals: int):
             out.append(None)
             continue
         mean, _std, ci = value
-        interval = None if ci is None else f"[{_number(ci[0], decimals)}, {_number(ci[1], decimals)}]"
-        seed_range = row.seed_ranges.get(column.name)
-        seeds = (None if seed_range is None
-                 else f"[{_number(seed_range[0], decimals)}, {_number(seed_range[1], decimals)}]")
+        interval, seeds = (None if pair is None else f"[{_number(pair[0], decimals)}, {_number(pair[1], decimals)}]"
+                           for pair in (ci, row.seed_ranges.get(column.name)))
         out.append((_number(mean, decimals), interval, seeds))
     return out
 
@@ -153,10 +151,6 @@ OUT_OF_DOMAIN_NOTE = ("Latent metrics (FD, WInD, multimodality, latent energy) u
                       "VAE on it).")
 
 
-def _title(group: str) -> str:
-    return group[:1].upper() + group[1:]
-
-
 def _caption(table: Table) -> str:
     n = f", {table.num_sentences} sentences" if table.num_sentences else ""
     named = f"{table.name}, " if table.name else ""
@@ -201,7 +195,7 @@ def markdown_tables(tables: list[Table]) -> str:
             method_cells, reference_cells, bold, marks = _group_cells(table, columns)
             header = ["Method"] + [f"{c.label}{f' ({c.unit})' if c.unit else ''} {_ARROWS[c.higher_is_better][0]}"
                                    .rstrip() for c in columns] + ["S", "RTF"]
-            lines += [f"### {_title(group)}", "", "| " + " | ".join(header) + " |",
+            lines += [f"### {group[:1].upper() + group[1:]}", "", "| " + " | ".join(header) + " |",
                       "|" + "|".join([":---"] + ["---:"] * (len(header) - 1)) + "|"]
             for i, row in enumerate(table.rows):
                 lines.append(_md_row(row.label, row, [col[i] for col in method_cells], [i in b for b in bold]))

@@ -3,15 +3,13 @@ the map of a per-sentence function over the scored sentences."""
 
 from __future__ import annotations
 
-import multiprocessing
 import sys
-from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
-from threadpoolctl import threadpool_limits
 
 from benchmark.metrics import regions
-from blendvoca.runtime.progress import bar
+from blendvoca.runtime.processes import process_map
+from blendvoca.runtime.threads import limited_threads
 
 __all__ = ["by_metric", "map_sentences", "rig_regions"]
 
@@ -51,12 +49,13 @@ _SENTENCE_TASK = None
 
 
 def _run_sentence_task(key):
-    with threadpool_limits(limits=1):  # small matrix products: one BLAS thread is faster here
+    with limited_threads(1):  # small matrix products: one BLAS thread is faster here
         return _SENTENCE_TASK(key)
 
 
 def map_sentences(task, keys, *, workers: int, desc: str) -> dict:
-    """``{key: task(key)}`` over ``keys``, in ``workers`` forked processes (Linux; else here).
+    """``{key: task(key)}`` over ``keys``, in ``workers`` forked processes (Linux; else here;
+    :func:`blendvoca.runtime.processes.process_map`, with its Ctrl-C and dying-worker handling).
 
     ``task`` is pure numpy work over one sentence (no torch: an OpenMP runtime used
     before a fork is not safe in the child), so the values do not depend on ``workers``.
@@ -65,12 +64,8 @@ def map_sentences(task, keys, *, workers: int, desc: str) -> dict:
     keys = list(keys)
     _SENTENCE_TASK = task
     try:
-        if workers <= 1 or len(keys) <= 1 or not sys.platform.startswith("linux"):
-            return dict(zip(keys, bar((_run_sentence_task(k) for k in keys), total=len(keys), desc=desc,
-                                      unit="sentence")))
-        with ProcessPoolExecutor(min(workers, len(keys)), mp_context=multiprocessing.get_context("fork")) as pool:
-            chunk = max(1, len(keys) // (8 * workers))
-            return dict(zip(keys, bar(pool.map(_run_sentence_task, keys, chunksize=chunk), total=len(keys),
-                                      desc=desc, unit="sentence")))
+        workers = workers if sys.platform.startswith("linux") else 1
+        return dict(zip(keys, process_map(_run_sentence_task, keys, workers=workers, desc=desc, unit="sentence",
+                                          chunksize=max(1, len(keys) // (8 * workers)), start_method="fork")))
     finally:
         _SENTENCE_TASK = None

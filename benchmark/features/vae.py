@@ -17,6 +17,7 @@ import numpy as np
 import torch
 from torch import nn
 
+from blendvoca.assets import resolve
 from blendvoca.errors import DataError, UserError
 from blendvoca.io.torch_file import read_torch_file
 
@@ -199,13 +200,11 @@ def load_published_vae(path: str | PathLike | None = None) -> CoeffsVAE:
         In eval mode; ``encode(coeffs (B, 120, 32)) -> mean (B, 64)``.
     """
     if path is None:
-        from blendvoca.assets import resolve
-
         path = resolve("said-vae")
     state = read_torch_file(path, where="load_published_vae", error=VaeWeightsError)
     if not isinstance(state, Mapping):
         raise VaeWeightsError(f"load_published_vae: {path} holds a {type(state).__name__}, expected a state_dict")
-    if isinstance(state, Mapping) and "state_dict" in state and "encoder.fc_mu.weight" not in state:
+    if "state_dict" in state and "encoder.fc_mu.weight" not in state:
         state = state["state_dict"]
     return load_vae_state(state)
 
@@ -240,12 +239,10 @@ def encode_windows(extractor, windows: np.ndarray, batch_size: int = 512) -> np.
                     out.append(extractor.encode(batch).detach().cpu().double().numpy())
         finally:
             extractor.train(was_training)
-    elif hasattr(extractor, "encode"):
+    elif hasattr(extractor, "encode") or callable(extractor):
+        encode = extractor.encode if hasattr(extractor, "encode") else extractor
         for start in range(0, len(windows), batch_size):
-            out.append(np.asarray(extractor.encode(windows[start : start + batch_size]), dtype=np.float64))
-    elif callable(extractor):
-        for start in range(0, len(windows), batch_size):
-            out.append(np.asarray(extractor(windows[start : start + batch_size]), dtype=np.float64))
+            out.append(np.asarray(encode(windows[start : start + batch_size]), dtype=np.float64))
     else:
         raise TypeError(
             f"encode_windows: expected an extractor with encode() or a callable, got {type(extractor).__name__}"

@@ -18,6 +18,8 @@ convention of the synthetic corpus's ``lag_frames`` and of the geometric score.
 
 from __future__ import annotations
 
+import hashlib
+import json
 from dataclasses import dataclass, field
 from os import PathLike
 
@@ -28,6 +30,7 @@ from torch import nn
 from benchmark.lipsync.geometric import SyncEstimate, offset_from_scores
 from benchmark.lipsync.mfcc import mel_filterbank
 from blendvoca.errors import DataError, UserError
+from blendvoca.io.audio import resample_audio
 from blendvoca.io.torch_file import read_torch_file, write_torch_file
 
 FPS = 60
@@ -151,8 +154,6 @@ class SyncExpert:
         if audio.ndim != 1 or audio.size == 0:
             raise UserError(f"SyncExpert.sync: expected mono audio (N,), got shape {audio.shape}")
         if rate != RATE:
-            from blendvoca.io.audio import resample_audio
-
             audio = resample_audio(audio, rate, RATE)
         T, r, S = len(coeffs), self.net.reach, self.max_shift
         mel = audio_features(audio, num_frames=T, num_mels=self.config["num_mels"], nfft=self.config["nfft"])
@@ -203,9 +204,6 @@ class SyncExpert:
         coefficient normalisation and names. Unlike the checkpoint file's digest it
         leaves out ``trained_on`` (the data path, the wall seconds), so the same
         training repeated elsewhere gives the same digest."""
-        import hashlib
-        import json
-
         digest = hashlib.sha256(json.dumps({"config": self.config, "names": list(self.names)}, sort_keys=True,
                                            default=list).encode())
         tensors = {**{f"net.{k}": v for k, v in self.net.state_dict().items()},

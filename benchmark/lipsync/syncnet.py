@@ -14,6 +14,7 @@ from os import PathLike
 import torch
 from torch import nn
 
+from blendvoca.assets import resolve
 from blendvoca.errors import DataError
 from blendvoca.io.torch_file import read_torch_file
 
@@ -95,8 +96,6 @@ def load_syncnet(path: str | PathLike | None = None) -> SyncNet:
         The file is not a SyncNet state_dict (naming the file, and torch's list of keys).
     """
     if path is None:
-        from blendvoca.assets import resolve
-
         path = resolve("syncnet-weights")
     state = read_torch_file(path, where="load_syncnet", error=SyncNetWeightsError)
     if not isinstance(state, Mapping):

@@ -14,6 +14,7 @@ import torch
 
 from benchmark.lipsync.geometric import SyncEstimate
 from benchmark.lipsync.mfcc import mfcc
+from benchmark.render import front_camera, read_video, render_sequence, resample_frames
 from blendvoca.errors import DataError, UserError
 
 VIDEO_FPS = 25
@@ -120,8 +121,6 @@ def syncnet_sync_track(model, vertices, faces, samples, rate: int = AUDIO_RATE, 
     vertices : (T, V, 3) at ``fps``; faces : (F, 3)
     samples : (N,) mono audio at 16 kHz
     """
-    from benchmark.render import front_camera, render_sequence, resample_frames
-
     video = resample_frames(vertices, fps, VIDEO_FPS)
     # frame the face as SyncNet's face crops do: only the front half of the head
     z = video[0, :, 2]
@@ -135,8 +134,6 @@ def syncnet_sync_video(model, path, vshift: int = 15) -> SyncEstimate:
     """SyncNet offset/confidence of a video file with audio (e.g. from
     ``python -m benchmark.render``): frames are resampled to 25 fps when the file
     has another rate, audio is decoded at 16 kHz mono."""
-    from benchmark.render import read_video, resample_frames
-
     frames, fps, audio = read_video(path, rate=AUDIO_RATE)
     if len(audio) == 0:
         raise DataError(f"syncnet_sync_video: {path} has no audio stream")

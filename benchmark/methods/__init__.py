@@ -5,18 +5,9 @@ Built-in methods are registered lazily here, so importing this package imports n
 baseline (and no torch).
 """
 
+from . import contract
 from .base import Budget, Method, TrainingRequest, progress_bars, show_progress
-from .contract import (
-    AUDIO_RATE,
-    COEFFICIENT_NAMES,
-    FPS,
-    Dataset,
-    NUM_COEFFS,
-    OUTPUT_COEFFICIENTS,
-    OUTPUT_KINDS,
-    OUTPUT_VERTICES,
-    Utterance,
-)
+from .contract import *  # noqa: F403 - the contract's names (its __all__) are this package's
 from .registry import (
     ENTRY_POINT_GROUP,
     UnknownMethodError,
@@ -30,16 +21,8 @@ from .registry import (
 from .validate import MethodError, MethodOutputError, validated_tracks, validated_vertices
 
 __all__ = [
-    "AUDIO_RATE",
+    *contract.__all__,
     "BUILTIN_METHODS",
-    "COEFFICIENT_NAMES",
-    "Dataset",
-    "FPS",
-    "NUM_COEFFS",
-    "OUTPUT_COEFFICIENTS",
-    "OUTPUT_KINDS",
-    "OUTPUT_VERTICES",
-    "Utterance",
     "ENTRY_POINT_GROUP",
     "Budget",
     "Method",

@@ -238,12 +238,8 @@ class ConfigSchema:
         for key, slot in found.items():
             if key in self.options:
                 continue
-            kinds = []
-            for value in slot["values"].values():
-                kind = list if isinstance(value, tuple) else type(value)
-                kind = kind if kind in _TYPE_NAMES else object
-                if kind not in kinds:
-                    kinds.append(kind)
+            kinds = [list if isinstance(value, tuple) else type(value) for value in slot["values"].values()]
+            kinds = list(dict.fromkeys(kind if kind in _TYPE_NAMES else object for kind in kinds))
             if int in kinds and float in kinds:
                 kinds.remove(int)
             if kinds == [type(None)]:  # never set in any preset: no type to read
@@ -296,25 +292,22 @@ class ConfigSchema:
         return cls(options, open_)
 
 
+def _union(kinds) -> tuple:
+    """The distinct ``kinds`` in order; ``(object,)`` when one of them accepts anything."""
+    kinds = tuple(dict.fromkeys(kinds))
+    return kinds if object not in kinds else (object,)
+
+
 def _annotation_types(annotation) -> tuple:
     """Python types accepted for an annotation (an object or its text)."""
     if annotation is inspect.Parameter.empty:
         return (object,)
     if isinstance(annotation, str):
-        kinds = []
-        for part in annotation.replace("Optional[", "").rstrip("]").split("|"):
-            kind = _BY_NAME.get(part.strip().split("[")[0], object)
-            if kind not in kinds:
-                kinds.append(kind)
-        return tuple(kinds) if object not in kinds else (object,)
+        parts = annotation.replace("Optional[", "").rstrip("]").split("|")
+        return _union(_BY_NAME.get(part.strip().split("[")[0], object) for part in parts)
     origin = typing.get_origin(annotation)
     if origin in (typing.Union, types.UnionType):
-        kinds = []
-        for arg in typing.get_args(annotation):
-            for kind in _annotation_types(arg):
-                if kind not in kinds:
-                    kinds.append(kind)
-        return tuple(kinds) if object not in kinds else (object,)
+        return _union(kind for arg in typing.get_args(annotation) for kind in _annotation_types(arg))
     if origin is typing.Literal:
         return tuple(dict.fromkeys(type(arg) for arg in typing.get_args(annotation)))
     if origin in (list, tuple):

@@ -27,15 +27,12 @@ from pathlib import Path
 from blendvoca import cli
 from blendvoca.errors import DataError, UserError
 from blendvoca.io.torch_file import REFUSED_OBJECTS, read_torch_file, safe_payload, write_torch_file
+from blendvoca.runtime.staging import staged_folder
 
 __all__ = ["TORCH_SUFFIXES", "convert_checkpoint", "convert_file", "main"]
 
 #: Names of the files of a checkpoint folder that are torch files.
 TORCH_SUFFIXES = (".pt", ".pth", ".pth.tar")
-
-
-def _is_torch_file(path: Path) -> bool:
-    return path.name.endswith(TORCH_SUFFIXES)
 
 
 def convert_file(old: str | os.PathLike, new: str | os.PathLike, *, trust: bool = False) -> bool:
@@ -111,23 +108,17 @@ def convert_checkpoint(old: str | os.PathLike, new: str | os.PathLike, *, trust:
         raise UserError(f"convert_checkpoint: {new} exists; expected a new path (nothing is overwritten)")
     if old.is_file():
         return [new] if convert_file(old, new, trust=trust) else []
-    staging = new.with_name(f".{new.name}.convert-{os.getpid()}.tmp")
     converted = []
-    try:
+    with staged_folder(new) as staging:  # NEW appears complete or not at all
         for source in sorted(old.rglob("*")):
             if source.is_symlink() or not source.is_file():
                 continue  # a folder written by save holds plain files; links are not followed
             target = staging / source.relative_to(old)
             target.parent.mkdir(parents=True, exist_ok=True)
-            if _is_torch_file(source) and convert_file(source, target, trust=trust):
-                converted.append(new / source.relative_to(old))
-            elif not _is_torch_file(source):
+            if not source.name.endswith(TORCH_SUFFIXES):
                 shutil.copyfile(source, target)
-        staging.mkdir(parents=True, exist_ok=True)
-        os.replace(staging, new)
-    finally:
-        if staging.exists():
-            shutil.rmtree(staging)
+            elif convert_file(source, target, trust=trust):
+                converted.append(new / source.relative_to(old))
     return converted
 
 

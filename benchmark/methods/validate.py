@@ -16,6 +16,22 @@ def _where(method: str, subject: str, sentence: str | None) -> str:
     return where
 
 
+def _real_array(output, where: str, expected: tuple, kind: str) -> np.ndarray:
+    """What ``generate`` returned as an array of real numbers (a torch tensor copied to
+    the CPU); MethodOutputError naming ``where`` and the ``expected`` shape otherwise."""
+    if output is None:
+        raise MethodOutputError(f"{where}: generate returned None, expected a {expected} {kind}")
+    try:
+        array = np.asarray(output.detach().cpu().numpy() if hasattr(output, "detach") else output)
+    except Exception as exc:
+        raise MethodOutputError(f"{where}: generate returned {type(output).__name__}, which is not an array "
+                                f"({exc})") from exc
+    dtype = array.dtype
+    if dtype == object or not np.issubdtype(dtype, np.number) or np.issubdtype(dtype, np.complexfloating):
+        raise MethodOutputError(f"{where}: expected a real-valued {kind}, got dtype {array.dtype}")
+    return array
+
+
 def validated_tracks(
     output,
     *,
@@ -58,15 +74,8 @@ def validated_tracks(
         coefficients, NaN/inf values, or values outside [0, 1] when ``clip`` is False.
     """
     where = _where(method, subject, sentence)
-    if output is None:
-        raise MethodOutputError(f"{where}: generate returned None, expected a ({samples}, {num_frames}, {num_coeffs}) array")
-    try:
-        tracks = np.asarray(output.detach().cpu().numpy() if hasattr(output, "detach") else output)
-    except Exception as exc:
-        raise MethodOutputError(f"{where}: generate returned {type(output).__name__}, which is not an array ({exc})") from exc
-    if tracks.dtype == object or not np.issubdtype(tracks.dtype, np.number) or np.issubdtype(tracks.dtype, np.complexfloating):
-        raise MethodOutputError(f"{where}: expected a real-valued array, got dtype {tracks.dtype}")
     expected = (samples, num_frames, num_coeffs)
+    tracks = _real_array(output, where, expected, "array")
     if tracks.ndim != 3:
         raise MethodOutputError(f"{where}: expected shape (S, T, K) = {expected}, got {tracks.ndim}-d shape {tracks.shape}")
     if tracks.shape[0] != samples:
@@ -129,14 +138,7 @@ def validated_vertices(output, *, method: str, subject: str, sentence: str | Non
     """
     where = _where(method, subject, sentence)
     expected = (samples, num_frames, num_vertices, 3)
-    if output is None:
-        raise MethodOutputError(f"{where}: generate returned None, expected a {expected} vertex array")
-    try:
-        verts = np.asarray(output.detach().cpu().numpy() if hasattr(output, "detach") else output)
-    except Exception as exc:
-        raise MethodOutputError(f"{where}: generate returned {type(output).__name__}, which is not an array ({exc})") from exc
-    if verts.dtype == object or not np.issubdtype(verts.dtype, np.number) or np.issubdtype(verts.dtype, np.complexfloating):
-        raise MethodOutputError(f"{where}: expected a real-valued vertex array, got dtype {verts.dtype}")
+    verts = _real_array(output, where, expected, "vertex array")
     if verts.ndim != 4:
         raise MethodOutputError(f"{where}: expected vertices of shape (S, T, V, 3) = {expected}, got {verts.ndim}-d "
                                 f"shape {verts.shape}")

@@ -31,15 +31,11 @@ LIP_SHAPES = (
 )
 
 
-def _check_rig(neutral, deltas=None):
+def _neutral(neutral) -> np.ndarray:
     neutral = np.asarray(neutral, dtype=np.float64)
     if neutral.ndim != 2 or neutral.shape[1] != 3:
         raise ValueError(f"expected neutral vertices (V, 3), got {neutral.shape}")
-    if deltas is not None:
-        deltas = np.asarray(deltas, dtype=np.float64)
-        if deltas.ndim != 3 or deltas.shape[1:] != neutral.shape:
-            raise ValueError(f"expected deltas (K, {neutral.shape[0]}, 3), got {deltas.shape}")
-    return neutral, deltas
+    return neutral
 
 
 def lip_vertices(deltas, names: Sequence[str], shapes: Sequence[str] = LIP_SHAPES, fraction: float = 0.3) -> np.ndarray:
@@ -79,7 +75,7 @@ def mouth_shape_indices(names: Sequence[str], prefixes: Sequence[str] = MOUTH_PR
 
 def nose_tip_index(neutral) -> int:
     """Index of the most forward (+z) vertex of a neutral face (the nose tip)."""
-    neutral, _ = _check_rig(neutral)
+    neutral = _neutral(neutral)
     return int(np.argmax(neutral[:, 2]))
 
 
@@ -101,13 +97,13 @@ def upper_face_vertices(neutral, nose_tip: int | None = None) -> np.ndarray:
     -------
     (U,) int64 ndarray
     """
-    neutral, _ = _check_rig(neutral)
+    neutral = _neutral(neutral)
     tip = nose_tip_index(neutral) if nose_tip is None else int(nose_tip)
     return np.flatnonzero(_front(neutral) & (neutral[:, 1] > neutral[tip, 1])).astype(np.int64)
 
 
 def lower_face_vertices(neutral, nose_tip: int | None = None) -> np.ndarray:
     """Indices of front vertices at or below the nose tip, (W,) int64."""
-    neutral, _ = _check_rig(neutral)
+    neutral = _neutral(neutral)
     tip = nose_tip_index(neutral) if nose_tip is None else int(nose_tip)
     return np.flatnonzero(_front(neutral) & (neutral[:, 1] <= neutral[tip, 1])).astype(np.int64)

@@ -57,7 +57,8 @@ from benchmark.protocol.training import train
 from benchmark.results import replicates_array
 from benchmark.runs import seed_folder_name
 
-__all__ = ["CombinedScores", "SeedRun", "combined_seed_scores", "parse_seeds", "run_seeds", "seed_stream"]
+__all__ = ["CombinedScores", "SeedRun", "combined_seed_scores", "parse_seeds", "run_seeds", "seed_stream",
+           "summed_timings"]
 
 
 def parse_seeds(text: str) -> tuple:
@@ -118,6 +119,17 @@ class SeedRun:
     num_sentences: int = 0
     timings: dict = field(default_factory=dict)
     latency: dict | None = None
+
+    @classmethod
+    def scored(cls, seed: int, generated, scored, *, convergence, timings: dict) -> SeedRun:
+        """A seed's run from its generation and scores (:func:`~benchmark.protocol.generate`,
+        :func:`~benchmark.protocol.score`); ``timings``: its training's."""
+        return cls(seed=int(seed), metrics=dict(scored.metrics), per_sentence=list(scored.per_sentence),
+                   replicates=dict(getattr(scored.metrics, "replicates", {}) or {}), convergence=convergence,
+                   evaluation=dict(getattr(scored.metrics, "protocol", {}) or {}), n_clipped=generated.n_clipped,
+                   num_subjects=len({s for s, _ in generated.tracks}), num_sentences=len(generated.tracks),
+                   timings={**timings, "generate_s": generated.seconds, "evaluate_s": scored.seconds},
+                   latency=getattr(generated, "latency", None))
 
     def seed_replicates(self, name: str) -> np.ndarray | None:
         """This seed's bootstrap replicates of ``name`` (``Scores.replicates``, else the
@@ -246,9 +258,8 @@ def combined_seed_scores(runs, *, resamples: int = BOOTSTRAP_RESAMPLES, stream: 
         if reps is not None:
             ci = interval(reps, point, level)
         else:  # nothing to resample: the envelope of the seeds' intervals (and means)
-            lows = [float((run.metrics[name].get("ci95") or [m, m])[0]) for run, m in zip(runs, means)]
-            highs = [float((run.metrics[name].get("ci95") or [m, m])[1]) for run, m in zip(runs, means)]
-            ci = [min(min(lows), point), max(max(highs), point)]
+            cis = np.array([run.metrics[name].get("ci95") or [m, m] for run, m in zip(runs, means)], dtype=np.float64)
+            ci = [min(float(cis[:, 0].min()), point), max(float(cis[:, 1].max()), point)]
         sample_stds = [run.metrics[name].get("sample_std") for run in runs]
         if all(_finite(s) for s in sample_stds):
             entry["sample_std"] = float(np.mean(sample_stds))
@@ -281,6 +292,15 @@ def combined_seed_scores(runs, *, resamples: int = BOOTSTRAP_RESAMPLES, stream: 
     convergence = combined_convergence([run.convergence for run in runs], metrics)
     return CombinedScores(metrics=metrics, per_sentence=per_sentence, per_seed=per_seed, convergence=convergence,
                           bootstrap={"resamples": int(resamples), "stream": int(stream)})
+
+
+def summed_timings(runs) -> dict:
+    """The seeds' seconds per step added up (None for a step no seed timed)."""
+    timings = {}
+    for key in ("train_s", "load_s", "generate_s", "evaluate_s", "convergence_s"):
+        values = [run.timings.get(key) for run in runs if run.timings.get(key) is not None]
+        timings[key] = float(sum(values)) if values else None
+    return timings
 
 
 def _seed_checkpoint(checkpoint, seed: int):
@@ -329,20 +349,10 @@ def run_seeds(spec, inputs, *, evaluate=None, provenance: dict, started: float |
             scored = score(seed_spec, inputs.dataset, generated, evaluate=evaluate)
             convergence, reason = checked_convergence(check, reason, scored.metrics)
             reasons.append(reason)
-            runs.append(SeedRun(
-                seed=int(seed), metrics=dict(scored.metrics), per_sentence=list(scored.per_sentence),
-                replicates=dict(getattr(scored.metrics, "replicates", {}) or {}), convergence=convergence,
-                evaluation=dict(getattr(scored.metrics, "protocol", {}) or {}), n_clipped=generated.n_clipped,
-                num_subjects=len({s for s, _ in generated.tracks}), num_sentences=len(generated.tracks),
-                timings={**trained.timings, "generate_s": generated.seconds, "evaluate_s": scored.seconds},
-                latency=getattr(generated, "latency", None)))
+            runs.append(SeedRun.scored(seed, generated, scored, convergence=convergence, timings=trained.timings))
             del generated, scored  # the tracks are on disk; keep one seed's in memory at a time
         combined = combined_seed_scores(runs, stream=seed_stream(first_trained.label))
-        timings = {}
-        for key in ("train_s", "load_s", "generate_s", "evaluate_s", "convergence_s"):
-            values = [run.timings.get(key) for run in runs]
-            timings[key] = None if all(v is None for v in values) else float(sum(v for v in values if v is not None))
-        timings["total_s"] = time.perf_counter() - started
+        timings = {**summed_timings(runs), "total_s": time.perf_counter() - started}
         # checked only when every seed was; else the first seed's reason
         reason = next((r for r in reasons if r != CHECKED), CHECKED)
         return store_seeds(spec, inputs, first_trained, runs, combined, writer=writer, timings=timings,

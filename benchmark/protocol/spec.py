@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 import os
 import sys
+import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -44,10 +45,10 @@ def _is_seconds(value) -> bool:
         return False
 
 
-def _is_count(value) -> bool:
-    """True for an integer >= 1 (``True`` is not a count)."""
+def _is_count(value, least: int = 1) -> bool:
+    """True for an integer >= ``least`` (``True`` is not a count)."""
     try:
-        return not isinstance(value, bool) and int(value) == value and int(value) >= 1
+        return not isinstance(value, bool) and int(value) == value and int(value) >= least
     except (TypeError, ValueError, OverflowError):
         return False
 
@@ -64,11 +65,7 @@ def checked_seeds(seeds) -> tuple:
         raise UsageError(f"--seeds: expected a list of integers such as 0,1,2, got {seeds!r}")
     out = []
     for value in seeds:
-        try:
-            ok = not isinstance(value, bool) and int(value) == value and int(value) >= 0
-        except (TypeError, ValueError, OverflowError):
-            ok = False
-        if not ok:
+        if not _is_count(value, 0):
             raise UsageError(f"--seeds: expected integers >= 0, got {value!r}")
         if int(value) in out:
             raise UsageError(f"--seeds: seed {int(value)} is given twice; expected distinct seeds")
@@ -252,8 +249,6 @@ def default_data_root(*, progress: bool = True) -> Path:
 
 def check_results_dir(path) -> Path:
     """``path`` as a results folder: created if missing; UsageError if it is a file or not writable."""
-    import tempfile
-
     path = Path(os.fspath(path)).expanduser()
     if path.exists() and not path.is_dir():
         raise UsageError(f"--results {path}: expected a folder, got a file")

@@ -66,24 +66,13 @@ def lipsync_models_provenance(syncnet=None, sync_expert=None) -> dict:
     return out
 
 
-def _limit_record(value) -> dict | None:
-    """What a result records of a run's generation limit: ``{"base_s", "per_audio_second_s"}``,
-    or None for a run without one."""
-    limit = generate_limit(value)
-    return None if limit is None else limit.to_dict()
-
-
-def _method_config(trained) -> dict:
-    """The method's ``config()``, which a result file must be able to hold."""
+def _method_section(spec, trained) -> dict:
+    """The ``method`` section, with the method's ``config()`` (which a result file must be able to hold)."""
     try:
         config = trained.method.config()
         json.dumps(config)
     except Exception as exc:
         raise MethodError(f"method {trained.name!r}: config() must return a JSON-serialisable dict ({exc})") from exc
-    return config
-
-
-def _method_section(spec, trained, method_config: dict) -> dict:
     cls = type(trained.method)
     return {
         "name": spec.method,
@@ -92,7 +81,7 @@ def _method_section(spec, trained, method_config: dict) -> dict:
         "stochastic": trained.stochastic,
         "reference": bool(getattr(trained.method, "reference", False)),
         "output": trained.output,
-        "config": method_config,
+        "config": config,
     }
 
 
@@ -118,7 +107,7 @@ def _protocol_section(spec, inputs, trained, *, n_clipped: int, evaluation: dict
                       convergence_check: str | None = None) -> dict:
     """The ``protocol`` section; ``evaluation``: what the evaluation attached
     (``Scores.protocol``, e.g. ``fd_floor_probe``), merged in."""
-    checkpoint = spec.checkpoint
+    checkpoint, limit = spec.checkpoint, generate_limit(spec.generate_time_limit)
     protocol = {
         "samples": spec.samples if trained.stochastic else 1,
         "seed": int(spec.seed),
@@ -130,7 +119,7 @@ def _protocol_section(spec, inputs, trained, *, n_clipped: int, evaluation: dict
         **({"checkpoint_sha256": content_digest(checkpoint)}
            if checkpoint is not None and Path(checkpoint).exists() else {}),
         "deterministic": spec.budget.max_seconds is None,
-        "generate_time_limit": _limit_record(spec.generate_time_limit),
+        "generate_time_limit": None if limit is None else limit.to_dict(),
         "verified": inputs.verified is not None,
         **({"sentence_batch": spec.sentence_batch} if spec.sentence_batch > 1 else {}),
         **({"lipsync_models": lipsync_models_provenance(spec.syncnet, spec.sync_expert)}
@@ -180,10 +169,10 @@ def store(spec, inputs, trained, generated, scored, *, writer: TrackWriter, timi
     MethodError
         The method's ``config()`` is not a JSON-serialisable dict (nothing written).
     """
-    method_config = _method_config(trained)
+    method = _method_section(spec, trained)  # first: a config() a file cannot hold writes nothing
     filename = result_name(spec, inputs.dataset, trained)
     result = build_result(
-        method=_method_section(spec, trained, method_config),
+        method=method,
         dataset=_dataset_section(spec, inputs, num_subjects=len({s for s, _ in generated.tracks}),
                                  num_sentences=len(generated.tracks)),
         protocol=_protocol_section(spec, inputs, trained, n_clipped=generated.n_clipped,
@@ -228,7 +217,7 @@ def store_seeds(spec, inputs, trained, runs, combined, *, writer: TrackWriter, t
         The result file: ``seeds``, ``per_seed`` and the combined ``metrics``,
         ``per_sentence`` and ``convergence`` (docs/methods.md, "Training seeds").
     """
-    method_config = _method_config(trained)
+    method = _method_section(spec, trained)  # first: a config() a file cannot hold writes nothing
     filename = result_name(spec, inputs.dataset, trained)
     first = runs[0]
     folder = tracks_folder_name(filename)
@@ -241,7 +230,7 @@ def store_seeds(spec, inputs, trained, runs, combined, *, writer: TrackWriter, t
                                  evaluation=first.evaluation, convergence_check=convergence_check)
     protocol["seed_bootstrap"] = dict(combined.bootstrap)
     result = build_result(
-        method=_method_section(spec, trained, method_config),
+        method=method,
         dataset=_dataset_section(spec, inputs, num_subjects=first.num_subjects, num_sentences=first.num_sentences),
         protocol=protocol,
         metrics=combined.metrics,

@@ -21,7 +21,7 @@ from pathlib import Path
 
 from benchmark.protocol import check_results_dir, default_data_root, open_data
 from benchmark.sanity.disturbances import DISTURBANCES
-from benchmark.sanity.report import SANITY_SETTINGS, ground_truth, run_sanity
+from benchmark.sanity.report import SANITY_SETTINGS, ground_truth, run_sanity, status_counts
 from blendvoca import cli
 from blendvoca.errors import CheckFailed, UserError
 from blendvoca.runtime.progress import progress_bars
@@ -65,12 +65,9 @@ def main(argv=None) -> int:
     with progress_bars(not args.quiet):
         table, failed = run_sanity(dataset, out, levels=args.levels, split=args.split, kinds=kinds,
                                    settings=settings)
-    counts = {}
-    for row in table.values():
-        for entry in row.values():
-            counts[entry["status"]] = counts.get(entry["status"], 0) + 1
-    print(f"sanity: {counts.get('held', 0)} declarations held, {counts.get('failed', 0)} failed, "
-          f"{counts.get('no claim', 0)} pairs without a claim, {counts.get('not scored', 0)} declared but not scored")
+    counts = status_counts(table)
+    print(f"sanity: {counts['held']} declarations held, {counts['failed']} failed, "
+          f"{counts['no claim']} pairs without a claim, {counts['not scored']} declared but not scored")
     for metric, kind, entry in failed:
         print(f"FAILED {metric} under {kind}: declared {entry['expected']}; {entry['why']}; "
               f"values {[round(v, 4) for v in entry['values']]} at levels {entry['levels']}")

@@ -34,6 +34,7 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.ndimage import gaussian_filter1d
 
 from benchmark.metrics.regions import mouth_shape_indices
 
@@ -78,8 +79,6 @@ def time_shift(track, k: int) -> np.ndarray:
 def temporal_smoothing(track, sigma: float) -> np.ndarray:
     """Gaussian low-pass along time with standard deviation ``sigma`` frames
     (``sigma = 0``: unchanged; edges reflected). Stays in [0, 1] (a convex average)."""
-    from scipy.ndimage import gaussian_filter1d
-
     track = _track(track)
     if sigma < 0:
         raise ValueError(f"temporal_smoothing: sigma must be >= 0, got {sigma}")
@@ -144,12 +143,6 @@ def noisy_samples(track, std: float, samples: int = 4, *, key=None) -> np.ndarra
     return np.stack([iid_noise(track, std, z[s]) for s in range(samples)])
 
 
-def _fit_length(track, length: int) -> np.ndarray:
-    """A donor track cut to ``length`` frames, or wrapped around (repeated from its
-    start) when it is shorter."""
-    return track[np.arange(length) % len(track)]
-
-
 def sentence_swap(tracks: Mapping, share: float) -> dict:
     """A ``share`` of the sentences replaced by other sentences' tracks.
 
@@ -170,7 +163,8 @@ def sentence_swap(tracks: Mapping, share: float) -> dict:
     order = [keys[i] for i in np.random.default_rng(0x5A9).permutation(len(keys))]
     for i in range(int(round(share * len(keys)))):
         key, donor = order[i], order[(i + 1) % len(order)]
-        out[key] = _fit_length(_track(tracks[donor]), len(out[key]))
+        track = _track(tracks[donor])
+        out[key] = track[np.arange(len(out[key])) % len(track)]  # cut, or wrapped around when shorter
     return out
 
 

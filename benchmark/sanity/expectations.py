@@ -35,6 +35,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.stats import rankdata
 
 __all__ = ["EXPECTATIONS", "KINDS", "RHO_MIN", "Expectation", "declared", "spearman", "verdict"]
 
@@ -74,8 +75,6 @@ def spearman(levels: Sequence[float], values: Sequence[float]) -> float:
     y = np.asarray(values, dtype=np.float64)
     if len(x) != len(y) or len(x) < 2 or not np.all(np.isfinite(y)):
         return math.nan
-    from scipy.stats import rankdata
-
     rx, ry = rankdata(x), rankdata(y)
     if np.ptp(rx) == 0 or np.ptp(ry) == 0:
         return math.nan

@@ -27,7 +27,7 @@ from blendvoca.errors import UserError
 from blendvoca.runtime.progress import bar, progress_bars
 
 __all__ = ["SANITY_SETTINGS", "failures", "ground_truth", "plot_table", "run_sanity", "sanity_scores", "sanity_table",
-           "write_report"]
+           "status_counts", "write_report"]
 
 #: The evaluation settings of the sanity run: the suite compares means across levels,
 #: so the bootstrap intervals get a handful of resamples and WInD two seeded fits (the same
@@ -125,6 +125,12 @@ def sanity_table(scores: Mapping, table=None) -> dict:
                      "expected": e.expected, "ok": True, "reason": e.reason, "status": "not scored"}
             result.setdefault(metric, {})[kind] = entry
     return result
+
+
+def status_counts(table: Mapping) -> dict:
+    """``{status: count}`` of the table's entries: ``held``, ``failed``, ``no claim``, ``not scored``."""
+    return {s: sum(e["status"] == s for row in table.values() for e in row.values())
+            for s in ("held", "failed", "no claim", "not scored")}
 
 
 def failures(table: Mapping) -> list:
@@ -226,8 +232,7 @@ def run_sanity(dataset, out, *, levels: str = "small", split: str = "test", kind
     result = sanity_table(scores, table)
     failed = failures(result)
     seconds = time.perf_counter() - start
-    counts = {s: sum(e["status"] == s for row in result.values() for e in row.values())
-              for s in ("held", "failed", "no claim", "not scored")}
+    counts = status_counts(result)
     root = getattr(dataset, "root", None)
     title = (f"metric sanity: {root} ({split} split, levels {levels}) - {counts['held']} held, "
              f"{counts['failed']} failed, {counts['no claim']} without a claim, {counts['not scored']} not scored")

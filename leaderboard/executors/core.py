@@ -4,15 +4,17 @@
 
 from __future__ import annotations
 
-import contextlib
 import json
 import os
 import socket
+import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from benchmark.results import read
+from blendvoca.io.atomic import atomic_write
+from blendvoca.runtime.threads import limited_threads
 
 __all__ = ["EXECUTORS", "Resources", "Task", "check_order", "execute", "log_progress", "record_timing",
            "result_timing_table", "run_sequential", "timing_records", "timing_table"]
@@ -78,25 +80,9 @@ class Task:
     seed: int | None = None
 
 
-@contextlib.contextmanager
-def _threads(cpus: int):
-    """torch's and the BLAS libraries' threads limited to ``cpus`` while the body runs:
-    a stage's floats then do not depend on where it runs (a Ray worker starts with
-    one thread per reserved CPU; this process with as many as the machine has)."""
-    from threadpoolctl import threadpool_limits
-
-    from benchmark.methods.training_loop import torch_threads
-
-    threads = max(1, int(cpus))
-    with torch_threads(threads), threadpool_limits(limits=threads):
-        yield
-
-
 def record_timing(work, task: Task, details: dict, wall_s: float) -> Path:
     """Write ``<work>/stages/timings/<key>.json``: the stage's wall time and where it ran
     (replaced atomically; a stage that did nothing writes none)."""
-    from blendvoca.io.atomic import atomic_write
-
     path = Path(work) / "stages" / "timings" / (task.key.replace("/", "__") + ".json")
     path.parent.mkdir(parents=True, exist_ok=True)
     record = {"key": task.key, "stage": task.stage, "row": task.row, "seed": task.seed,
@@ -118,8 +104,13 @@ def execute(task: Task, *values):
     object
         The stage's value, for the tasks that depend on it.
     """
+    # torch's and the BLAS libraries' threads limited to the task's CPUs: a stage's floats then do
+    # not depend on where it runs (a Ray worker starts with one thread per reserved CPU; this
+    # process with as many as the machine has); torch first, so that the limiter sets its count too
+    import torch  # noqa: F401
+
     start = time.perf_counter()
-    with _threads(task.resources.cpus):
+    with limited_threads(max(1, int(task.resources.cpus))):
         value, details = task.function(task.spec, *values)
     if details is not None and task.spec.get("work"):
         record_timing(task.spec["work"], task, details, time.perf_counter() - start)
@@ -128,8 +119,6 @@ def execute(task: Task, *values):
 
 def log_progress(message: str) -> None:
     """A progress line of ``leaderboard.reproduce`` on stderr."""
-    import sys
-
     print(f"[reproduce] {message}", file=sys.stderr, flush=True)
 
 

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import os
 
+from blendvoca.errors import UserError
 from leaderboard.executors.core import execute
 
 __all__ = ["run_ray"]
@@ -86,8 +87,6 @@ def run_ray(tasks, *, address: str | None = None, max_retries: int = 3, log=prin
     try:
         import ray
     except ImportError:
-        from blendvoca.errors import UserError
-
         raise UserError("--executor ray: Ray is not installed; install the cluster extra: "
                         "pip install -e '.[cluster]'") from None
     started_here = False
@@ -101,8 +100,6 @@ def run_ray(tasks, *, address: str | None = None, max_retries: int = 3, log=prin
             message = (f"no node of the Ray cluster has the resources of {len(unplaceable)} task(s), e.g. "
                        f"{unplaceable[0]}")
             if address is None and started_here:
-                from blendvoca.errors import UserError
-
                 raise UserError(f"--executor ray: {message}; lower --cpus-per-task or use a cluster (--address)")
             log(f"warning: {message}; they wait for a node that has them (an autoscaler's)")
         remote = ray.remote(execute)

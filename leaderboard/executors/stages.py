@@ -32,6 +32,7 @@ import shutil
 import socket
 import time
 from pathlib import Path
+from types import SimpleNamespace
 
 from benchmark.data import open_blendvoca
 from benchmark.methods import get_method
@@ -49,12 +50,11 @@ from benchmark.protocol import (
     train,
 )
 from benchmark.protocol.convergence import NOT_CHECKED, HalfBudget, checked_convergence, shared_convergence
-from benchmark.protocol.seeds import combined_seed_scores, seed_stream
+from benchmark.protocol.seeds import combined_seed_scores, seed_stream, summed_timings
 from benchmark.protocol.storing import dataset_identity, store_seeds, track_writer
 from benchmark.results import Result, build_result, current_provenance, read, result_filename, write
-from benchmark.runs import TrackWriter
+from benchmark.runs import TrackWriter, process_tag, remove_dead_stagings
 from blendvoca.builder import build_dataset
-from blendvoca.builder.outdir import is_running
 from blendvoca.errors import UserError
 from blendvoca.format import manifest_path
 from blendvoca.io.atomic import atomic_write
@@ -63,24 +63,6 @@ from leaderboard.executors.core import log_progress
 
 __all__ = ["built_corpus", "data_stage", "expert_stage", "row_result_path", "score_stage", "single_stage",
            "store_stage", "train_stage"]
-
-
-def _host_tag() -> str:
-    return f"{socket.gethostname()}-{os.getpid()}"
-
-
-def _remove_dead_partials(folder: Path, prefix: str) -> None:
-    """Remove ``<prefix>.<this host>-<pid>.partial`` folders of processes of this host
-    that are gone (a killed worker's half-trained method); other hosts' stay."""
-    if not folder.is_dir():
-        return
-    head = f"{prefix}.{socket.gethostname()}-"
-    for path in folder.iterdir():
-        name = path.name
-        if name.startswith(head) and name.endswith(".partial"):
-            pid = name[len(head):-len(".partial")]
-            if pid.isdigit() and not is_running(int(pid)):
-                shutil.rmtree(path, ignore_errors=True)
 
 
 def _write_json(path: Path, record: dict) -> None:
@@ -101,13 +83,12 @@ def data_stage(spec):
         return str(root), None
     work = Path(spec["work"])
     done = manifest_path(work / spec["build_name"]).is_file()
-    root = built_corpus(work, spec["corpus"], corpus_name=spec["corpus_name"], build_name=spec["build_name"],
-                        progress=spec["progress"])
+    with progress_bars(spec["progress"]):
+        root = built_corpus(work, spec["corpus"], corpus_name=spec["corpus_name"], build_name=spec["build_name"])
     return str(root), (None if done else {})
 
 
-def built_corpus(work, corpus: dict, *, corpus_name: str, build_name: str, workers: int = 2,
-                 progress: bool = True) -> Path:
+def built_corpus(work, corpus: dict, *, corpus_name: str, build_name: str, workers: int = 2) -> Path:
     """The synthetic corpus ``generate_corpus(**corpus)`` in ``<work>/<corpus_name>`` and
     its BlendVOCA build in ``<work>/<build_name>``, each made when missing (both resumable)."""
     from blendvoca.synthetic import generate_corpus  # igl: loaded only when the corpus is made
@@ -116,9 +97,9 @@ def built_corpus(work, corpus: dict, *, corpus_name: str, build_name: str, worke
     source = work / corpus_name
     if not (source / "synthetic.json").is_file():
         log_progress(f"generating the synthetic corpus into {source}")
-        generate_corpus(source, progress=progress, **corpus)
+        generate_corpus(source, **corpus)
     root = work / build_name
-    summary = build_dataset(root, source, workers=workers, progress=progress)
+    summary = build_dataset(root, source, workers=workers)
     if summary.failures:
         raise RuntimeError(f"build of {root} had {len(summary.failures)} failure(s), e.g. {summary.failures[0]}")
     return root
@@ -235,10 +216,10 @@ def train_stage(spec, root):
     if all(_row_done(row, root) is not None for row in spec["rows"]):
         return {"seed": seed, "stored": True}, None  # every row of this training is stored: nothing to train for
     final.parent.mkdir(parents=True, exist_ok=True)
-    _remove_dead_partials(final.parent, f".{final.name}")
+    remove_dead_stagings(final.parent, f".{final.name}")
     # trained into a folder of this process, renamed once saved: a worker killed while
     # training leaves no folder that a rerun would load as a trained method
-    partial = final.parent / f".{final.name}.{_host_tag()}.partial"
+    partial = final.parent / f".{final.name}.{process_tag()}.partial"
     shutil.rmtree(partial, ignore_errors=True)
     partial.mkdir()
     try:
@@ -259,18 +240,6 @@ def train_stage(spec, root):
         shutil.rmtree(partial, ignore_errors=True)
     return record, {"train_s": trained.train_s, "convergence_s": trained.convergence_s,
                     "training": spec["training"]}
-
-
-class _Half:
-    """The half-budget check as the training saw it, for ``checked_convergence``."""
-
-    def __init__(self, record: dict):
-        half = record.get("half_budget")
-        self.result = None if half is None else HalfBudget(**half)
-
-    @property
-    def called(self) -> bool:
-        return self.result is not None
 
 
 def _seed_paths(spec, seed: int):
@@ -334,20 +303,15 @@ def score_stage(spec, root, expert, record):
     except BaseException:
         writer.discard()
         raise
-    if spec["owns_training"] and record.get("checked"):
-        convergence, reason = checked_convergence(_Half(record), None, scored.metrics)
-    elif spec["owns_training"]:
-        convergence, reason = None, record.get("reason")
-    else:
-        convergence, reason = None, NOT_CHECKED["loaded"]
-    seed_run = SeedRun(
-        seed=seed, metrics=dict(scored.metrics), per_sentence=list(scored.per_sentence),
-        replicates=dict(getattr(scored.metrics, "replicates", {}) or {}), convergence=convergence,
-        evaluation=dict(getattr(scored.metrics, "protocol", {}) or {}), n_clipped=generated.n_clipped,
-        num_subjects=len({s for s, _ in generated.tracks}), num_sentences=len(generated.tracks),
-        timings={"train_s": record.get("train_s") if spec["owns_training"] else None, "load_s": trained.load_s,
-                 "convergence_s": record.get("convergence_s") if spec["owns_training"] else None,
-                 "generate_s": generated.seconds, "evaluate_s": scored.seconds})
+    owns, half = spec["owns_training"], record.get("half_budget")
+    # the half-budget check as the training saw it (a row scoring another's training has none)
+    seen = (SimpleNamespace(result=None if half is None else HalfBudget(**half), called=half is not None)
+            if owns and record.get("checked") else None)
+    convergence, reason = checked_convergence(seen, record.get("reason") if owns else NOT_CHECKED["loaded"],
+                                              scored.metrics)
+    seed_run = SeedRun.scored(seed, generated, scored, convergence=convergence, timings={
+        "train_s": record.get("train_s") if owns else None, "load_s": trained.load_s,
+        "convergence_s": record.get("convergence_s") if owns else None})
     writer.commit()
     write(scores_path, _seed_result(spec, inputs, seed_run, label=trained.label, reason=reason))
     return str(scores_path), {"generate_s": generated.seconds, "evaluate_s": scored.seconds,
@@ -410,10 +374,7 @@ def store_stage(spec, root, expert, *scores_paths):
     try:
         for seed in seeds:
             shutil.copytree(_seed_paths(spec, seed)[1], writer.staging / f"seed{seed}")
-        timings = {}
-        for key in ("train_s", "load_s", "generate_s", "evaluate_s", "convergence_s"):
-            values = [r.timings.get(key) for r in runs]
-            timings[key] = None if all(v is None for v in values) else float(sum(v for v in values if v is not None))
+        timings = summed_timings(runs)
         timings["total_s"] = sum(v for v in timings.values() if v is not None)
         path = store_seeds(run, inputs, first, runs, combined, writer=writer, timings=timings,
                            provenance=provenance, convergence_check=reason)

@@ -22,10 +22,15 @@ from pathlib import Path
 
 import numpy as np
 
+from benchmark.data import open_blendvoca
+from benchmark.metrics.regions import lip_vertices
+from benchmark.metrics.vertex import rig_vertices
 from benchmark.results import Result, read
 from benchmark.runs import read_run
 from blendvoca.errors import DataError, UserError
+from blendvoca.export.glb import write_glb
 from blendvoca.format import audio_path
+from blendvoca.io.coeffs import read_coeffs_csv
 from blendvoca.runtime.progress import bar
 from leaderboard.collect import (
     MIN_PAIRED_SENTENCES,
@@ -55,10 +60,6 @@ class SiteRun:
         return self.result.label
 
     @property
-    def reference(self) -> bool:
-        return bool(self.result.method.reference)
-
-    @property
     def dataset_root(self) -> Path | None:
         """The BlendVOCA build the run was scored on, if it is on this machine."""
         path = self.result.dataset.path
@@ -68,11 +69,6 @@ class SiteRun:
     def recipe_id(self) -> str:
         """The identity of the dataset the run was scored on (:attr:`benchmark.results.Result.key`)."""
         return self.result.key
-
-    @property
-    def manifest_hash(self) -> str:
-        """The run's dataset key (:attr:`recipe_id`; the name is the older key's)."""
-        return self.recipe_id
 
     def tracks(self) -> dict[tuple[str, str], list[Path]]:
         """``{(subject, sentence): [csv of sample 0, 1, ...]}`` stored with the run (empty if none)."""
@@ -109,12 +105,7 @@ def load_site_runs(results_dir) -> list[SiteRun]:
 def _round(values) -> list:
     """Nested lists of floats at the site's precision (JSON has no NaN: None)."""
     arr = np.asarray(values, dtype=np.float64)
-    out = np.round(arr, _DECIMALS).tolist()
-    if not np.isfinite(arr).all():
-        def clean(x):
-            return [clean(v) for v in x] if isinstance(x, list) else (x if math.isfinite(x) else None)
-        out = clean(out)
-    return out
+    return np.where(np.isfinite(arr), np.round(arr, _DECIMALS), None).tolist()
 
 
 def _number(x):
@@ -269,15 +260,11 @@ class _SentenceData:
     """Ground truth, rigs and lip vertex sets of one dataset, cached per subject."""
 
     def __init__(self, root: Path):
-        from benchmark.data import open_blendvoca
-
         self.dataset = open_blendvoca(root)
         self._rigs = {}
 
     def rig(self, subject):
         if subject not in self._rigs:
-            from benchmark.metrics.regions import lip_vertices
-
             rig = self.dataset.rig(subject)
             names = tuple(self.dataset.names)
             rig = rig.select(names) if tuple(rig.names) != names else rig
@@ -286,8 +273,7 @@ class _SentenceData:
 
     def lip_motion_mm(self, subject, coeffs) -> np.ndarray:
         """Mean lip-vertex displacement per frame (mm) of the rig driven by ``coeffs``."""
-        from benchmark.lipsync.geometric import mouth_activity
-        from benchmark.metrics.vertex import rig_vertices
+        from benchmark.lipsync.geometric import mouth_activity  # torch: loaded only for tracks
 
         rig, lips = self.rig(subject)
         vertices = rig_vertices(rig.neutral, rig.deltas, coeffs)
@@ -304,8 +290,6 @@ def with_dataset(runs, data) -> list[SiteRun]:
     UserError
         No run was scored on ``data``.
     """
-    from benchmark.data import open_blendvoca
-
     data = Path(data).expanduser().resolve()
     dataset = open_blendvoca(data)
     digest = dataset.recipe_id
@@ -335,9 +319,7 @@ def write_site_data(runs, data_dir, *, max_samples: int = 3) -> dict:
     dict
         Counts of what was written (``runs``, ``sentences``, ``tracks``, ``rigs``).
     """
-    from benchmark.lipsync.envelope import speech_envelope
-    from blendvoca.export.glb import write_glb
-    from blendvoca.io.coeffs import read_coeffs_csv
+    from benchmark.lipsync.envelope import speech_envelope  # torch: loaded only for tracks
 
     data_dir = Path(data_dir)
     _write_json(data_dir / "leaderboard.json", leaderboard_data(runs))

@@ -201,3 +201,19 @@ def test_warm_started_refits_leave_wind_and_its_std_unchanged():
     again = _wind_with_replicates(fake, real, members, 5, repeats=3, seed=0, resamples=4, workers=2,
                                   cache=None)[2]
     np.testing.assert_array_equal(reps, again)
+
+
+def test_map_sentences_gives_the_same_values_in_worker_processes_as_here():
+    from benchmark.evaluation.sentences import map_sentences
+
+    rng = np.random.default_rng(5)
+    data = {("S1", f"sentence{i:02d}"): rng.standard_normal((40, 12)) for i in range(7)}
+
+    def task(key):
+        x = data[key]
+        return {"gram": float(np.linalg.norm(x.T @ x)), "mean": float(x.mean())}
+
+    here = map_sentences(task, list(data), workers=1, desc="here")
+    pooled = map_sentences(task, list(data), workers=3, desc="pooled")
+    assert list(pooled) == list(data)
+    assert pooled == here

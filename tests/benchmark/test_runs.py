@@ -60,17 +60,17 @@ def test_a_killed_runs_staging_is_removed_by_the_next_writer_not_a_live_ones(tmp
     import subprocess
     import sys
 
-    from benchmark.runs import _process_tag
+    from benchmark.runs import process_tag
 
     dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True,
                           text=True, check=True)
     dead_pid = int(dead.stdout)
     live = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
     try:
-        killed = tmp_path / f".run.{_process_tag(dead_pid)}.partial"
-        running = tmp_path / f".run.{_process_tag(live.pid)}.partial"
+        killed = tmp_path / f".run.{process_tag(dead_pid)}.partial"
+        running = tmp_path / f".run.{process_tag(live.pid)}.partial"
         elsewhere = tmp_path / f".run.other-host.example-{dead_pid}.partial"
-        other_run = tmp_path / f".other.{_process_tag(dead_pid)}.partial"
+        other_run = tmp_path / f".other.{process_tag(dead_pid)}.partial"
         for folder in (killed, running, elsewhere, other_run):
             (folder / "S1").mkdir(parents=True)
         writer = TrackWriter(tmp_path / "run", BLENDVOCA_NAMES)
