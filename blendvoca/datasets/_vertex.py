@@ -19,12 +19,17 @@ from __future__ import annotations
 
 import functools
 import os
+import re
 from pathlib import Path
 
 import numpy as np
 
+from blendvoca.assets import resolve
+from blendvoca.builder.pipeline import build_dataset, open_corpus
 from blendvoca.datasets import DatasetAdapter
 from blendvoca.errors import DataError, UserError
+from blendvoca.fit.resample import resample_sequence
+from blendvoca.io.mesh import read_index_list
 from blendvoca.vocaset.base import VocasetCorpus
 from blendvoca.vocaset.checks import FLAME_RMS_RADIUS, rms_radius
 
@@ -45,8 +50,6 @@ def sentence_numbers(names) -> dict[str, str]:
     otherwise the sorted names are numbered from 1 (Multiface's ``SEN_...``). The
     numbering is corpus-wide, so one sentence has one number for every speaker.
     """
-    import re
-
     names = sorted(set(names))
     found = [re.findall(r"\d+", name) for name in names]
     if all(len(f) == 1 for f in found) and len({int(f[0]) for f in found}) == len(names):
@@ -78,8 +81,6 @@ def read_landmark_file(path, num_vertices: int, topology: str) -> np.ndarray:
         Not 68 integers, or an index outside ``[0, num_vertices)``; the message
         names the file and the expected format.
     """
-    from blendvoca.io.mesh import read_index_list
-
     expected = LANDMARK_FORMAT.format(topology=topology, vertices=num_vertices)
     try:
         indices = read_index_list(path)
@@ -112,6 +113,12 @@ class VertexCorpus(VocasetCorpus):
         self._scale: float | None = None if units == "auto" else UNITS[units]
         self._landmark_path = None if landmarks is None else Path(os.fspath(landmarks))
         self._templates: dict[str, np.ndarray] = {}
+        #: BlendVOCA sentence name -> the corpus's (``sentence01`` -> BIWI's ``e01``); subclasses fill it
+        self._source_names: dict[str, str] = {}
+
+    def source_name(self, sentence: str) -> str:
+        """The corpus's own name of a sentence (``sentence01`` -> BIWI's ``e01``, Multiface's ``SEN_...``)."""
+        return self._source_names.get(sentence, sentence)
 
     # -- what subclasses provide --------------------------------------------
     def _raw_template(self, subject: str) -> np.ndarray:
@@ -165,8 +172,6 @@ class VertexCorpus(VocasetCorpus):
 
         ``dtype=None`` gives float64 (the frames are interpolated, so no stored precision is kept).
         """
-        from blendvoca.fit.resample import resample_sequence
-
         self._check_subject(subject)
         raw = np.asarray(self._raw_frames(subject, sentence), dtype=np.float64)
         raw = self._check_frames(subject, sentence, raw, f"{subject}/{sentence}")
@@ -195,8 +200,6 @@ class VertexCorpus(VocasetCorpus):
                 raise UserError(f"{self._landmark_path}: landmark file not found; expected "
                                 + LANDMARK_FORMAT.format(topology=self.topology, vertices=self.num_vertices))
             return read_landmark_file(self._landmark_path, self.num_vertices, self.topology)
-        from blendvoca.assets import resolve
-
         return read_landmark_file(resolve(self.landmark_asset), self.num_vertices, self.topology)
 
     def head_index(self) -> np.ndarray:
@@ -215,8 +218,6 @@ def build_vertex_corpus(reader: str, root, out, *, workers: int | None = None, s
     sentences fitted with their head pose (``pose_fit``), the same layout, splits and
     manifest.
     """
-    from blendvoca.builder.pipeline import build_dataset, open_corpus
-
     open_corpus(root, reader)
     return build_dataset(out, root, workers=workers, shapes=shapes, delta=delta, report=report,
                          reader=reader, pose_fit=pose_fit)

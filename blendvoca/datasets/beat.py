@@ -22,6 +22,7 @@ import numpy as np
 
 from blendvoca.datasets.coefficients import DatasetLayoutError, Take, coefficient_adapter, frame_rate, safe_name
 from blendvoca.errors import DataError
+from blendvoca.io.audio import load_audio
 from blendvoca.io.json_file import read_json
 
 #: A take's file name: speaker id, speaker name, then the take's numbers.
@@ -78,8 +79,6 @@ def beat_takes(root) -> list[Take]:
     root = Path(os.fspath(root)).expanduser()
     if not root.is_dir():
         raise DatasetLayoutError(f"--root {root}: not a folder; expected BEAT's layout: {EXPECTED}")
-    from blendvoca.io.audio import load_audio
-
     takes = []
     for folder in sorted(p for p in root.iterdir() if p.is_dir() and p.name.isdigit()):
         for weights in sorted(folder.glob("*.json")):

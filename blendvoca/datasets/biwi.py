@@ -28,7 +28,8 @@ from pathlib import Path
 import numpy as np
 
 from blendvoca.errors import DataError
-from blendvoca.vocaset.errors import check_safe_name
+from blendvoca.io.mesh import read_mesh
+from blendvoca.vocaset.errors import Problem, check_safe_name
 from blendvoca.vocaset.processed import UnsafePickleError, load_data_pickle, open_rows
 from blendvoca.vocaset.splits import proportional_split
 
@@ -86,13 +87,13 @@ class BiwiCorpus(VertexCorpus):
             subject, _, name = path.stem.rpartition("_")
             if subject and name:
                 found.append((subject, name, path))
-        #: BlendVOCA sentence name -> BIWI's (``sentence01`` -> ``e01``)
         numbers = sentence_numbers(name for _, name, _ in found)
         self._source_names = {number: name for name, number in numbers.items()}
         self._files: dict[str, dict[str, Path]] = {}
         for subject, name, path in found:
             self._files.setdefault(subject, {})[numbers[name]] = path
         self._subjects = sorted(set(self._raw_templates) | set(self._files))
+        self._sentences = {subject: sorted(self._files.get(subject, {})) for subject in self._subjects}
         for subject in self._subjects:
             if subject not in self._raw_templates:
                 self._record_problem("missing_template", subject, None, "templates.pkl has no entry")
@@ -101,25 +102,10 @@ class BiwiCorpus(VertexCorpus):
                     self._record_problem("missing_audio", subject, sentence, f"{self._wav(subject, sentence)} not found")
 
     def _record_problem(self, kind, subject, sentence, message):
-        from blendvoca.vocaset.errors import Problem
-
         self._record(Problem(subject, sentence, None, kind, message))
-
-    def source_name(self, sentence: str) -> str:
-        """BIWI's name of a sentence (``sentence01`` -> ``e01``)."""
-        return self._source_names.get(sentence, sentence)
 
     def _wav(self, subject: str, sentence: str) -> Path:
         return self.root / "wav" / f"{subject}_{self.source_name(sentence)}.wav"
-
-    @property
-    def subjects(self) -> list[str]:
-        return list(self._subjects)
-
-    def sentences(self, subject: str) -> list[str]:
-        """Sentences of ``subject`` that have vertices (``sentenceNN``: BIWI's number), sorted."""
-        self._check_subject(subject)
-        return sorted(self._files.get(subject, {}))
 
     def _raw_template(self, subject: str) -> np.ndarray:
         if subject not in self._raw_templates:
@@ -149,8 +135,6 @@ class BiwiCorpus(VertexCorpus):
     def faces(self) -> np.ndarray:
         """Triangles ``(F, 3)`` of the BIWI topology: ``BIWI.ply``, else the first ``rigid_scans/*.obj``."""
         if getattr(self, "_faces", None) is None:
-            from blendvoca.io.mesh import read_mesh
-
             candidates = [self.root / "BIWI.ply"] + sorted((self.root / "rigid_scans").glob("*.obj"))
             path = next((p for p in candidates if p.is_file()), None)
             if path is None:

@@ -28,6 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from blendvoca import format as fmt
+from blendvoca.assets import resolve
 from blendvoca.builder.outdir import build_lock, check_output_dir, claim_output_dir, unwritable
 from blendvoca.builder.pipeline import BuildInputError, BuildSummary
 from blendvoca.builder.report import coeffs_std
@@ -37,7 +38,9 @@ from blendvoca.fit.resample import resample_sequence
 from blendvoca.format.manifest import write_dataset_manifest
 from blendvoca.io.atomic import atomic_write
 from blendvoca.names import ARKIT_FACE_ORDER, BLENDVOCA_NAMES, MissingShapesWarning, arkit_name, remap
+from blendvoca.rig import load_arkit_reference
 from blendvoca.runtime.progress import bar
+from blendvoca.vocaset.splits import proportional_split
 
 #: Audio and motion durations further apart than this share are reported (as the mesh build does).
 DURATION_TOLERANCE = 0.05
@@ -159,8 +162,6 @@ def subject_splits(subjects: list[str]) -> dict:
     BuildInputError
         Fewer than 3 speakers (each split needs one).
     """
-    from blendvoca.vocaset.splits import proportional_split
-
     subjects = sorted(subjects)
     if len(subjects) < 3:
         raise BuildInputError(f"the corpus has {len(subjects)} speaker(s) {subjects}; a BlendVOCA folder splits by "
@@ -230,8 +231,6 @@ COEFFICIENT_FORMAT = "coeffs1"
 def coefficient_recipe(root: Path, dataset: str) -> dict:
     """The recipe of building ``dataset`` from the corpus at ``root``: every corpus file, the
     adapter, the frame rate and the reference rig every speaker gets (:func:`blendvoca.format.make_recipe`)."""
-    from blendvoca.assets import resolve
-
     return fmt.make_recipe(fmt.corpus_files(root), {"dataset": dataset, "fps": fmt.FPS}, root=root,
                            assets={"arkit-reference-rig": fmt.file_digest(resolve("arkit-reference-rig"))},
                            format_version=COEFFICIENT_FORMAT)
@@ -345,8 +344,6 @@ def build_coefficient_dataset(out, root, takes: Iterable[Take], *, dataset: str,
         if not all(splits.values()):
             raise DataError(f"{root}: after the takes that failed, a split has no speaker left ({splits}); "
                             "see the failures: " + "; ".join(f["reason"] for f in summary.failures[:3]))
-        from blendvoca.rig import load_arkit_reference
-
         reference = load_arkit_reference("all")
         try:
             for subject in sorted(built_subjects):

@@ -31,6 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from blendvoca.errors import DataError
+from blendvoca.io.mesh import read_obj
 from blendvoca.vocaset.checks import frame_gaps
 from blendvoca.vocaset.errors import Problem, check_safe_name
 from blendvoca.vocaset.splits import proportional_split
@@ -53,8 +54,6 @@ def read_frame(path) -> np.ndarray:
     """One tracked frame ``(V, 3)`` from a ``.bin`` (float32 triples) or ``.obj`` file."""
     path = Path(path)
     if path.suffix == ".obj":
-        from blendvoca.io.mesh import read_obj
-
         return read_obj(path)[0]
     data = np.fromfile(path, dtype="<f4")
     if data.size % 3:
@@ -108,21 +107,8 @@ class MultifaceCorpus(VertexCorpus):
                                          f"{self._wav(capture, sentence)} not found"))
         self._subjects = captures
 
-    def source_name(self, sentence: str) -> str:
-        """Multiface's name of a sentence (``sentence01`` -> ``SEN_...``)."""
-        return self._source_names.get(sentence, sentence)
-
     def _wav(self, subject: str, sentence: str) -> Path:
         return self.root / subject / "audio" / f"{self.source_name(sentence)}.wav"
-
-    @property
-    def subjects(self) -> list[str]:
-        return list(self._subjects)
-
-    def sentences(self, subject: str) -> list[str]:
-        """The capture's ``SEN_`` sequences as ``sentenceNN`` (:meth:`source_name` gives Multiface's name), sorted."""
-        self._check_subject(subject)
-        return list(self._sentences[subject])
 
     def _checked_vertices(self, subject, sentence, path: Path, vertices: np.ndarray, frame=None) -> np.ndarray:
         if len(vertices) == RELEASE_VERTICES:
@@ -170,8 +156,6 @@ class MultifaceCorpus(VertexCorpus):
     def faces(self) -> np.ndarray:
         """Triangles ``(F, 3)`` of MeshTalk's topology, from ``face_template.obj``."""
         if getattr(self, "_faces", None) is None:
-            from blendvoca.io.mesh import read_obj
-
             path = self.root / "face_template.obj"
             vertices, faces = read_obj(path)
             if len(vertices) != NUM_VERTICES or len(faces) == 0:

@@ -25,6 +25,7 @@ import numpy as np
 
 from blendvoca.datasets.coefficients import DatasetLayoutError, Take, coefficient_adapter, safe_name
 from blendvoca.errors import DataError
+from blendvoca.io.audio import load_audio
 from blendvoca.io.json_file import read_json
 from blendvoca.names import convention_names
 
@@ -48,8 +49,6 @@ def _audio_reader(path: Path):
             if samples.ndim != 1:
                 raise DataError(f"{path}: expected (N,) audio samples at 16 kHz, got shape {samples.shape}")
             return samples.astype(np.float32), 16000
-        from blendvoca.io.audio import load_audio
-
         return load_audio(path, rate=16000), 16000
     return read
 
