@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from blendvoca.format.items import read_coeffs
+from blendvoca.format.items import read_coeffs, read_oracle_coeffs
 from blendvoca.format.layout import REPORT_DIR, report_dir
 from blendvoca.io.atomic import atomic_write
 
@@ -124,8 +124,6 @@ def measured_share(out, splits: dict, items, names, *, count: int, declared: dic
         ``declared``, ``oracle_samples``, ``measured`` / ``measured_test`` / ``oracle_mean_test``
         (None without oracle tracks), ``sentences``.
     """
-    from blendvoca.format.items import read_oracle_coeffs
-
     result = {"declared": declared.get("declared"), "oracle_samples": declared.get("oracle_samples"),
               "measured": None, "measured_test": None, "oracle_mean_test": None, "sentences": len(items)}
     if not items or not count or not names:

@@ -15,7 +15,10 @@ from pathlib import Path
 
 import numpy as np
 
+from blendvoca.assets import load_index_list
+from blendvoca.format.items import read_rig
 from blendvoca.format.layout import RESIDUALS_FILE, residuals_path, rig_path
+from blendvoca.io.atomic import atomic_write
 
 __all__ = ["RESIDUALS_FILE", "blendshape_residuals", "write_blendshape_residuals"]
 
@@ -47,16 +50,11 @@ def write_blendshape_residuals(out, subjects, head_index=None) -> Path | None:
     Subjects without a rig file (failed speakers) are left out; returns None when no
     rig exists.  ``head_index`` defaults to the ``flame-head-idx`` asset.
     """
-    from blendvoca.format.items import read_rig
-    from blendvoca.io.atomic import atomic_write
-
     out = Path(out)
     rigs = {s: read_rig(out, s) for s in subjects if rig_path(out, s).is_file()}
     if not rigs:
         return None
     if head_index is None:
-        from blendvoca.assets import load_index_list
-
         head_index = load_index_list("flame-head-idx")
     path = residuals_path(out)
     with atomic_write(path, "wb") as f:

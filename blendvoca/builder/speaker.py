@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from blendvoca.retarget import retarget_rig
 from blendvoca.rig import Rig
 
 
@@ -41,8 +42,6 @@ def speaker_rig(
     Rig
         ``neutral == template``, one delta per ``reference.names``.
     """
-    from blendvoca.retarget import retarget_rig
-
     return retarget_rig(
         reference,
         template,

@@ -178,10 +178,6 @@ class VertexCorpus(VocasetCorpus):
         frames = resample_sequence(raw * self.scale, self.source_fps, self.fps)
         return frames if dtype is None else frames.astype(dtype, copy=False)
 
-    def num_source_frames(self, subject: str, sentence: str) -> int:
-        """Frames of the sentence at the corpus's own rate."""
-        return len(self._raw_frames(subject, sentence))
-
     def landmarks(self) -> np.ndarray:
         """The 68 iBUG landmarks on this topology, ``(68,) int64``.
 

@@ -13,6 +13,7 @@ from pathlib import Path
 
 from blendvoca import cli
 from blendvoca.errors import UserError
+from blendvoca.io.json_file import read_json
 from blendvoca.synthetic.corpus import DEFAULT_AUDIO_DETERMINED, DEFAULT_CORPUS, generate_corpus
 
 
@@ -86,8 +87,6 @@ def main(argv: list[str] | None = None) -> int:
 
 def share_summary(out) -> str:
     """One line on the corpus's audio-determined share: declared, and measured when it has oracle samples."""
-    from blendvoca.io.json_file import read_json
-
     meta = read_json(Path(out) / "synthetic.json", what="the synthetic-corpus sidecar")
     declared = meta.get("audio_determined", {}).get("declared", 1.0)
     oracle = meta.get("oracle_samples") or {}

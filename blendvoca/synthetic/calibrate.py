@@ -16,17 +16,16 @@ import time
 from pathlib import Path
 
 from blendvoca import cli
+from blendvoca.builder import build_dataset
+from blendvoca.builder.report import measured_share
+from blendvoca.names import BLENDVOCA_NAMES
+from blendvoca.synthetic.corpus import generate_corpus
+from blendvoca.vocaset import open_vocaset
 
 
 def measure(out: Path, *, scale: float, speakers: int, sentences: int, oracle_samples: int, seed: int,
             duration=(3.0, 5.0), workers: int | None = None) -> dict:
     """Generate and build one corpus at ``scale``; return :func:`measured_share`'s dict plus timings."""
-    from blendvoca.builder import build_dataset
-    from blendvoca.builder.report import measured_share
-    from blendvoca.names import BLENDVOCA_NAMES
-    from blendvoca.synthetic.corpus import generate_corpus
-    from blendvoca.vocaset import open_vocaset
-
     corpus = out / f"corpus-{scale:g}"
     build = out / "build"
     start = time.perf_counter()

@@ -23,9 +23,12 @@ from pathlib import Path
 
 import numpy as np
 
+from blendvoca.assets import cache_dir as user_cache, load_index_list, resolve
 from blendvoca.errors import UserError
+from blendvoca.io.mesh import read_ply
 from blendvoca.runtime.progress import bar, progress_bars, show_progress
 from blendvoca.runtime.staging import staged_folder
+from blendvoca.synthetic import variation as var
 from blendvoca.synthetic.audio import speech_audio
 from blendvoca.synthetic.groundtruth import write_npz
 from blendvoca.synthetic.headpose import apply_pose, head_motion as draw_head_motion
@@ -34,7 +37,6 @@ from blendvoca.synthetic.motion import animate_face
 from blendvoca.synthetic.plan import sentence_plan
 from blendvoca.synthetic.regions import face_regions
 from blendvoca.synthetic.signals import FPS, SIGNAL_NAMES, VARIED_SIGNAL_NAMES, motion_signals
-from blendvoca.synthetic import variation as var
 from blendvoca.vocaset.splits import proportional_split
 from blendvoca.vocaset.write import OfficialWriter, ProcessedWriter, quantize_pcm16
 
@@ -231,9 +233,6 @@ def _write_corpus(out: Path, *, speakers: int, sentences: int, seed: int, layout
                   duration: tuple[float, float], rate: int, max_lag_frames: int, frame_faces: bool,
                   head_motion: float, audio_determined: float = 1.0,
                   oracle_samples: int = 0, scale: float | None = None) -> dict:
-    from blendvoca.assets import load_index_list, resolve
-    from blendvoca.io.mesh import read_ply
-
     template, faces = read_ply(resolve("flame-sample"))
     landmarks = load_index_list("flame-landmarks")
     lengths = sentence_lengths(speakers, sentences, seed, duration)
@@ -476,8 +475,6 @@ def default_corpus(cache_dir=None) -> Path:
         ``audio_determined=1``); reused when present.
     """
     if cache_dir is None:
-        from blendvoca.assets import cache_dir as user_cache
-
         cache_dir = user_cache()
     version = GENERATOR_VERSION if DEFAULT_CORPUS.get("audio_determined", 1.0) < 1.0 else "1"
     root = Path(cache_dir).expanduser() / f"synthetic-default-v{version}"

@@ -18,8 +18,15 @@ from pathlib import Path
 
 import numpy as np
 
+from blendvoca.assets import load_index_list, resolve
 from blendvoca.errors import DataError
+from blendvoca.io.mesh import read_ply
+from blendvoca.synthetic.corpus import _SPEAKER, ORACLE_DIR, speaker_name
 from blendvoca.synthetic.groundtruth import read_npz
+from blendvoca.synthetic.identity import speaker_neutral
+from blendvoca.synthetic.motion import animate_face
+from blendvoca.synthetic.regions import face_regions
+from blendvoca.vocaset.base import SIDECAR, read_sidecar
 
 _SUBJECT = re.compile(r"^Synth_(\d{3,})_TA$")
 
@@ -47,8 +54,6 @@ class OracleSamples:
     """
 
     def __init__(self, root, meta: dict | None = None):
-        from blendvoca.vocaset.base import SIDECAR, read_sidecar
-
         self.root = Path(root)
         self.meta = read_sidecar(self.root / SIDECAR) if meta is None else meta
         self.count = oracle_count(self.meta)
@@ -58,8 +63,6 @@ class OracleSamples:
 
     def path(self, subject: str, sentence: str) -> Path:
         """``<root>/oracle/<subject>/<sentence>.npz``."""
-        from blendvoca.synthetic.corpus import ORACLE_DIR
-
         return self.root / ORACLE_DIR / subject / f"{sentence}.npz"
 
     def arrays(self, subject: str, sentence: str) -> dict[str, np.ndarray]:
@@ -72,12 +75,6 @@ class OracleSamples:
     @functools.cache  # noqa: B019 - one speaker at a time is typical; a handful at most
     def speaker(self, subject: str):
         """``(neutral (V, 3) float64, regions, faces)`` of a synthetic speaker, recomputed from the seed."""
-        from blendvoca.assets import load_index_list, resolve
-        from blendvoca.io.mesh import read_ply
-        from blendvoca.synthetic.corpus import _SPEAKER, speaker_name
-        from blendvoca.synthetic.identity import speaker_neutral
-        from blendvoca.synthetic.regions import face_regions
-
         match = _SUBJECT.match(subject)
         if not match or speaker_name(int(match.group(1))) != subject:
             raise DataError(f"{self.root}: {subject!r} is not a synthetic speaker name (Synth_NNN_TA)")
@@ -99,8 +96,6 @@ class OracleSamples:
             The corpus's neutral of the speaker: checked against the recomputed
             one (a different ``flame-sample`` asset would render other meshes).
         """
-        from blendvoca.synthetic.motion import animate_face
-
         neutral, regions, _ = self.speaker(subject)
         if template is not None and (np.shape(template) != neutral.shape
                                      or np.abs(np.asarray(template) - neutral).max() > 1e-6):

@@ -14,6 +14,7 @@ from scipy.ndimage import gaussian_filter1d
 
 from blendvoca.synthetic.plan import SentencePlan
 from blendvoca.synthetic.tracks import articulation_tracks
+from blendvoca.synthetic.variation import gesture_signals
 
 FPS = 60
 
@@ -116,8 +117,6 @@ def motion_signals(
         "envelope": audio_timeline["envelope"],
     }
     if variation is not None:
-        from blendvoca.synthetic.variation import gesture_signals
-
         gestures = gesture_signals(variation.gestures, num_frames, lag_frames, fps=fps)
         gestures["smile"] = np.clip(gestures["smile"] + variation.rest["smile"], 0.0, 1.0)
         out.update(gestures)
