@@ -11,12 +11,13 @@ from blendvoca import format as fmt
 from blendvoca.errors import DataError
 from blendvoca.format.hashing import array_digest, file_digest, stage_key
 from blendvoca.format.items import write_oracle_coeffs
+from blendvoca.format.manifest import remove_manifest
 from blendvoca.synthetic.oracle import OracleSamples
 from blendvoca.vocaset.checks import duration_mismatch
 
 from .sentence import lip_aperture, sentence_fit
 from .state import is_up_to_date, read_record, record_path, write_record
-from .worker import WORKER, invalidate_manifest, recorded_failure
+from .worker import WORKER, recorded_failure
 
 #: Bumped when a stage's algorithm changes its outputs (invalidates records).
 FIT_STAGE_VERSION = "1"
@@ -34,12 +35,24 @@ def load_rig(subject):
     return rigs[subject]
 
 
+def _stage_item(item, stage: str):
+    """A task's ``(subject, sentence, rig key, record path, summary base)`` in ``stage``'s records."""
+    subject, sentence, rig_key = item
+    return subject, sentence, rig_key, record_path(WORKER["out"], stage, subject, sentence), \
+        {"subject": subject, "sentence": sentence}
+
+
+def _write_ok(path, record: dict, files: list[str], read_s: float, clock: float, compute_s: float) -> dict:
+    """Write the item's "ok" ``record`` with the digests of ``files``; return its compute and I/O seconds."""
+    out = WORKER["out"]
+    write_record(path, {**record, "status": "ok", "files": {rel: file_digest(out / rel) for rel in files}})
+    return {"compute": compute_s, "io": read_s + time.perf_counter() - clock}
+
+
 def sentence_task(item):
     """Fit (or confirm) one sentence; returns a status dict."""
-    subject, sentence, rig_key = item
+    subject, sentence, rig_key, path, base = _stage_item(item, "sentences")
     corpus, out, params, static = (WORKER[k] for k in ("corpus", "out", "params", "static"))
-    path = record_path(out, "sentences", subject, sentence)
-    base = {"subject": subject, "sentence": sentence}
     clock = time.perf_counter()
     try:
         # the frames as stored (float32 in VOCASET), digested as the float64 frames they stand for
@@ -47,7 +60,9 @@ def sentence_task(item):
         samples, rate = corpus.audio(subject, sentence)
         inputs = {"frames": array_digest(frames, dtype=np.float64), "audio": array_digest(samples),
                   "audio_rate": int(rate)}
-        warnings = sentence_warnings(corpus, frames, samples, rate)
+        # what is implausible about the sentence but built all the same
+        mismatch = duration_mismatch(len(frames), corpus.fps, len(samples), rate)
+        warnings = [mismatch] if mismatch else []
         key = {
             "stage": "sentence", "version": FIT_STAGE_VERSION, "rig": rig_key,
             "frames": inputs["frames"], "audio": inputs["audio"], "rate": int(rate),
@@ -56,10 +71,9 @@ def sentence_task(item):
         if corpus.posed:  # how the pose was taken out decides the coefficients
             key["pose_fit"] = params["pose_fit"]
         key = stage_key(key)
-        record = read_record(path)
-        if is_up_to_date(out, record, key):
+        if is_up_to_date(out, read_record(path), key):
             return {**base, "status": "skipped", "warnings": warnings}
-        invalidate_manifest(out)
+        remove_manifest(out)
         rig = load_rig(subject)
         read_s, clock = time.perf_counter() - clock, time.perf_counter()
         coeffs, stats = sentence_fit(rig, frames, static["head_index"], delta=params["delta"], posed=corpus.posed,
@@ -69,10 +83,9 @@ def sentence_task(item):
         compute_s, clock = time.perf_counter() - clock, time.perf_counter()
         files = [fmt.write_coeffs(out, subject, sentence, coeffs, rig.names),
                  fmt.write_audio(out, subject, sentence, samples, rate)]
-        write_record(path, {**base, "key": key, "status": "ok", "stats": stats, "inputs": inputs,
-                            "files": {rel: file_digest(out / rel) for rel in files}})
-        return {**base, "status": "built", "warnings": warnings,
-                "seconds": {"compute": compute_s, "io": read_s + time.perf_counter() - clock}}
+        seconds = _write_ok(path, {**base, "key": key, "stats": stats, "inputs": inputs}, files, read_s, clock,
+                            compute_s)
+        return {**base, "status": "built", "warnings": warnings, "seconds": seconds}
     except Exception as error:  # recorded, the build carries on
         return recorded_failure(out, path, error, base)
 
@@ -92,19 +105,16 @@ def oracle_inputs(corpus, subject: str, sentence: str) -> dict:
 
 def oracle_task(item):
     """Render and fit (or confirm) the oracle samples of one sentence; returns a status dict."""
-    subject, sentence, rig_key = item
+    subject, sentence, rig_key, path, base = _stage_item(item, "oracle")
     corpus, out, params, static = (WORKER[k] for k in ("corpus", "out", "params", "static"))
-    path = record_path(out, "oracle", subject, sentence)
-    base = {"subject": subject, "sentence": sentence}
     clock = time.perf_counter()
     try:
         inputs = oracle_inputs(corpus, subject, sentence)
         key = stage_key({"stage": "oracle", "version": ORACLE_STAGE_VERSION, "rig": rig_key,
                          "inputs": inputs, "delta": params["delta"]})
-        record = read_record(path)
-        if is_up_to_date(out, record, key):
+        if is_up_to_date(out, read_record(path), key):
             return {**base, "status": "skipped", "key": key}
-        invalidate_manifest(out)
+        remove_manifest(out)
         rig = load_rig(subject)
         oracle = WORKER["oracle"]
         read_s, clock = time.perf_counter() - clock, time.perf_counter()
@@ -114,15 +124,8 @@ def oracle_task(item):
             files.append(write_oracle_coeffs(out, subject, sentence, k, coeffs, rig.names))
             rmse.append(stats["rmse_mm"])
         compute_s, clock = time.perf_counter() - clock, time.perf_counter()
-        write_record(path, {**base, "key": key, "status": "ok", "inputs": inputs, "stats": {"rmse_mm": rmse},
-                            "files": {rel: file_digest(out / rel) for rel in files}})
-        return {**base, "status": "built", "key": key,
-                "seconds": {"compute": compute_s, "io": read_s + time.perf_counter() - clock}}
+        seconds = _write_ok(path, {**base, "key": key, "inputs": inputs, "stats": {"rmse_mm": rmse}}, files,
+                            read_s, clock, compute_s)
+        return {**base, "status": "built", "key": key, "seconds": seconds}
     except Exception as error:  # recorded, the build carries on
         return recorded_failure(out, path, error, base)
-
-
-def sentence_warnings(corpus, frames, samples, rate) -> list[str]:
-    """What is implausible about a sentence that is built all the same (audio and motion durations)."""
-    mismatch = duration_mismatch(len(frames), corpus.fps, len(samples), rate)
-    return [mismatch] if mismatch else []

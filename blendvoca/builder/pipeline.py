@@ -25,7 +25,9 @@ identity on every machine, whatever BLAS kernel rounds the fits.
 Every stage has a record in ``.buildstate/`` keyed by a digest of its inputs
 and parameters, written after its outputs (which are written atomically): a
 rerun skips what is up to date, redoes what an interruption cut short or what
-a changed input or parameter touches, and writes byte-identical files.
+a changed input or parameter touches, and writes byte-identical files. The
+manifest is removed before the first output changes and rewritten at the end, so
+an interrupted or failed build never leaves one claiming partial outputs.
 The names and formats of what it writes are :mod:`blendvoca.format`'s.
 """
 
@@ -64,7 +66,7 @@ from .rig_stage import RIG_STAGE_VERSION, shared_correspondence
 from .sentence import POSE_FITS
 from .state import STATE_DIR, read_record, record_path, write_record
 from .summary_stage import write_summary_files
-from .worker import OPENED, invalidate_manifest, open_corpus, retire, static_inputs
+from .worker import OPENED, open_corpus, retire, static_inputs
 
 __all__ = ["BuildInputError", "BuildSummary", "WorkerStartError", "build_dataset", "build_recipe", "check_corpus",
            "check_delta", "check_workers", "default_output_dir", "open_corpus"]
@@ -214,8 +216,10 @@ def build_dataset(
     claim_output_dir(out)
     with build_lock(out):
         try:
+            OPENED.clear()
+            OPENED[str(vocaset)] = (os.getpid(), corpus)  # the workers forked here reuse it
             with progress_bars(progress and show_progress()):
-                return _build(out, vocaset, corpus, params, workers=workers, report=report, recipe=recipe)
+                return _build_stages(out, vocaset, corpus, params, workers=workers, report=report, recipe=recipe)
         except OutputDirError:
             remove_manifest(out)
             raise
@@ -224,6 +228,8 @@ def build_dataset(
                 remove_manifest(out)
                 raise unwritable(error, out) from None
             raise
+        finally:
+            OPENED.clear()
 
 
 def check_workers(workers) -> int:
@@ -280,7 +286,7 @@ def _retire_vanished(out: Path, stage: str, current: set, summary, problems: dic
     """Items built before that the corpus no longer has: remove their outputs and records, report them."""
     for item, path in _stale_records(out, stage, current):
         record = read_record(path)
-        invalidate_manifest(out)
+        remove_manifest(out)
         note = retire(out, record)
         path.unlink()
         subject, sentence = (item + (None,))[:2]
@@ -310,14 +316,18 @@ def build_recipe(vocaset, params: dict, assets: dict) -> dict:
                            format_version=RECIPE_FORMAT)
 
 
-def _build(out, vocaset, corpus, params, *, workers, report, recipe=None):
-    OPENED.clear()
-    OPENED[str(vocaset)] = (os.getpid(), corpus)
-    try:
-        return _build_stages(out, vocaset, corpus, params, workers=workers, report=report,
-                             recipe=recipe)
-    finally:
-        OPENED.clear()
+def _tally(summary: BuildSummary, results, count: str, stage: str) -> list[dict]:
+    """Count ``results`` into ``summary``: failures under ``stage``, the others as ``count`` built or skipped;
+    return the others."""
+    done = []
+    for result in results:
+        if result["status"] == "failed":
+            summary.failures.append({"subject": result["subject"], "sentence": result.get("sentence"),
+                                     "stage": stage, "reason": result["reason"]})
+        else:
+            (summary.built if result["status"] == "built" else summary.skipped)[count] += 1
+            done.append(result)
+    return done
 
 
 def _build_stages(out, vocaset, corpus, params, *, workers, report, recipe=None):
@@ -336,15 +346,7 @@ def _build_stages(out, vocaset, corpus, params, *, workers, report, recipe=None)
     shared_s = time.perf_counter() - shared_clock
     speaker_results = _run(subjects, rig_stage.speaker_task, workers=workers, initargs=initargs + (shared,),
                            desc="speaker rigs")
-    rig_keys = {}
-    for result in speaker_results:
-        if result["status"] == "failed":
-            summary.failures.append({"subject": result["subject"], "sentence": None, "stage": "rig",
-                                     "reason": result["reason"]})
-            continue
-        key = "built" if result["status"] == "built" else "skipped"
-        getattr(summary, key)["speakers"] += 1
-        rig_keys[result["subject"]] = result["key"]
+    rig_keys = {result["subject"]: result["key"] for result in _tally(summary, speaker_results, "speakers", "rig")}
 
     summary.seconds["rigs"] = time.perf_counter() - clock
     stages = {"rigs": {**_task_seconds(speaker_results), "wall": summary.seconds["rigs"],
@@ -363,16 +365,9 @@ def _build_stages(out, vocaset, corpus, params, *, workers, report, recipe=None)
                 summary.failures.append({"subject": subject, "sentence": sentence, "stage": "fit", "reason": reason})
     sentence_results = _run(items, fit_stage.sentence_task, workers=workers, initargs=initargs,
                             desc="sentences")
-    for result in sentence_results:
-        for message in result.get("warnings", ()):
-            summary.warnings.append({"subject": result["subject"], "sentence": result["sentence"],
-                                     "message": message})
-        if result["status"] == "failed":
-            summary.failures.append({"subject": result["subject"], "sentence": result["sentence"],
-                                     "stage": "fit", "reason": result["reason"]})
-        else:
-            key = "built" if result["status"] == "built" else "skipped"
-            getattr(summary, key)["sentences"] += 1
+    summary.warnings += [{"subject": result["subject"], "sentence": result["sentence"], "message": message}
+                         for result in sentence_results for message in result.get("warnings", ())]
+    _tally(summary, sentence_results, "sentences", "fit")
     for (subject, sentence), problem in sorted(problems.items()):
         summary.failures.append({"subject": subject, "sentence": sentence, "stage": "input",
                                  "reason": problem.message})
@@ -408,7 +403,7 @@ def _oracle_stage(out, corpus, subjects, sentence_results, rig_keys, summary, st
     fitted = {(r["subject"], r["sentence"]) for r in sentence_results if r["status"] != "failed"}
     items = [(s, q) for s in subjects for q in corpus.sentences(s) if (s, q) in fitted] if count else []
     for item, path in _stale_records(out, "oracle", set(items)):
-        invalidate_manifest(out)
+        remove_manifest(out)
         retire(out, read_record(path))
         path.unlink()
     if not items:
@@ -416,15 +411,8 @@ def _oracle_stage(out, corpus, subjects, sentence_results, rig_keys, summary, st
     clock = time.perf_counter()
     results = _run([(s, q, rig_keys[s]) for s, q in items], fit_stage.oracle_task, workers=workers, initargs=initargs,
                    desc="oracle samples")
-    done = []
     summary.built["oracle"] = summary.skipped["oracle"] = 0
-    for result in results:
-        if result["status"] == "failed":
-            summary.failures.append({"subject": result["subject"], "sentence": result["sentence"],
-                                     "stage": "oracle", "reason": result["reason"]})
-        else:
-            done.append((result["subject"], result["sentence"]))
-            (summary.built if result["status"] == "built" else summary.skipped)["oracle"] += 1
+    done = [(result["subject"], result["sentence"]) for result in _tally(summary, results, "oracle", "oracle")]
     summary.seconds["oracle"] = time.perf_counter() - clock
     stages["oracle"] = {**_task_seconds(results), "wall": summary.seconds["oracle"],
                         "built": sum(r["status"] == "built" for r in results)}

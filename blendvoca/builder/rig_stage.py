@@ -8,6 +8,7 @@ import time
 from blendvoca import format as fmt
 from blendvoca.errors import DataError
 from blendvoca.format.hashing import array_digest, file_digest, stage_key
+from blendvoca.format.manifest import remove_manifest
 from blendvoca.retarget import correspondence_for_target
 from blendvoca.rig import Rig, load_arkit_reference
 from blendvoca.runtime.threads import limited_threads
@@ -15,7 +16,7 @@ from blendvoca.vocaset.checks import template_scale_problem
 
 from .speaker import head_faces, speaker_rig
 from .state import is_up_to_date, read_record, record_path, write_record
-from .worker import WORKER, invalidate_manifest, recorded_failure, static_inputs
+from .worker import WORKER, recorded_failure, static_inputs
 
 #: Bumped when the stage's algorithm changes its outputs (invalidates records).
 RIG_STAGE_VERSION = "2"  # 2: one triangle correspondence per build, on the reference speaker
@@ -113,7 +114,7 @@ def speaker_task(subject):
         rig = speaker_rig(reference, template, faces, static["reference_landmarks"],
                           static["landmarks"], static["head_index"], correspondence=correspondence)
         compute_s, clock = time.perf_counter() - clock, time.perf_counter()
-        invalidate_manifest(out)
+        remove_manifest(out)
         head = static["head_index"]
         hfaces = head_faces(rig.faces, head, rig.num_vertices)
         files = [fmt.write_rig(out, subject, rig)]

@@ -42,16 +42,8 @@ def speaker_rig(
     Rig
         ``neutral == template``, one delta per ``reference.names``.
     """
-    return retarget_rig(
-        reference,
-        template,
-        faces,
-        reference_landmarks,
-        template_landmarks,
-        crop=head_index,
-        shapes=list(reference.names),
-        correspondence=correspondence,
-    )
+    return retarget_rig(reference, template, faces, reference_landmarks, template_landmarks, crop=head_index,
+                        shapes=list(reference.names), correspondence=correspondence)
 
 
 def head_faces(faces: np.ndarray, head_index: np.ndarray, num_vertices: int) -> np.ndarray:

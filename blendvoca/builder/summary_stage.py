@@ -8,14 +8,13 @@ import time
 import blendvoca
 from blendvoca import format as fmt
 from blendvoca.format.hashing import file_digest, stage_key
-from blendvoca.format.manifest import write_manifest
+from blendvoca.format.manifest import remove_manifest, write_manifest
 from blendvoca.synthetic.oracle import oracle_count
 
 from .outdir import remove_own_outputs
 from .report import REPORT_FILES, coeffs_std, measured_share, write_report
 from .said_residuals import write_blendshape_residuals
 from .state import is_up_to_date, read_record, record_path, write_record
-from .worker import invalidate_manifest
 
 
 def declared_share(corpus) -> dict | None:
@@ -59,7 +58,7 @@ def write_summary_files(out, corpus, vocaset, subjects, params, summary, *, repo
     previous = read_record(summary_path)
     if is_up_to_date(out, previous, summary_key):
         return None
-    invalidate_manifest(out)
+    remove_manifest(out)
     # The previous summary's own files go first: a report or coeffs_std.csv this build does not
     # write again must not stay behind looking current.
     remove_own_outputs(out, {"files": {rel: d for rel, d in ((previous or {}).get("files") or {}).items()

@@ -62,12 +62,6 @@ WORKER: dict = {}
 OPENED: dict = {}
 
 
-def invalidate_manifest(out: Path) -> None:
-    """Remove ``manifest.json`` before the first output changes: it is rewritten at the end,
-    so an interrupted or failed build never leaves a manifest claiming partial outputs."""
-    remove_manifest(out)
-
-
 def retire(out: Path, record: dict | None) -> str:
     """Remove a failed or vanished item's previous outputs (the build's own); a note for its reason."""
     removed = remove_own_outputs(out, record)
@@ -108,14 +102,8 @@ def worker_init(corpus_root, out, params, shared=None):
     forked = opened is not None and opened[0] != os.getpid()
     corpus = opened[1] if forked else open_corpus(corpus_root, params.get("reader"))
     WORKER.clear()
-    WORKER.update(
-        corpus=corpus,
-        out=Path(out),
-        params=params,
-        static=static_inputs(params["shapes"], corpus),
-        rigs={},
-        shared=shared or {},
-    )
+    WORKER.update(corpus=corpus, out=Path(out), params=params, static=static_inputs(params["shapes"], corpus),
+                  rigs={}, shared=shared or {})
 
 
 def recorded_failure(out: Path, path: Path, error: BaseException, base: dict) -> dict:
@@ -124,7 +112,7 @@ def recorded_failure(out: Path, path: Path, error: BaseException, base: dict) ->
     full, read-only folder) is not an item's failure: it ends the build."""
     if is_fatal_write_error(error):
         raise unwritable(error, out) from None
-    invalidate_manifest(out)
+    remove_manifest(out)
     reason = failure_reason(error) + retire(out, read_record(path))
     write_record(path, {**base, "status": "failed", "reason": reason})
     return {**base, "status": "failed", "reason": reason}

@@ -125,11 +125,9 @@ def main(argv=None) -> int:
                         help="distance (target units) over which re-attached vertices blend back to rest")
     parser.add_argument("--no-sheet", action="store_true", help="skip the contact sheet image")
     args = parser.parse_args(argv)
-    report = retarget_files(
-        args.target, args.target_landmarks, args.out, source_rig=args.source_rig,
-        source_landmarks=args.source_landmarks, crop=args.crop, shapes=args.shapes,
-        falloff=args.falloff, sheet=not args.no_sheet,
-    )
+    report = retarget_files(args.target, args.target_landmarks, args.out, source_rig=args.source_rig,
+                            source_landmarks=args.source_landmarks, crop=args.crop, shapes=args.shapes,
+                            falloff=args.falloff, sheet=not args.no_sheet)
     print(summary_line(report, args.out))
     return cli.EXIT_OK
 

@@ -64,12 +64,8 @@ def crop_mesh(faces: np.ndarray, n_vertices: int, keep: np.ndarray) -> Crop:
     kept = inside.all(axis=1)
     touching = inside.any(axis=1) & ~kept
     seam_full = np.unique(F[touching][inside[touching]])
-    return Crop(
-        vertex_index=idx,
-        faces=remap[F[kept]],
-        face_index=np.flatnonzero(kept).astype(np.int64),
-        seam=np.sort(remap[seam_full]),
-    )
+    return Crop(vertex_index=idx, faces=remap[F[kept]], face_index=np.flatnonzero(kept).astype(np.int64),
+                seam=np.sort(remap[seam_full]))
 
 
 def connected_pieces(faces: np.ndarray, n_vertices: int) -> np.ndarray:
@@ -213,9 +209,8 @@ def reattached_deltas(
     K = full.shape[0]
     Y = full[:, known].transpose(1, 0, 2).reshape(len(known), 3 * K)
     B = np.zeros((len(V), 3 * K))
-    Z = igl.min_quad_with_fixed(
-        (-L).tocsc(), B, known, np.ascontiguousarray(Y), sp.csc_matrix((0, len(V))), np.zeros((0, 3 * K)), True
-    )
+    Z = igl.min_quad_with_fixed((-L).tocsc(), B, known, np.ascontiguousarray(Y), sp.csc_matrix((0, len(V))),
+                                np.zeros((0, 3 * K)), True)
     return Z.reshape(len(V), K, 3).transpose(1, 0, 2).copy()
 
 

@@ -21,20 +21,11 @@ from blendvoca.rig import Rig, shape_names
 
 from ._checks import as_faces, as_indices, as_vertices
 from .alignment import Similarity, similarity_transform
-from .correspondence import (
-    VertexCorrespondence,
-    triangle_correspondence,
-    vertex_correspondence,
-)
+from .correspondence import VertexCorrespondence, triangle_correspondence, vertex_correspondence
 from .crop import Crop, connected_pieces, crop_mesh, reattached_deltas
 from .deformation_gradient import deformation_gradient_displacements
 from .registration import register_source_to_target
-from .transfer import (
-    TransferSystem,
-    anchored_deltas,
-    transfer_system,
-    transferred_deltas,
-)
+from .transfer import TransferSystem, anchored_deltas, transfer_system, transferred_deltas
 
 
 @dataclass(frozen=True)
@@ -189,15 +180,8 @@ def correspondence_for_target(
     pairs = pairs[transferred[c.faces[pairs[:, 1]]].all(axis=1)]
     vc = vertex_correspondence(registered, Fs, Vc, c.faces, dist)
     vc = VertexCorrespondence(vc.source_faces, vc.barycentric, vc.valid & transferred)
-    return Correspondence(
-        pairs=pairs,
-        vertex=vc,
-        n_source_vertices=len(Vs),
-        n_source_faces=len(Fs),
-        n_target_vertices=len(Vc),
-        n_target_faces=len(c.faces),
-        registered_source=registered,
-    )
+    return Correspondence(pairs=pairs, vertex=vc, n_source_vertices=len(Vs), n_source_faces=len(Fs),
+                          n_target_vertices=len(Vc), n_target_faces=len(c.faces), registered_source=registered)
 
 
 def plan_retarget(
@@ -243,39 +227,20 @@ def plan_retarget(
     Vs, Fs, lm_s, V, F, lm_t, c, _, transferred = _checked_inputs(
         source_neutral, source_faces, source_landmarks, target_vertices, target_faces, target_landmarks, crop, where)
     if correspondence is None:
-        correspondence = correspondence_for_target(
-            Vs, Fs, V, F, lm_s, lm_t, crop=crop, max_distance=max_distance
-        )
+        correspondence = correspondence_for_target(Vs, Fs, V, F, lm_s, lm_t, crop=crop, max_distance=max_distance)
     else:
         expected = (len(Vs), len(Fs), len(c.vertex_index), len(c.faces))
-        got = (
-            correspondence.n_source_vertices,
-            correspondence.n_source_faces,
-            correspondence.n_target_vertices,
-            correspondence.n_target_faces,
-        )
+        got = (correspondence.n_source_vertices, correspondence.n_source_faces, correspondence.n_target_vertices,
+               correspondence.n_target_faces)
         if got != expected:
-            raise UserError(
-                f"{where}: the correspondence was computed for (source vertices, source faces, cropped target "
-                f"vertices, cropped target faces) = {got}, this source and target have {expected}"
-            )
+            raise UserError(f"{where}: the correspondence was computed for (source vertices, source faces, cropped "
+                            f"target vertices, cropped target faces) = {got}, this source and target have {expected}")
     sim = similarity_transform(Vs[lm_s], V[lm_t])
-    Vc = V[c.vertex_index]
-    system = transfer_system(
-        Vc, c.faces, correspondence.pairs, len(Fs), fixed_vertices=np.flatnonzero(~transferred)
-    )
-    return RetargetPlan(
-        similarity=sim,
-        target_vertices=V,
-        target_faces=F,
-        crop=c,
-        transferred=transferred,
-        correspondence=correspondence,
-        system=system,
-        source_neutral_aligned=sim.apply(Vs),
-        source_faces=Fs,
-        falloff=float(falloff),
-    )
+    system = transfer_system(V[c.vertex_index], c.faces, correspondence.pairs, len(Fs),
+                             fixed_vertices=np.flatnonzero(~transferred))
+    return RetargetPlan(similarity=sim, target_vertices=V, target_faces=F, crop=c, transferred=transferred,
+                        correspondence=correspondence, system=system, source_neutral_aligned=sim.apply(Vs),
+                        source_faces=Fs, falloff=float(falloff))
 
 
 def retargeted_deltas(plan: RetargetPlan, source_deltas: np.ndarray) -> np.ndarray:
@@ -302,9 +267,8 @@ def retargeted_deltas(plan: RetargetPlan, source_deltas: np.ndarray) -> np.ndarr
     cropped = transferred_deltas(plan.system, dQ)
     reference = plan.correspondence.vertex.interpolate(aligned, plan.source_faces)
     cropped = anchored_deltas(cropped, plan.system.pieces, reference, plan.correspondence.vertex.valid.astype(float))
-    return reattached_deltas(
-        cropped, plan.crop.vertex_index, plan.target_vertices, plan.target_faces, falloff=plan.falloff
-    )
+    return reattached_deltas(cropped, plan.crop.vertex_index, plan.target_vertices, plan.target_faces,
+                             falloff=plan.falloff)
 
 
 def retarget_rig(
@@ -358,16 +322,6 @@ def retarget_rig(
     if missing:
         raise UserError(f"retarget_rig: the source rig has no shapes {missing}")
     src = source.select(names)
-    plan = plan_retarget(
-        src.neutral,
-        src.faces,
-        target_vertices,
-        target_faces,
-        source_landmarks,
-        target_landmarks,
-        crop=crop,
-        correspondence=correspondence,
-        max_distance=max_distance,
-        falloff=falloff,
-    )
+    plan = plan_retarget(src.neutral, src.faces, target_vertices, target_faces, source_landmarks, target_landmarks,
+                         crop=crop, correspondence=correspondence, max_distance=max_distance, falloff=falloff)
     return Rig(plan.target_vertices, retargeted_deltas(plan, src.deltas), tuple(names), plan.target_faces)

@@ -96,9 +96,7 @@ def closest_valid_points(
     valid : (N,) bool ndarray
         Closer than ``max_distance`` and with normals less than 90 degrees apart.
     """
-    sq, face, closest = igl.point_mesh_squared_distance(
-        np.ascontiguousarray(points), target_vertices, target_faces
-    )
+    sq, face, closest = igl.point_mesh_squared_distance(np.ascontiguousarray(points), target_vertices, target_faces)
     fn = face_normals(target_vertices, target_faces) if target_face_normals is None else target_face_normals
     valid = (sq <= max_distance**2) & (np.einsum("ij,ij->i", normals, fn[face]) > 0.0)
     return closest, valid
@@ -174,13 +172,9 @@ def register_source_to_target(
     A = deformation_gradient_operator(Vs_n, Fs).tocsr()
     adj = face_adjacency_pairs(Fs)
     rows = np.arange(3 * len(adj))
-    sel = sp.csr_matrix(
-        (
-            np.concatenate([np.ones(3 * len(adj)), -np.ones(3 * len(adj))]),
-            (np.concatenate([rows, rows]), np.concatenate([(3 * adj[:, [0]] + np.arange(3)).ravel(), (3 * adj[:, [1]] + np.arange(3)).ravel()])),
-        ),
-        shape=(3 * len(adj), 3 * nf),
-    )
+    columns = np.concatenate([(3 * adj[:, [0]] + np.arange(3)).ravel(), (3 * adj[:, [1]] + np.arange(3)).ravel()])
+    sel = sp.csr_matrix((np.concatenate([np.ones(3 * len(adj)), -np.ones(3 * len(adj))]),
+                         (np.concatenate([rows, rows]), columns)), shape=(3 * len(adj), 3 * nf))
     Ds = sel @ A
     base = smoothness_weight * (Ds.T @ Ds) + identity_weight * (A.T @ A)
     identity = np.tile(np.eye(3), (nf, 1))  # (3F, 3): column r = coordinate r of Q = I
@@ -196,18 +190,15 @@ def register_source_to_target(
     def solve(wc: float) -> np.ndarray:
         M, rhs = base, base_rhs
         if wc > 0:
-            closest, valid = closest_valid_points(
-                x[:nv], vertex_normals(x[:nv], Fs), Vt_n, Ft, threshold, target_face_normals=tgt_fn
-            )
+            closest, valid = closest_valid_points(x[:nv], vertex_normals(x[:nv], Fs), Vt_n, Ft, threshold,
+                                                  target_face_normals=tgt_fn)
             w = np.zeros(n)
             w[:nv] = wc * valid
             M = M + sp.diags(w)
             rhs = rhs + w[:, None] * np.vstack([closest, np.zeros((nf, 3))])
         # libigl: sparse Cholesky with the markers eliminated (Eigen), faster than SuperLU
-        return igl.min_quad_with_fixed(
-            M.tocsc(), np.ascontiguousarray(-rhs), fixed_idx, np.ascontiguousarray(x[fixed_idx]),
-            sp.csc_matrix((0, n)), np.zeros((0, 3)), True,
-        )
+        return igl.min_quad_with_fixed(M.tocsc(), np.ascontiguousarray(-rhs), fixed_idx, np.ascontiguousarray(
+            x[fixed_idx]), sp.csc_matrix((0, n)), np.zeros((0, 3)), True)
 
     x = solve(0.0)
     for wc in closest_weights:

@@ -130,10 +130,8 @@ def transfer_system(
     blocks = np.eye(3)[None] - a_hat[:, :, None] * a_hat[:, None, :]  # (F, 3, 3)
     r = 3 * np.arange(nf)[:, None, None] + np.arange(3)[None, :, None]
     c = 3 * np.arange(nf)[:, None, None] + np.arange(3)[None, None, :]
-    projector = sp.csr_matrix(
-        (blocks.ravel(), (np.broadcast_to(r, blocks.shape).ravel(), np.broadcast_to(c, blocks.shape).ravel())),
-        shape=(3 * nf, 3 * nf),
-    )
+    projector = sp.csr_matrix((blocks.ravel(), (np.broadcast_to(r, blocks.shape).ravel(),
+                                                np.broadcast_to(c, blocks.shape).ravel())), shape=(3 * nf, 3 * nf))
     C = (projector @ Av).tocsr()
     counts = np.bincount(P[:, 1], minlength=nf).astype(np.float64)
     if not unpaired_weight > 0:
@@ -164,20 +162,10 @@ def transfer_system(
         try:
             igl.min_quad_with_fixed_precompute(K.tocsc(), known, sp.csc_matrix((0, nv)), False, factor)
         except RuntimeError as err:
-            raise DataError(
-                f"{where}: the deformation-transfer system of this target is singular; look for "
-                "degenerate (zero-area) or duplicated triangles in target_faces"
-            ) from err
-    return TransferSystem(
-        n_vertices=nv,
-        n_source_faces=int(n_source_faces),
-        pairs=P,
-        gather=gather,
-        projected_operator=C,
-        free=free,
-        factor=factor,
-        pieces=pieces.astype(np.int64),
-    )
+            raise DataError(f"{where}: the deformation-transfer system of this target is singular; look for "
+                            "degenerate (zero-area) or duplicated triangles in target_faces") from err
+    return TransferSystem(n_vertices=nv, n_source_faces=int(n_source_faces), pairs=P, gather=gather,
+                          projected_operator=C, free=free, factor=factor, pieces=pieces.astype(np.int64))
 
 
 def transferred_deltas(system: TransferSystem, source_gradient_displacements: np.ndarray) -> np.ndarray:

@@ -148,11 +148,6 @@ def sentence_plan(
     ends = np.cumsum(all_lengths)
     ends[-1] = duration
     starts = np.concatenate([[0.0], ends[:-1]])
-    return SentencePlan(
-        phones=(SILENCE, *phones, SILENCE),
-        starts=starts,
-        ends=ends,
-        syllables=np.array([-1, *syllables, -1], dtype=np.int64),
-        stress=np.array([0.0, *stress, 0.0], dtype=np.float64),
-        duration=float(duration),
-    )
+    return SentencePlan(phones=(SILENCE, *phones, SILENCE), starts=starts, ends=ends,
+                        syllables=np.array([-1, *syllables, -1], dtype=np.int64),
+                        stress=np.array([0.0, *stress, 0.0], dtype=np.float64), duration=float(duration))

@@ -154,14 +154,8 @@ def face_regions(vertices: np.ndarray, faces: np.ndarray, landmarks: np.ndarray)
 
     lid_gap = float(np.mean([lm[[37, 38], 1].mean() - lm[[40, 41], 1].mean(),
                              lm[[43, 44], 1].mean() - lm[[46, 47], 1].mean()]))
-    return FaceRegions(
-        jaw=jaw_weights(V, F, lm_idx, hinge),
-        lips=lips,
-        upper_lid=bump(np.stack([lm[[37, 38]].mean(0), lm[[43, 44]].mean(0)]), 0.006),
-        lower_lid=bump(np.stack([lm[[40, 41]].mean(0), lm[[46, 47]].mean(0)]), 0.005),
-        brows=bump(lm[17:27], 0.012),
-        hinge=hinge,
-        mouth_center=mouth_center,
-        mouth_width=mouth_width,
-        lid_gap=lid_gap,
-    )
+    return FaceRegions(jaw=jaw_weights(V, F, lm_idx, hinge), lips=lips,
+                       upper_lid=bump(np.stack([lm[[37, 38]].mean(0), lm[[43, 44]].mean(0)]), 0.006),
+                       lower_lid=bump(np.stack([lm[[40, 41]].mean(0), lm[[46, 47]].mean(0)]), 0.005),
+                       brows=bump(lm[17:27], 0.012), hinge=hinge, mouth_center=mouth_center,
+                       mouth_width=mouth_width, lid_gap=lid_gap)
