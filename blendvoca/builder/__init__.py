@@ -13,15 +13,5 @@ from .report import coeffs_std
 from .sentence import lip_aperture, sentence_fit
 from .speaker import head_faces, speaker_rig
 
-__all__ = [
-    "BuildInputError",
-    "BuildSummary",
-    "WorkerStartError",
-    "build_dataset",
-    "coeffs_std",
-    "default_output_dir",
-    "head_faces",
-    "lip_aperture",
-    "sentence_fit",
-    "speaker_rig",
-]
+__all__ = ["BuildInputError", "BuildSummary", "WorkerStartError", "build_dataset", "coeffs_std", "default_output_dir",
+           "head_faces", "lip_aperture", "sentence_fit", "speaker_rig"]

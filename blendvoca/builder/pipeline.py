@@ -53,14 +53,8 @@ from blendvoca.synthetic.oracle import oracle_count
 
 from . import fit_stage, rig_stage, worker
 from .fit_stage import FIT_STAGE_VERSION, ORACLE_STAGE_VERSION
-from .outdir import (
-    build_lock,
-    check_output_dir,
-    claim_output_dir,
-    is_fatal_write_error,
-    remove_stale_temporaries,
-    unwritable,
-)
+from .outdir import (build_lock, check_output_dir, claim_output_dir, is_fatal_write_error, remove_stale_temporaries,
+                     unwritable)
 from .report import TIMINGS, write_timings
 from .rig_stage import RIG_STAGE_VERSION, shared_correspondence
 from .sentence import POSE_FITS

@@ -30,18 +30,26 @@ def coeffs_std(tracks) -> np.ndarray:
     return stacked.std(axis=0)
 
 
-def _save_figure(fig, path):
-    # No metadata: identical builds give identical PNG bytes.
-    with atomic_write(path, "wb") as f:
-        fig.savefig(f, format="png", dpi=90, metadata={"Software": None})
-
-
-def _usage_figure(path, names, usage, activity):
+def _pyplot():
+    """``matplotlib.pyplot`` on the Agg backend (no display needed)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    return plt
+
+
+def _save_figure(fig, path):
+    """Write ``fig`` as a PNG at ``path`` and close it."""
+    # No metadata: identical builds give identical PNG bytes.
+    with atomic_write(path, "wb") as f:
+        fig.savefig(f, format="png", dpi=90, metadata={"Software": None})
+    _pyplot().close(fig)
+
+
+def _usage_figure(path, names, usage, activity):
+    plt = _pyplot()
     x = np.arange(len(names))
     fig, axes = plt.subplots(2, 1, figsize=(11, 6), sharex=True)
     axes[0].bar(x, usage, color="tab:blue")
@@ -57,15 +65,10 @@ def _usage_figure(path, names, usage, activity):
     axes[1].set_xticklabels(names, rotation=70, fontsize=7)
     fig.tight_layout()
     _save_figure(fig, path)
-    plt.close(fig)
 
 
 def _tracks_figure(path, out, items, names):
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = _pyplot()
     shapes = [s for s in TRACK_SHAPES if s in names]
     fig, axes = plt.subplots(len(items), 1, figsize=(10, 2.6 * len(items)), squeeze=False)
     for ax, ((subject, sentence), rec) in zip(axes[:, 0], items):
@@ -84,7 +87,6 @@ def _tracks_figure(path, out, items, names):
     axes[-1, 0].set_xlabel("time (s)")
     fig.tight_layout()
     _save_figure(fig, path)
-    plt.close(fig)
 
 
 def measured_share(out, splits: dict, items, names, *, count: int, declared: dict) -> dict:

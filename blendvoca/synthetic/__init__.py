@@ -8,16 +8,8 @@ speaker determine and ``--oracle-samples K`` adds K conditional samples of every
 sentence (``oracle/``). See ``docs/vocaset.md`` and ``docs/synthetic.md``.
 """
 
-from blendvoca.synthetic.corpus import (
-    DEFAULT_AUDIO_DETERMINED,
-    DEFAULT_CORPUS,
-    GENERATOR_VERSION,
-    default_corpus,
-    generate_corpus,
-    sentence_lengths,
-    speaker_name,
-    synthesize_sentence,
-)
+from blendvoca.synthetic.corpus import (DEFAULT_AUDIO_DETERMINED, DEFAULT_CORPUS, GENERATOR_VERSION, default_corpus,
+                                        generate_corpus, sentence_lengths, speaker_name, synthesize_sentence)
 from blendvoca.synthetic.groundtruth import read_npz
 
 __all__ = [

@@ -88,10 +88,8 @@ def check_safe_name(name, what: str, where) -> str:
         The file or folder it came from (named in the error).
     """
     if not isinstance(name, str) or not SAFE_NAME.match(name):
-        raise UnsafeNameError(
-            f"{where}: {what} name {name!r} is not a safe file name; expected letters, digits, '_', '-' "
-            "or '.' (not starting with '.', at most 128 characters)"
-        )
+        raise UnsafeNameError(f"{where}: {what} name {name!r} is not a safe file name; expected letters, digits, "
+                              "'_', '-' or '.' (not starting with '.', at most 128 characters)")
     return name
 
 
@@ -105,19 +103,4 @@ class VocasetError(DataError):
     def __init__(self, problem: Problem):
         super().__init__(str(problem))
         self.problem = problem
-
-    @property
-    def subject(self) -> str:
-        return self.problem.subject
-
-    @property
-    def sentence(self) -> str | None:
-        return self.problem.sentence
-
-    @property
-    def frame(self) -> int | None:
-        return self.problem.frame
-
-    @property
-    def kind(self) -> str:
-        return self.problem.kind
+        self.subject, self.sentence, self.frame, self.kind = problem.subject, problem.sentence, problem.frame, problem.kind

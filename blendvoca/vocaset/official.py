@@ -152,11 +152,7 @@ class OfficialVocaset(VocasetCorpus):
         for p in self.problems:
             if (p.subject, p.sentence, p.kind) == (subject, sentence, "missing_frame"):
                 raise VocasetError(p)
-        try:
-            frames = read_ply_sequence(paths, num_vertices=self.num_vertices)
-        except (MeshFormatError, OSError):
-            self._locate_bad_frame(subject, sentence, paths)
-            raise  # not reached: _locate_bad_frame raises
+        frames = self._read_frames(subject, sentence, paths)
         if dtype is not None:
             frames = np.asarray(frames, dtype=dtype)
         return self._check_frames(subject, sentence, frames, str(paths[0].parent))
@@ -183,14 +179,14 @@ class OfficialVocaset(VocasetCorpus):
         if gaps:
             self._fail("missing_frame", subject, sentence, f"{folder}: frame files {gaps[:5]} missing",
                        frame=int(np.searchsorted(numbers, gaps[0])))
-        try:
-            frames = read_ply_sequence(paths, num_vertices=self.num_vertices)
-        except (MeshFormatError, OSError):
-            self._locate_bad_frame(subject, sentence, paths)
-            raise  # not reached: _locate_bad_frame raises
-        return self._check_frames(subject, sentence, frames, str(folder))
+        return self._check_frames(subject, sentence, self._read_frames(subject, sentence, paths), str(folder))
 
-    def _locate_bad_frame(self, subject: str, sentence: str, paths: list[Path]) -> None:
+    def _read_frames(self, subject: str, sentence: str, paths: list[Path]) -> np.ndarray:
+        """The frame PLYs ``paths`` stacked ``(T, V, 3)``; the first bad one is recorded and raised."""
+        try:
+            return read_ply_sequence(paths, num_vertices=self.num_vertices)
+        except (MeshFormatError, OSError):
+            pass
         for t, path in enumerate(paths):
             try:
                 V = read_ply_vertices(path)
