@@ -16,8 +16,8 @@ from blendvoca.synthetic.oracle import OracleSamples
 from blendvoca.vocaset.checks import duration_mismatch
 
 from .sentence import lip_aperture, sentence_fit
-from .state import is_up_to_date, read_record, record_path, write_record
-from .worker import WORKER, recorded_failure
+from .state import is_up_to_date, read_record, record_path
+from .worker import WORKER, record_built, recorded_failure
 
 #: Bumped when a stage's algorithm changes its outputs (invalidates records).
 FIT_STAGE_VERSION = "1"
@@ -40,13 +40,6 @@ def _stage_item(item, stage: str):
     subject, sentence, rig_key = item
     return subject, sentence, rig_key, record_path(WORKER["out"], stage, subject, sentence), \
         {"subject": subject, "sentence": sentence}
-
-
-def _write_ok(path, record: dict, files: list[str], read_s: float, clock: float, compute_s: float) -> dict:
-    """Write the item's "ok" ``record`` with the digests of ``files``; return its compute and I/O seconds."""
-    out = WORKER["out"]
-    write_record(path, {**record, "status": "ok", "files": {rel: file_digest(out / rel) for rel in files}})
-    return {"compute": compute_s, "io": read_s + time.perf_counter() - clock}
 
 
 def sentence_task(item):
@@ -83,8 +76,8 @@ def sentence_task(item):
         compute_s, clock = time.perf_counter() - clock, time.perf_counter()
         files = [fmt.write_coeffs(out, subject, sentence, coeffs, rig.names),
                  fmt.write_audio(out, subject, sentence, samples, rate)]
-        seconds = _write_ok(path, {**base, "key": key, "stats": stats, "inputs": inputs}, files, read_s, clock,
-                            compute_s)
+        seconds = record_built(path, {**base, "key": key, "stats": stats, "inputs": inputs}, files, read_s=read_s,
+                               compute_s=compute_s, clock=clock)
         return {**base, "status": "built", "warnings": warnings, "seconds": seconds}
     except Exception as error:  # recorded, the build carries on
         return recorded_failure(out, path, error, base)
@@ -124,8 +117,8 @@ def oracle_task(item):
             files.append(write_oracle_coeffs(out, subject, sentence, k, coeffs, rig.names))
             rmse.append(stats["rmse_mm"])
         compute_s, clock = time.perf_counter() - clock, time.perf_counter()
-        seconds = _write_ok(path, {**base, "key": key, "inputs": inputs, "stats": {"rmse_mm": rmse}}, files,
-                            read_s, clock, compute_s)
+        seconds = record_built(path, {**base, "key": key, "inputs": inputs, "stats": {"rmse_mm": rmse}}, files,
+                               read_s=read_s, compute_s=compute_s, clock=clock)
         return {**base, "status": "built", "key": key, "seconds": seconds}
     except Exception as error:  # recorded, the build carries on
         return recorded_failure(out, path, error, base)

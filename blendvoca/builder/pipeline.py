@@ -101,8 +101,6 @@ class BuildSummary:
         return not self.failures
 
 
-
-
 def _run(tasks, function, *, workers, initargs, desc):
     """``function`` over ``tasks`` in ``workers`` processes (here for 1), each set up by
     :func:`.worker.worker_init`; the results in order. One BLAS thread while it runs (a

@@ -7,16 +7,16 @@ import time
 
 from blendvoca import format as fmt
 from blendvoca.errors import DataError
-from blendvoca.format.hashing import array_digest, file_digest, stage_key
+from blendvoca.format.hashing import array_digest, stage_key
 from blendvoca.format.manifest import remove_manifest
 from blendvoca.retarget import correspondence_for_target
-from blendvoca.rig import Rig, load_arkit_reference
+from blendvoca.rig import load_arkit_reference
 from blendvoca.runtime.threads import limited_threads
 from blendvoca.vocaset.checks import template_scale_problem
 
 from .speaker import head_faces, speaker_rig
-from .state import is_up_to_date, read_record, record_path, write_record
-from .worker import WORKER, recorded_failure, static_inputs
+from .state import is_up_to_date, read_record, record_path
+from .worker import WORKER, record_built, recorded_failure, static_inputs
 
 #: Bumped when the stage's algorithm changes its outputs (invalidates records).
 RIG_STAGE_VERSION = "2"  # 2: one triangle correspondence per build, on the reference speaker
@@ -87,8 +87,6 @@ def shared_correspondence(corpus, subjects, out, params):
     return shared
 
 
-
-
 def speaker_task(subject):
     """Build (or confirm) one speaker's rig; returns a status dict."""
     corpus, out, params, static, shared = (WORKER[k] for k in ("corpus", "out", "params", "static", "shared"))
@@ -120,11 +118,9 @@ def speaker_task(subject):
         files = [fmt.write_rig(out, subject, rig)]
         # SAiD's layout: the head crop of the neutral and of every blendshape
         files += fmt.write_said_rig(out, subject, rig.neutral[head], rig.deltas[:, head], rig.names, hfaces)
-        write_record(path, {"key": key, "status": "ok", "subject": subject, "inputs": inputs,
-                            "files": {rel: file_digest(out / rel) for rel in sorted(files)}})
-        assert isinstance(rig, Rig)
-        return {"subject": subject, "status": "built", "key": key,
-                "seconds": {"compute": compute_s, "io": read_s + time.perf_counter() - clock}}
+        seconds = record_built(path, {"key": key, "subject": subject, "inputs": inputs}, sorted(files),
+                               read_s=read_s, compute_s=compute_s, clock=clock)
+        return {"subject": subject, "status": "built", "key": key, "seconds": seconds}
     except Exception as error:  # recorded, the build carries on
         return recorded_failure(out, path, error, {"subject": subject})
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import importlib
 import os
+import time
 from pathlib import Path
 
 from blendvoca.assets import load_index_list, resolve
@@ -104,6 +105,14 @@ def worker_init(corpus_root, out, params, shared=None):
     WORKER.clear()
     WORKER.update(corpus=corpus, out=Path(out), params=params, static=static_inputs(params["shapes"], corpus),
                   rigs={}, shared=shared or {})
+
+
+def record_built(path: Path, record: dict, files, *, read_s: float, compute_s: float, clock: float) -> dict:
+    """Write an item's "ok" ``record`` with the sha256 of its ``files`` (relative to the build); return the
+    seconds it took: ``compute``, and ``io`` (``read_s`` before the computation plus the writing since ``clock``)."""
+    out = WORKER["out"]
+    write_record(path, {**record, "status": "ok", "files": {rel: file_digest(out / rel) for rel in files}})
+    return {"compute": compute_s, "io": read_s + time.perf_counter() - clock}
 
 
 def recorded_failure(out: Path, path: Path, error: BaseException, base: dict) -> dict:
