@@ -30,9 +30,12 @@ def segment_index(plan: SentencePlan, times: np.ndarray) -> np.ndarray:
     return np.clip(idx, 0, len(plan.phones) - 1)
 
 
-def _position_in_segment(plan: SentencePlan, times: np.ndarray, seg: np.ndarray) -> np.ndarray:
+def _control_grid(plan: SentencePlan, control_rate: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(times, segment, position)``: the control grid, each time's plan segment and its position in it (0 to 1)."""
+    grid = control_times(plan.duration, control_rate)
+    seg = segment_index(plan, grid)
     length = np.maximum(plan.ends[seg] - plan.starts[seg], 1e-9)
-    return np.clip((times - plan.starts[seg]) / length, 0.0, 1.0)
+    return grid, seg, np.clip((grid - plan.starts[seg]) / length, 0.0, 1.0)
 
 
 def _next_vowel(plan: SentencePlan) -> list[str]:
@@ -65,9 +68,7 @@ def amplitude_track(plan: SentencePlan, times: np.ndarray, *, smoothing: float =
     smoothing : float
         Gaussian smoothing (seconds) of the onsets and offsets.
     """
-    grid = control_times(plan.duration, control_rate)
-    seg = segment_index(plan, grid)
-    tau = _position_in_segment(plan, grid, seg)
+    grid, seg, tau = _control_grid(plan, control_rate)
     target = np.zeros(len(grid))
     for i, p in enumerate(plan.phones):
         mask = seg == i
@@ -89,9 +90,7 @@ def noise_track(plan: SentencePlan, times: np.ndarray, *, smoothing: float = 0.0
     Fricatives are noisy over their whole segment (peaking in the middle); stops
     release a burst in their last 30 ms.
     """
-    grid = control_times(plan.duration, control_rate)
-    seg = segment_index(plan, grid)
-    tau = _position_in_segment(plan, grid, seg)
+    grid, seg, tau = _control_grid(plan, control_rate)
     target = np.zeros(len(grid))
     for i, p in enumerate(plan.phones):
         c = CONSONANTS.get(p)
@@ -118,8 +117,7 @@ def formant_track(plan: SentencePlan, times: np.ndarray, *, scale: float = 1.0, 
     Gaussian smoothing produces the formant transitions. ``scale`` is the
     speaker's vocal-tract-length factor (1.0 adult male, ~1.18 adult female).
     """
-    grid = control_times(plan.duration, control_rate)
-    seg = segment_index(plan, grid)
+    grid, seg, _ = _control_grid(plan, control_rate)
     nearest_vowel = _next_vowel(plan)
     targets = np.zeros((len(plan.phones), 3))
     for i, p in enumerate(plan.phones):
@@ -164,9 +162,7 @@ def articulation_tracks(plan: SentencePlan, times: np.ndarray, *, smoothing: flo
         (lower lip raised to the upper teeth), ``envelope`` (the syllable
         envelope: ``amplitude_track`` smoothed like the articulators).
     """
-    grid = control_times(plan.duration, control_rate)
-    seg = segment_index(plan, grid)
-    tau = _position_in_segment(plan, grid, seg)
+    grid, seg, tau = _control_grid(plan, control_rate)
     jaw = np.zeros(len(grid))
     rnd = np.zeros(len(grid))
     closure = np.zeros(len(grid))
