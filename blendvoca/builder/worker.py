@@ -19,11 +19,10 @@ from blendvoca.rig import shape_names
 from blendvoca.runtime.processes import failure_reason, is_worker_process
 from blendvoca.runtime.threads import limit_threads
 from blendvoca.vocaset import open_vocaset
+from blendvoca.vocaset.splits import NUM_VERTICES
 
 from .outdir import drop_inherited_locks, is_fatal_write_error, remove_own_outputs, unwritable
 from .state import read_record, write_record
-
-FLAME_VERTICES = 5023
 
 
 def static_inputs(shapes, corpus=None):
@@ -33,7 +32,7 @@ def static_inputs(shapes, corpus=None):
     (``landmarks()``, ``head_index()``: FLAME's assets for VOCASET-like corpora,
     the user's landmark file for BIWI and Multiface).
     """
-    flame = corpus is None or corpus.num_vertices == FLAME_VERTICES
+    flame = corpus is None or corpus.num_vertices == NUM_VERTICES
     assets = ("arkit-reference-rig", "arkit-landmarks") + (("flame-landmarks", "flame-head-idx") if flame else ())
     static = {
         "shapes": list(shape_names(shapes)),

@@ -37,6 +37,7 @@ from blendvoca.synthetic.motion import animate_face
 from blendvoca.synthetic.plan import sentence_plan
 from blendvoca.synthetic.regions import face_regions
 from blendvoca.synthetic.signals import FPS, SIGNAL_NAMES, VARIED_SIGNAL_NAMES, motion_signals
+from blendvoca.vocaset.processed import POSED_FILE
 from blendvoca.vocaset.splits import proportional_split
 from blendvoca.vocaset.write import OfficialWriter, ProcessedWriter, quantize_pcm16
 
@@ -57,8 +58,6 @@ DEFAULT_CORPUS = dict(speakers=6, sentences=4, seed=0, duration=(3.0, 5.0), audi
 _SPEAKER, _SENTENCE, _LENGTH, _HEAD = 0, 1, 2, 3
 #: The oracle samples of a sentence, relative to the corpus root (``<subject>/<sentence>.npz``).
 ORACLE_DIR = "oracle"
-#: Posed frames of the processed layout (``--head-motion``): rows as ``data_verts.npy``'s.
-POSED_VERTS = "data_verts_posed.npy"
 #: The driving signals of the speech shapes (what the measured share is taken over).
 SPEECH_SIGNALS = ("jaw", "round", "closure", "labiodental", "smile", "corner_left", "corner_right", "press")
 
@@ -173,23 +172,6 @@ def _truth_variation(seed, speaker, sentence, plan, *, num_frames, style, scale)
     return var.sentence_variation(seed, speaker, sentence, var.TRUTH, plan, num_frames, style, scale)
 
 
-class _PosedRows:
-    """``data_verts_posed.npy``: the processed layout's posed frames, in ``data_verts.npy``'s row order."""
-
-    def __init__(self, root: Path, total_frames: int, num_vertices: int):
-        self._verts = np.lib.format.open_memmap(root / POSED_VERTS, mode="w+", dtype=np.float32,
-                                                shape=(int(total_frames), num_vertices, 3))
-        self._cursor = 0
-
-    def add(self, frames: np.ndarray) -> None:
-        self._verts[self._cursor:self._cursor + len(frames)] = frames
-        self._cursor += len(frames)
-
-    def finish(self) -> None:
-        self._verts.flush()
-        del self._verts
-
-
 def _stack_draws(draws: list[dict], names: tuple[str, ...], head: list | None) -> dict[str, np.ndarray]:
     """The oracle samples of one sentence as arrays with a leading sample axis (gestures: a sample column)."""
     arrays = {k: np.stack([np.asarray(d["signals"][k], dtype=np.float64) for d in draws]) for k in names}
@@ -239,13 +221,10 @@ def _write_corpus(out: Path, *, speakers: int, sentences: int, seed: int, layout
     varied = audio_determined < 1.0 or scale is not None
     if scale is None:
         scale = var.undetermined_scale(audio_determined) if varied else 0.0
-    posed = None
     if layout == "official":
         writer = OfficialWriter(out, frame_faces=frame_faces, num_vertices=len(template))
     elif layout == "processed":
         writer = ProcessedWriter(out, int(lengths.sum()), num_vertices=len(template))
-        if head_motion:
-            posed = _PosedRows(out, int(lengths.sum()), len(template))
     else:
         raise UserError(f"generate_corpus: layout must be 'official' or 'processed', got {layout!r}")
     names = [speaker_name(i) for i in range(speakers)]
@@ -276,7 +255,7 @@ def _write_corpus(out: Path, *, speakers: int, sentences: int, seed: int, layout
         }
     if head_motion:
         where = ("registereddata/<subject>/<sentence>/<sentence>.NNNNNN.ply" if layout == "official" else
-                 f"{POSED_VERTS} (rows as data_verts.npy, indexed by subj_seq_to_idx.pkl)")
+                 f"{POSED_FILE} (rows as data_verts.npy, indexed by subj_seq_to_idx.pkl)")
         meta["head_motion"] = {"max_angle_deg": head_motion, "max_translation_m": 0.003,
                                "posed_frames": where,
                                "convention": "posed = unposed @ head_rotations[t].T + head_translations[t] "
@@ -307,11 +286,7 @@ def _write_corpus(out: Path, *, speakers: int, sentences: int, seed: int, layout
             if head_motion:
                 rotations, translations = draw_head_motion(
                     num_frames, pivot, np.random.default_rng([seed, _HEAD, i, j]), max_angle_deg=head_motion)
-                posed_frames = apply_pose(item["frames"], rotations, translations)
-                if posed is None:
-                    writer.add_posed_sentence(subject, sentence, posed_frames)
-                else:
-                    posed.add(posed_frames)
+                writer.add_posed_sentence(subject, sentence, apply_pose(item["frames"], rotations, translations))
                 arrays.update(head_rotations=rotations, head_translations=translations)
             write_npz(out / "groundtruth" / subject / f"{sentence}.npz", arrays)
             if oracle_samples:
@@ -337,8 +312,6 @@ def _write_corpus(out: Path, *, speakers: int, sentences: int, seed: int, layout
             meta["subjects"][subject]["style"] = style
     sentences_bar.close()
     writer.finish()
-    if posed is not None:
-        posed.finish()
     summary = {"audio_determined": audio_determined, "scale": scale, "measured_signal_share": None}
     if meter is not None:
         summary["measured_signal_share"] = meter.share()

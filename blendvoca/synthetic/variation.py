@@ -88,16 +88,8 @@ GESTURE_SIGNALS = tuple(PAUSES["kinds"])
 #: --oracle-samples 6 --seed 2 --scales 0,0.5,1,1.25,1.5,2,3,4``; docs/synthetic.md).
 #: Decreasing in scale; scale 0 keeps the speaker styles, so its share is the floor
 #: that the per-sentence lag and jitter set.
-CALIBRATION = (
-    (0.0, 0.851),
-    (0.5, 0.823),
-    (1.0, 0.761),
-    (1.25, 0.731),
-    (1.5, 0.703),
-    (2.0, 0.654),
-    (3.0, 0.569),
-    (4.0, 0.497),
-)
+CALIBRATION = ((0.0, 0.851), (0.5, 0.823), (1.0, 0.761), (1.25, 0.731), (1.5, 0.703), (2.0, 0.654), (3.0, 0.569),
+               (4.0, 0.497))
 
 
 def component_rng(seed: int, component: str, *item: int) -> np.random.Generator:

@@ -12,6 +12,7 @@ from blendvoca.io.audio import write_wav
 from blendvoca.io.mesh import ply_face_block, ply_header, write_ply
 from blendvoca.runtime.progress import bar
 from blendvoca.vocaset.errors import VocasetError
+from blendvoca.vocaset.processed import POSED_FILE
 from blendvoca.vocaset.splits import NUM_VERTICES
 
 
@@ -104,6 +105,7 @@ class ProcessedWriter:
         self.num_vertices = num_vertices
         self._verts = np.lib.format.open_memmap(self.root / "data_verts.npy", mode="w+", dtype=dtype,
                                                 shape=(int(total_frames), num_vertices, 3))
+        self._posed = None
         self._cursor = 0
         self._index: dict = {}
         self._audio: dict = {}
@@ -123,11 +125,23 @@ class ProcessedWriter:
         self._audio.setdefault(subject, {})[sentence] = {"audio": quantize_pcm16(audio), "sample_rate": int(rate)}
         self._cursor += T
 
+    def add_posed_sentence(self, subject: str, sentence: str, frames: np.ndarray) -> None:
+        """Frames ``(T, V, 3)`` with head pose in ``data_verts_posed.npy``, in the rows of the sentence's
+        (unposed) frames: added after :meth:`add_sentence`."""
+        frames = _check_sentence(subject, sentence, frames, self.num_vertices)
+        if self._posed is None:
+            self._posed = np.lib.format.open_memmap(self.root / POSED_FILE, mode="w+", dtype=self._verts.dtype,
+                                                    shape=self._verts.shape)
+        first = self._index[subject][sentence][0]
+        self._posed[first:first + len(frames)] = frames
+
     def finish(self) -> Path:
         if self._cursor != len(self._verts):
             raise ValueError(f"{self.root}: {self._cursor} frames written, {len(self._verts)} allocated")
-        self._verts.flush()
-        del self._verts
+        for rows in (self._verts, self._posed):
+            if rows is not None:
+                rows.flush()
+        del self._verts, self._posed
         for name, obj in (("subj_seq_to_idx.pkl", self._index), ("raw_audio_fixed.pkl", self._audio),
                           ("templates.pkl", self._templates)):
             with open(self.root / name, "wb") as f:
