@@ -118,9 +118,7 @@ class BiwiCorpus(VertexCorpus):
         if path is None:
             self._fail("missing_sentence", subject, sentence,
                        f"{self.root / 'vertices_npy'}: no {subject}_{self.source_name(sentence)}.npy")
-        rows, declared = open_rows(path)
-        if rows.ndim == 2 and rows.shape[1] == 3 * NUM_VERTICES:
-            rows = rows.reshape(len(rows), NUM_VERTICES, 3)
+        rows, declared = open_rows(path, NUM_VERTICES)
         if len(rows) < declared:
             self._fail("truncated", subject, sentence, f"{path}: holds {len(rows)} of {declared} frames", frame=len(rows))
         if rows.ndim != 3 or rows.shape[1:] != (NUM_VERTICES, 3):

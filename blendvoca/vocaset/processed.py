@@ -55,13 +55,14 @@ def sentence_name(key) -> str:
     return str(key)
 
 
-def open_rows(path) -> tuple[np.ndarray, int]:
+def open_rows(path, num_vertices: int | None = None) -> tuple[np.ndarray, int]:
     """Memory-map a ``.npy`` file as far as its data goes.
 
     Returns
     -------
     rows : ndarray (memmap)
-        The first ``available`` rows, shape ``(available, *shape[1:])``.
+        The first ``available`` rows, shape ``(available, *shape[1:])``; rows of
+        ``3 * num_vertices`` numbers as ``(num_vertices, 3)`` vertices, when it is given.
     declared : int
         The number of rows the header declares.
     """
@@ -95,10 +96,13 @@ def open_rows(path) -> tuple[np.ndarray, int]:
     available = min(shape[0], (path.stat().st_size - offset) // max(row_bytes, 1))
     try:
         if available == 0 or row_bytes == 0:  # nothing to map (np.memmap refuses an empty mapping)
-            return np.zeros((0, *row_shape), dtype=dtype), shape[0]
-        rows = np.memmap(path, dtype=dtype, mode="r", offset=offset, shape=(available, *row_shape))
+            rows = np.zeros((0, *row_shape), dtype=dtype)
+        else:
+            rows = np.memmap(path, dtype=dtype, mode="r", offset=offset, shape=(available, *row_shape))
     except (ValueError, OverflowError) as error:  # a row larger than numpy can address
         raise DataError(f"{path}: the header declares shape {shape}, which numpy cannot map ({error})") from None
+    if num_vertices is not None and row_shape == (3 * num_vertices,):
+        rows = rows.reshape(len(rows), num_vertices, 3)
     return rows, shape[0]
 
 
@@ -185,9 +189,7 @@ class ProcessedVocaset(VocasetCorpus):
         if missing:
             raise FileNotFoundError(f"{self.root}: processed VOCASET layout lacks {missing}; expected all of {list(FILES)}")
         verts_path = self.root / "data_verts.npy"
-        self._rows, self._declared = open_rows(verts_path)
-        if self._rows.ndim == 2 and self._rows.shape[1] == 3 * self.num_vertices:
-            self._rows = self._rows.reshape(len(self._rows), self.num_vertices, 3)
+        self._rows, self._declared = open_rows(verts_path, self.num_vertices)
         if self._rows.shape[1:] != (self.num_vertices, 3):
             # one array holds every frame: a wrong row shape would fail every sentence alike
             raise DataError(f"{verts_path}: holds an array of shape {(self._declared, *self._rows.shape[1:])}; "
@@ -325,9 +327,7 @@ class ProcessedVocaset(VocasetCorpus):
         if not path.is_file():
             self._fail("missing_sentence", subject, sentence, f"{path}: no posed frames (the file is absent)")
         if getattr(self, "_posed_rows", None) is None:
-            posed, declared = open_rows(path)
-            if posed.ndim == 2 and posed.shape[1] == 3 * self.num_vertices:
-                posed = posed.reshape(len(posed), self.num_vertices, 3)
+            posed, declared = open_rows(path, self.num_vertices)
             if posed.shape[1:] != (self.num_vertices, 3) or declared != self._declared:
                 raise DataError(f"{path}: holds an array of shape {(declared, *posed.shape[1:])}; expected "
                                 f"data_verts.npy's ({self._declared}, {self.num_vertices}, 3), row for row")
