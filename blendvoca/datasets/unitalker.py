@@ -41,26 +41,22 @@ def expected_layout(annot_type: str, width: int) -> str:
             "and .wav (or 16 kHz .npy) audio they name, relative to <root>")
 
 
-def _audio_reader(path: Path):
-    """A reader of one item's speech: a WAV, or UniTalker's .npy of 16 kHz samples."""
-    def read():
-        if path.suffix.lower() == ".npy":
-            samples = np.load(path, allow_pickle=False)
-            if samples.ndim != 1:
-                raise DataError(f"{path}: expected (N,) audio samples at 16 kHz, got shape {samples.shape}")
-            return samples.astype(np.float32), 16000
-        return load_audio(path, rate=16000), 16000
-    return read
+def read_audio(path: Path) -> tuple[np.ndarray, int]:
+    """One item's speech ``(samples, 16000)``: a WAV, or UniTalker's .npy of 16 kHz samples."""
+    if path.suffix.lower() == ".npy":
+        samples = np.load(path, allow_pickle=False)
+        if samples.ndim != 1:
+            raise DataError(f"{path}: expected (N,) audio samples at 16 kHz, got shape {samples.shape}")
+        return samples.astype(np.float32), 16000
+    return load_audio(path, rate=16000), 16000
 
 
-def _weights_reader(path: Path, names: tuple[str, ...], fps: float):
-    """A reader of one item's weights: a ``(T, len(names))`` .npy."""
-    def read():
-        weights = np.load(path, allow_pickle=False)
-        if weights.ndim != 2 or weights.shape[1] != len(names):
-            raise DataError(f"{path}: expected (T, {len(names)}) weights, got shape {weights.shape}")
-        return weights, names, fps
-    return read
+def read_weights(path: Path, names: tuple[str, ...], fps: float) -> tuple[np.ndarray, tuple[str, ...], float]:
+    """One item's weights ``(weights (T, len(names)), names, fps)`` from its .npy."""
+    weights = np.load(path, allow_pickle=False)
+    if weights.ndim != 2 or weights.shape[1] != len(names):
+        raise DataError(f"{path}: expected (T, {len(names)}) weights, got shape {weights.shape}")
+    return weights, names, fps
 
 
 def unitalker_layout_takes(root, *, annot_type: str, convention: str) -> list[Take]:
@@ -114,7 +110,8 @@ def unitalker_layout_takes(root, *, annot_type: str, convention: str) -> list[Ta
                 continue
             seen.add((subject, name))
             takes.append(Take(subject=subject, name=name, source=Path(item["annot_path"]).as_posix(),
-                              weights=_weights_reader(annot, names, fps), audio=_audio_reader(audio),
+                              weights=functools.partial(read_weights, annot, names, fps),
+                              audio=functools.partial(read_audio, audio),
                               split=path.stem))
     if not takes:
         raise DatasetLayoutError(f"--root {root}: no item of annot_type {annot_type!r} in "
