@@ -23,6 +23,7 @@ F5 F6 F7 F8 M2 M6 test. Other speaker names are split in VOCASET's proportions.
 
 from __future__ import annotations
 
+import functools
 from pathlib import Path
 
 import numpy as np
@@ -129,21 +130,19 @@ class BiwiCorpus(VertexCorpus):
             self._fail("missing_frame", subject, sentence, f"{path}: no frames")
         return np.asarray(rows, dtype=np.float64)
 
-    @property
+    @functools.cached_property
     def faces(self) -> np.ndarray:
         """Triangles ``(F, 3)`` of the BIWI topology: ``BIWI.ply``, else the first ``rigid_scans/*.obj``."""
-        if getattr(self, "_faces", None) is None:
-            candidates = [self.root / "BIWI.ply"] + sorted((self.root / "rigid_scans").glob("*.obj"))
-            path = next((p for p in candidates if p.is_file()), None)
-            if path is None:
-                raise LayoutError(f"{self.root}: no triangles of the BIWI topology; expected BIWI.ply (CodeTalker's "
-                                  "BIWI/BIWI.ply) or rigid_scans/<subject>.obj (BIWI's templates)")
-            vertices, faces = read_mesh(path)
-            if len(vertices) != NUM_VERTICES or faces is None or len(faces) == 0:
-                raise DataError(f"{path}: {len(vertices)} vertices and {0 if faces is None else len(faces)} "
-                                f"triangles; expected a {NUM_VERTICES}-vertex BIWI mesh with its faces")
-            self._faces = np.asarray(faces, dtype=np.int64)
-        return self._faces
+        candidates = [self.root / "BIWI.ply"] + sorted((self.root / "rigid_scans").glob("*.obj"))
+        path = next((p for p in candidates if p.is_file()), None)
+        if path is None:
+            raise LayoutError(f"{self.root}: no triangles of the BIWI topology; expected BIWI.ply (CodeTalker's "
+                              "BIWI/BIWI.ply) or rigid_scans/<subject>.obj (BIWI's templates)")
+        vertices, faces = read_mesh(path)
+        if len(vertices) != NUM_VERTICES or faces is None or len(faces) == 0:
+            raise DataError(f"{path}: {len(vertices)} vertices and {0 if faces is None else len(faces)} "
+                            f"triangles; expected a {NUM_VERTICES}-vertex BIWI mesh with its faces")
+        return np.asarray(faces, dtype=np.int64)
 
     @property
     def splits(self) -> dict[str, list[str]]:

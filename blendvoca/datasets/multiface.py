@@ -25,6 +25,7 @@ Splits: VOCASET's proportions over the sorted capture names.
 
 from __future__ import annotations
 
+import functools
 import re
 from pathlib import Path
 
@@ -152,17 +153,15 @@ class MultifaceCorpus(VertexCorpus):
             frames.append(self._checked_vertices(subject, sentence, path, vertices, frame=t))
         return np.stack(frames)
 
-    @property
+    @functools.cached_property
     def faces(self) -> np.ndarray:
         """Triangles ``(F, 3)`` of MeshTalk's topology, from ``face_template.obj``."""
-        if getattr(self, "_faces", None) is None:
-            path = self.root / "face_template.obj"
-            vertices, faces = read_obj(path)
-            if len(vertices) != NUM_VERTICES or len(faces) == 0:
-                raise DataError(f"{path}: {len(vertices)} vertices and {len(faces)} triangles; expected MeshTalk's "
-                                f"{NUM_VERTICES}-vertex face template with its faces")
-            self._faces = np.asarray(faces, dtype=np.int64)
-        return self._faces
+        path = self.root / "face_template.obj"
+        vertices, faces = read_obj(path)
+        if len(vertices) != NUM_VERTICES or len(faces) == 0:
+            raise DataError(f"{path}: {len(vertices)} vertices and {len(faces)} triangles; expected MeshTalk's "
+                            f"{NUM_VERTICES}-vertex face template with its faces")
+        return np.asarray(faces, dtype=np.int64)
 
     @property
     def splits(self) -> dict[str, list[str]]:

@@ -14,6 +14,7 @@ vertex-only; only the vertex block is read (``read_ply_sequence``).
 
 from __future__ import annotations
 
+import functools
 import re
 from pathlib import Path
 
@@ -93,7 +94,6 @@ class OfficialVocaset(VocasetCorpus):
                        else "present for other subjects")
                 self._record(Problem(subject, sentence, None, "missing_sentence",
                                      f"{mesh_root / subject / sentence}: no frames ({why})"))
-        self._faces = None
 
     def frame_paths(self, subject: str, sentence: str) -> list[Path]:
         """The PLY files of one sentence in frame order."""
@@ -122,22 +122,17 @@ class OfficialVocaset(VocasetCorpus):
             self._fail("nan", subject, None, f"{path}: NaN or infinite coordinates")
         return V
 
-    @property
+    @functools.cached_property
     def faces(self) -> np.ndarray:
         """Triangles ``(F, 3) int64`` of the shared topology, from the first readable template."""
-        if self._faces is None:
-            for subject in self._subjects:
-                path = self.root / "templates" / f"{subject}.ply"
-                try:
-                    V, F = read_ply(path)
-                except (OSError, MeshFormatError):
-                    continue
-                if len(F) and len(V) == self.num_vertices:
-                    self._faces = F
-                    break
-            else:
-                self._faces = read_ply(resolve("flame-sample"))[1]
-        return self._faces
+        for subject in self._subjects:
+            try:
+                V, F = read_ply(self.root / "templates" / f"{subject}.ply")
+            except (OSError, MeshFormatError):
+                continue
+            if len(F) and len(V) == self.num_vertices:
+                return F
+        return read_ply(resolve("flame-sample"))[1]
 
     def frames(self, subject: str, sentence: str, dtype=np.float64) -> np.ndarray:
         """Mesh sequence ``(T, V, 3)`` at 60 fps in ``dtype`` (None: as read, float64).

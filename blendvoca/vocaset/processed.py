@@ -28,6 +28,7 @@ are read when asked for.
 
 from __future__ import annotations
 
+import functools
 import math
 import tokenize
 from pathlib import Path
@@ -289,12 +290,10 @@ class ProcessedVocaset(VocasetCorpus):
             self._fail("nan", subject, None, "templates.pkl: NaN or infinite coordinates")
         return V
 
-    @property
+    @functools.cached_property
     def faces(self) -> np.ndarray:
         """FLAME triangles ``(9976, 3) int64`` (the processed layout stores none: asset ``flame-sample``)."""
-        if getattr(self, "_faces", None) is None:
-            self._faces = read_ply(resolve("flame-sample"))[1]
-        return self._faces
+        return read_ply(resolve("flame-sample"))[1]
 
     def frames(self, subject: str, sentence: str, dtype=np.float64) -> np.ndarray:
         """Mesh sequence ``(T, V, 3)`` at 60 fps in ``dtype`` (None: as stored, float32 in VOCASET; see
