@@ -47,13 +47,8 @@ def _checked_meshes(deformed_source_vertices, source_faces, target_vertices, tar
     return Vs, Fs, Vt, as_faces(target_faces, len(Vt), where, name="target_faces")
 
 
-def triangle_correspondence(
-    deformed_source_vertices: np.ndarray,
-    source_faces: np.ndarray,
-    target_vertices: np.ndarray,
-    target_faces: np.ndarray,
-    max_distance: float,
-) -> np.ndarray:
+def triangle_correspondence(deformed_source_vertices: np.ndarray, source_faces: np.ndarray, target_vertices: np.ndarray,
+                            target_faces: np.ndarray, max_distance: float) -> np.ndarray:
     """Compatible triangle pairs between the registered source and the target.
 
     Each target triangle is paired with the source triangle holding the closest
@@ -99,23 +94,15 @@ def triangle_correspondence(
     return pairs[np.lexsort((pairs[:, 0], pairs[:, 1]))]
 
 
-def vertex_correspondence(
-    deformed_source_vertices: np.ndarray,
-    source_faces: np.ndarray,
-    target_vertices: np.ndarray,
-    target_faces: np.ndarray,
-    max_distance: float,
-) -> VertexCorrespondence:
+def vertex_correspondence(deformed_source_vertices: np.ndarray, source_faces: np.ndarray, target_vertices: np.ndarray,
+                          target_faces: np.ndarray, max_distance: float) -> VertexCorrespondence:
     """Closest point on the registered source surface for every target vertex.
 
     Parameters
     ----------
-    deformed_source_vertices : (Vs, 3) float ndarray
-    source_faces : (Fs, 3) int ndarray
-    target_vertices : (Vt, 3) float ndarray
-    target_faces : (Ft, 3) int ndarray
-        Used for the target's vertex normals (vertices in no face are never valid).
-    max_distance : float
+    deformed_source_vertices, source_faces, target_vertices, target_faces, max_distance
+        As in `triangle_correspondence`; ``target_faces`` give the target's vertex
+        normals (vertices in no face are never valid).
 
     Returns
     -------

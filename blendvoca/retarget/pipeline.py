@@ -129,17 +129,9 @@ def _default_max_distance(points: np.ndarray) -> float:
     return 0.1 * float(np.sqrt(np.mean(np.sum((points - points.mean(axis=0)) ** 2, axis=1))))
 
 
-def correspondence_for_target(
-    source_neutral: np.ndarray,
-    source_faces: np.ndarray,
-    target_vertices: np.ndarray,
-    target_faces: np.ndarray,
-    source_landmarks: np.ndarray,
-    target_landmarks: np.ndarray,
-    *,
-    crop: np.ndarray | None = None,
-    max_distance: float | None = None,
-) -> Correspondence:
+def correspondence_for_target(source_neutral: np.ndarray, source_faces: np.ndarray, target_vertices: np.ndarray,
+                              target_faces: np.ndarray, source_landmarks: np.ndarray, target_landmarks: np.ndarray, *,
+                              crop: np.ndarray | None = None, max_distance: float | None = None) -> Correspondence:
     """Triangle and vertex correspondence between a source face and a (cropped) target.
 
     Aligns the source to the target by the landmarks, deforms it onto the target
@@ -184,19 +176,10 @@ def correspondence_for_target(
                           n_target_vertices=len(Vc), n_target_faces=len(c.faces), registered_source=registered)
 
 
-def plan_retarget(
-    source_neutral: np.ndarray,
-    source_faces: np.ndarray,
-    target_vertices: np.ndarray,
-    target_faces: np.ndarray,
-    source_landmarks: np.ndarray,
-    target_landmarks: np.ndarray,
-    *,
-    crop: np.ndarray | None = None,
-    correspondence: Correspondence | None = None,
-    max_distance: float | None = None,
-    falloff: float = 0.02,
-) -> RetargetPlan:
+def plan_retarget(source_neutral: np.ndarray, source_faces: np.ndarray, target_vertices: np.ndarray,
+                  target_faces: np.ndarray, source_landmarks: np.ndarray, target_landmarks: np.ndarray, *,
+                  crop: np.ndarray | None = None, correspondence: Correspondence | None = None,
+                  max_distance: float | None = None, falloff: float = 0.02) -> RetargetPlan:
     """Align, crop, correspond (unless given) and factorize for one target.
 
     Parameters
@@ -271,19 +254,10 @@ def retargeted_deltas(plan: RetargetPlan, source_deltas: np.ndarray) -> np.ndarr
                              falloff=plan.falloff)
 
 
-def retarget_rig(
-    source: Rig,
-    target_vertices: np.ndarray,
-    target_faces: np.ndarray,
-    source_landmarks: np.ndarray,
-    target_landmarks: np.ndarray,
-    *,
-    crop: np.ndarray | None = None,
-    shapes: str | Sequence[str] = "speech",
-    correspondence: Correspondence | None = None,
-    max_distance: float | None = None,
-    falloff: float = 0.02,
-) -> Rig:
+def retarget_rig(source: Rig, target_vertices: np.ndarray, target_faces: np.ndarray, source_landmarks: np.ndarray,
+                 target_landmarks: np.ndarray, *, crop: np.ndarray | None = None,
+                 shapes: str | Sequence[str] = "speech", correspondence: Correspondence | None = None,
+                 max_distance: float | None = None, falloff: float = 0.02) -> Rig:
     """Give a target mesh the source rig's blendshapes by deformation transfer.
 
     Parameters

@@ -14,16 +14,9 @@ from __future__ import annotations
 import numpy as np
 
 
-def identity_displacement(
-    vertices: np.ndarray,
-    rng: np.random.Generator,
-    *,
-    num_bumps: int = 6,
-    amplitude: float = 0.004,
-    width: tuple[float, float] = (0.025, 0.055),
-    scale: float = 0.05,
-    asymmetry: float = 0.15,
-) -> np.ndarray:
+def identity_displacement(vertices: np.ndarray, rng: np.random.Generator, *, num_bumps: int = 6,
+                          amplitude: float = 0.004, width: tuple[float, float] = (0.025, 0.055), scale: float = 0.05,
+                          asymmetry: float = 0.15) -> np.ndarray:
     """Displacement field ``(V, 3) float64`` that turns ``vertices`` into a new identity.
 
     Parameters

@@ -45,23 +45,11 @@ def jaw_rotation_offsets(vertices: np.ndarray, hinge: np.ndarray, angles: np.nda
     return out
 
 
-def animate_face(
-    neutral: np.ndarray,
-    regions: FaceRegions,
-    signals: dict[str, np.ndarray],
-    *,
-    max_jaw_angle: float = 0.09,
-    protrusion: float = 0.006,
-    narrowing: float = 0.28,
-    spreading: float = 0.12,
-    press: float = 0.0012,
-    labiodental_lift: float = 0.003,
-    brow_lift: float = 0.004,
-    asymmetry: float = 0.0,
-    smile_width: float = 0.12,
-    corner_lift: float = 0.003,
-    corner_pull: float = 0.004,
-) -> np.ndarray:
+def animate_face(neutral: np.ndarray, regions: FaceRegions, signals: dict[str, np.ndarray], *,
+                 max_jaw_angle: float = 0.09, protrusion: float = 0.006, narrowing: float = 0.28,
+                 spreading: float = 0.12, press: float = 0.0012, labiodental_lift: float = 0.003,
+                 brow_lift: float = 0.004, asymmetry: float = 0.0, smile_width: float = 0.12,
+                 corner_lift: float = 0.003, corner_pull: float = 0.004) -> np.ndarray:
     """Vertex animation ``(T, V, 3) float64`` of one sentence.
 
     Parameters
