@@ -29,15 +29,12 @@ def check_arguments(args) -> None:
     low, high = args.min_duration, args.max_duration
     if not (math.isfinite(low) and math.isfinite(high) and 0 < low <= high):
         problems.append(f"--min-duration/--max-duration: expected 0 < min <= max seconds, got {low} and {high}")
-    head_motion = getattr(args, "head_motion", 0.0)
-    if not (math.isfinite(head_motion) and 0 <= head_motion <= 45):
-        problems.append(f"--head-motion: expected 0 to 45 degrees, got {head_motion}")
-    f = getattr(args, "audio_determined", 1.0)
-    if not (math.isfinite(f) and 0 < f <= 1):
-        problems.append(f"--audio-determined: expected 0 < F <= 1, got {f}")
-    k = getattr(args, "oracle_samples", 0)
-    if not 0 <= k <= 1000:
-        problems.append(f"--oracle-samples: expected 0 to 1000, got {k}")
+    if not (math.isfinite(args.head_motion) and 0 <= args.head_motion <= 45):
+        problems.append(f"--head-motion: expected 0 to 45 degrees, got {args.head_motion}")
+    if not (math.isfinite(args.audio_determined) and 0 < args.audio_determined <= 1):
+        problems.append(f"--audio-determined: expected 0 < F <= 1, got {args.audio_determined}")
+    if not 0 <= args.oracle_samples <= 1000:
+        problems.append(f"--oracle-samples: expected 0 to 1000, got {args.oracle_samples}")
     out = Path(args.out).expanduser()
     if out.exists() and not out.is_dir():
         problems.append(f"--out {out} is a file; expected a new or empty folder")
