@@ -39,6 +39,19 @@ def test_open_rows_maps_a_truncated_npy_as_far_as_it_goes(tmp_path):
     assert declared == 10 and len(rows) == 6 and np.array_equal(rows, a[:6])
 
 
+def test_open_rows_sees_flat_rows_as_vertices_when_given_their_count(tmp_path):
+    a = np.arange(5 * 4 * 3, dtype=np.float32).reshape(5, 4, 3)
+    path = tmp_path / "flat.npy"
+    np.save(path, a.reshape(5, 12))
+    assert open_rows(path)[0].shape == (5, 12)
+    rows, declared = open_rows(path, 4)
+    assert declared == 5 and np.array_equal(rows, a)
+    assert open_rows(path, 3)[0].shape == (5, 12)  # rows of another width are left as they are
+    path.write_bytes(path.read_bytes()[:128])  # the header only: no row, still seen as vertices
+    rows, declared = open_rows(path, 4)
+    assert declared == 5 and rows.shape == (0, 4, 3)
+
+
 def test_sentence_name_accepts_int_and_str_keys():
     assert sentence_name(7) == "sentence07"
     assert sentence_name("7") == "sentence07"

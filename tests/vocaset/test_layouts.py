@@ -101,3 +101,22 @@ def test_unknown_subject_and_sentence(synthetic_corpus):
     with pytest.raises(VocasetError) as info:
         corpus.frames(corpus.subjects[0], "sentence40")
     assert info.value.kind == "missing_sentence" and info.value.sentence == "sentence40"
+
+
+def test_the_processed_writer_puts_posed_frames_in_the_rows_of_the_unposed_ones(tmp_path):
+    from blendvoca.vocaset import ProcessedWriter
+
+    rng = np.random.default_rng(0)
+    unposed = [rng.normal(size=(t, 5, 3)) for t in (3, 2, 4)]
+    writer = ProcessedWriter(tmp_path, sum(len(f) for f in unposed), num_vertices=5)
+    for k, frames in enumerate(unposed):
+        writer.add_template(f"S{k}", frames[0])
+        writer.add_sentence(f"S{k}", "sentence01", frames, np.zeros(100), 16000)
+        writer.add_posed_sentence(f"S{k}", "sentence01", frames + 1.0)
+    writer.finish()
+    corpus = open_vocaset(tmp_path, num_vertices=5)
+    for k, frames in enumerate(unposed):
+        assert corpus.has_posed(f"S{k}", "sentence01")
+        posed = corpus.posed_frames(f"S{k}", "sentence01")
+        assert np.array_equal(posed, (frames + 1.0).astype(np.float32).astype(np.float64))
+        assert np.allclose(posed - 1.0, corpus.frames(f"S{k}", "sentence01"), atol=1e-6)  # float32 storage
