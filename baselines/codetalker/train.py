@@ -42,19 +42,14 @@ def split_budget(max_steps: float, max_seconds: float, fraction) -> tuple[tuple,
     return (s1, t1), (s2, t2)
 
 
-def _moved(tensors, device) -> tuple:
-    """``tensors`` on ``device`` (on the CPU: the same tensors, not copies)."""
-    return tuple(x.to(device) for x in tensors)
-
-
 def train_stage1(vq, train, val, *, training: dict, seed: int, max_steps: float, max_seconds: float,
                  mixed_precision=None) -> dict:
     """Train the VQ-VAE ``vq`` in place on displacement sequences, on the device ``vq`` is on
     (``mixed_precision`` there when it is a GPU)."""
     scale = float(training["motion_scale"])
     device = module_device(vq)
-    items = [_moved(sequence_tensors(s, scale=scale, normalise_audio=False)[1:], device) for s in train]
-    val_items = [_moved(sequence_tensors(s, scale=scale, normalise_audio=False)[1:], device) for s in val]
+    items = [sequence_tensors(s, scale=scale, normalise_audio=False, device=device)[1:] for s in train]
+    val_items = [sequence_tensors(s, scale=scale, normalise_audio=False, device=device)[1:] for s in val]
     w = float(training["quant_loss_weight"])
 
     def loss(item):
@@ -90,9 +85,9 @@ def train_stage2(model, train, val, subjects, *, training: dict, seed: int, max_
     w2v = model.config["audio"]["kind"] == "wav2vec2"
     n = len(subjects)
     device = module_device(model)
-    items = [(_moved(sequence_tensors(s, scale=scale, normalise_audio=w2v), device), subjects.index(s.subject))
+    items = [(sequence_tensors(s, scale=scale, normalise_audio=w2v, device=device), subjects.index(s.subject))
              for s in train]
-    val_items = [_moved(sequence_tensors(s, scale=scale, normalise_audio=w2v), device) for s in val]
+    val_items = [sequence_tensors(s, scale=scale, normalise_audio=w2v, device=device) for s in val]
     eye = torch.eye(n, device=device)
 
     steps = epochs_to_steps(training, len(items), max_steps, max_seconds)

@@ -17,6 +17,7 @@ import contextlib
 
 import torch
 
+from benchmark.methods.config import Option
 from blendvoca.cli import checked_device
 from blendvoca.errors import UserError
 
@@ -41,10 +42,8 @@ def checked_precision(value) -> str:
     return str(value)
 
 
-def precision_option():
+def precision_option() -> Option:
     """The ``--config mixed_precision=...`` option of a GPU-capable plug-in, with its choices."""
-    from benchmark.methods.config import Option
-
     return Option("mixed_precision", (str,), "off", "autocast of the training loss on a GPU (docs/gpu.md); "
                   "nothing on the CPU", PRECISIONS)
 

@@ -17,9 +17,9 @@ import numpy as np
 import torch
 
 from baselines.common.checkpoint import load_checkpoint_file, old_format_hint, safe_payload, save_checkpoint_file
-from baselines.common.chunking import chunk_options
-from baselines.common.device import checked_precision, method_device, precision_option
+from baselines.common.device import checked_precision, method_device
 from baselines.common.encoders.trainable import load_pretrained_wav2vec2
+from baselines.common.presets import preset_options
 from baselines.common.sequences import (
     MotionSequence,
     motion_frames,
@@ -87,7 +87,7 @@ class StyleVertexMethod(Method):
     def config_schema(cls):
         """The constructor's keys plus every flat key of the presets, typed from their values."""
         return super().config_schema().with_presets(cls.presets, default="cpu-demo", prefixes=cls.preset_prefixes,
-                                                    extra=(precision_option(), *chunk_options()))
+                                                    extra=preset_options())
 
     def __init__(self, **config):
         super().__init__(**config)

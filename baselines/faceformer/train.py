@@ -26,12 +26,9 @@ def train_faceformer(model, train, val, subjects, *, training: dict, seed: int, 
     w2v = model.config["audio"]["kind"] == "wav2vec2"
     n_sub = len(subjects)
     device = module_device(model)
-
-    def moved(tensors):  # the CPU: the same tensors, not copies
-        return tuple(x.to(device) for x in tensors)
-
-    items = [(moved(sequence_tensors(s, scale=scale, normalise_audio=w2v)), subjects.index(s.subject)) for s in train]
-    val_items = [moved(sequence_tensors(s, scale=scale, normalise_audio=w2v)) for s in val]
+    items = [(sequence_tensors(s, scale=scale, normalise_audio=w2v, device=device), subjects.index(s.subject))
+             for s in train]
+    val_items = [sequence_tensors(s, scale=scale, normalise_audio=w2v, device=device) for s in val]
     eye = torch.eye(n_sub, device=device)
 
     def step_loss(item):
