@@ -24,6 +24,8 @@ from __future__ import annotations
 import torch
 from torch import nn
 
+from baselines.common.device import in_float32
+
 __all__ = ["VectorQuantizer", "nearest_code_indices"]
 
 
@@ -88,7 +90,13 @@ class VectorQuantizer(nn.Module):
             ``beta * commitment + codebook`` loss.
         info : tuple
             ``(perplexity, one_hot (B*N, n_e), indices (B*N, 1))``.
+
+        Inside a mixed-precision training step the search runs in float32
+        (:func:`~baselines.common.device.in_float32`: in bf16 it picks wrong codes).
         """
+        return in_float32(self._quantized, z)
+
+    def _quantized(self, z: torch.Tensor):
         z_flat = self._flat(z, "forward")
         indices = nearest_code_indices(z_flat, self.embedding.weight).unsqueeze(1)
         one_hot = torch.zeros(indices.shape[0], self.n_e, dtype=z.dtype, device=z.device)
