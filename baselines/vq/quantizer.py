@@ -24,8 +24,6 @@ from __future__ import annotations
 import torch
 from torch import nn
 
-from baselines.common.device import in_float32
-
 __all__ = ["VectorQuantizer", "nearest_code_indices"]
 
 
@@ -91,10 +89,13 @@ class VectorQuantizer(nn.Module):
         info : tuple
             ``(perplexity, one_hot (B*N, n_e), indices (B*N, 1))``.
 
-        Inside a mixed-precision training step the search runs in float32
-        (:func:`~baselines.common.device.in_float32`: in bf16 it picks wrong codes).
+        Inside a mixed-precision training step on a GPU (autocast on) the search runs in
+        float32 with autocast off: in bf16 it picks wrong codes.
         """
-        return in_float32(self._quantized, z)
+        if not (z.is_cuda and torch.is_autocast_enabled("cuda")):
+            return self._quantized(z)
+        with torch.autocast(device_type="cuda", enabled=False):
+            return self._quantized(z.float())
 
     def _quantized(self, z: torch.Tensor):
         z_flat = self._flat(z, "forward")
