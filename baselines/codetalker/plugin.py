@@ -108,10 +108,7 @@ class CodeTalkerMethod(ChunkedDecoder, StyleVertexMethod):
         return {"stage1": h1, "stage2": h2, "steps": h1["steps"] + h2["steps"], "seconds": h1["seconds"] + h2["seconds"]}
 
     def network_state(self) -> dict:
-        return {"state_dict": self.network.state_dict(), "model_config": self.network.config,
-                "stage1_config": self.network.stage1, "motion_scale": self.motion_scale}
+        return {**super().network_state(), "stage1_config": self.network.stage1}
 
-    def restore_network(self, payload: dict) -> None:
-        self.network = CodeTalker(payload["model_config"], payload["stage1_config"])
-        self.network.load_state_dict(payload["state_dict"])
-        self.motion_scale = float(payload["motion_scale"])
+    def network_from_state(self, payload: dict) -> CodeTalker:
+        return CodeTalker(payload["model_config"], payload["stage1_config"])

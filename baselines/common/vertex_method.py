@@ -67,7 +67,7 @@ class StyleVertexMethod(Method):
     """Base of the FaceFormer and CodeTalker plug-ins (see the module docstring).
 
     Subclasses provide ``name``, ``checkpoint_file``, ``presets`` (and ``preset_prefixes``),
-    :meth:`build_network` and :meth:`fit`, and call :meth:`use_preset` (and
+    :meth:`build_network`, :meth:`network_from_state` and :meth:`fit`, and call :meth:`use_preset` (and
     :meth:`use_official` for the authors' weights) in their constructor; the network lives
     in ``self.network``, the style speakers in ``self.subjects`` and every speaker's
     template in ``self.templates``.
@@ -149,13 +149,19 @@ class StyleVertexMethod(Method):
         return out[0] if np.isscalar(style) else out
 
     def network_state(self) -> dict:
-        """What :meth:`save` stores besides the config (default: the state_dict)."""
-        return {"state_dict": self.network.state_dict()}
+        """What :meth:`save` stores besides the config: the weights, the network's config, the motion scale."""
+        return {"state_dict": self.network.state_dict(), "model_config": self.network.config,
+                "motion_scale": self.motion_scale}
+
+    def network_from_state(self, payload: dict):
+        """The untrained network of :meth:`network_state`'s payload."""
+        raise NotImplementedError
 
     def restore_network(self, payload: dict) -> None:
-        """Rebuild ``self.network`` from :meth:`network_state`'s payload."""
-        self.build_network(len(payload["subjects"]), int(next(iter(payload["templates"].values())).size))
+        """Rebuild ``self.network`` and the motion scale from :meth:`network_state`'s payload."""
+        self.network = self.network_from_state(payload)
         self.network.load_state_dict(payload["state_dict"])
+        self.motion_scale = float(payload["motion_scale"])
 
     # -- the contract -------------------------------------------------------------------
     contract = 3

@@ -68,11 +68,5 @@ class FaceFormerMethod(ChunkedDecoder, StyleVertexMethod):
                                 max_steps=steps, max_seconds=seconds, on_checkpoint=request.on_checkpoint,
                                 fractions=request.checkpoint_fractions, mixed_precision=self.mixed_precision)
 
-    def network_state(self) -> dict:
-        return {"state_dict": self.network.state_dict(), "model_config": self.network.config,
-                "motion_scale": self.motion_scale}
-
-    def restore_network(self, payload: dict) -> None:
-        self.network = Faceformer(payload["model_config"])
-        self.network.load_state_dict(payload["state_dict"])
-        self.motion_scale = float(payload["motion_scale"])
+    def network_from_state(self, payload: dict) -> Faceformer:
+        return Faceformer(payload["model_config"])
