@@ -256,9 +256,3 @@ class VQAutoEncoder(nn.Module):
         """``(quantized (B, zquant_dim, T * face_quan_num), indices (B * T * face_quan_num, 1))`` of displacements."""
         quant, _, info = self.encode(x)
         return quant, info[2]
-
-    @torch.no_grad()
-    def decode_to_img(self, index: torch.Tensor, zshape) -> torch.Tensor:
-        """Displacements from code indices; ``zshape = (B, T * face_quan_num, zquant_dim)``."""
-        quant = self.quantize.get_codebook_entry(index.reshape(-1)).reshape(zshape).permute(0, 2, 1)
-        return self.decode(quant)
