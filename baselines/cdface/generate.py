@@ -101,9 +101,7 @@ def generate_file(audio_path: str | os.PathLike, out_path: str | os.PathLike, *,
         if len(cdface.templates) != 1:
             raise UserError(f"give --subject (one of {sorted(cdface.templates)}) or --template")
         subject = next(iter(cdface.templates))
-    ref = None
-    if reference is not None:
-        ref = reference_motion(reference)
+    ref = None if reference is None else reference_motion(reference)
     options = {"subject": subject, "template": template, "samples": samples, "seed": seed, "control": control,
                "style": style}
     chunk_frames, overlap = chunk_lengths(cdface.config)
