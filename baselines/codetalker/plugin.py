@@ -92,7 +92,6 @@ class CodeTalkerMethod(ChunkedDecoder, StyleVertexMethod):
         seed = int(request.seed)
         steps, seconds = training_limits(request.budget, t["max_steps"], t["max_seconds"])
         (s1, t1), (s2, t2) = split_budget(steps, seconds, t["stage1_fraction"])
-        self.network.to(self.device)  # built on the CPU from the seed, then moved
         vq = self.network.autoencoder
         for p in vq.parameters():
             p.requires_grad_(True)

@@ -123,7 +123,8 @@ class StyleVertexMethod(Method):
     def fit(self, train, val, request: TrainingRequest) -> dict:
         """Train ``self.network`` on :class:`~baselines.common.sequences.MotionSequence` lists under
         ``request`` (its seed, budget and checkpoint calls); return a history. The network is
-        ``self.network`` from the start, so :meth:`generate` works during a checkpoint call."""
+        ``self.network`` from the start, already on ``self.device``, so :meth:`generate` works
+        during a checkpoint call."""
         raise NotImplementedError
 
     def predict_motion(self, audio: np.ndarray, template: np.ndarray, style, num_frames: int) -> np.ndarray:
@@ -184,6 +185,7 @@ class StyleVertexMethod(Method):
             self.build_network(len(self.subjects), int(train[0].template.size))
             if self.settings["model"]["audio"]["kind"] == "wav2vec2" and self.settings.get("wav2vec2_path"):
                 load_pretrained_wav2vec2(self.network.audio_encoder, self.settings["wav2vec2_path"])
+            self.network.to(self.device)  # built on the CPU from the seed, then moved
             self.history = self.fit(train, val, request)
         self.to(self.device)
 

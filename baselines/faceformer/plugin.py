@@ -63,7 +63,6 @@ class FaceFormerMethod(ChunkedDecoder, StyleVertexMethod):
     def fit(self, train, val, request):
         t = self.settings["training"]
         steps, seconds = training_limits(request.budget, t["max_steps"], t["max_seconds"])
-        self.network.to(self.device)  # built on the CPU from the seed, then moved
         return train_faceformer(self.network, train, val, self.subjects, training=t, seed=int(request.seed),
                                 max_steps=steps, max_seconds=seconds, on_checkpoint=request.on_checkpoint,
                                 fractions=request.checkpoint_fractions, mixed_precision=self.mixed_precision)
