@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from blendvoca.assets import load_index_list
 from blendvoca.errors import UserError
 
 __all__ = ["FLAME_NUM_VERTICES", "LIP_PAIR_LANDMARKS", "closure_mask", "flame_lip_pair", "lip_distance", "lip_pair_for"]
@@ -25,8 +26,6 @@ LIP_PAIR_LANDMARKS = (62, 66)
 
 def flame_lip_pair() -> tuple[int, int]:
     """FLAME vertex indices of the inner-lip midpoints (from the ``flame-landmarks`` asset)."""
-    from blendvoca.assets import load_index_list
-
     landmarks = load_index_list("flame-landmarks")
     return int(landmarks[LIP_PAIR_LANDMARKS[0]]), int(landmarks[LIP_PAIR_LANDMARKS[1]])
 

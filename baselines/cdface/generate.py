@@ -23,10 +23,13 @@ from pathlib import Path
 import numpy as np
 
 from baselines.cdface.pipeline import CDFace
-from baselines.common.chunking import chunk_plan, generate_in_chunks
+from baselines.common.chunking import chunk_plan, chunk_setting, generate_in_chunks
 from benchmark.methods.contract import AUDIO_RATE, FPS
 from blendvoca import cli
 from blendvoca.errors import DataError, UserError
+from blendvoca.io.atomic import atomic_write
+from blendvoca.io.audio import load_audio
+from blendvoca.io.mesh import read_obj, write_obj
 from blendvoca.runtime.progress import progress_bars
 
 CHECKPOINT_FILE = "cdface.pt"
@@ -52,8 +55,6 @@ def chunk_lengths(config: dict) -> tuple[int, int]:
     """``(chunk_frames, chunk_overlap)`` of a CDFace config: ``chunk_frames`` and ``chunk_overlap`` where it
     sets them, by default 10 training windows (480 frames, 8 s, for ``cpu-demo``; 600 for ``paper``, which
     trains on whole sentences) and one window, the context a chunk's autoregressive queries saw in training."""
-    from baselines.common.chunking import chunk_setting
-
     window = int(config.get("training", {}).get("window") or 60)
     return chunk_setting(config, "chunk_frames", 10 * window), chunk_setting(config, "chunk_overlap", window)
 
@@ -88,10 +89,6 @@ def generate_file(audio_path: str | os.PathLike, out_path: str | os.PathLike, *,
     DataError
         Empty audio, a reference or template of another topology.
     """
-    from blendvoca.io.atomic import atomic_write
-    from blendvoca.io.audio import load_audio
-    from blendvoca.io.mesh import read_obj, write_obj
-
     cdface = CDFace.load(checkpoint_file(checkpoint))
     audio = load_audio(audio_path, AUDIO_RATE)
     if audio.size == 0:
@@ -104,9 +101,7 @@ def generate_file(audio_path: str | os.PathLike, out_path: str | os.PathLike, *,
         if len(cdface.templates) != 1:
             raise UserError(f"give --subject (one of {sorted(cdface.templates)}) or --template")
         subject = next(iter(cdface.templates))
-    ref = None
-    if reference is not None:
-        ref = reference_motion(reference)
+    ref = None if reference is None else reference_motion(reference)
     options = {"subject": subject, "template": template, "samples": samples, "seed": seed, "control": control,
                "style": style}
     chunk_frames, overlap = chunk_lengths(cdface.config)

@@ -19,6 +19,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from benchmark.metrics.regions import upper_face_vertices
+
 __all__ = ["FaceParts", "face_parts"]
 
 
@@ -84,8 +86,6 @@ def face_parts(template, lip_vertices=None, active=None) -> FaceParts:
     -------
     FaceParts
     """
-    from benchmark.metrics.regions import upper_face_vertices
-
     template = np.asarray(template, dtype=np.float64)
     upper = upper_face_vertices(template)
     if lip_vertices is not None:

@@ -9,9 +9,20 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import torch
 
+from baselines.cdface.closure import lip_pair_for
+from baselines.cdface.generate import chunk_lengths
+from baselines.cdface.parts import face_parts
+from baselines.cdface.pipeline import CONTROL_MODES, CDFace
+from baselines.cdface.presets import DEFAULT_PRESET, PRESETS, resolve_config
+from baselines.cdface.train import load_sentences, moving_vertices, prepare_sentences, train_cdface
+from baselines.common.chunking import FPS, generate_utterance_in_chunks
+from baselines.common.device import checked_precision, method_device, precision_config
+from baselines.common.presets import preset_options
 from benchmark.methods.base import Method, TrainingRequest
 from benchmark.methods.contract import OUTPUT_VERTICES
+from benchmark.metrics.regions import lip_vertices
 from blendvoca.errors import DataError, UserError
 from blendvoca.runtime.progress import progress_bars
 
@@ -20,8 +31,6 @@ CHECKPOINT_FILE = "cdface.pt"
 
 def dataset_lips(dataset, subjects):
     """Union of every rig's :func:`benchmark.metrics.regions.lip_vertices` (None without rigs)."""
-    from benchmark.metrics.regions import lip_vertices
-
     lips = []
     for s in subjects:
         try:
@@ -35,8 +44,6 @@ def dataset_lips(dataset, subjects):
 def dataset_parts(dataset, subjects, active=None):
     """Face parts from the mean template of ``subjects``, every rig's lip vertices in the lip part,
     only the ``active`` vertices modelled (default all)."""
-    from baselines.cdface.parts import face_parts
-
     templates = np.stack([dataset.template(s) for s in subjects])
     return face_parts(templates.mean(axis=0), dataset_lips(dataset, subjects), active)
 
@@ -66,20 +73,10 @@ class CDFaceMethod(Method):
     @classmethod
     def config_schema(cls):
         """The constructor's keys plus every flat key of the presets, typed from their values."""
-        from baselines.common.chunking import chunk_options
-        from baselines.common.device import precision_option
-        from benchmark.methods.config import Option
-        from baselines.cdface.presets import DEFAULT_PRESET, PRESETS
-
-        wav2vec2 = Option("wav2vec2_path", (str, type(None)), None, "local directory of the wav2vec2 encoder")
-        return super().config_schema().with_presets(PRESETS, default=DEFAULT_PRESET, extra=(wav2vec2, precision_option(), *chunk_options()))
+        return super().config_schema().with_presets(PRESETS, default=DEFAULT_PRESET, extra=preset_options(encoder=True))
 
     def __init__(self, preset: str = "cpu-demo", control: str = "none", style: str | None = None,
                  resolved: dict | None = None, mixed_precision: str = "off", **overrides):
-        from baselines.cdface.pipeline import CONTROL_MODES
-        from baselines.cdface.presets import resolve_config
-        from baselines.common.device import checked_precision, precision_config
-
         if control not in CONTROL_MODES:
             raise UserError(f"cdface: expected control in {CONTROL_MODES}, got {control!r}")
         #: autocast of the training losses on a GPU (docs/gpu.md); nothing on the CPU
@@ -106,11 +103,6 @@ class CDFaceMethod(Method):
         (:func:`baselines.cdface.train.train_cdface`). ``request.device``: where the networks train and then sample (None: the CPU); they are built
         and the frozen audio features computed on the CPU first, so a seed gives the same
         initial weights and inputs on every device."""
-        from baselines.cdface.closure import lip_pair_for
-        from baselines.cdface.pipeline import CDFace
-        from baselines.cdface.train import load_sentences, moving_vertices, prepare_sentences, train_cdface
-        from baselines.common.device import method_device
-
         train = list(dataset.split("train"))
         if not train:
             raise DataError("cdface: the dataset has no training speakers")
@@ -118,8 +110,6 @@ class CDFaceMethod(Method):
         loaded = load_sentences(dataset, train)
         active = moving_vertices(loaded, self.resolved["model"]["active_threshold"])
         parts = dataset_parts(dataset, everyone, active)
-        import torch
-
         torch.manual_seed(int(request.seed))  # the initial weights too: a step budget then gives the same model every run
         self.cdface = CDFace(self.resolved, parts, train, {s: dataset.template(s) for s in everyone})
         sentences = prepare_sentences(self.cdface, loaded, epsilon=self.resolved["loss"]["epsilon"],
@@ -134,8 +124,6 @@ class CDFaceMethod(Method):
     def to(self, device):
         """This method with its networks on ``device`` (sampling runs there; the frozen audio encoder
         stays on the CPU); returns self."""
-        from baselines.common.device import method_device
-
         if self.cdface is not None:
             self.cdface.model.to(method_device(device))
         return self
@@ -143,30 +131,22 @@ class CDFaceMethod(Method):
     @property
     def chunk_frames(self) -> int:
         """Frames per chunk of a long utterance (:func:`baselines.cdface.generate.chunk_lengths`)."""
-        from baselines.cdface.generate import chunk_lengths
-
         return chunk_lengths(self.resolved)[0]
 
     @property
     def chunk_overlap(self) -> int:
         """Frames two chunks share (:func:`baselines.cdface.generate.chunk_lengths`)."""
-        from baselines.cdface.generate import chunk_lengths
-
         return chunk_lengths(self.resolved)[1]
 
     @property
     def lookahead_s(self) -> float:
         """Audio after frame ``t`` that frame ``t`` needs, in seconds, at worst: one chunk (the audio
         encoder sees the chunk as a whole before the first frame is queried)."""
-        from baselines.common.chunking import FPS
-
         return self.chunk_frames / FPS
 
     def generate(self, utterance, *, samples=1, seed=0):
         """``(S, T, 5023, 3)`` vertices in metres on the speaker's template; a long utterance chunk by chunk,
         each chunk restarting with its overlap as context (:mod:`baselines.common.chunking`)."""
-        from baselines.common.chunking import generate_utterance_in_chunks
-
         if self.cdface is None:
             raise RuntimeError("cdface: train or load the method before generate")
 
@@ -195,8 +175,6 @@ class CDFaceMethod(Method):
     @classmethod
     def load(cls, directory) -> CDFaceMethod:
         """Rebuild from :meth:`save`'s output."""
-        from baselines.cdface.pipeline import CDFace
-
         method = super().load(directory)
         method.cdface = CDFace.load(Path(directory) / CHECKPOINT_FILE)
         return method

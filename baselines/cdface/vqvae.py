@@ -16,7 +16,6 @@ import torch
 from torch import nn
 
 from baselines.cdface.attention import band_mask
-from baselines.common.device import in_float32
 from baselines.vq import VectorQuantizer
 
 __all__ = ["PartVQVAE", "sinusoidal_positions", "vq_loss"]
@@ -82,7 +81,7 @@ class PartVQVAE(nn.Module):
         self.encoder_in = nn.Sequential(nn.Linear(self.in_dim, self.hidden), nn.LeakyReLU(0.2))
         self.encoder = _encoder_stack(self.hidden, self.layers, heads, dropout)
         self.encoder_out = nn.Linear(self.hidden, self.num_codes * self.code_dim)
-        self.quantize = _Float32Quantizer(codebook_size, self.code_dim, beta=1.0)
+        self.quantize = VectorQuantizer(codebook_size, self.code_dim, beta=1.0)
         self.decoder_in = nn.Sequential(nn.Linear(self.num_codes * self.code_dim, self.hidden), nn.LeakyReLU(0.2))
         self.decoder = _encoder_stack(self.hidden, self.layers, heads, dropout)
         self.decoder_out = nn.Linear(self.hidden, self.in_dim)
@@ -157,11 +156,3 @@ def vq_loss(model: PartVQVAE, x: torch.Tensor, offset=0) -> dict:
     recon, quant = model(x, offset)
     rec = torch.mean((recon - x) ** 2)
     return {"total": rec + quant, "reconstruction": rec, "quantization": quant}
-
-
-class _Float32Quantizer(VectorQuantizer):
-    """The codebook's nearest-code search in float32 inside a mixed-precision training step
-    (:func:`~baselines.common.device.in_float32`); the same module (and state_dict) otherwise."""
-
-    def forward(self, z: torch.Tensor):
-        return in_float32(super().forward, z)

@@ -18,9 +18,7 @@ from torch import nn
 
 from baselines.codetalker.vqvae import VQAutoEncoder
 from baselines.common.device import module_device
-from baselines.common.encoders.trainable import build_audio_encoder, motion_audio_features
-from baselines.common.motion_decoder import decode_step, decode_teacher_forced, motion_decoder
-from baselines.common.positional import PeriodicPositionalEncoding
+from baselines.common.motion_decoder import SpeechMotionTransformer, decode_step, decode_teacher_forced
 from blendvoca.errors import UserError
 
 __all__ = ["STAGE2_DEFAULTS", "CodeTalker"]
@@ -43,7 +41,7 @@ STAGE2_DEFAULTS = {
 }
 
 
-class CodeTalker(nn.Module):
+class CodeTalker(SpeechMotionTransformer):
     """CodeTalker (stage 2 around a frozen stage-1 VQ-VAE).
 
     Parameters
@@ -67,13 +65,7 @@ class CodeTalker(nn.Module):
         self.stage1 = self.autoencoder.config
         self.face_quan_num = int(self.stage1["face_quan_num"])
         self.zquant_dim = int(self.stage1["zquant_dim"])
-        self.dataset, self.period, self.n_head, self.fps = cfg["dataset"], int(cfg["period"]), int(cfg["n_head"]), int(cfg["fps"])
-        self.audio_encoder, audio_dim = build_audio_encoder(cfg["audio"])
-        self.audio_feature_map = nn.Linear(audio_dim, cfg["feature_dim"])
-        self.vertice_map = nn.Linear(cfg["vertice_dim"], cfg["feature_dim"])
-        self.PPE = PeriodicPositionalEncoding(cfg["feature_dim"], dropout=cfg["dropout"], period=self.period,
-                                              max_seq_len=cfg["max_seq_len"])
-        self.transformer_decoder = motion_decoder(cfg["feature_dim"], self.n_head, cfg["num_layers"], cfg["dropout"])
+        self.build_speech_decoder(cfg)
         self.feat_map = nn.Linear(cfg["feature_dim"], self.face_quan_num * self.zquant_dim, bias=False)
         self.learnable_style_emb = nn.Embedding(cfg["num_subjects"], cfg["feature_dim"])
         nn.init.constant_(self.feat_map.weight, 0)
@@ -90,16 +82,9 @@ class CodeTalker(nn.Module):
         """The state dict without the ``autoencoder.`` keys (the layout of the authors' stage-2 file)."""
         return {k: v for k, v in self.state_dict().items() if not k.startswith("autoencoder.")}
 
-    def audio_features(self, audio: torch.Tensor, num_frames: int | None = None) -> torch.Tensor:
-        """Mapped speech features ``(B, T, feature_dim)``, one per motion frame."""
-        return self.audio_feature_map(motion_audio_features(self.audio_encoder, audio, num_frames, fps=self.fps))
-
     def style(self, one_hot: torch.Tensor) -> torch.Tensor:
         """Style embedding ``(B, 1, feature_dim)`` of the arg-max speaker of ``one_hot``."""
         return self.learnable_style_emb(torch.argmax(one_hot, dim=1)).unsqueeze(1)
-
-    def _kw(self) -> dict:
-        return {"period": self.period, "dataset": self.dataset, "bias_heads": self.n_head}
 
     def _codes(self, feat: torch.Tensor) -> torch.Tensor:
         """Frame features ``(B, T, fqn * zd)`` -> vectors ``(B, T * fqn, zd)``."""
@@ -123,7 +108,8 @@ class CodeTalker(nn.Module):
         fed = vertice if vertice_input is None else vertice_input
         previous = torch.cat([template, fed[:, :-1]], dim=1) - template
         inputs = self.PPE(self.vertice_map(previous) + style)
-        feat_out = self._codes(self.feat_map(decode_teacher_forced(self.transformer_decoder, inputs, memory, **self._kw())))
+        decoded = decode_teacher_forced(self.transformer_decoder, inputs, memory, **self.decode_options())
+        feat_out = self._codes(self.feat_map(decoded))
         feat_out_q, _, _ = self.autoencoder.quantize(feat_out)
         vertice_out = self.autoencoder.decode(feat_out_q) + template
         loss_motion = torch.mean((vertice_out - vertice) ** 2)
@@ -161,7 +147,8 @@ class CodeTalker(nn.Module):
         token, quantized = style, []
         for i in range(frames):
             x = self.PPE.dropout(token + self.PPE.at(i, token))
-            feat = self._codes(self.feat_map(decode_step(self.transformer_decoder, x, memory, cache, **self._kw())))
+            out = decode_step(self.transformer_decoder, x, memory, cache, **self.decode_options())
+            feat = self._codes(self.feat_map(out))
             q, _, _ = self.autoencoder.quantize(feat)
             quantized.append(q)
             if i == frames - 1:

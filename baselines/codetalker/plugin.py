@@ -15,9 +15,8 @@ from baselines.codetalker.official import load_official
 from baselines.codetalker.presets import PREFIXES, PRESETS, resolve_config
 from baselines.codetalker.train import split_budget, train_stage1, train_stage2
 from baselines.common.chunking import ChunkedDecoder
-from baselines.common.device import checked_precision, method_device, precision_config
-from baselines.common.encoders.trainable import load_pretrained_wav2vec2
-from baselines.common.vertex_method import StyleVertexMethod, official_style_names, training_limits
+from baselines.common.device import precision_config
+from baselines.common.vertex_method import StyleVertexMethod, training_limits
 from blendvoca.errors import UserError
 
 __all__ = ["CodeTalkerMethod"]
@@ -47,14 +46,7 @@ class CodeTalkerMethod(ChunkedDecoder, StyleVertexMethod):
     # each style is predicted alone, at position 0, as the authors do.
     batch_styles = False
 
-    @classmethod
-    def config_schema(cls):
-        """The constructor's keys plus every flat key of the presets, typed from their values."""
-        from baselines.common.chunking import chunk_options
-        from baselines.common.device import precision_option
-
-        return super().config_schema().with_presets(PRESETS, default="cpu-demo", prefixes=PREFIXES,
-                                                    extra=(precision_option(), *chunk_options()))
+    presets, preset_prefixes = PRESETS, PREFIXES
 
     def __init__(self, preset: str = "cpu-demo", official: str | os.PathLike | None = None,
                  official_stage1: str | os.PathLike | None = None, official_wav2vec2="base", resolved: dict | None = None,
@@ -64,22 +56,12 @@ class CodeTalkerMethod(ChunkedDecoder, StyleVertexMethod):
         official_stage1 = None if official_stage1 is None else os.fspath(official_stage1)
         super().__init__(preset=preset, official=official, official_stage1=official_stage1,
                          official_wav2vec2=official_wav2vec2, **precision_config(mixed_precision), **overrides)
-        #: autocast on a GPU (docs/gpu.md); nothing on the CPU
-        self.mixed_precision = checked_precision(mixed_precision)
-        self.device = method_device(None)
-        self.settings = resolve_config(preset, **overrides)
-        self.motion_scale = float(self.settings["training"]["motion_scale"])
+        self.use_preset(resolve_config(preset, **overrides), mixed_precision)
         if (official is None) != (official_stage1 is None):
             raise UserError("CodeTalkerMethod: expected both official (stage 2) and official_stage1 (stage 1) paths, "
                             f"got official={official!r}, official_stage1={official_stage1!r}")
         if official is not None:
-            self.network = load_official(official, official_stage1, wav2vec2_config=official_wav2vec2)
-            self.subjects = official_style_names(self.network.config["num_subjects"])
-            self.motion_scale = 1.0
-            self.learns = False  # the authors' weights: train reads the templates only (no --seeds)
-
-    def config(self) -> dict:
-        return {**super().config(), "resolved": self.settings}
+            self.use_official(load_official(official, official_stage1, wav2vec2_config=official_wav2vec2))
 
     @classmethod
     def from_official_checkpoint(cls, path: str | os.PathLike, **config) -> CodeTalkerMethod:
@@ -104,15 +86,12 @@ class CodeTalkerMethod(ChunkedDecoder, StyleVertexMethod):
     def build_network(self, num_subjects: int, vertice_dim: int) -> None:
         self.network = CodeTalker({**self.settings["model"], "num_subjects": num_subjects, "vertice_dim": vertice_dim},
                                   {**self.settings["stage1"], "in_dim": vertice_dim})
-        if self.settings["model"]["audio"]["kind"] == "wav2vec2" and self.settings.get("wav2vec2_path"):
-            load_pretrained_wav2vec2(self.network.audio_encoder, self.settings["wav2vec2_path"])
 
     def fit(self, train, val, request):
         t = self.settings["training"]
         seed = int(request.seed)
         steps, seconds = training_limits(request.budget, t["max_steps"], t["max_seconds"])
         (s1, t1), (s2, t2) = split_budget(steps, seconds, t["stage1_fraction"])
-        self.network.to(self.device)  # built on the CPU from the seed, then moved
         vq = self.network.autoencoder
         for p in vq.parameters():
             p.requires_grad_(True)
@@ -128,10 +107,7 @@ class CodeTalkerMethod(ChunkedDecoder, StyleVertexMethod):
         return {"stage1": h1, "stage2": h2, "steps": h1["steps"] + h2["steps"], "seconds": h1["seconds"] + h2["seconds"]}
 
     def network_state(self) -> dict:
-        return {"state_dict": self.network.state_dict(), "model_config": self.network.config,
-                "stage1_config": self.network.stage1, "motion_scale": self.motion_scale}
+        return {**super().network_state(), "stage1_config": self.network.stage1}
 
-    def restore_network(self, payload: dict) -> None:
-        self.network = CodeTalker(payload["model_config"], payload["stage1_config"])
-        self.network.load_state_dict(payload["state_dict"])
-        self.motion_scale = float(payload["motion_scale"])
+    def network_from_state(self, payload: dict) -> CodeTalker:
+        return CodeTalker(payload["model_config"], payload["stage1_config"])

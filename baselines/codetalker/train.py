@@ -25,7 +25,7 @@ import torch
 
 from baselines.common.device import module_device
 from baselines.common.sequences import sequence_tensors
-from baselines.common.training import epochs_to_steps, fit_sequences
+from baselines.common.training import epochs_to_steps, fit_sequences, style_items
 
 __all__ = ["split_budget", "train_stage1", "train_stage2"]
 
@@ -42,19 +42,14 @@ def split_budget(max_steps: float, max_seconds: float, fraction) -> tuple[tuple,
     return (s1, t1), (s2, t2)
 
 
-def _moved(tensors, device) -> tuple:
-    """``tensors`` on ``device`` (on the CPU: the same tensors, not copies)."""
-    return tuple(x.to(device) for x in tensors)
-
-
 def train_stage1(vq, train, val, *, training: dict, seed: int, max_steps: float, max_seconds: float,
                  mixed_precision=None) -> dict:
     """Train the VQ-VAE ``vq`` in place on displacement sequences, on the device ``vq`` is on
     (``mixed_precision`` there when it is a GPU)."""
     scale = float(training["motion_scale"])
     device = module_device(vq)
-    items = [_moved(sequence_tensors(s, scale=scale, normalise_audio=False)[1:], device) for s in train]
-    val_items = [_moved(sequence_tensors(s, scale=scale, normalise_audio=False)[1:], device) for s in val]
+    items = [sequence_tensors(s, scale=scale, normalise_audio=False, device=device)[1:] for s in train]
+    val_items = [sequence_tensors(s, scale=scale, normalise_audio=False, device=device)[1:] for s in val]
     w = float(training["quant_loss_weight"])
 
     def loss(item):
@@ -87,13 +82,9 @@ def train_stage2(model, train, val, subjects, *, training: dict, seed: int, max_
     on every device.
     """
     scale = float(training["motion_scale"])
-    w2v = model.config["audio"]["kind"] == "wav2vec2"
     n = len(subjects)
     device = module_device(model)
-    items = [(_moved(sequence_tensors(s, scale=scale, normalise_audio=w2v), device), subjects.index(s.subject))
-             for s in train]
-    val_items = [_moved(sequence_tensors(s, scale=scale, normalise_audio=w2v), device) for s in val]
-    eye = torch.eye(n, device=device)
+    items, val_items, eye = style_items(model, train, val, subjects, scale)
 
     steps = epochs_to_steps(training, len(items), max_steps, max_seconds)
     own_prob = float(training.get("own_input_prob") or 0.0)
@@ -123,8 +114,7 @@ def train_stage2(model, train, val, subjects, *, training: dict, seed: int, max_
         return sum(out) / len(out)
 
     return fit_sequences(model, loss, items, val_loss if val_items else None, lr=training["lr"], seed=seed,
-                         max_steps=steps,
-                         max_seconds=max_seconds, num_threads=training.get("num_threads"),
+                         max_steps=steps, max_seconds=max_seconds, num_threads=training.get("num_threads"),
                          grad_clip=training.get("grad_clip"), desc="CodeTalker stage 2",
                          loss_scale=scale**2, on_checkpoint=on_checkpoint, fractions=fractions, step_offset=step_offset,
                          mixed_precision=mixed_precision)

@@ -22,7 +22,6 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from baselines.common.device import in_float32
 from baselines.vq import VectorQuantizer
 
 __all__ = ["STAGE1_DEFAULTS", "TransformerDecoder", "TransformerEncoder", "VQAutoEncoder", "resolved_stage1_config"]
@@ -225,7 +224,7 @@ class VQAutoEncoder(nn.Module):
         cfg = self.config
         self.encoder = TransformerEncoder(cfg)
         self.decoder = TransformerDecoder(cfg, cfg["in_dim"])
-        self.quantize = _Float32Quantizer(cfg["n_embed"], cfg["zquant_dim"], beta=cfg["beta"])
+        self.quantize = VectorQuantizer(cfg["n_embed"], cfg["zquant_dim"], beta=cfg["beta"])
 
     def encode(self, x: torch.Tensor):
         """Displacements ``(B, T, in_dim)`` -> ``(quantized (B, zquant_dim, T * face_quan_num), loss, info)``."""
@@ -257,17 +256,3 @@ class VQAutoEncoder(nn.Module):
         """``(quantized (B, zquant_dim, T * face_quan_num), indices (B * T * face_quan_num, 1))`` of displacements."""
         quant, _, info = self.encode(x)
         return quant, info[2]
-
-    @torch.no_grad()
-    def decode_to_img(self, index: torch.Tensor, zshape) -> torch.Tensor:
-        """Displacements from code indices; ``zshape = (B, T * face_quan_num, zquant_dim)``."""
-        quant = self.quantize.get_codebook_entry(index.reshape(-1)).reshape(zshape).permute(0, 2, 1)
-        return self.decode(quant)
-
-
-class _Float32Quantizer(VectorQuantizer):
-    """The codebook's nearest-code search in float32 inside a mixed-precision training step
-    (:func:`~baselines.common.device.in_float32`); the same module (and state_dict) otherwise."""
-
-    def forward(self, z: torch.Tensor):
-        return in_float32(super().forward, z)

@@ -28,6 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from benchmark.methods import AUDIO_RATE, FPS
+from benchmark.methods.config import Option
 
 __all__ = [
     "FPS",
@@ -178,8 +179,6 @@ def chunk_section() -> dict:
 
 def chunk_options() -> tuple:
     """The two ``--config`` options of :func:`chunk_section`, typed (an integer or null)."""
-    from benchmark.methods.config import Option
-
     return (Option("chunk_frames", (int, type(None)), None,
                    "frames per chunk of a long utterance (null: the method's default)"),
             Option("chunk_overlap", (int, type(None)), None,

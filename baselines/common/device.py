@@ -17,10 +17,11 @@ import contextlib
 
 import torch
 
+from benchmark.methods.config import Option
 from blendvoca.cli import checked_device
 from blendvoca.errors import UserError
 
-__all__ = ["PRECISIONS", "MixedPrecision", "checked_precision", "in_float32", "method_device", "module_device",
+__all__ = ["PRECISIONS", "MixedPrecision", "checked_precision", "method_device", "module_device",
            "precision_config", "precision_option", "torch_device"]
 
 #: Values of the ``mixed_precision`` config switch.
@@ -41,10 +42,8 @@ def checked_precision(value) -> str:
     return str(value)
 
 
-def precision_option():
+def precision_option() -> Option:
     """The ``--config mixed_precision=...`` option of a GPU-capable plug-in, with its choices."""
-    from benchmark.methods.config import Option
-
     return Option("mixed_precision", (str,), "off", "autocast of the training loss on a GPU (docs/gpu.md); "
                   "nothing on the CPU", PRECISIONS)
 
@@ -82,16 +81,6 @@ def module_device(module: torch.nn.Module) -> torch.device:
     for tensor in module.buffers():
         return tensor.device
     return torch.device("cpu")
-
-
-def in_float32(function, tensor: torch.Tensor, *args, **kwargs):
-    """``function(tensor, *args, **kwargs)``, in float32 with autocast off when a mixed-precision
-    step is autocasting ``tensor``'s device (a nearest-code search in bf16 picks wrong codes);
-    otherwise exactly ``function(tensor, ...)``."""
-    if not (tensor.is_cuda and torch.is_autocast_enabled("cuda")):
-        return function(tensor, *args, **kwargs)
-    with torch.autocast(device_type="cuda", enabled=False):
-        return function(tensor.float(), *args, **kwargs)
 
 
 class MixedPrecision:

@@ -17,9 +17,11 @@ from torch import nn
 
 from baselines.common.attention_bias import biased_causal_mask, enc_dec_mask
 from baselines.common.checkpoint import count_layers, require_key
-from baselines.common.positional import period_of_encoding
+from baselines.common.encoders.trainable import build_audio_encoder, motion_audio_features
+from baselines.common.positional import PeriodicPositionalEncoding, period_of_encoding
 
-__all__ = ["decode_step", "decode_teacher_forced", "decoder_config_from_state", "motion_decoder"]
+__all__ = ["SpeechMotionTransformer", "decode_step", "decode_teacher_forced", "decoder_config_from_state",
+           "motion_decoder"]
 
 
 def motion_decoder(d_model: int, n_head: int, num_layers: int, dropout: float = 0.1) -> nn.TransformerDecoder:
@@ -27,6 +29,41 @@ def motion_decoder(d_model: int, n_head: int, num_layers: int, dropout: float = 
     layer = nn.TransformerDecoderLayer(d_model=d_model, nhead=n_head, dim_feedforward=2 * d_model,
                                        dropout=dropout, batch_first=True)
     return nn.TransformerDecoder(layer, num_layers=num_layers)
+
+
+class SpeechMotionTransformer(nn.Module):
+    """The parts FaceFormer and CodeTalker's stage 2 share, with the authors' names:
+    ``audio_encoder``, ``audio_feature_map``, ``vertice_map``, ``PPE`` and
+    ``transformer_decoder``, made by :meth:`build_speech_decoder` in that order (so a seed
+    draws the same initial weights as the authors' constructors)."""
+
+    def build_speech_decoder(self, cfg: dict) -> None:
+        """Make the shared parts from ``cfg`` (FaceFormer's config keys)."""
+        self.dataset, self.period, self.n_head = cfg["dataset"], int(cfg["period"]), int(cfg["n_head"])
+        self.fps = int(cfg["fps"])
+        self.audio_encoder, audio_dim = build_audio_encoder(cfg["audio"])
+        self.audio_feature_map = nn.Linear(audio_dim, cfg["feature_dim"])
+        self.vertice_map = nn.Linear(cfg["vertice_dim"], cfg["feature_dim"])
+        self.PPE = PeriodicPositionalEncoding(cfg["feature_dim"], dropout=cfg["dropout"], period=self.period,
+                                              max_seq_len=cfg["max_seq_len"])
+        self.transformer_decoder = motion_decoder(cfg["feature_dim"], self.n_head, cfg["num_layers"], cfg["dropout"])
+
+    def audio_features(self, audio: torch.Tensor, num_frames: int | None = None) -> torch.Tensor:
+        """Mapped speech features ``(B, T, feature_dim)``, one per motion frame.
+
+        Parameters
+        ----------
+        audio : (B, N) Tensor
+            16 kHz speech, normalised (:func:`~baselines.common.encoders.wav2vec2.normalize_waveform`)
+            for wav2vec 2.0.
+        num_frames : int, optional
+            Default: the authors' count from the audio length.
+        """
+        return self.audio_feature_map(motion_audio_features(self.audio_encoder, audio, num_frames, fps=self.fps))
+
+    def decode_options(self) -> dict:
+        """The keywords of :func:`decode_teacher_forced` and :func:`decode_step` for this network."""
+        return {"period": self.period, "dataset": self.dataset, "bias_heads": self.n_head}
 
 
 def _self_mask(n_head: int, batch: int, rows: torch.Tensor) -> torch.Tensor:

@@ -13,10 +13,22 @@ import copy
 import difflib
 import os
 
-from benchmark.methods.config import preset_keys
+from baselines.common.chunking import chunk_options
+from baselines.common.device import precision_option
+from benchmark.methods.config import Option, preset_keys
 from blendvoca.errors import UserError
 
-__all__ = ["expand_path", "resolved_preset"]
+__all__ = ["expand_path", "preset_options", "resolved_preset"]
+
+#: The ``wav2vec2_path`` key of the presets whose ``model`` section has an ``encoder``.
+WAV2VEC2_PATH = Option("wav2vec2_path", (str, type(None)), None, "local directory of the wav2vec2 encoder")
+
+
+def preset_options(*, encoder: bool = False) -> tuple:
+    """The options a preset-based baseline's schema adds to its presets' keys
+    (:meth:`~benchmark.methods.config.ConfigSchema.with_presets`): ``mixed_precision``, the
+    chunking keys and, for presets with an ``encoder``, ``wav2vec2_path``."""
+    return ((WAV2VEC2_PATH,) if encoder else ()) + (precision_option(), *chunk_options())
 
 
 def expand_path(value: str) -> str:

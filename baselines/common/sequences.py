@@ -95,7 +95,7 @@ def motion_sequences(dataset, split: str) -> list[MotionSequence]:
     return out
 
 
-def sequence_tensors(seq: MotionSequence, *, scale: float, normalise_audio: bool):
+def sequence_tensors(seq: MotionSequence, *, scale: float, normalise_audio: bool, device=None):
     """The network inputs of a sequence: ``(audio (1, N), template (1, V*3), vertices (1, T, V*3))`` float32 tensors.
 
     Parameters
@@ -105,8 +105,11 @@ def sequence_tensors(seq: MotionSequence, *, scale: float, normalise_audio: bool
         Multiplies the template and the vertices (a unit change, e.g. 100 for centimetres).
     normalise_audio : bool
         Zero mean and unit variance per waveform, as wav2vec 2.0 wants its input.
+    device : torch.device, optional
+        Where the tensors go (on the CPU: the same tensors, not copies).
     """
     audio = torch.from_numpy(seq.audio)[None]
     if normalise_audio:
         audio = normalize_waveform(audio)
-    return (audio, torch.from_numpy(seq.template)[None] * scale, torch.from_numpy(seq.vertices)[None] * scale)
+    tensors = (audio, torch.from_numpy(seq.template)[None] * scale, torch.from_numpy(seq.vertices)[None] * scale)
+    return tensors if device is None else tuple(x.to(device) for x in tensors)

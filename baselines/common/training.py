@@ -11,10 +11,23 @@ import numpy as np
 import torch
 
 from baselines.common.device import MixedPrecision, module_device
+from baselines.common.sequences import sequence_tensors
 from benchmark.methods.training_loop import StepLoop, optimiser_step
 from blendvoca.errors import UserError
 
-__all__ = ["epochs_to_steps", "fit_sequences"]
+__all__ = ["epochs_to_steps", "fit_sequences", "style_items"]
+
+
+def style_items(model, train, val, subjects, scale: float) -> tuple[list, list, torch.Tensor]:
+    """``(items, val_items, one_hot_rows)`` of a style network's training, on the device ``model`` is
+    on: each train sentence's :func:`~baselines.common.sequences.sequence_tensors` with the index of
+    its speaker in ``subjects``, each val sentence's tensors, and ``torch.eye(len(subjects))``."""
+    w2v = model.config["audio"]["kind"] == "wav2vec2"
+    device = module_device(model)
+    items = [(sequence_tensors(s, scale=scale, normalise_audio=w2v, device=device), subjects.index(s.subject))
+             for s in train]
+    val_items = [sequence_tensors(s, scale=scale, normalise_audio=w2v, device=device) for s in val]
+    return items, val_items, torch.eye(len(subjects), device=device)
 
 
 def fit_sequences(model, step_loss, items, val_loss=None, *, lr: float, seed: int, max_steps: float,

@@ -17,7 +17,9 @@ import numpy as np
 import torch
 
 from baselines.common.checkpoint import load_checkpoint_file, old_format_hint, safe_payload, save_checkpoint_file
-from baselines.common.device import method_device
+from baselines.common.device import checked_precision, method_device
+from baselines.common.encoders.trainable import load_pretrained_wav2vec2
+from baselines.common.presets import preset_options
 from baselines.common.sequences import (
     MotionSequence,
     motion_frames,
@@ -64,11 +66,11 @@ def training_limits(budget: Budget, default_steps, default_seconds) -> tuple[flo
 class StyleVertexMethod(Method):
     """Base of the FaceFormer and CodeTalker plug-ins (see the module docstring).
 
-    Subclasses provide ``name``, ``checkpoint_file``, :meth:`build_network` and
-    :meth:`fit`, and set ``self.settings`` (the resolved preset) and ``self.motion_scale``;
-    the network lives in ``self.network``,
-    the style speakers in ``self.subjects`` and every speaker's template in
-    ``self.templates``.
+    Subclasses provide ``name``, ``checkpoint_file``, ``presets`` (and ``preset_prefixes``),
+    :meth:`build_network`, :meth:`network_from_state` and :meth:`fit`, and call :meth:`use_preset` (and
+    :meth:`use_official` for the authors' weights) in their constructor; the network lives
+    in ``self.network``, the style speakers in ``self.subjects`` and every speaker's
+    template in ``self.templates``.
     """
 
     stochastic = True
@@ -77,6 +79,15 @@ class StyleVertexMethod(Method):
     #: The styles of an utterance run as one batch (False: one ``predict`` per style,
     #: for networks whose output depends on the batch position).
     batch_styles = True
+    #: The presets (``{name: nested config}``) and flat-key prefixes of the subclass.
+    presets: dict = {}
+    preset_prefixes: dict | None = None
+
+    @classmethod
+    def config_schema(cls):
+        """The constructor's keys plus every flat key of the presets, typed from their values."""
+        return super().config_schema().with_presets(cls.presets, default="cpu-demo", prefixes=cls.preset_prefixes,
+                                                    extra=preset_options())
 
     def __init__(self, **config):
         super().__init__(**config)
@@ -84,6 +95,25 @@ class StyleVertexMethod(Method):
         self.subjects: list[str] = []
         self.templates: dict[str, np.ndarray] = {}
         self.history: dict = {}
+
+    def use_preset(self, settings: dict, mixed_precision) -> None:
+        """Take the resolved preset ``settings`` and the ``mixed_precision`` switch (autocast on a
+        GPU, docs/gpu.md; nothing on the CPU); the method starts on the CPU."""
+        self.mixed_precision = checked_precision(mixed_precision)
+        self.device = method_device(None)
+        self.settings = settings
+        self.motion_scale = float(settings["training"]["motion_scale"])
+
+    def use_official(self, network) -> None:
+        """Take the authors' ``network`` as it is: its styles, no motion scaling, nothing to
+        train (train reads the templates only; no ``--seeds``)."""
+        self.network = network
+        self.subjects = official_style_names(network.config["num_subjects"])
+        self.motion_scale = 1.0
+        self.learns = False
+
+    def config(self) -> dict:
+        return {**super().config(), "resolved": self.settings}
 
     # -- subclass hooks -------------------------------------------------------------
     def build_network(self, num_subjects: int, vertice_dim: int) -> None:
@@ -93,7 +123,8 @@ class StyleVertexMethod(Method):
     def fit(self, train, val, request: TrainingRequest) -> dict:
         """Train ``self.network`` on :class:`~baselines.common.sequences.MotionSequence` lists under
         ``request`` (its seed, budget and checkpoint calls); return a history. The network is
-        ``self.network`` from the start, so :meth:`generate` works during a checkpoint call."""
+        ``self.network`` from the start, already on ``self.device``, so :meth:`generate` works
+        during a checkpoint call."""
         raise NotImplementedError
 
     def predict_motion(self, audio: np.ndarray, template: np.ndarray, style, num_frames: int) -> np.ndarray:
@@ -119,13 +150,19 @@ class StyleVertexMethod(Method):
         return out[0] if np.isscalar(style) else out
 
     def network_state(self) -> dict:
-        """What :meth:`save` stores besides the config (default: the state_dict)."""
-        return {"state_dict": self.network.state_dict()}
+        """What :meth:`save` stores besides the config: the weights, the network's config, the motion scale."""
+        return {"state_dict": self.network.state_dict(), "model_config": self.network.config,
+                "motion_scale": self.motion_scale}
+
+    def network_from_state(self, payload: dict):
+        """The untrained network of :meth:`network_state`'s payload."""
+        raise NotImplementedError
 
     def restore_network(self, payload: dict) -> None:
-        """Rebuild ``self.network`` from :meth:`network_state`'s payload."""
-        self.build_network(len(payload["subjects"]), int(next(iter(payload["templates"].values())).size))
+        """Rebuild ``self.network`` and the motion scale from :meth:`network_state`'s payload."""
+        self.network = self.network_from_state(payload)
         self.network.load_state_dict(payload["state_dict"])
+        self.motion_scale = float(payload["motion_scale"])
 
     # -- the contract -------------------------------------------------------------------
     contract = 3
@@ -146,6 +183,9 @@ class StyleVertexMethod(Method):
             val = motion_sequences(dataset, "val") if dataset.split("val") else []
             torch.manual_seed(int(request.seed))  # the initial weights too: a step budget then trains the same network in every process
             self.build_network(len(self.subjects), int(train[0].template.size))
+            if self.settings["model"]["audio"]["kind"] == "wav2vec2" and self.settings.get("wav2vec2_path"):
+                load_pretrained_wav2vec2(self.network.audio_encoder, self.settings["wav2vec2_path"])
+            self.network.to(self.device)  # built on the CPU from the seed, then moved
             self.history = self.fit(train, val, request)
         self.to(self.device)
 

@@ -16,9 +16,7 @@ import torch
 from torch import nn
 
 from baselines.common.device import module_device
-from baselines.common.encoders.trainable import build_audio_encoder, motion_audio_features
-from baselines.common.motion_decoder import decode_step, decode_teacher_forced, motion_decoder
-from baselines.common.positional import PeriodicPositionalEncoding
+from baselines.common.motion_decoder import SpeechMotionTransformer, decode_step, decode_teacher_forced
 from blendvoca.errors import UserError
 
 __all__ = ["DEFAULT_CONFIG", "Faceformer", "resolved_model_config"]
@@ -49,7 +47,7 @@ def resolved_model_config(**overrides) -> dict:
     return cfg
 
 
-class Faceformer(nn.Module):
+class Faceformer(SpeechMotionTransformer):
     """FaceFormer: speech-driven autoregressive transformer over vertex sequences.
 
     Parameters
@@ -62,36 +60,11 @@ class Faceformer(nn.Module):
         super().__init__()
         self.config = resolved_model_config(**(config or {}))
         cfg = self.config
-        self.dataset = cfg["dataset"]
-        self.period = int(cfg["period"])
-        self.n_head = int(cfg["n_head"])
-        self.fps = int(cfg["fps"])
-        self.audio_encoder, audio_dim = build_audio_encoder(cfg["audio"])
-        self.audio_feature_map = nn.Linear(audio_dim, cfg["feature_dim"])
-        self.vertice_map = nn.Linear(cfg["vertice_dim"], cfg["feature_dim"])
-        self.PPE = PeriodicPositionalEncoding(cfg["feature_dim"], dropout=cfg["dropout"], period=self.period,
-                                              max_seq_len=cfg["max_seq_len"])
-        self.transformer_decoder = motion_decoder(cfg["feature_dim"], self.n_head, cfg["num_layers"], cfg["dropout"])
+        self.build_speech_decoder(cfg)
         self.vertice_map_r = nn.Linear(cfg["feature_dim"], cfg["vertice_dim"])
         self.obj_vector = nn.Linear(cfg["num_subjects"], cfg["feature_dim"], bias=False)
         nn.init.constant_(self.vertice_map_r.weight, 0)
         nn.init.constant_(self.vertice_map_r.bias, 0)
-
-    def audio_features(self, audio: torch.Tensor, num_frames: int | None = None) -> torch.Tensor:
-        """Mapped speech features ``(B, T, feature_dim)``, one per motion frame.
-
-        Parameters
-        ----------
-        audio : (B, N) Tensor
-            16 kHz speech, normalised (:func:`~baselines.common.encoders.wav2vec2.normalize_waveform`)
-            for wav2vec 2.0.
-        num_frames : int, optional
-            Default: the authors' count from the audio length.
-        """
-        return self.audio_feature_map(motion_audio_features(self.audio_encoder, audio, num_frames, fps=self.fps))
-
-    def _decode_kwargs(self) -> dict:
-        return {"period": self.period, "dataset": self.dataset, "bias_heads": self.n_head}
 
     def forward(self, audio: torch.Tensor, template: torch.Tensor, vertice: torch.Tensor, one_hot: torch.Tensor) -> torch.Tensor:
         """Teacher-forced prediction ``(B, T, V*3)`` of ``vertice`` (the training pass).
@@ -110,7 +83,7 @@ class Faceformer(nn.Module):
         memory = self.audio_features(audio, vertice.shape[1])
         previous = torch.cat([template, vertice[:, :-1]], dim=1) - template
         inputs = self.PPE(self.vertice_map(previous) + style)
-        out = decode_teacher_forced(self.transformer_decoder, inputs, memory, **self._decode_kwargs())
+        out = decode_teacher_forced(self.transformer_decoder, inputs, memory, **self.decode_options())
         return self.vertice_map_r(out) + template
 
     def predict(self, audio: torch.Tensor, template: torch.Tensor, one_hot: torch.Tensor, num_frames: int | None = None) -> torch.Tensor:
@@ -140,7 +113,7 @@ class Faceformer(nn.Module):
         outputs = []
         for t in range(memory.shape[1]):
             x = self.PPE.dropout(token + self.PPE.at(t, token))
-            out = self.vertice_map_r(decode_step(self.transformer_decoder, x, memory, cache, **self._decode_kwargs()))
+            out = self.vertice_map_r(decode_step(self.transformer_decoder, x, memory, cache, **self.decode_options()))
             outputs.append(out)
             token = self.vertice_map(out) + style
         return (torch.cat(outputs, dim=1) + template).to(home)

@@ -10,12 +10,11 @@ from __future__ import annotations
 import os
 
 from baselines.common.chunking import ChunkedDecoder
-from baselines.common.device import checked_precision, method_device, precision_config
-from baselines.common.encoders.trainable import load_pretrained_wav2vec2
-from baselines.common.vertex_method import StyleVertexMethod, official_style_names, training_limits
+from baselines.common.device import precision_config
+from baselines.common.vertex_method import StyleVertexMethod, training_limits
 from baselines.faceformer.model import Faceformer
 from baselines.faceformer.official import load_official
-from baselines.faceformer.presets import resolve_config
+from baselines.faceformer.presets import PRESETS, resolve_config
 from baselines.faceformer.train import train_faceformer
 
 __all__ = ["FaceFormerMethod"]
@@ -41,34 +40,16 @@ class FaceFormerMethod(ChunkedDecoder, StyleVertexMethod):
     label = "FaceFormer"
     checkpoint_file = "faceformer.pt"
 
-    @classmethod
-    def config_schema(cls):
-        """The constructor's keys plus every flat key of the presets, typed from their values."""
-        from baselines.common.chunking import chunk_options
-        from baselines.common.device import precision_option
-        from baselines.faceformer.presets import PRESETS
-
-        return super().config_schema().with_presets(PRESETS, default="cpu-demo",
-                                                    extra=(precision_option(), *chunk_options()))
+    presets = PRESETS
 
     def __init__(self, preset: str = "cpu-demo", official: str | os.PathLike | None = None, official_wav2vec2="base",
                  resolved: dict | None = None, mixed_precision: str = "off", **overrides):
         official = None if official is None else os.fspath(official)  # recorded in the JSON config
         super().__init__(preset=preset, official=official, official_wav2vec2=official_wav2vec2,
                          **precision_config(mixed_precision), **overrides)
-        #: autocast on a GPU (docs/gpu.md); nothing on the CPU
-        self.mixed_precision = checked_precision(mixed_precision)
-        self.device = method_device(None)
-        self.settings = resolve_config(preset, **overrides)
-        self.motion_scale = float(self.settings["training"]["motion_scale"])
+        self.use_preset(resolve_config(preset, **overrides), mixed_precision)
         if official is not None:
-            self.network = load_official(official, wav2vec2_config=official_wav2vec2)
-            self.subjects = official_style_names(self.network.config["num_subjects"])
-            self.motion_scale = 1.0
-            self.learns = False  # the authors' weights: train reads the templates only (no --seeds)
-
-    def config(self) -> dict:
-        return {**super().config(), "resolved": self.settings}
+            self.use_official(load_official(official, wav2vec2_config=official_wav2vec2))
 
     @classmethod
     def from_official_checkpoint(cls, path: str | os.PathLike, **config) -> FaceFormerMethod:
@@ -78,22 +59,13 @@ class FaceFormerMethod(ChunkedDecoder, StyleVertexMethod):
 
     def build_network(self, num_subjects: int, vertice_dim: int) -> None:
         self.network = Faceformer({**self.settings["model"], "num_subjects": num_subjects, "vertice_dim": vertice_dim})
-        if self.settings["model"]["audio"]["kind"] == "wav2vec2" and self.settings.get("wav2vec2_path"):
-            load_pretrained_wav2vec2(self.network.audio_encoder, self.settings["wav2vec2_path"])
 
     def fit(self, train, val, request):
         t = self.settings["training"]
         steps, seconds = training_limits(request.budget, t["max_steps"], t["max_seconds"])
-        self.network.to(self.device)  # built on the CPU from the seed, then moved
         return train_faceformer(self.network, train, val, self.subjects, training=t, seed=int(request.seed),
                                 max_steps=steps, max_seconds=seconds, on_checkpoint=request.on_checkpoint,
                                 fractions=request.checkpoint_fractions, mixed_precision=self.mixed_precision)
 
-    def network_state(self) -> dict:
-        return {"state_dict": self.network.state_dict(), "model_config": self.network.config,
-                "motion_scale": self.motion_scale}
-
-    def restore_network(self, payload: dict) -> None:
-        self.network = Faceformer(payload["model_config"])
-        self.network.load_state_dict(payload["state_dict"])
-        self.motion_scale = float(payload["motion_scale"])
+    def network_from_state(self, payload: dict) -> Faceformer:
+        return Faceformer(payload["model_config"])

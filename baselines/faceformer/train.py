@@ -4,9 +4,7 @@ from __future__ import annotations
 
 import torch
 
-from baselines.common.device import module_device
-from baselines.common.sequences import sequence_tensors
-from baselines.common.training import epochs_to_steps, fit_sequences
+from baselines.common.training import epochs_to_steps, fit_sequences, style_items
 
 __all__ = ["train_faceformer"]
 
@@ -23,16 +21,8 @@ def train_faceformer(model, train, val, subjects, *, training: dict, seed: int, 
     (``"off"``, ``"bf16"``, ``"fp16"``) applies there when it is a GPU.
     """
     scale = float(training["motion_scale"])
-    w2v = model.config["audio"]["kind"] == "wav2vec2"
     n_sub = len(subjects)
-    device = module_device(model)
-
-    def moved(tensors):  # the CPU: the same tensors, not copies
-        return tuple(x.to(device) for x in tensors)
-
-    items = [(moved(sequence_tensors(s, scale=scale, normalise_audio=w2v)), subjects.index(s.subject)) for s in train]
-    val_items = [moved(sequence_tensors(s, scale=scale, normalise_audio=w2v)) for s in val]
-    eye = torch.eye(n_sub, device=device)
+    items, val_items, eye = style_items(model, train, val, subjects, scale)
 
     def step_loss(item):
         (audio, template, verts), k = item

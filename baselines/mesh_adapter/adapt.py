@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from benchmark.vertex_fit import adapted_coefficients
+from benchmark.vertex_fit import FLAME_NUM_VERTICES, adapted_coefficients, rig_fit_vertices
 
 __all__ = ["adapted_coefficients", "resolve_vertex_subset"]
 
@@ -18,7 +18,5 @@ def resolve_vertex_subset(subset):
     if subset is None:
         return None
     if subset == "flame-head":
-        from benchmark.vertex_fit import FLAME_NUM_VERTICES, rig_fit_vertices
-
         return rig_fit_vertices(FLAME_NUM_VERTICES)
     return np.asarray(subset, dtype=np.int64)

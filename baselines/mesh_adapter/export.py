@@ -17,6 +17,8 @@ import numpy as np
 from blendvoca import cli
 from blendvoca.errors import UserError
 from blendvoca.runtime.progress import bar
+from blendvoca.synthetic import default_corpus
+from blendvoca.vocaset import open_vocaset
 
 __all__ = ["exported_corpus_meshes", "main"]
 
@@ -53,8 +55,6 @@ def exported_corpus_meshes(vocaset_root: str | os.PathLike, out_dir: str | os.Pa
         ``fps`` other than 30 or 60, a split the corpus does not have.
     """
     import yaml
-
-    from blendvoca.vocaset import open_vocaset
 
     if fps not in (30, 60):
         raise UserError(f"exported_corpus_meshes: fps must be 30 or 60, got {fps!r}")
@@ -99,11 +99,7 @@ def main(argv=None) -> int:
     parser.add_argument("--name", default=None, help="leaderboard label")
     cli.add_quiet_option(parser)
     args = parser.parse_args(argv)
-    vocaset = args.vocaset
-    if vocaset is None:
-        from blendvoca.synthetic import default_corpus
-
-        vocaset = default_corpus()
+    vocaset = default_corpus() if args.vocaset is None else args.vocaset
     path = exported_corpus_meshes(vocaset, args.out, split=args.split, fps=args.fps, offsets=args.offsets,
                                   name=args.name)
     print(path)

@@ -7,6 +7,7 @@ import sys
 
 from baselines.common.track_lookup import TrackLookupMethod
 from blendvoca.errors import UserError
+from blendvoca.names import BLENDVOCA_NAMES
 from blendvoca.runtime.progress import bar
 
 from .adapt import adapted_coefficients, resolve_vertex_subset
@@ -76,8 +77,6 @@ class MeshAdapterMethod(TrackLookupMethod):
         (subject, sentence). ``split`` names the split whose sentences must all have
         an output (checked here, so a missing file fails before scoring starts).
         """
-        from blendvoca.names import BLENDVOCA_NAMES
-
         outputs = find_sequences(self.adapter.vertices)
         wanted = [(s, q) for s in dataset.split(self._config["split"]) for q in dataset.sentences(s)]
         missing = [f"{s}/{q}" for s, q in wanted if (s, q) not in outputs]

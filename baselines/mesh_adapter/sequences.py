@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from blendvoca.errors import DataError, UserError
+from blendvoca.io.mesh import read_mesh, read_ply_sequence
 
 __all__ = ["MESH_SUFFIXES", "find_sequences", "read_vertex_sequence"]
 
@@ -73,12 +74,8 @@ def read_vertex_sequence(path: str | os.PathLike) -> np.ndarray:
         if not files:
             raise DataError(f"mesh-adapter: {path} holds no .ply/.obj frames")
         if all(f.suffix == ".ply" for f in files):
-            from blendvoca.io.mesh import read_ply_sequence
-
             frames = read_ply_sequence(files)
         else:
-            from blendvoca.io.mesh import read_mesh
-
             frames = np.stack([read_mesh(f)[0] for f in files])
     frames = np.asarray(frames, dtype=np.float64)
     if frames.ndim != 3 or frames.shape[2] != 3 or frames.shape[0] == 0:

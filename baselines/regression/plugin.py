@@ -6,11 +6,17 @@ import json
 from pathlib import Path
 
 import numpy as np
+import torch
 
+from baselines.common.checkpoint import load_checkpoint_file, old_format_hint, save_checkpoint_file
+from baselines.common.device import checked_precision, method_device, precision_config
+from baselines.common.npz_file import read_npz_arrays
+from baselines.regression.features import motion_rate_features
+from baselines.regression.model import AudioToCoefficients
+from baselines.regression.training import feature_statistics, trained_regressor
 from benchmark.methods.base import Method, TrainingRequest
+from benchmark.methods.training_loop import torch_threads
 from blendvoca.errors import DataError
-
-from .features import motion_rate_features
 
 __all__ = ["RegressionMethod"]
 
@@ -43,8 +49,6 @@ class RegressionMethod(Method):
     def __init__(self, steps: int = 1200, n_mels: int = 40, channels: int = 64, hidden: int = 64,
                  batch: int = 16, window: int = 60, lr: float = 2e-3, threads: int | None = 1,
                  mixed_precision: str = "off"):
-        from baselines.common.device import checked_precision, precision_config
-
         super().__init__(steps=steps, n_mels=n_mels, channels=channels, hidden=hidden, batch=batch, window=window,
                          lr=lr, threads=threads, **precision_config(mixed_precision))
         #: autocast of the training loss on a GPU (docs/gpu.md); nothing on the CPU
@@ -74,10 +78,6 @@ class RegressionMethod(Method):
         ``checkpoint_fractions`` of the steps, the network then being the one training would
         keep at that point; its ``device``: where the network trains and then predicts
         (None: the CPU)."""
-        from benchmark.methods.training_loop import torch_threads
-
-        from .training import feature_statistics, trained_regressor
-
         with torch_threads(self._config["threads"]):
             feats, targets = self._sentences(dataset, "train")
             if not feats:
@@ -109,17 +109,11 @@ class RegressionMethod(Method):
 
     def to(self, device):
         """This method with its network on ``device`` (prediction runs there); returns self."""
-        from baselines.common.device import method_device
-
         if self.model is not None:
             self.model.to(method_device(device))
         return self
 
     def generate(self, utterance, *, samples=1, seed=0):
-        import torch
-
-        from benchmark.methods.training_loop import torch_threads
-
         if self.model is None:
             raise RuntimeError("regression: generate called before train/load")
         mean, std = self.stats
@@ -131,8 +125,6 @@ class RegressionMethod(Method):
     def save(self, directory) -> None:
         """Config (JSON), the network's state_dict (``model.pt``), feature statistics
         (``feature_stats.npz``) and the training history (JSON) into ``directory``."""
-        from baselines.common.checkpoint import save_checkpoint_file
-
         super().save(directory)
         directory = Path(directory)
         save_checkpoint_file(directory / "model.pt", self.model.state_dict())
@@ -150,11 +142,6 @@ class RegressionMethod(Method):
         DataError
             A file that :meth:`save` did not write (names the file).
         """
-        from baselines.common.checkpoint import load_checkpoint_file, old_format_hint
-        from baselines.common.npz_file import read_npz_arrays
-
-        from .model import AudioToCoefficients
-
         method = super().load(directory)
         directory = Path(directory)
         cfg = method._config

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from blendvoca.io.atomic import atomic_write
+
 
 def coefficient_image(coeffs: np.ndarray) -> np.ndarray:
     """Return ``round(255 * coeffs.T)`` as uint8: row ``k`` is blendshape ``k``, column ``t`` frame ``t``.
@@ -25,8 +27,6 @@ def coefficient_image(coeffs: np.ndarray) -> np.ndarray:
 def write_coefficient_image(path, coeffs: np.ndarray) -> None:
     """Write :func:`coefficient_image` of ``coeffs (T, K)`` as a PNG (atomically)."""
     from PIL import Image
-
-    from blendvoca.io.atomic import atomic_write
 
     with atomic_write(path, "wb") as f:
         Image.fromarray(coefficient_image(coeffs)).save(f, format="PNG")

@@ -40,6 +40,9 @@ from baselines.said.official_pipeline import OfficialSAiD
 from baselines.said.pipeline import SAiD
 from blendvoca import cli
 from blendvoca.errors import DataError, UserError
+from blendvoca.export import FORMATS, NEEDS_RIG, export_track, load_rig
+from blendvoca.io.audio import load_audio
+from blendvoca.io.coeffs import read_coeffs_csv, write_coeffs_csv
 from blendvoca.runtime.progress import progress_bars
 
 CHECKPOINT_ENV = "BLENDVOCA_SAID_CHECKPOINT"
@@ -92,8 +95,6 @@ def load_pipeline(path: str | os.PathLike, official: bool | None = None):
 
 def write_intermediates(directory: str | os.PathLike, states, names) -> None:
     """Write the chain's states (first sample) as ``<k>.csv`` and ``<k>.png``, ``k = 1`` being the last state."""
-    from blendvoca.io.coeffs import write_coeffs_csv
-
     directory = Path(os.fspath(directory))
     directory.mkdir(parents=True, exist_ok=True)
     for k, state in enumerate(reversed(states), start=1):
@@ -149,10 +150,6 @@ def generate_files(
     DataError
         A checkpoint that is not SAiD's, a mask of another shape than the reference.
     """
-    from blendvoca.export import FORMATS, NEEDS_RIG, export_track, load_rig
-    from blendvoca.io.audio import load_audio
-    from blendvoca.io.coeffs import read_coeffs_csv, write_coeffs_csv
-
     if export not in FORMATS:
         raise UserError(f"SAiD generate: expected --export one of {FORMATS}, got {export!r}")
     if export in NEEDS_RIG and rig is None:

@@ -19,31 +19,9 @@ from torch import nn
 
 from baselines.common.attention_bias import alignment_bias
 from baselines.common.encoders import build_encoder
-from baselines.said.unet1d import ZERO_INIT_GROUPS, ConditionalUNet1D
+from baselines.said.unet1d import ZERO_INIT_GROUPS, ConditionalUNet1D, timestep_embedding
 
 ARCHITECTURES = ("authors", "compact")
-
-
-def timestep_embedding(timesteps: torch.Tensor, dim: int, max_period: float = 10000.0) -> torch.Tensor:
-    """Return sinusoidal embeddings ``[cos(t w_k), sin(t w_k)]`` of diffusion timesteps.
-
-    Parameters
-    ----------
-    timesteps : (B,) Tensor
-    dim : int
-        Even embedding size.
-    max_period : float, default 10000.0
-
-    Returns
-    -------
-    embedding : (B, dim) float32 Tensor
-    """
-    if dim % 2:
-        raise ValueError(f"timestep_embedding: expected an even dim, got {dim}")
-    half = dim // 2
-    freqs = torch.exp(-math.log(max_period) * torch.arange(half, dtype=torch.float32, device=timesteps.device) / half)
-    args = timesteps.float()[:, None] * freqs[None, :]
-    return torch.cat([torch.cos(args), torch.sin(args)], dim=-1)
 
 
 def _groups(channels: int, wanted: int = 32) -> int:

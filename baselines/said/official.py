@@ -28,16 +28,10 @@ from pathlib import Path
 import torch
 from torch import nn
 
-from baselines.common.checkpoint import load_checkpoint_file
+from baselines.common.checkpoint import load_checkpoint_file, load_into
 from baselines.common.encoders.wav2vec2 import normalize_waveform
 from baselines.said.unet1d import ConditionalUNet1D
-from baselines.wav2vec2 import (
-    base_config,
-    current_layout_state,
-    interpolated_features,
-    legacy_layout_state,
-    wav2vec2_model,
-)
+from baselines.wav2vec2 import base_config, interpolated_features, legacy_layout_state, wav2vec2_model
 from blendvoca.errors import DataError
 
 SAMPLE_RATE = 16000
@@ -196,8 +190,8 @@ def load_official(path: str | os.PathLike, *, audio_config=None, num_head_channe
 
 def model_from_state(state: dict, *, audio_config=None, num_head_channels: int = 32, prediction_type: str = "epsilon",
                      where: str = "state_dict") -> SAID_UNet1D:
-    """Build a :class:`SAID_UNet1D` matching ``state``'s shapes and load it strictly (see :func:`load_official`)."""
-    state = current_layout_state(state)
+    """Build a :class:`SAID_UNet1D` matching ``state``'s shapes and load it strictly (see :func:`load_official`;
+    :func:`~baselines.common.checkpoint.load_into`: missing, unexpected or misshapen weights are a ``DataError``)."""
     try:
         conv_in = state["denoiser.model.input_blocks.0.0.weight"]
     except KeyError as exc:
@@ -211,14 +205,5 @@ def model_from_state(state: dict, *, audio_config=None, num_head_channels: int =
         num_head_channels=num_head_channels,
         prediction_type=prediction_type,
     )
-    try:
-        result = model.load_state_dict(state, strict=False)
-    except RuntimeError as exc:  # shape mismatches
-        raise DataError(f"SAiD official weights: {where} does not match SAID_UNet1D: {exc}") from exc
-    if result.missing_keys or result.unexpected_keys:
-        raise DataError(
-            f"SAiD official weights: {where} does not match SAID_UNet1D "
-            f"(missing {result.missing_keys[:5]}{'...' if len(result.missing_keys) > 5 else ''}, "
-            f"unexpected {result.unexpected_keys[:5]}{'...' if len(result.unexpected_keys) > 5 else ''})"
-        )
+    load_into(model, state, where=f"SAiD official weights: {where}")
     return model.eval()

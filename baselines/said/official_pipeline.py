@@ -72,6 +72,14 @@ class OfficialSAiD:
         self.model.to(self.device)
         return self
 
+    def _sampling(self, sampler, num_steps, guidance, eta, guidance_rescale) -> dict:
+        """The sampling keywords of :func:`said_inference`: each value given, else :attr:`sampling`'s."""
+        s = self.sampling
+        return {"num_steps": int(num_steps or s["num_steps"]), "sampler": sampler or s["sampler"],
+                "guidance": s["guidance"] if guidance is None else float(guidance),
+                "guidance_rescale": s["guidance_rescale"] if guidance_rescale is None else float(guidance_rescale),
+                "eta": s["eta"] if eta is None else float(eta)}
+
     @torch.no_grad()
     def generate(self, audio, num_frames=None, *, samples=1, seed=0, reference=None, mask=None, sampler=None,
                  num_steps=None, guidance=None, eta=None, guidance_rescale=None, strength=1.0,
@@ -85,7 +93,6 @@ class OfficialSAiD:
         audio = np.asarray(audio, dtype=np.float32)
         if audio.ndim != 1 or audio.size == 0:
             raise DataError(f"OfficialSAiD.generate: expected (N,) mono audio at 16 kHz, got shape {audio.shape}")
-        s = self.sampling
         if reference is not None:
             num_frames = int(np.asarray(reference).shape[0]) if num_frames is None else num_frames
         wav, frames, out_frames = padded_waveform(audio, num_frames)
@@ -100,13 +107,9 @@ class OfficialSAiD:
                 edit_mask[:, :out_frames] = torch.as_tensor(np.asarray(mask, dtype=np.float32), device=self.device)
         embedding = self.model.get_audio_embedding(self.model.process_audio(wav), frames)
         out = said_inference(
-            self.model, embedding, batch=int(samples),
-            num_steps=int(num_steps or s["num_steps"]), sampler=sampler or s["sampler"],
-            guidance=s["guidance"] if guidance is None else float(guidance),
-            guidance_rescale=s["guidance_rescale"] if guidance_rescale is None else float(guidance_rescale),
-            eta=s["eta"] if eta is None else float(eta), strength=float(strength),
-            init_samples=init, mask=edit_mask, generator=gen,
-            save_intermediates=save_intermediates or return_intermediates,
+            self.model, embedding, batch=int(samples), strength=float(strength), init_samples=init, mask=edit_mask,
+            generator=gen, save_intermediates=save_intermediates or return_intermediates,
+            **self._sampling(sampler, num_steps, guidance, eta, guidance_rescale),
         )
         tracks = out.result[:, :out_frames].double().cpu().numpy()
         if return_intermediates:
@@ -158,15 +161,10 @@ class OfficialSAiD:
         generators = [torch.Generator(device=self.device).manual_seed(seed) for seed in seeds]
         draw = utterance_noise(generators, lengths, samples, len(self.names), num_frames=longest,
                                dtype=torch.float32, device=self.device)
-
-        s = self.sampling
         out = said_inference(
-            self.model, embedding, batch=embedding.shape[0],
-            num_steps=int(num_steps or s["num_steps"]), sampler=sampler or s["sampler"],
-            guidance=s["guidance"] if guidance is None else float(guidance),
-            guidance_rescale=s["guidance_rescale"] if guidance_rescale is None else float(guidance_rescale),
-            eta=s["eta"] if eta is None else float(eta), draw=draw,
+            self.model, embedding, batch=embedding.shape[0], draw=draw,
             lengths=torch.tensor(lengths, device=self.device).repeat_interleave(samples),
+            **self._sampling(sampler, num_steps, guidance, eta, guidance_rescale),
         )
         result = out.result.double().cpu().numpy()
         return [result[i * samples:(i + 1) * samples, :frames] for i, frames in enumerate(out_frames)]

@@ -37,6 +37,18 @@ def frames_for_audio(num_samples: int, fps: int = FPS, sample_rate: int = SAMPLE
     return max(1, round(num_samples * fps / sample_rate))
 
 
+def checked_utterance(audio, num_frames: int | None, where: str) -> tuple[np.ndarray, int]:
+    """``(audio, num_frames)`` of one utterance to sample: mono audio, at least two frames
+    (default :func:`frames_for_audio`); otherwise an error naming ``where``."""
+    audio = np.asarray(audio)
+    if audio.ndim != 1 or audio.size == 0:
+        raise DataError(f"{where}: expected (N,) mono audio at 16 kHz, got shape {audio.shape}")
+    num_frames = frames_for_audio(audio.shape[0]) if num_frames is None else int(num_frames)
+    if num_frames < 2:
+        raise UserError(f"{where}: expected num_frames >= 2, got {num_frames}")
+    return audio, num_frames
+
+
 def check_sampling(sampling: dict, num_train_steps: int) -> None:
     """A UserError naming the key unless ``sampling`` (a config's sampling section) can drive the samplers."""
     problems = []
@@ -155,16 +167,10 @@ class SAiD:
         -------
         coeffs : (S, T, K) float64 ndarray in [0, 1]
         """
-        audio = np.asarray(audio)
-        if audio.ndim != 1 or audio.size == 0:
-            raise DataError(f"SAiD.generate: expected (N,) mono audio at 16 kHz, got shape {audio.shape}")
         if int(samples) != samples or samples < 1:
             raise UserError(f"SAiD.generate: expected samples >= 1, got {samples!r}")
-        num_frames = frames_for_audio(audio.shape[0]) if num_frames is None else int(num_frames)
-        if num_frames < 2:
-            raise UserError(f"SAiD.generate: expected num_frames >= 2, got {num_frames}")
-        k = len(self.names)
-        check_edit_inputs(reference, mask, num_frames, k)
+        audio, num_frames = checked_utterance(audio, num_frames, "SAiD.generate")
+        check_edit_inputs(reference, mask, num_frames, len(self.names))
         options = {"samples": samples, "seed": seed, "sampler": sampler, "num_steps": num_steps,
                    "guidance": guidance, "eta": eta}
         plan = chunk_plan(num_frames, self.chunk_frames, self.chunk_overlap)
@@ -179,12 +185,6 @@ class SAiD:
     def _generate_whole(self, audio, num_frames: int, *, samples, seed, sampler, num_steps, guidance, eta,
                         reference=None, mask=None) -> np.ndarray:
         """:meth:`generate` of ``num_frames`` frames in one chain, whatever the chunk length."""
-        s = self.config["sampling"]
-        sampler = sampler or s["sampler"]
-        num_steps = int(num_steps or s["num_steps"])
-        guidance = s["guidance"] if guidance is None else float(guidance)
-        eta = s["eta"] if eta is None else float(eta)
-
         ref_x = mask_t = None
         if reference is not None:
             ref = np.asarray(reference, dtype=np.float64)
@@ -195,8 +195,8 @@ class SAiD:
 
         with torch_threads(self.config["training"].get("num_threads")):
             wav = torch.from_numpy(audio.astype(np.float32))[None].to(self.device)
-            x = self._sample([wav], [num_frames], [int(seed)], samples=samples, sampler=sampler, num_steps=num_steps,
-                             guidance=guidance, eta=eta, reference=ref_x, mask=mask_t)
+            x = self._sample([wav], [num_frames], [int(seed)], samples=samples, reference=ref_x, mask=mask_t,
+                             **self._sampling(sampler, num_steps, guidance, eta))
         out = self.from_diffusion(x.double()).cpu().numpy()
         if reference is not None:
             # exact, not float32-rounded, reference values where the mask keeps them
@@ -255,23 +255,21 @@ class SAiD:
             raise UserError(f"SAiD.generate_many: expected samples >= 1, got {samples!r}")
         waves, lengths = [], []
         for index, (audio, frames) in enumerate(utterances):
-            audio = np.asarray(audio)
-            if audio.ndim != 1 or audio.size == 0:
-                raise DataError(f"SAiD.generate_many: utterance {index}: expected (N,) mono audio at 16 kHz, "
-                                f"got shape {audio.shape}")
-            frames = frames_for_audio(audio.shape[0]) if frames is None else int(frames)
-            if frames < 2:
-                raise UserError(f"SAiD.generate_many: utterance {index}: expected num_frames >= 2, got {frames}")
+            audio, frames = checked_utterance(audio, frames, f"SAiD.generate_many: utterance {index}")
             waves.append(torch.from_numpy(audio.astype(np.float32))[None].to(self.device))
             lengths.append(frames)
-        s = self.config["sampling"]
         with torch_threads(self.config["training"].get("num_threads")):
-            x = self._sample(waves, lengths, seeds, samples=int(samples), sampler=sampler or s["sampler"],
-                             num_steps=int(num_steps or s["num_steps"]),
-                             guidance=s["guidance"] if guidance is None else float(guidance),
-                             eta=s["eta"] if eta is None else float(eta))
+            x = self._sample(waves, lengths, seeds, samples=int(samples),
+                             **self._sampling(sampler, num_steps, guidance, eta))
         out = self.from_diffusion(x.double()).cpu().numpy()
         return [out[i * samples:(i + 1) * samples, :frames] for i, frames in enumerate(lengths)]
+
+    def _sampling(self, sampler, num_steps, guidance, eta) -> dict:
+        """The sampling keywords of :meth:`_sample`: each value given, else the config's."""
+        s = self.config["sampling"]
+        return {"sampler": sampler or s["sampler"], "num_steps": int(num_steps or s["num_steps"]),
+                "guidance": s["guidance"] if guidance is None else float(guidance),
+                "eta": s["eta"] if eta is None else float(eta)}
 
     def _sample(self, waves, lengths, seeds, *, samples, sampler, num_steps, guidance, eta, reference=None,
                 mask=None) -> torch.Tensor:

@@ -14,10 +14,12 @@ import torch
 
 from baselines.common.checkpoint import load_checkpoint_file
 from baselines.common.device import checked_precision, method_device, precision_config
+from baselines.common.presets import preset_options
 from baselines.said.dataset import dataset_pairs, mirror_for
 from baselines.said.official import is_official_state, model_from_state
 from baselines.said.official_pipeline import OfficialSAiD
 from baselines.said.pipeline import SAiD, check_sampling
+from baselines.said.presets import DEFAULT_PRESET, PRESETS
 from baselines.said.train import train_said
 from benchmark.methods.base import Method, TrainingRequest
 from blendvoca.errors import DataError, UserError
@@ -49,13 +51,7 @@ class SAiDMethod(Method):
     @classmethod
     def config_schema(cls):
         """The constructor's keys plus every flat key of the presets, typed from their values."""
-        from baselines.common.chunking import chunk_options
-        from baselines.common.device import precision_option
-        from benchmark.methods.config import Option
-        from baselines.said.presets import DEFAULT_PRESET, PRESETS
-
-        wav2vec2 = Option("wav2vec2_path", (str, type(None)), None, "local directory of the wav2vec2 encoder")
-        return super().config_schema().with_presets(PRESETS, default=DEFAULT_PRESET, extra=(wav2vec2, precision_option(), *chunk_options()))
+        return super().config_schema().with_presets(PRESETS, default=DEFAULT_PRESET, extra=preset_options(encoder=True))
 
     def __init__(self, preset: str = "cpu-demo", resolved: dict | None = None, mixed_precision: str = "off",
                  **overrides):

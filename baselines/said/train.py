@@ -26,6 +26,7 @@ from baselines.said.normalization import coefficient_normalization
 from baselines.said.parametrization import noise_from_output
 from baselines.said.pipeline import SAiD
 from baselines.said.schedule import add_noise, alphas_of
+from benchmark.data import open_blendvoca
 from benchmark.methods.training_loop import StepLoop, optimiser_step
 from blendvoca import cli
 from blendvoca.errors import DataError, UserError
@@ -279,8 +280,6 @@ def train_file(data: str | os.PathLike, out: str | os.PathLike, *, preset: str =
     DataError
         ``data`` is not a BlendVOCA build (``benchmark.data.open_blendvoca``).
     """
-    from benchmark.data import open_blendvoca
-
     dataset = open_blendvoca(Path(os.fspath(data)))
     device = torch_device(device)
     torch.manual_seed(seed)  # the initial weights follow the seed too

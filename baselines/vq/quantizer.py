@@ -88,7 +88,16 @@ class VectorQuantizer(nn.Module):
             ``beta * commitment + codebook`` loss.
         info : tuple
             ``(perplexity, one_hot (B*N, n_e), indices (B*N, 1))``.
+
+        Inside a mixed-precision training step on a GPU (autocast on) the search runs in
+        float32 with autocast off: in bf16 it picks wrong codes.
         """
+        if not (z.is_cuda and torch.is_autocast_enabled("cuda")):
+            return self._quantized(z)
+        with torch.autocast(device_type="cuda", enabled=False):
+            return self._quantized(z.float())
+
+    def _quantized(self, z: torch.Tensor):
         z_flat = self._flat(z, "forward")
         indices = nearest_code_indices(z_flat, self.embedding.weight).unsqueeze(1)
         one_hot = torch.zeros(indices.shape[0], self.n_e, dtype=z.dtype, device=z.device)
