@@ -68,7 +68,7 @@ def main(argv=None):
 def rig_reuse(corpus_root):
     """Print the rig stage's compute time without and with the shared correspondence, and the ratio."""
     import numpy as np
-    from threadpoolctl import threadpool_limits
+    from blendvoca.runtime.threads import limited_threads
 
     from blendvoca.assets import load_index_list
     from blendvoca.builder.speaker import speaker_rig
@@ -82,7 +82,7 @@ def rig_reuse(corpus_root):
     head = load_index_list("flame-head-idx")
     templates = {s: corpus.template(s) for s in corpus.subjects}
     faces = corpus.faces
-    with threadpool_limits(1):
+    with limited_threads(1):
         start = time.perf_counter()
         own = {s: speaker_rig(reference, t, faces, ref_lm, flame_lm, head) for s, t in templates.items()}
         separate = time.perf_counter() - start

@@ -60,12 +60,12 @@ def _rss_now_kb():
 
 
 def child(method, num_frames, threads):
-    from threadpoolctl import threadpool_limits
+    from blendvoca.runtime.threads import limited_threads
 
     neutral, deltas, frames = make_problem(num_frames)
     from blendvoca.fit import fit_coefficients, normal_equations, solve_published_qp
 
-    with threadpool_limits(threads):
+    with limited_threads(threads):
         before = _rss_now_kb()
         start = time.perf_counter()
         if method == "published":
@@ -108,7 +108,7 @@ def raw_floor(neutral, deltas, frames):
 
 def floor_ratio(num_frames, repeats=7):
     """Print the constrained fit against both least-squares floors, with a breakdown."""
-    from threadpoolctl import threadpool_limits
+    from blendvoca.runtime.threads import limited_threads
 
     from blendvoca.fit import banded_qp, fit_coefficients, normal_equations, solve_banded_qp
 
@@ -124,7 +124,7 @@ def floor_ratio(num_frames, repeats=7):
         counts["solve"] += 1
         return solve(self, chol, vec)
 
-    with threadpool_limits(1):
+    with limited_threads(1):
         system = normal_equations(neutral, deltas, frames)
         raw, floor, fit, normal, qp = _best_interleaved([
             lambda: raw_floor(neutral, deltas, frames),

@@ -40,6 +40,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # run from a check
 from blendvoca.cli import checked_device  # noqa: E402
 from benchmark.methods.base import Budget, progress_bars  # noqa: E402
 from benchmark.protocol.training import prepared_method  # noqa: E402
+from blendvoca.runtime.threads import limit_threads  # noqa: E402
 from blendvoca import cli  # noqa: E402
 
 #: Each paper's protocol on BlendVOCA's 8 x 40 training and 2 x 40 test sentences (VOCASET's
@@ -164,7 +165,7 @@ def main(argv=None) -> int:
     args = p.parse_args(argv)
     device = checked_device(args.device)
     if args.threads:
-        torch.set_num_threads(args.threads)
+        limit_threads(args.threads, torch_only=True)
     where = torch.cuda.get_device_name(torch.device(device)) if device.startswith("cuda") else "the CPU"
     note = "" if device.startswith("cuda") else " (no GPU: these are CPU figures, not a GPU's)"
     print(f"device {device}: {where}{note}; preset {args.preset}, mixed precision {args.mixed_precision}, "

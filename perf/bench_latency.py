@@ -29,13 +29,14 @@ def main(argv=None) -> int:
     parser.add_argument("--sentences", type=int, default=3, help="test sentences timed (default 3)")
     args = parser.parse_args(argv)
 
-    import torch
+    import torch  # noqa: F401 - loaded first: limit_threads reaches the libraries loaded now
 
     from benchmark.methods import Budget, TrainingRequest, get_method
     from benchmark.protocol.generation import measure_latency
     from benchmark.protocol.spec import default_data_root, open_data
+    from blendvoca.runtime.threads import limit_threads
 
-    torch.set_num_threads(1)
+    limit_threads(1, torch_only=True)
     dataset = open_data(default_data_root(progress=False))
     print(f"{'method':>11} {'lookahead (s)':>14} {'first frame (s)':>16} {'CPU s / audio s':>16} {'RTF':>7}")
     for name in args.methods:

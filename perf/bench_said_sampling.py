@@ -41,6 +41,7 @@ import torch
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # run from a checkout
 
 from baselines.said.pipeline import SAiD  # noqa: E402
+from blendvoca.runtime.threads import limit_threads  # noqa: E402
 
 CLIP_SECONDS = 4.0
 
@@ -109,7 +110,7 @@ def sentence_batch_comparison(args) -> None:
     from baselines.said.official_pipeline import OfficialSAiD, padded_waveform
 
     if args.threads:
-        torch.set_num_threads(args.threads)
+        limit_threads(args.threads, torch_only=True)
     model = _authors_network(args.width, args.tiny_encoder, args.device)
     pipeline = OfficialSAiD(model, {"guidance": args.guidance}).to(args.device)
     full = clip_audio(1.25 * args.seconds * 1.01)
@@ -152,7 +153,7 @@ def authors_comparison(args) -> None:
     from baselines.said.inference import said_inference
 
     if args.threads:
-        torch.set_num_threads(args.threads)
+        limit_threads(args.threads, torch_only=True)
     model = _authors_network(args.width, args.tiny_encoder, args.device)
     audio = clip_audio(args.seconds)
     frames = int(len(audio) * 60 / 16000)

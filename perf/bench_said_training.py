@@ -26,6 +26,7 @@ from baselines.said.ema import EMA  # noqa: E402
 from baselines.said.pipeline import SAiD  # noqa: E402
 from baselines.said.train import diffusion_loss  # noqa: E402
 from blendvoca.names import BLENDVOCA_NAMES  # noqa: E402
+from blendvoca.runtime.threads import limit_threads  # noqa: E402
 
 ARCHITECTURES = ("authors", "compact")
 
@@ -81,7 +82,7 @@ def main(argv=None) -> None:
     p.add_argument("--batch", type=int, default=16)
     p.add_argument("--window", type=int, default=60)
     args = p.parse_args(argv)
-    torch.set_num_threads(args.threads)
+    limit_threads(args.threads, torch_only=True)
     trainers = {name: Trainer(name, args.batch, args.window) for name in ARCHITECTURES}
     for trainer in trainers.values():
         for _ in range(5):

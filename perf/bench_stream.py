@@ -3,7 +3,7 @@
 The sentences are those of the bundled-default BlendVOCA (its FLAME rigs, fitted on
 the 4580-vertex head crop; the 60 fps meshes of the bundled synthetic corpus, full
 topology, unposed); both are made on first use (``BLENDVOCA_ASSETS`` must point at the
-assets). Everything runs in one process with one BLAS thread (threadpoolctl).
+assets). Everything runs in one process with one BLAS thread (blendvoca.runtime.threads).
 
     python perf/bench_stream.py                  # per-frame times: streaming vs offline QP
     python perf/bench_stream.py --solvers        # the per-frame box QP by other solvers
@@ -84,7 +84,7 @@ def _machine():
 
 
 def timing(num_speakers, crop):
-    from threadpoolctl import threadpool_limits
+    from blendvoca.runtime.threads import limited_threads
 
     from blendvoca.assets import load_index_list
     from blendvoca.fit import StreamingSolver, fit_sequence
@@ -96,7 +96,7 @@ def timing(num_speakers, crop):
     cpu = {k: [] for k in chosen}
     offline_wall = offline_cpu = 0.0
     total_frames = 0
-    with threadpool_limits(1):
+    with limited_threads(1):
         for _, _, rig, frames in sentences(num_speakers):
             inputs = np.take(frames, head, axis=1) if crop else frames  # C-contiguous crops
             for name, config in chosen.items():
@@ -129,7 +129,7 @@ def solvers(num_speakers, limit_frames):
     import piqp
     from scipy.linalg import cholesky, solve_triangular
     from scipy.optimize import lsq_linear
-    from threadpoolctl import threadpool_limits
+    from blendvoca.runtime.threads import limited_threads
 
     from blendvoca.fit import StreamingSolver, solve_banded_qp
     from blendvoca.fit.box_qp import solve_box_qp
@@ -172,7 +172,7 @@ def solvers(num_speakers, limit_frames):
             yield solve_banded_qp(hessian, linear[None], lower=0.0, upper=1.0, rate_bound=None).coeffs[0]
 
     results = {}
-    with threadpool_limits(1):
+    with limited_threads(1):
         for name, run in (("active set (warm-started)", active_set), ("PIQP dense (linear term updated)", piqp_dense),
                           ("lsq_linear bvls", bvls), ("banded QP, one frame", banded)):
             wall, cpu, answers = [], [], []
@@ -197,7 +197,7 @@ def solvers(num_speakers, limit_frames):
 
 
 def compare(num_speakers):
-    from threadpoolctl import threadpool_limits
+    from blendvoca.runtime.threads import limited_threads
 
     from blendvoca.assets import load_index_list
     from blendvoca.fit import StreamingSolver, fit_sequence
@@ -206,7 +206,7 @@ def compare(num_speakers):
     rows = {"offline QP": []}
     rows.update({name: [] for name in configs()})
     count = 0
-    with threadpool_limits(1):
+    with limited_threads(1):
         for _, _, rig, frames in sentences(num_speakers):
             offline = fit_sequence(rig.neutral, rig.deltas, frames, vertex_subset=head, unposed=True).coeffs
             target = frames[:, head]

@@ -81,8 +81,9 @@ def main(argv=None) -> int:
     from baselines.cdface.pipeline import CDFace
     from benchmark.data import open_blendvoca
     from benchmark.protocol import default_data_root
+    from blendvoca.runtime.threads import limit_threads
 
-    torch.set_num_threads(1)
+    limit_threads(1, torch_only=True)
     try:
         cdface = CDFace.load(checkpoint_file(args.checkpoint))
     except FileNotFoundError as exc:

@@ -21,9 +21,9 @@ from baselines.cdface.parts import FaceParts
 from baselines.cdface.presets import DEFAULT_PRESET, resolve_config
 from baselines.common.checkpoint import load_checkpoint_file, old_format_hint, safe_payload, save_checkpoint_file
 from baselines.common.encoders import build_encoder
-from benchmark.methods.training_loop import torch_threads
 from blendvoca.errors import DataError, UserError
 from blendvoca.runtime.progress import bar
+from blendvoca.runtime.threads import limited_threads
 
 __all__ = ["CONTROL_MODES", "CDFace"]
 
@@ -154,7 +154,7 @@ class CDFace:
         self.model.eval()
         frames = bar(total=num_frames, desc="CDFace: frames", unit="frame")
         try:
-            with torch_threads(self.config["training"]["num_threads"]):
+            with limited_threads(self.config["training"]["num_threads"], torch_only=True):
                 lips, upper = self.model.sample(self.features(audio, num_frames), self.style_index(style), pairs,
                                                 lip_codes=lip_codes, on_frame=lambda t: frames.update(1))
         finally:

@@ -21,8 +21,9 @@ from baselines.cdface.losses import lip_losses, upper_face_losses
 from baselines.cdface.vqvae import vq_loss
 from baselines.common.dataset import sentence_audio
 from baselines.common.device import MixedPrecision, module_device
-from benchmark.methods.training_loop import StepLoop, optimiser_step, torch_threads
+from benchmark.methods.training_loop import StepLoop, optimiser_step
 from blendvoca.errors import UserError
+from blendvoca.runtime.threads import limited_threads
 
 __all__ = ["LR_SCHEDULES", "SentenceData", "WindowSampler", "cosine_lr", "load_sentences", "moving_vertices", "prepare_sentences", "stage_limits",
            "train_cdface"]
@@ -237,7 +238,7 @@ def train_cdface(cdface, sentences, *, seed: int = 0, max_steps=None, max_second
     model.requires_grad_(True)
     amp = MixedPrecision(mixed_precision, module_device(model))
     history = {}
-    with torch_threads(training["num_threads"]):
+    with limited_threads(training["num_threads"], torch_only=True):
         for key, vq, part in (("lip_vq", model.lip_vq, "lips"), ("upper_vq", model.upper_vq, "upper")):
             vq.train()
             sampler = WindowSampler(sentences, training["window"], training["vq_batch_size"], rng)

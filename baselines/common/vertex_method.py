@@ -29,8 +29,8 @@ from baselines.common.sequences import (
     to_benchmark_rate,
 )
 from benchmark.methods.base import Budget, Method, TrainingRequest
-from benchmark.methods.training_loop import torch_threads
 from blendvoca.errors import DataError
+from blendvoca.runtime.threads import limited_threads
 
 __all__ = ["VOCASET_TRAIN_SUBJECTS", "StyleVertexMethod", "official_style_names", "style_indices", "training_limits"]
 
@@ -144,7 +144,7 @@ class StyleVertexMethod(Method):
         a, tpl, _ = sequence_tensors(seq, scale=self.motion_scale, normalise_audio=w2v)
         batch = len(styles)
         one_hot = torch.eye(len(self.subjects))[styles]
-        with torch.no_grad(), torch_threads(self.settings["training"].get("num_threads")):
+        with torch.no_grad(), limited_threads(self.settings["training"].get("num_threads"), torch_only=True):
             out = net.predict(a.expand(batch, -1), tpl.expand(batch, -1), one_hot, num_frames)
         out = out.numpy() / self.motion_scale
         return out[0] if np.isscalar(style) else out

@@ -15,8 +15,8 @@ from baselines.regression.features import motion_rate_features
 from baselines.regression.model import AudioToCoefficients
 from baselines.regression.training import feature_statistics, trained_regressor
 from benchmark.methods.base import Method, TrainingRequest
-from benchmark.methods.training_loop import torch_threads
 from blendvoca.errors import DataError
+from blendvoca.runtime.threads import limited_threads
 
 __all__ = ["RegressionMethod"]
 
@@ -78,7 +78,7 @@ class RegressionMethod(Method):
         ``checkpoint_fractions`` of the steps, the network then being the one training would
         keep at that point; its ``device``: where the network trains and then predicts
         (None: the CPU)."""
-        with torch_threads(self._config["threads"]):
+        with limited_threads(self._config["threads"], torch_only=True):
             feats, targets = self._sentences(dataset, "train")
             if not feats:
                 raise DataError("regression: the dataset's train split has no sentences")
@@ -118,7 +118,7 @@ class RegressionMethod(Method):
             raise RuntimeError("regression: generate called before train/load")
         mean, std = self.stats
         x = (self._features(utterance.audio, utterance.num_frames) - mean) / std
-        with torch.no_grad(), torch_threads(self._config["threads"]):
+        with torch.no_grad(), limited_threads(self._config["threads"], torch_only=True):
             y = self.model(torch.from_numpy(x[None].astype(np.float32)))[0].double().numpy()
         return np.repeat(y[None], int(samples), axis=0)
 

@@ -23,8 +23,8 @@ from baselines.said.presets import resolve_config
 from baselines.said.sample import padded_batch, sample_diffusion, utterance_noise
 from baselines.said.samplers import SAMPLERS
 from baselines.said.schedule import alphas_cumprod_schedule, alphas_of
-from benchmark.methods.training_loop import torch_threads
 from blendvoca.errors import DataError, UserError
+from blendvoca.runtime.threads import limited_threads
 
 FPS = 60
 SAMPLE_RATE = 16000
@@ -193,7 +193,7 @@ class SAiD:
             ref_x = self.to_diffusion(torch.from_numpy(ref).float().to(self.device))
             mask_t = torch.from_numpy(np.asarray(mask, dtype=np.float32)).to(self.device)
 
-        with torch_threads(self.config["training"].get("num_threads")):
+        with limited_threads(self.config["training"].get("num_threads"), torch_only=True):
             wav = torch.from_numpy(audio.astype(np.float32))[None].to(self.device)
             x = self._sample([wav], [num_frames], [int(seed)], samples=samples, reference=ref_x, mask=mask_t,
                              **self._sampling(sampler, num_steps, guidance, eta))
@@ -258,7 +258,7 @@ class SAiD:
             audio, frames = checked_utterance(audio, frames, f"SAiD.generate_many: utterance {index}")
             waves.append(torch.from_numpy(audio.astype(np.float32))[None].to(self.device))
             lengths.append(frames)
-        with torch_threads(self.config["training"].get("num_threads")):
+        with limited_threads(self.config["training"].get("num_threads"), torch_only=True):
             x = self._sample(waves, lengths, seeds, samples=int(samples),
                              **self._sampling(sampler, num_steps, guidance, eta))
         out = self.from_diffusion(x.double()).cpu().numpy()

@@ -20,25 +20,11 @@ from dataclasses import dataclass, field
 import torch
 
 from blendvoca.runtime.progress import bar
+from blendvoca.runtime.threads import limited_threads
 
 from .request import checkpoint_steps
 
-__all__ = ["LoopResult", "StepLoop", "ema_decay_at", "kept_state", "optimiser_step", "paused_training",
-           "torch_threads"]
-
-
-@contextlib.contextmanager
-def torch_threads(n: int | None):
-    """Run the body with ``torch.set_num_threads(n)``, restoring the previous count; None: unchanged."""
-    if not n:
-        yield
-        return
-    before = torch.get_num_threads()
-    torch.set_num_threads(int(n))
-    try:
-        yield
-    finally:
-        torch.set_num_threads(before)
+__all__ = ["LoopResult", "StepLoop", "ema_decay_at", "kept_state", "optimiser_step", "paused_training"]
 
 
 def ema_decay_at(step: int, max_decay: float) -> float:
@@ -216,7 +202,7 @@ class StepLoop:
         result = self.result
         progress = bar(total=None if math.isinf(self.max_steps) else int(self.max_steps), desc=self.desc,
                        unit=self.unit)
-        with torch_threads(self.threads):
+        with limited_threads(self.threads, torch_only=True):
             try:
                 while not self.spent():
                     loss = float(step(self))

@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from blendvoca.errors import UserError
-from blendvoca.runtime.threads import limited_threads
+from blendvoca.runtime.threads import one_blas_thread
 
 from ._checks import check_rate_bound
 from .banded_qp import solve_banded_qp
@@ -89,7 +89,7 @@ def fit_unposed(neutral, deltas, frames, *, rate_bound, vertex_subset, bounds, r
         frames = resample_sequence(frames, fps, 60.0)
     lower, upper = (0.0, 1.0) if bounds else (None, None)
     # BLAS on one thread: the small banded factorizations run several times slower with two (DESIGN.md).
-    with limited_threads(1, openmp=False):
+    with one_blas_thread():
         system = normal_equations_of_checked(neutral, deltas, frames, offset_sq=diagnostics)
         iterations, converged = 0, True
         if framewise:

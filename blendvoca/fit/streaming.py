@@ -47,7 +47,7 @@ from blendvoca.errors import DataError, UserError
 from blendvoca.io.arrays import float_array
 from blendvoca.io.json_file import read_json
 from blendvoca.names import BLENDVOCA_NAMES, arkit_name, mirror_pairs
-from blendvoca.runtime.threads import limited_threads
+from blendvoca.runtime.threads import one_blas_thread
 
 from ._checks import as_float_array, vertex_indices
 from .banded_qp import solve_banded_qp
@@ -655,7 +655,7 @@ class StreamingSolver:
             raise UserError(f"StreamingSolver.solve_sequence: expected frames (T, {self.num_vertices}, 3), "
                             f"got shape {frames.shape}")
         out = np.empty((frames.shape[0], self.num_shapes))
-        with limited_threads(1, openmp=False):
+        with one_blas_thread():
             for t in range(frames.shape[0]):
                 try:
                     out[t] = self.solve(frames[t])
