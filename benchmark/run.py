@@ -126,7 +126,7 @@ def main(argv=None) -> int:
                    checkpoint=args.checkpoint, clip=args.clip, generate_time_limit=args.generate_time_limit,
                    sentence_batch=args.sentence_batch, vocaset=args.vocaset, syncnet=args.syncnet_weights,
                    sync_expert=args.sync_expert, results_dir=args.results, verify=args.verify,
-                   progress=not args.quiet, device=device, vae=args.vae)
+                   device=device, vae=args.vae)
     path = run(spec)
     if not args.quiet:
         _print_summary(path)

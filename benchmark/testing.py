@@ -29,6 +29,7 @@ from benchmark.methods.base import Budget, Method
 from benchmark.methods.request import TrainingRequest, call_train
 from benchmark.methods.contract import AUDIO_RATE, COEFFICIENT_NAMES, FPS, OUTPUT_KINDS, Utterance
 from benchmark.protocol import generated_tracks
+from blendvoca.runtime.progress import progress_bars
 
 __all__ = ["RANDOM_RIG_EXTRA_SHAPE", "RANDOM_RIG_VERTICES", "CheckReport", "FakeBlendVOCA", "MethodCheckError",
            "check_method"]
@@ -252,8 +253,8 @@ def _fail(step: str, cls, message: str, exc: BaseException | None = None):
 
 def _generate_all(method, dataset, samples: int, seed: int):
     vertices = {}
-    tracks, _ = generated_tracks(method, dataset, split="test", samples=samples, seed=seed, progress=False,
-                                 vertices_out=vertices)
+    with progress_bars(False):
+        tracks, _ = generated_tracks(method, dataset, split="test", samples=samples, seed=seed, vertices_out=vertices)
     return tracks, vertices
 
 

@@ -39,6 +39,7 @@ from pathlib import Path
 
 from blendvoca import cli
 from blendvoca.errors import UserError
+from blendvoca.runtime.progress import show_progress
 from leaderboard.executors import EXECUTORS, log_progress
 
 __all__ = ["CORPUS", "PLAN", "SEEDS", "PlanEntry", "archive_results", "main", "plan_tasks", "reproduce"]
@@ -166,8 +167,7 @@ def _split_names(values) -> list | None:
 
 
 def plan_tasks(work, results_dir, *, only=None, data=None, seeds=SEEDS, max_steps=None,
-               expert_steps: int = EXPERT_STEPS, cpus_per_task: int | None = None, force: bool = False,
-               progress: bool = True) -> list:
+               expert_steps: int = EXPERT_STEPS, cpus_per_task: int | None = None, force: bool = False) -> list:
     """The plan as tasks (:class:`leaderboard.executors.Task`), in dependency order.
 
     Parameters
@@ -186,6 +186,9 @@ def plan_tasks(work, results_dir, *, only=None, data=None, seeds=SEEDS, max_step
     cpus_per_task : int, optional
         Every row's CPUs (and threads) instead of the plan's ``PlanEntry.cpus``.
 
+    Every task's spec carries the progress switch as it is now (``"progress"``): each
+    task runs with it, wherever it runs (:func:`leaderboard.executors.execute`).
+
     Returns
     -------
     list of Task
@@ -198,7 +201,7 @@ def plan_tasks(work, results_dir, *, only=None, data=None, seeds=SEEDS, max_step
     entries = _entries(only)
     seeds = [int(s) for s in seeds]
     base = {"work": str(Path(work).expanduser().resolve()), "results": str(Path(results_dir).expanduser().resolve()),
-            "force": bool(force), "progress": bool(progress)}
+            "force": bool(force), "progress": show_progress()}
     tasks = [
         Task("data", "data", stages.data_stage, {**base, "data": None if data is None else str(data),
                                                  "corpus": dict(CORPUS), "corpus_name": CORPUS_NAME,
@@ -288,9 +291,8 @@ def archive_results(results_dir, archive) -> list:
     return [archive / p.name for p in moves if p.suffix == ".json"]
 
 
-def reproduce(work, results_dir, tables_dir, *, only=None, force: bool = False, progress: bool = True,
-              executor: str = "sequential", address: str | None = None, data=None, seeds=SEEDS,
-              max_steps: int | None = None, expert_steps: int = EXPERT_STEPS, cpus_per_task: int | None = None,
+def reproduce(work, results_dir, tables_dir, *, only=None, force: bool = False, executor: str = "sequential",
+              address: str | None = None, data=None, seeds=SEEDS, max_steps: int | None = None, expert_steps: int = EXPERT_STEPS, cpus_per_task: int | None = None,
               max_retries: int = 3, archive=None) -> list:
     """Build the dataset, score the plan's rows into ``results_dir`` and render ``tables_dir``.
 
@@ -326,7 +328,7 @@ def reproduce(work, results_dir, tables_dir, *, only=None, force: bool = False, 
         raise UserError(f"--data {data}: no such folder")
     # an unknown --only row fails before the corpus and the build are made
     tasks = plan_tasks(work, results_dir, only=only, data=data, seeds=seeds, max_steps=max_steps,
-                       expert_steps=expert_steps, cpus_per_task=cpus_per_task, force=force, progress=progress)
+                       expert_steps=expert_steps, cpus_per_task=cpus_per_task, force=force)
     if archive is not None:
         for path in archive_results(results_dir, archive):
             log_progress(f"archived {path}")
@@ -391,7 +393,7 @@ def main(argv=None) -> int:
     from benchmark.protocol import parse_seeds
 
     for path in reproduce(args.work, args.results, args.tables, only=_split_names(args.only), force=args.force,
-                          progress=not args.quiet, executor=args.executor, address=args.address, data=args.data,
+                          executor=args.executor, address=args.address, data=args.data,
                           seeds=parse_seeds(args.seeds), max_steps=max_steps, expert_steps=args.expert_steps,
                           cpus_per_task=args.cpus_per_task, max_retries=args.max_retries, archive=args.archive):
         print(path)

@@ -34,10 +34,12 @@ def main(argv=None) -> int:
     from benchmark.methods import Budget, TrainingRequest, get_method
     from benchmark.protocol.generation import measure_latency
     from benchmark.protocol.spec import default_data_root, open_data
+    from blendvoca.runtime.progress import progress_bars
     from blendvoca.runtime.threads import limit_threads
 
     limit_threads(1, torch_only=True)
-    dataset = open_data(default_data_root(progress=False))
+    with progress_bars(False):
+        dataset = open_data(default_data_root())
     print(f"{'method':>11} {'lookahead (s)':>14} {'first frame (s)':>16} {'CPU s / audio s':>16} {'RTF':>7}")
     for name in args.methods:
         method = get_method(name)()

@@ -48,10 +48,12 @@ def sentences(num_speakers=None):
     """Yield ``(subject, sentence, rig, frames)`` of the bundled default (frames float64, full topology)."""
     from benchmark.data import open_blendvoca
     from benchmark.protocol import default_data_root
+    from blendvoca.runtime.progress import progress_bars
     from blendvoca.synthetic import default_corpus
     from blendvoca.vocaset import open_vocaset
 
-    data = open_blendvoca(default_data_root(progress=False))
+    with progress_bars(False):
+        data = open_blendvoca(default_data_root())
     corpus = open_vocaset(default_corpus())
     for subject in corpus.subjects[:num_speakers]:
         rig = data.rig(subject)

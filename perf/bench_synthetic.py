@@ -41,7 +41,10 @@ _TIMED = """
 import json, resource, sys, time
 sys.path.insert(0, {code!r})
 from blendvoca.builder import build_dataset
+from blendvoca.runtime.progress import set_progress
 from blendvoca.synthetic import generate_corpus
+
+set_progress(False)
 
 def cpu():
     return sum(getattr(resource.getrusage(who), f) for who in (resource.RUSAGE_SELF, resource.RUSAGE_CHILDREN)
@@ -49,9 +52,9 @@ def cpu():
 
 start, cpu0 = time.perf_counter(), cpu()
 generate_corpus({corpus!r}, speakers={speakers}, sentences={sentences}, seed={seed}, layout={layout!r},
-                overwrite=True, progress=False{extra})
+                overwrite=True{extra})
 generated, cpu1 = time.perf_counter(), cpu()
-summary = build_dataset({out!r}, {corpus!r}, workers={workers}, progress=False)
+summary = build_dataset({out!r}, {corpus!r}, workers={workers})
 built, cpu2 = time.perf_counter(), cpu()
 assert not summary.failures, summary.failures
 print(json.dumps({{"generate": generated - start, "build": built - generated, "cpu": cpu2 - cpu0}}))

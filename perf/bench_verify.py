@@ -49,7 +49,8 @@ def main(argv=None) -> int:
     from blendvoca.runtime.progress import progress_bars
     from benchmark.protocol import default_data_root
 
-    root = Path(args.data) if args.data else default_data_root(progress=False)
+    with progress_bars(False):
+        root = Path(args.data) if args.data else default_data_root()
     dataset = open_blendvoca(root)
     subjects = dataset.split(args.split)
     files = dataset.scored_files(subjects)

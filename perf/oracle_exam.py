@@ -39,6 +39,7 @@ from benchmark.evaluation import EvaluationSettings, evaluate_split  # noqa: E40
 from benchmark.methods import Budget, TrainingRequest  # noqa: E402
 from benchmark.metrics.bootstrap import probability_of_improvement  # noqa: E402
 from benchmark.protocol.generation import generated_tracks  # noqa: E402
+from blendvoca.runtime.progress import progress_bars  # noqa: E402
 
 #: What each metric must prefer: (better row, worse row, strict). Strict: the better row's
 #: mean is better and the two 95 % intervals do not overlap; not strict: the worse row
@@ -91,8 +92,9 @@ def main(argv=None) -> int:
     for method, samples in ((OracleSampleMethod(split=args.split), args.samples),
                             (OracleMeanMethod(split=args.split), 1)):
         method.train(dataset, TrainingRequest(seed=args.seed, budget=Budget()))
-        rows[method.name], _ = generated_tracks(method, dataset, split=args.split, samples=samples,
-                                                seed=args.seed, progress=False)
+        with progress_bars(False):
+            rows[method.name], _ = generated_tracks(method, dataset, split=args.split, samples=samples,
+                                                    seed=args.seed)
     rows["oracle-mean+noise"] = noisy(rows["oracle-mean"], std=args.noise, samples=args.samples, seed=args.seed)
 
     wanted = tuple(EXPECTED) + REPORTED

@@ -102,15 +102,11 @@ def _wind_with_replicates(fake, real, members, k, *, repeats, seed, resamples, w
         resample_jobs.append((fake[picked], min(k, len(picked)), seed))
     real_gmms = cached_gmm_components_many([(real, k, seed + r) for r in range(repeats)], cache, workers)
     jobs = [(fake, k, seed + r) for r in range(repeats)]
-
-    def fits_bar(it):
-        return bar(it, total=len(jobs) + len(resample_jobs), desc="WInD fits", unit="fit")
-
-    fits = gmm_components_many(jobs, workers, progress=fits_bar)
+    fits = gmm_components_many(jobs, workers, desc="WInD fits")
     # warm starts from the seed-`seed` mixture (a resample with fewer windows than
     # components keeps its own k-means start)
     resample_jobs = [job + (fits[0],) if job[1] == k else job for job in resample_jobs]
-    refits = gmm_components_many(resample_jobs, workers, progress=fits_bar)
+    refits = gmm_components_many(resample_jobs, workers, desc="WInD refits")
     scores = np.array([wind_from_gmms(fits[r], real_gmms[r]) for r in range(repeats)])
     w_mean, w_std = float(scores.mean()), float(np.std(scores, ddof=1)) if repeats > 1 else 0.0
     resampled = np.array([wind_from_gmms(gmm, real_gmms[0]) for gmm in refits])

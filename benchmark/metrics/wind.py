@@ -81,7 +81,7 @@ def _fit_job(job):
     return gmm_components(*job)
 
 
-def gmm_components_many(jobs, workers: int = 1, progress=None) -> list:
+def gmm_components_many(jobs, workers: int = 1, desc: str | None = None) -> list:
     """`gmm_components` of every ``(x, n_components, seed)`` job, in order.
 
     Each fit is seeded and single-threaded, so the results do not depend on
@@ -93,16 +93,14 @@ def gmm_components_many(jobs, workers: int = 1, progress=None) -> list:
     jobs : sequence of ((N, D) array_like, int, int) or of ((N, D), int, int, init)
         The arguments of `gmm_components`.
     workers : int
-    progress : callable, optional
-        Wraps the iterator of results (e.g. ``tqdm`` with ``total``).
+    desc : str, optional
+        Title of a progress bar over the fits (none without it).
 
     Returns
     -------
     list of (weights (K,), means (K, D), covariances (K, D, D))
     """
-    jobs = list(jobs)
-    wrap = progress if progress is not None else (lambda it: it)
-    return list(wrap(process_map(_fit_job, jobs, workers=workers)))
+    return list(process_map(_fit_job, list(jobs), workers=workers, desc=desc, unit="fit"))
 
 
 def gmm_fit_key(x, n_components: int, seed: int) -> str:
@@ -120,7 +118,7 @@ def gmm_fit_key(x, n_components: int, seed: int) -> str:
     return digest.hexdigest()
 
 
-def cached_gmm_components_many(jobs, cache, workers: int = 1, progress=None) -> list:
+def cached_gmm_components_many(jobs, cache, workers: int = 1, desc: str | None = None) -> list:
     """`gmm_components_many` with the fits stored in the folder ``cache``.
 
     A fit is looked up by :func:`gmm_fit_key` (``<key>.npz``); the missing ones are
@@ -136,7 +134,7 @@ def cached_gmm_components_many(jobs, cache, workers: int = 1, progress=None) -> 
 
     jobs = list(jobs)
     if cache is None:
-        return gmm_components_many(jobs, workers, progress)
+        return gmm_components_many(jobs, workers, desc)
     cache = Path(cache)
     paths = [cache / f"{gmm_fit_key(*job)}.npz" for job in jobs]
     out = [None] * len(jobs)
@@ -149,7 +147,7 @@ def cached_gmm_components_many(jobs, cache, workers: int = 1, progress=None) -> 
     missing = [i for i, fit in enumerate(out) if fit is None]
     from blendvoca.io.atomic import atomic_write
 
-    for i, fit in zip(missing, gmm_components_many([jobs[i] for i in missing], workers, progress)):
+    for i, fit in zip(missing, gmm_components_many([jobs[i] for i in missing], workers, desc)):
         out[i] = fit
         with atomic_write(paths[i]) as f:
             np.savez(f, weights=fit[0], means=fit[1], covariances=fit[2])

@@ -124,7 +124,7 @@ class HalfBudgetCheck:
     Parameters
     ----------
     spec : RunSpec
-        Split, samples, seed, clip, generation limit, batch and progress of the run.
+        Split, samples, seed, clip, generation limit and batch of the run.
     inputs : Inputs
         The dataset, and the results folder (a vertex method's vertices are staged there
         while they are scored, then removed).
@@ -168,17 +168,15 @@ class HalfBudgetCheck:
             writer = TrackWriter(Path(self.inputs.results_dir) / f".half-budget-{os.getpid()}", names)
         try:
             tracks, _ = generated_tracks(method, dataset, split=spec.split, samples=spec.samples, seed=spec.seed,
-                                         clip=spec.clip, name=spec.method, progress=spec.progress, store=writer,
+                                         clip=spec.clip, name=spec.method, store=writer,
                                          time_limit=generate_limit(spec.generate_time_limit),
                                          sentence_batch=spec.sentence_batch)
             extra = {} if writer is None else {"vertices": writer.stored_vertices()}
             if self.evaluate is None:
                 from benchmark.evaluation import EvaluationSettings, evaluate_split
-                from blendvoca.runtime.progress import progress_bars
 
-                with progress_bars(spec.progress):
-                    scores = evaluate_split(Generated(tracks, vertices=extra.get("vertices")), dataset, spec.split,
-                                            EvaluationSettings(), metrics=CHECK_METRICS)
+                scores = evaluate_split(Generated(tracks, vertices=extra.get("vertices")), dataset, spec.split,
+                                        EvaluationSettings(), metrics=CHECK_METRICS)
             else:
                 scores = self.evaluate(tracks, dataset, split=spec.split, metrics=CHECK_METRICS, **extra)
         finally:

@@ -24,7 +24,7 @@ from benchmark.methods import (
 from benchmark.protocol.limits import GenerateLimit, TimeLimit, generate_limit
 from benchmark.results import LATENCY_FIELDS
 from blendvoca.errors import DataError, MethodError, MethodOutputError, MethodTimeout, UserError
-from blendvoca.runtime.progress import bar, progress_bars, show_progress
+from blendvoca.runtime.progress import bar, progress_bars
 
 __all__ = ["LATENCY_FIELDS", "LATENCY_SENTENCES", "Generated", "generate", "generated_tracks", "measure_latency",
            "sentence_seed"]
@@ -81,7 +81,7 @@ def generate(spec, dataset, trained, *, store=None) -> Generated:
     in_memory = {} if vertex_method and store is None else None
     start = time.perf_counter()
     tracks, n_clipped = generated_tracks(trained.method, dataset, split=spec.split, samples=spec.samples,
-                                         seed=spec.seed, clip=spec.clip, name=spec.method, progress=spec.progress,
+                                         seed=spec.seed, clip=spec.clip, name=spec.method,
                                          store=store, vertices_out=in_memory,
                                          time_limit=generate_limit(spec.generate_time_limit),
                                          sentence_batch=spec.sentence_batch)
@@ -163,7 +163,7 @@ def sentence_seed(seed: int, index: int) -> int:
 
 
 def generated_tracks(method, dataset, *, split: str = "test", samples: int = 1, seed: int = 0,
-                     clip: bool = False, name: str | None = None, progress: bool = True, store=None,
+                     clip: bool = False, name: str | None = None, store=None,
                      vertices_out=None, time_limit: float | None = None, sentence_batch: int = 1):
     """Ask ``method`` for every sentence of ``split`` and check each answer.
 
@@ -229,9 +229,7 @@ def generated_tracks(method, dataset, *, split: str = "test", samples: int = 1, 
         groups = [by_length[i:i + int(sentence_batch)] for i in range(0, len(items), int(sentence_batch))]
     else:
         groups = [[i] for i in range(len(items))]
-    progress = progress and show_progress()
-    sentences_bar = bar(total=len(items), desc=f"{name}: generate", unit="sentence", disable=not progress,
-                        file=sys.stderr)
+    sentences_bar = bar(total=len(items), desc=f"{name}: generate", unit="sentence", file=sys.stderr)
 
     def utterance_of(index):
         subject, sentence = items[index]
@@ -257,7 +255,7 @@ def generated_tracks(method, dataset, *, split: str = "test", samples: int = 1, 
         if time_limit is not None and (time_limit.per_audio_second_s or len(group) > 1):
             how = time_limit.describe() + (f" per sentence, {len(group)} sentences" if len(group) > 1 else "")
         try:
-            with TimeLimit(limit, f"{where}: generate", how), progress_bars(progress):
+            with TimeLimit(limit, f"{where}: generate", how):
                 many = getattr(method, "generate_many", None) if sentence_batch > 1 else None
                 if many is None:  # one sentence per call, or a method without generate_many
                     outputs = [method.generate(u, samples=num_samples, seed=s) for u, s in zip(utterances, seeds)]

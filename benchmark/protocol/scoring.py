@@ -15,7 +15,6 @@ from benchmark.evaluation.lipsync import lipsync_values, load_lipsync_models
 from benchmark.metrics.bootstrap import BOOTSTRAP_RESAMPLES
 from benchmark.evaluation.registry import METRICS
 from blendvoca.errors import BlendVOCAError, UserError
-from blendvoca.runtime.progress import progress_bars
 
 __all__ = ["MODEL_LIPSYNC_METRICS", "Scored", "loaded_lipsync_models", "run_settings", "score", "score_lipsync_models"]
 
@@ -96,7 +95,7 @@ def score(spec, dataset, generated, *, evaluate=None) -> Scored:
     evaluate : callable, optional
         ``evaluate(tracks, dataset, split=..., [vertices=...]) -> {metric: {...}}``;
         default :func:`benchmark.evaluation.evaluate_split` with ``spec``'s lip-sync models
-        and VAE (:func:`run_settings`), progress bars as ``spec.progress`` asks.
+        and VAE (:func:`run_settings`).
 
     Returns
     -------
@@ -104,8 +103,7 @@ def score(spec, dataset, generated, *, evaluate=None) -> Scored:
     """
     start = time.perf_counter()
     if evaluate is None:
-        with progress_bars(spec.progress):
-            metrics = evaluate_split(generated, dataset, spec.split, run_settings(spec))
+        metrics = evaluate_split(generated, dataset, spec.split, run_settings(spec))
     else:
         extra = {} if generated.vertices is None else {"vertices": generated.vertices}
         metrics = evaluate(generated.tracks, dataset, split=spec.split, **extra)

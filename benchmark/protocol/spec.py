@@ -129,8 +129,6 @@ class RunSpec:
         ``"cpu"``, ``"cuda"``, ``"cuda:N"`` or ``"auto"`` (``--device``): handed to the
         method's ``train`` and where the trained method generates; None: each method's
         own choice (the CPU for every built-in one). Checked when the spec is made.
-    progress : bool, default True
-        Progress bars, the plug-ins' own included.
     """
 
     method: str
@@ -150,7 +148,6 @@ class RunSpec:
     sync_expert: object = None
     results_dir: object = None
     verify: bool = True
-    progress: bool = True
     device: str | None = None
     vae: object = None
 
@@ -224,7 +221,7 @@ def default_results_dir() -> Path:
     return Path(base).expanduser() / "blendvoca" / "results"
 
 
-def default_data_root(*, progress: bool = True) -> Path:
+def default_data_root() -> Path:
     """The bundled-default BlendVOCA build, built first if it is not there yet.
 
     ``$BLENDVOCA_DATA`` names an existing build and wins; otherwise the build of the
@@ -240,7 +237,7 @@ def default_data_root(*, progress: bool = True) -> Path:
     root = default_output_dir()
     if not manifest_path(root).is_file():
         print(f"building the bundled-default BlendVOCA into {root} (once)", file=sys.stderr)
-        summary = build_dataset(root, None, progress=progress)
+        summary = build_dataset(root, None)
         if summary.failures:
             raise DataError(f"bundled-default build in {root} had {len(summary.failures)} failure(s), e.g. "
                                f"{summary.failures[0]}")
@@ -339,7 +336,7 @@ def check_inputs(spec: RunSpec, *, open_dataset=None, evaluation_assets: bool = 
         ``spec.verify`` and a file of the split differs from what the build made
         (``dataset.verify``, where the dataset has one).
     """
-    data_root = spec.data_root if spec.data_root is not None else default_data_root(progress=spec.progress)
+    data_root = spec.data_root if spec.data_root is not None else default_data_root()
     dataset = open_data(data_root, vocaset=spec.vocaset, open_dataset=open_dataset)
     results_dir = check_results_dir(default_results_dir() if spec.results_dir is None else spec.results_dir)
     splits = getattr(dataset, "splits", None)

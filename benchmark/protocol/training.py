@@ -12,7 +12,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from benchmark.methods import OUTPUT_COEFFICIENTS, Budget, get_method
-from benchmark.methods.base import CONFIG_FILE, progress_bars
+from benchmark.methods.base import CONFIG_FILE
 from benchmark.methods.request import CONTRACT, TrainingRequest, call_train
 from benchmark.protocol.limits import TimeLimit
 from blendvoca.errors import DataError, MethodError, MethodTimeout, UserError
@@ -90,8 +90,7 @@ class Trained:
 
 
 def train(spec, dataset, *, check=None) -> Trained:
-    """The method of ``spec`` ready to generate (:func:`prepared_method`), with the
-    progress bars ``spec.progress`` asks for around training.
+    """The method of ``spec`` ready to generate (:func:`prepared_method`).
 
     Parameters
     ----------
@@ -109,9 +108,8 @@ def train(spec, dataset, *, check=None) -> Trained:
     Trained
     """
     device = getattr(spec, "device", None)
-    with progress_bars(spec.progress):
-        method, timings = prepared_method(spec.method, spec.config, dataset, seed=spec.seed, budget=spec.budget,
-                                          checkpoint=spec.checkpoint, checkpoint_hook=check, device=device)
+    method, timings = prepared_method(spec.method, spec.config, dataset, seed=spec.seed, budget=spec.budget,
+                                      checkpoint=spec.checkpoint, checkpoint_hook=check, device=device)
     train_s, convergence_s = timings["train_s"], None
     if check is not None and check.called:
         convergence_s = check.seconds

@@ -24,7 +24,6 @@ from benchmark.sanity.disturbances import DISTURBANCES
 from benchmark.sanity.report import SANITY_SETTINGS, ground_truth, run_sanity, status_counts
 from blendvoca import cli
 from blendvoca.errors import CheckFailed, UserError
-from blendvoca.runtime.progress import progress_bars
 
 __all__ = ["main"]
 
@@ -53,7 +52,7 @@ def main(argv=None) -> int:
         if unknown or not kinds:
             raise UserError(f"--disturbances: unknown {unknown or args.disturbances!r}; expected some of "
                             f"{', '.join(DISTURBANCES)}")
-    data = default_data_root(progress=not args.quiet) if args.data is None else Path(args.data).expanduser()
+    data = default_data_root() if args.data is None else Path(args.data).expanduser()
     dataset = open_data(data)
     ground_truth(dataset, args.split)  # a build without that split: one error line, nothing written
     settings = SANITY_SETTINGS
@@ -62,9 +61,7 @@ def main(argv=None) -> int:
             raise UserError(f"--sync-expert {args.sync_expert}: no such file")
         settings = settings.replace(sync_expert=str(Path(args.sync_expert).expanduser()))
     out = check_results_dir(Path(args.out).expanduser())
-    with progress_bars(not args.quiet):
-        table, failed = run_sanity(dataset, out, levels=args.levels, split=args.split, kinds=kinds,
-                                   settings=settings)
+    table, failed = run_sanity(dataset, out, levels=args.levels, split=args.split, kinds=kinds, settings=settings)
     counts = status_counts(table)
     print(f"sanity: {counts['held']} declarations held, {counts['failed']} failed, "
           f"{counts['no claim']} pairs without a claim, {counts['not scored']} declared but not scored")

@@ -46,7 +46,6 @@ from blendvoca.errors import OutputDirError, UserError
 from blendvoca.format.hashing import array_digest
 from blendvoca.format.manifest import remove_manifest
 from blendvoca.runtime.processes import WorkerStartError, process_map
-from blendvoca.runtime.progress import progress_bars, show_progress
 from blendvoca.runtime.threads import limited_threads
 from blendvoca.synthetic import default_corpus
 from blendvoca.synthetic.oracle import oracle_count
@@ -127,7 +126,6 @@ def build_dataset(
     shapes: str = "speech",
     delta: float = 0.1,
     report: bool = True,
-    progress: bool = True,
     reader: str | None = None,
     pose_fit: str = "joint",
 ) -> BuildSummary:
@@ -149,8 +147,6 @@ def build_dataset(
         Rate bound of the fit.
     report : bool
         Write ``report/`` (Markdown + PNG figures).
-    progress : bool
-        Progress bars on stderr.
     reader : str, optional
         ``"module:callable"`` opening the corpus at ``vocaset`` (the readers of
         :mod:`blendvoca.datasets`, e.g. ``"blendvoca.datasets.biwi:open_biwi"``);
@@ -189,8 +185,7 @@ def build_dataset(
     workers = check_workers(workers)
     delta = check_delta(delta)
     if vocaset is None:
-        with progress_bars(progress and show_progress()):
-            vocaset = default_corpus()
+        vocaset = default_corpus()
     out = Path(out).expanduser().resolve()
     vocaset = Path(vocaset).expanduser().resolve()
     check_output_dir(out, vocaset)
@@ -210,8 +205,7 @@ def build_dataset(
         try:
             OPENED.clear()
             OPENED[str(vocaset)] = (os.getpid(), corpus)  # the workers forked here reuse it
-            with progress_bars(progress and show_progress()):
-                return _build_stages(out, vocaset, corpus, params, workers=workers, report=report, recipe=recipe)
+            return _build_stages(out, vocaset, corpus, params, workers=workers, report=report, recipe=recipe)
         except OutputDirError:
             remove_manifest(out)
             raise

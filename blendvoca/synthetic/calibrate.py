@@ -19,6 +19,7 @@ from blendvoca import cli
 from blendvoca.builder import build_dataset
 from blendvoca.builder.report import measured_share
 from blendvoca.names import BLENDVOCA_NAMES
+from blendvoca.runtime.progress import progress_bars
 from blendvoca.synthetic.corpus import generate_corpus
 from blendvoca.vocaset import open_vocaset
 
@@ -29,11 +30,11 @@ def measure(out: Path, *, scale: float, speakers: int, sentences: int, oracle_sa
     corpus = out / f"corpus-{scale:g}"
     build = out / "build"
     start = time.perf_counter()
-    generate_corpus(corpus, speakers=speakers, sentences=sentences, seed=seed, duration=duration,
-                    audio_determined=0.5, oracle_samples=oracle_samples, overwrite=True, progress=False,
-                    _scale=scale)
-    generated = time.perf_counter() - start
-    summary = build_dataset(build, corpus, workers=workers, report=False, progress=False)
+    with progress_bars(False):
+        generate_corpus(corpus, speakers=speakers, sentences=sentences, seed=seed, duration=duration,
+                        audio_determined=0.5, oracle_samples=oracle_samples, overwrite=True, _scale=scale)
+        generated = time.perf_counter() - start
+        summary = build_dataset(build, corpus, workers=workers, report=False)
     built = time.perf_counter() - start - generated
     opened = open_vocaset(corpus)
     items = [(s, q) for s in opened.subjects for q in opened.sentences(s)]

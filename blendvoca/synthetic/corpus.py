@@ -26,7 +26,7 @@ import numpy as np
 from blendvoca.assets import cache_dir as user_cache, load_index_list, resolve
 from blendvoca.errors import UserError
 from blendvoca.io.mesh import read_ply
-from blendvoca.runtime.progress import bar, progress_bars, show_progress
+from blendvoca.runtime.progress import bar
 from blendvoca.runtime.staging import staged_folder
 from blendvoca.synthetic import variation as var
 from blendvoca.synthetic.audio import speech_audio
@@ -334,7 +334,6 @@ def generate_corpus(
     frame_faces: bool = False,
     head_motion: bool | float = False,
     overwrite: bool = False,
-    progress: bool = True,
     audio_determined: float = DEFAULT_AUDIO_DETERMINED,
     oracle_samples: int = 0,
     _scale: float | None = None,
@@ -373,8 +372,6 @@ def generate_corpus(
         axis; a number: that many degrees. The unposed frames are unchanged.
     overwrite : bool
         Replace an existing ``out``.
-    progress : bool
-        Show a tqdm progress bar (while the progress switch, :mod:`blendvoca.runtime.progress`, is on).
     audio_determined : float
         F in (0, 1]: the share of the speech shapes' coefficient variance that
         the audio and the speaker id determine (default 0.7, docs/synthetic.md).
@@ -411,7 +408,7 @@ def generate_corpus(
         raise UserError(f"audio_determined: expected 0 < F <= 1, got {audio_determined!r}")
     if out.exists() and any(out.iterdir()) and not overwrite:
         raise FileExistsError(f"generate_corpus: {out} exists and is not empty; pass overwrite=True (--overwrite)")
-    with staged_folder(out, replace=True) as tmp, progress_bars(progress and show_progress()):
+    with staged_folder(out, replace=True) as tmp:
         _write_corpus(tmp, speakers=int(speakers), sentences=int(sentences), seed=int(seed), layout=layout,
                       duration=(float(duration[0]), float(duration[1])), rate=int(rate),
                       max_lag_frames=int(max_lag_frames), frame_faces=frame_faces,

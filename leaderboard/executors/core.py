@@ -14,6 +14,7 @@ from pathlib import Path
 
 from benchmark.results import read
 from blendvoca.io.atomic import atomic_write
+from blendvoca.runtime.progress import progress_bars
 from blendvoca.runtime.threads import limited_threads
 
 __all__ = ["EXECUTORS", "Resources", "Task", "check_order", "execute", "log_progress", "record_timing",
@@ -97,7 +98,9 @@ def record_timing(work, task: Task, details: dict, wall_s: float) -> Path:
 
 
 def execute(task: Task, *values):
-    """Run ``task`` with its dependencies' ``values`` (both executors call this).
+    """Run ``task`` with its dependencies' ``values`` (both executors call this), its
+    threads limited to its CPUs and progress bars as its spec's ``progress`` says (the
+    switch of the process that planned it: a Ray worker does not inherit it).
 
     Returns
     -------
@@ -110,7 +113,7 @@ def execute(task: Task, *values):
     import torch  # noqa: F401
 
     start = time.perf_counter()
-    with limited_threads(max(1, int(task.resources.cpus))):
+    with limited_threads(max(1, int(task.resources.cpus))), progress_bars(task.spec.get("progress", True)):
         value, details = task.function(task.spec, *values)
     if details is not None and task.spec.get("work"):
         record_timing(task.spec["work"], task, details, time.perf_counter() - start)

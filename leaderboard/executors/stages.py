@@ -58,7 +58,6 @@ from blendvoca.builder import build_dataset
 from blendvoca.errors import UserError
 from blendvoca.format import manifest_path
 from blendvoca.io.atomic import atomic_write
-from blendvoca.runtime.progress import progress_bars
 from leaderboard.executors.core import log_progress
 
 __all__ = ["built_corpus", "data_stage", "expert_stage", "row_result_path", "score_stage", "single_stage",
@@ -83,8 +82,7 @@ def data_stage(spec):
         return str(root), None
     work = Path(spec["work"])
     done = manifest_path(work / spec["build_name"]).is_file()
-    with progress_bars(spec["progress"]):
-        root = built_corpus(work, spec["corpus"], corpus_name=spec["corpus_name"], build_name=spec["build_name"])
+    root = built_corpus(work, spec["corpus"], corpus_name=spec["corpus_name"], build_name=spec["build_name"])
     return str(root), (None if done else {})
 
 
@@ -111,8 +109,7 @@ def expert_stage(spec, root):
     from benchmark.lipsync.expert_training import cached_expert  # torch: loaded only when the expert is trained
 
     started = time.time()
-    with progress_bars(spec["progress"]):
-        _, path = cached_expert(root, max_seconds=None, max_steps=int(spec["expert_steps"]))
+    _, path = cached_expert(root, max_seconds=None, max_steps=int(spec["expert_steps"]))
     # trained now (a new checkpoint), or loaded from the cache: then nothing to time
     return str(path), ({} if Path(path).stat().st_mtime >= started - 1.0 else None)
 
@@ -185,15 +182,14 @@ def _exported_meshes(spec) -> None:
     if not (corpus / "synthetic.json").is_file():
         raise UserError(f"corpus-meshes: exports the synthetic corpus's meshes, but {corpus} holds none "
                         "(with --data, leave this row out or generate the corpus there)")
-    with progress_bars(spec["progress"]):
-        exported_corpus_meshes(corpus, meshes, fps=60)
+    exported_corpus_meshes(corpus, meshes, fps=60)
 
 
 def _run_spec(spec, root, *, seed, checkpoint, expert=None, seeds=None):
     name, config = _method_and_config(spec)
     return RunSpec(method=name, config=config, data_root=root, samples=spec["samples"], seed=int(seed),
                    seeds=seeds, budget=Budget(max_steps=spec["max_steps"]), checkpoint=checkpoint,
-                   sync_expert=expert, results_dir=spec["results"], progress=spec["progress"],
+                   sync_expert=expert, results_dir=spec["results"],
                    vocaset=_source_corpus(spec, root))
 
 

@@ -106,7 +106,7 @@ def test_a_whole_run_on_device_cpu_stores_the_results_of_a_run_without_one(tmp_p
     for folder, device in (("plain", None), ("cpu", "cpu")):
         from benchmark.protocol import RunSpec, run
 
-        path = run(RunSpec("regression", data_root="unused", results_dir=tmp_path / folder, progress=False,
+        path = run(RunSpec("regression", data_root="unused", results_dir=tmp_path / folder,
                            config=config, budget=Budget(max_steps=steps), device=device),
                    evaluate=fake_evaluate, open_dataset=lambda root: dataset)
         stored.append(json.loads(Path(path).read_text())["metrics"])

@@ -63,7 +63,7 @@ def test_a_method_that_does_not_say_needs_the_whole_utterance():
 def test_the_runner_stores_latency_and_reruns_compare_without_it(tmp_path):
     dataset = speech_dataset(seed=1, sentences=2, seconds=1.0)
     paths = [run(RunSpec("random", data_root="unused", samples=2, seed=3, budget=Budget(max_steps=2),
-                         results_dir=tmp_path / name, progress=False),
+                         results_dir=tmp_path / name),
                  evaluate=fake_evaluate, open_dataset=lambda root: dataset) for name in ("a", "b")]
     a, b = (json.loads(p.read_text()) for p in paths)
     for result in (a, b):

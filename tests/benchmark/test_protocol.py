@@ -52,7 +52,7 @@ def test_a_run_spec_is_frozen_and_keeps_its_own_config():
 def test_the_steps_by_hand_give_what_run_gives(tmp_path):
     dataset = speech_dataset(seed=1, sentences=2, seconds=1.0)
     spec = RunSpec("random", data_root="unused", samples=2, seed=3, budget=Budget(max_steps=2),
-                   results_dir=tmp_path / "steps", progress=False)
+                   results_dir=tmp_path / "steps")
     inputs = check_inputs(spec, open_dataset=lambda root: dataset, evaluation_assets=False)
     assert inputs.subjects == ("D", "E") and inputs.results_dir.is_dir()
     check, reason = half_budget_check(spec, inputs, evaluate=fake_evaluate)
@@ -72,7 +72,7 @@ def test_the_steps_by_hand_give_what_run_gives(tmp_path):
     by_hand = store(spec, inputs, trained, generated, scored, writer=writer, timings=timings, provenance={},
                     convergence_check=reason)
     composed = run(RunSpec("random", data_root="unused", samples=2, seed=3, budget=Budget(max_steps=2),
-                           results_dir=tmp_path / "run", progress=False),
+                           results_dir=tmp_path / "run"),
                    evaluate=fake_evaluate, open_dataset=lambda root: dataset)
     a, b = json.loads(by_hand.read_text()), json.loads(composed.read_text())
     assert by_hand.name == composed.name
@@ -84,7 +84,7 @@ def test_the_steps_by_hand_give_what_run_gives(tmp_path):
     # the old keyword facade still runs the same spec, with a dated DeprecationWarning
     with pytest.warns(DeprecationWarning, match="run_method is removed after 2027-06-30"):
         old = run_method("random", "unused", samples=2, seed=3, budget=Budget(max_steps=2),
-                         results_dir=tmp_path / "old", progress=False, evaluate=fake_evaluate,
+                         results_dir=tmp_path / "old", evaluate=fake_evaluate,
                          open_dataset=lambda root: dataset)
     assert json.loads(old.read_text())["metrics"] == b["metrics"]
 
@@ -95,7 +95,7 @@ def test_a_failing_step_leaves_nothing(tmp_path):
     def evaluate(tracks, dataset, split="test"):
         raise RuntimeError("the evaluation broke")
 
-    spec = RunSpec("mean", data_root="unused", results_dir=tmp_path / "r", progress=False)
+    spec = RunSpec("mean", data_root="unused", results_dir=tmp_path / "r")
     with pytest.raises(RuntimeError, match="evaluation broke"):
         run(spec, evaluate=evaluate, open_dataset=lambda root: dataset)
     assert list((tmp_path / "r").iterdir()) == []  # no result, no tracks, no staging folder
@@ -122,7 +122,7 @@ def test_same_seed_and_steps_give_identical_metrics(fake_dataset_dir, assets_dir
     results = []
     for attempt in ("a", "b"):
         path = run(RunSpec(method, data_root=fake_dataset_dir, samples=samples, seed=4, budget=Budget(max_steps=20),
-                           results_dir=tmp_path / attempt, progress=False), evaluate=_evaluate(vae))
+                           results_dir=tmp_path / attempt), evaluate=_evaluate(vae))
         results.append(json.loads(path.read_text()))
     first, second = results
     assert first["metrics"] == second["metrics"] and first["per_sentence"] == second["per_sentence"]

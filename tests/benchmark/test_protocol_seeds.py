@@ -121,7 +121,7 @@ def dataset():
 def _run(dataset, results, method="test-stepper", **kw):
     kw.setdefault("samples", 2)
     kw.setdefault("budget", None)
-    return run(RunSpec(method, data_root="unused", results_dir=results, progress=False, **kw),
+    return run(RunSpec(method, data_root="unused", results_dir=results, **kw),
                evaluate=fake_scores, open_dataset=lambda root: dataset)
 
 

@@ -122,7 +122,7 @@ def test_rerun_does_nothing(built_dataset, synthetic_corpus, tmp_path):
 
     before = tree()
     mtimes = {p: p.stat().st_mtime_ns for p in out.rglob("*") if p.is_file() and p != lock}
-    summary = build_dataset(out, synthetic_corpus, workers=1, progress=False)
+    summary = build_dataset(out, synthetic_corpus, workers=1)
     assert summary.built == {"speakers": 0, "sentences": 0} and summary.ok
     assert summary.skipped["sentences"] == 12
     assert tree() == before
@@ -143,10 +143,10 @@ def test_changed_parameter_and_input_rebuild_only_dependents(built_dataset, synt
 
     samples, rate = soundfile.read(wav)
     soundfile.write(wav, samples * 0.5, rate)
-    summary = build_dataset(out, corpus_copy, workers=1, progress=False, report=False)
+    summary = build_dataset(out, corpus_copy, workers=1, report=False)
     assert summary.built == {"speakers": 0, "sentences": 1}
     # A changed parameter: every fit, no rig.
-    summary = build_dataset(out, corpus_copy, workers=1, delta=0.2, progress=False, report=False)
+    summary = build_dataset(out, corpus_copy, workers=1, delta=0.2, report=False)
     assert summary.built == {"speakers": 0, "sentences": 12}
     assert json.loads((out / "manifest.json").read_text())["parameters"]["delta"] == 0.2
 
@@ -193,7 +193,7 @@ def test_killed_build_resumes_to_identical_outputs(built_dataset, synthetic_corp
         if process.poll() is None:
             os.killpg(process.pid, signal.SIGKILL)
     assert not (out / "manifest.json").exists()
-    summary = build_dataset(out, synthetic_corpus, workers=2, progress=False)
+    summary = build_dataset(out, synthetic_corpus, workers=2)
     assert summary.ok and summary.skipped["speakers"] == 6 and summary.skipped["sentences"] >= 1
     assert _tree(out) == _tree(built_dataset)
 

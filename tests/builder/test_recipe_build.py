@@ -38,7 +38,7 @@ def test_changed_parameter_gives_another_recipe(built_dataset, synthetic_corpus,
     out = tmp_path / "copy"
     shutil.copytree(built_dataset, out)
     before = fmt.dataset_id(out)
-    build_dataset(out, synthetic_corpus, workers=1, delta=0.2, progress=False, report=False)
+    build_dataset(out, synthetic_corpus, workers=1, delta=0.2, report=False)
     after = fmt.dataset_id(out)
     assert after != before and after == _expected_recipe(synthetic_corpus, {"shapes": "speech", "delta": 0.2})["id"]
     # Its own build verifies and compares as itself.

@@ -40,8 +40,7 @@ def refine(faces, num_base, num_vertices):
 
 def posed_source(root):
     """The posed synthetic corpus (3 speakers, 1 sentence of ~1 s, seed 0) with its truth."""
-    corpus = generate_corpus(root, speakers=3, sentences=1, seed=0, duration=(1.0, 1.1), head_motion=True,
-                             progress=False)
+    corpus = generate_corpus(root, speakers=3, sentences=1, seed=0, duration=(1.0, 1.1), head_motion=True)
     return open_vocaset(corpus), corpus
 
 

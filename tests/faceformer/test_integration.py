@@ -15,7 +15,7 @@ pytestmark = pytest.mark.slow
                                                           "vq_zquant_dim": 4, "vq_n_embed": 16})])
 def test_brief_training_run_is_scored_as_a_vertex_method(built_dataset, tmp_path, name, config):
     path = run(RunSpec(name, data_root=built_dataset, results_dir=tmp_path / "results", samples=2, seed=0,
-                       budget=Budget(max_steps=4), config=config, progress=False))
+                       budget=Budget(max_steps=4), config=config))
     result = json.loads(path.read_text())
     assert result["method"]["output"] == "vertices"
     assert result["protocol"]["samples"] == 2

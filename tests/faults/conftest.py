@@ -18,14 +18,14 @@ SMALL_CORPUS = dict(speakers=3, sentences=2, seed=1, duration=(1.0, 1.5))
 def small_corpus(tmp_path_factory, assets_dir) -> Path:
     from blendvoca.synthetic import generate_corpus
 
-    return generate_corpus(tmp_path_factory.mktemp("faults") / "S", layout="official", progress=False, **SMALL_CORPUS)
+    return generate_corpus(tmp_path_factory.mktemp("faults") / "S", layout="official", **SMALL_CORPUS)
 
 
 @pytest.fixture(scope="session")
 def small_processed(tmp_path_factory, assets_dir) -> Path:
     from blendvoca.synthetic import generate_corpus
 
-    return generate_corpus(tmp_path_factory.mktemp("faults") / "P", layout="processed", progress=False,
+    return generate_corpus(tmp_path_factory.mktemp("faults") / "P", layout="processed",
                            **SMALL_CORPUS)
 
 
@@ -34,7 +34,7 @@ def small_build(tmp_path_factory, small_corpus) -> Path:
     from blendvoca.builder import build_dataset
 
     out = tmp_path_factory.mktemp("faults") / "B"
-    summary = build_dataset(out, small_corpus, workers=1, progress=False)
+    summary = build_dataset(out, small_corpus, workers=1)
     assert summary.ok, summary.failures
     return out
 

@@ -91,7 +91,7 @@ def _die(subject):
 def test_a_worker_that_dies_ends_the_build(tmp_path, small_corpus, monkeypatch):
     monkeypatch.setattr(rig_stage, "speaker_task", _die)
     with pytest.raises(WorkerDied, match="died"):
-        build_dataset(tmp_path / "out", small_corpus, workers=2, progress=False)
+        build_dataset(tmp_path / "out", small_corpus, workers=2)
 
 
 # ----------------------------------------------------------------------------- the build owns only what it writes
@@ -130,7 +130,7 @@ def test_a_rebuild_leaves_other_files_alone_and_does_not_list_them(copies):
                           check=True).stdout.strip()
     killed = out / "audio" / f".blendvoca-{dead}-sentence01.wav.abc12345.tmp"
     killed.write_text("a killed write of ours")
-    summary = build_dataset(out, corpus, workers=1, progress=False, delta=0.2)
+    summary = build_dataset(out, corpus, workers=1, delta=0.2)
     assert summary.ok
     assert (out / "notes.txt").read_text() == "mine" and (out / ".blendshape_coeffs.x.tmp").exists()
     assert (out / "report" / ".draft.tmp").read_text() == "mine too"
@@ -247,10 +247,10 @@ def test_interrupted_rebuild_leaves_no_manifest_claiming_old_outputs(copies, mon
 
     monkeypatch.setattr(fit_stage, "sentence_fit", fit_then_interrupt)
     with pytest.raises(KeyboardInterrupt):
-        build_dataset(out, corpus, workers=1, progress=False, delta=0.05)
+        build_dataset(out, corpus, workers=1, delta=0.05)
     assert not (out / "manifest.json").exists()  # one sentence is already refitted: the old manifest is gone
     monkeypatch.setattr(fit_stage, "sentence_fit", original)
-    assert build_dataset(out, corpus, workers=1, progress=False, delta=0.05).ok
+    assert build_dataset(out, corpus, workers=1, delta=0.05).ok
     assert _manifest(out)["parameters"]["delta"] == 0.05
 
 
@@ -367,7 +367,7 @@ def test_build_errors_are_one_family():
 def test_a_build_from_before_the_marker_is_still_accepted(copies):
     corpus, out = copies
     (out / ".buildstate" / "build.json").unlink()
-    assert build_dataset(out, corpus, workers=1, progress=False).ok
+    assert build_dataset(out, corpus, workers=1).ok
     assert (out / ".buildstate" / "build.json").is_file()
 
 

@@ -28,7 +28,7 @@ SIGNAL_CORPUS = dict(speakers=3, sentences=10, seed=1, duration=(2.0, 3.0))
 def signal_corpus(tmp_path_factory, assets_dir) -> Path:
     from blendvoca.synthetic import generate_corpus
 
-    return generate_corpus(tmp_path_factory.mktemp("signals") / "S", layout="official", progress=False,
+    return generate_corpus(tmp_path_factory.mktemp("signals") / "S", layout="official",
                            **SIGNAL_CORPUS)
 
 
@@ -36,7 +36,7 @@ def signal_corpus(tmp_path_factory, assets_dir) -> Path:
 def signal_build(tmp_path_factory, signal_corpus) -> Path:
     """The uninterrupted build of ``signal_corpus`` (2 workers)."""
     out = tmp_path_factory.mktemp("signals") / "B"
-    assert build_dataset(out, signal_corpus, workers=2, progress=False).ok
+    assert build_dataset(out, signal_corpus, workers=2).ok
     return out
 
 
@@ -120,7 +120,7 @@ def test_killing_the_build_process_alone_ends_its_workers_and_the_rerun_starts(t
     finally:
         os.close(fd)
     clock = time.monotonic()
-    summary = build_dataset(out, signal_corpus, workers=2, progress=False)
+    summary = build_dataset(out, signal_corpus, workers=2)
     assert summary.ok and summary.skipped["speakers"] == 3 and summary.skipped["sentences"] >= 1
     assert time.monotonic() - clock < 60
     assert outputs(out) == outputs(signal_build)
@@ -241,7 +241,7 @@ def test_only_the_builds_own_temporaries_of_dead_processes_are_removed(copies):
     killed.write_text("a killed write")
     running = folder / f"{temporary_prefix('sentence02.csv', os.getppid())}abcd1234.tmp"
     running.write_text("a write of a process still running")
-    summary = build_dataset(out, corpus, workers=1, progress=False, delta=0.2)
+    summary = build_dataset(out, corpus, workers=1, delta=0.2)
     assert summary.ok
     assert all(path.read_text() == "the user's" for path in users)
     assert not killed.exists() and running.exists()

@@ -220,7 +220,7 @@ def test_a_malformed_frame_index_fails_only_its_sentence(tmp_path, small_process
     assert "unreadable" in {p.kind for p in corpus.problems}
     out = tmp_path / "out"
     shutil.copytree(small_build, out)  # same arrays in the other layout: every rig and sentence is up to date
-    summary = build_dataset(out, root, workers=1, progress=False, report=False)
+    summary = build_dataset(out, root, workers=1, report=False)
     assert summary.built == {"speakers": 0, "sentences": 0}
     assert [(f["subject"], f["sentence"], f["stage"]) for f in summary.failures] == [(subject, "sentence02", "input")]
     assert "expected {frame (int)" in summary.failures[0]["reason"]

@@ -29,7 +29,7 @@ def _angle_between(a, b):
 def posed_corpus(tmp_path_factory, assets_dir):
     """The synthetic corpus with head motion (seed 0: the speakers of the built test dataset)."""
     return generate_corpus(tmp_path_factory.mktemp("joint") / "official", speakers=3, sentences=1, seed=0,
-                           duration=(1.0, 1.2), head_motion=True, progress=False)
+                           duration=(1.0, 1.2), head_motion=True)
 
 
 @pytest.fixture(scope="module")

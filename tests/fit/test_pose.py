@@ -81,7 +81,7 @@ def posed_corpus(tmp_path_factory, assets_dir):
     """Three speakers, one 1-1.2 s sentence each, with head motion (seed 0: the speakers
     of the shared synthetic corpus fixtures)."""
     return generate_corpus(tmp_path_factory.mktemp("posed") / "official", speakers=3, sentences=1, seed=0,
-                           duration=(1.0, 1.2), head_motion=True, progress=False)
+                           duration=(1.0, 1.2), head_motion=True)
 
 
 def test_synthetic_head_motion_is_recovered(posed_corpus):
@@ -142,7 +142,7 @@ def test_fit_on_posed_frames_matches_fit_on_unposed(posed_corpus, built_dataset)
 
 def test_head_motion_in_the_processed_layout_goes_beside_data_verts(tmp_path, assets_dir):
     root = generate_corpus(tmp_path / "p", speakers=3, sentences=1, layout="processed", head_motion=True,
-                           duration=(1.0, 1.0), progress=False)
+                           duration=(1.0, 1.0))
     posed = np.load(root / "data_verts_posed.npy", mmap_mode="r")
     assert posed.shape == np.load(root / "data_verts.npy", mmap_mode="r").shape
     corpus = open_vocaset(root)

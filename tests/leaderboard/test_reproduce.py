@@ -205,9 +205,9 @@ def test_a_training_that_fails_leaves_no_trained_method_and_no_record(tmp_path):
     from leaderboard.executors.stages import train_stage
     from leaderboard.reproduce import plan_tasks
 
-    root = default_data_root(progress=False)
-    task = next(t for t in plan_tasks(tmp_path / "w", tmp_path / "r", only=["regression"], seeds=(0,), max_steps=4,
-                                      progress=False) if t.stage == "train")
+    root = default_data_root()
+    task = next(t for t in plan_tasks(tmp_path / "w", tmp_path / "r", only=["regression"], seeds=(0,), max_steps=4)
+                if t.stage == "train")
     spec = {**task.spec, "config": {"no_such_option": 1}}  # refused by the run's checks, after the folder is made
     with pytest.raises(UserError):
         train_stage(spec, str(root))

@@ -19,8 +19,7 @@ ray = pytest.importorskip("ray", reason="Ray is not installed (pip install -e '.
 
 #: Small budgets: the comparison, not the numbers, is under test; one CPU per task, so
 #: that the two seeds run side by side on Ray.
-RUN = dict(only=["mean", "regression"], seeds=(0, 1), max_steps=40, expert_steps=20, cpus_per_task=1,
-           progress=False)
+RUN = dict(only=["mean", "regression"], seeds=(0, 1), max_steps=40, expert_steps=20, cpus_per_task=1)
 
 pytestmark = pytest.mark.slow
 
@@ -29,7 +28,7 @@ pytestmark = pytest.mark.slow
 def bundled_default():
     from benchmark.protocol import default_data_root
 
-    return default_data_root(progress=False)
+    return default_data_root()
 
 
 @pytest.fixture(scope="module")

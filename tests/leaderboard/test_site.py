@@ -55,7 +55,7 @@ def results_dir(tmp_path_factory, built_dataset):
 
     # Two rows as benchmark.run stores them, two written by hand with known scores.
     for name, samples in (("ground-truth", 1), ("random", 3)):
-        run(RunSpec(name, data_root=built_dataset, samples=samples, results_dir=results, progress=False))
+        run(RunSpec(name, data_root=built_dataset, samples=samples, results_dir=results))
     _write_run(results, "late", dataset, reference=False, samples=3, lve=1.5,
                transform=lambda gt, k: np.clip(np.roll(gt, 3 * (k + 1), axis=0), 0, 1))
     _write_run(results, "still", dataset, reference=False, samples=1, lve=3.0,

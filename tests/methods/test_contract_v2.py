@@ -40,7 +40,7 @@ def test_an_old_plugin_still_scores_with_one_warning(tmp_path):
         dataset = speech_dataset(seed=0, sentences=2, seconds=1.0)
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            spec = RunSpec("test-contract-v2", data_root="unused", results_dir=tmp_path, progress=False, seed=2,
+            spec = RunSpec("test-contract-v2", data_root="unused", results_dir=tmp_path, seed=2,
                            budget=Budget(max_steps=3))
             path = run(spec, evaluate=fake_evaluate, open_dataset=lambda root: dataset)
         deprecations = [w for w in caught if issubclass(w.category, DeprecationWarning)]

@@ -49,13 +49,13 @@ def test_example_found_through_entry_point(installed):
 
 def test_example_scored_without_touching_the_project(installed, tmp_path):
     dataset = speech_dataset(seed=4, sentences=2, seconds=1.0)
-    path = run(RunSpec("example-energy", data_root="fake", samples=3, seed=1, results_dir=tmp_path, progress=False),
+    path = run(RunSpec("example-energy", data_root="fake", samples=3, seed=1, results_dir=tmp_path),
                evaluate=fake_evaluate, open_dataset=lambda root: dataset)
     result = json.loads(path.read_text())
     assert result["method"]["class"] == "blendvoca_example_method:EnergyJawMethod"
     assert result["protocol"]["samples"] == 3
     # the jaw follows the loudness: better than the mean baseline on this data
-    mean_path = run(RunSpec("mean", data_root="fake", results_dir=tmp_path, progress=False),
+    mean_path = run(RunSpec("mean", data_root="fake", results_dir=tmp_path),
                     evaluate=fake_evaluate, open_dataset=lambda root: dataset)
     mean = json.loads(mean_path.read_text())
     assert result["metrics"]["coeff_mse"]["mean"] < mean["metrics"]["coeff_mse"]["mean"]

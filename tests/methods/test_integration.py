@@ -28,7 +28,7 @@ def _vertex_only(generated, dataset, split="test", vertices=None):
 
 def _run(name, built_dataset, tmp_path, **kw):
     evaluate = kw.pop("evaluate", _vertex_only)
-    path = run(RunSpec(name, data_root=built_dataset, results_dir=tmp_path / "results", progress=False, **kw),
+    path = run(RunSpec(name, data_root=built_dataset, results_dir=tmp_path / "results", **kw),
                evaluate=evaluate)
     return json.loads(path.read_text())
 

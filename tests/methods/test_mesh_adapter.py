@@ -39,7 +39,7 @@ def test_adapter_recovers_known_coefficients_at_60fps(dataset, tmp_path):
     method = get_method("mesh-adapter")(config=str(tmp_path / "m.yaml"))
     assert method.label == "Fake VOCA"
     method.train(dataset, TrainingRequest(seed=0, budget=Budget()))
-    generated, _ = generated_tracks(method, dataset, progress=False)
+    generated, _ = generated_tracks(method, dataset)
     for (subject, sentence), tracks in generated.items():
         np.testing.assert_allclose(tracks[0], dataset.coeffs(subject, sentence), atol=1e-5)
 
@@ -48,7 +48,7 @@ def test_adapter_30fps_offsets_close_and_same_length(dataset, tmp_path):
     _write_npy(dataset, tmp_path / "out", step=2, offsets=True)
     method = get_method("mesh-adapter")(vertices=str(tmp_path / "out"), fps=30, template="offsets")
     method.train(dataset, TrainingRequest(seed=0, budget=Budget()))
-    generated, _ = generated_tracks(method, dataset, progress=False)
+    generated, _ = generated_tracks(method, dataset)
     for key, tracks in generated.items():
         truth = dataset.coeffs(*key)
         assert tracks.shape == (1, truth.shape[0], 32)
@@ -77,8 +77,8 @@ def test_adapter_save_load_round_trip(dataset, tmp_path):
     method.save(tmp_path / "ckpt")
     loaded = get_method("mesh-adapter").load(tmp_path / "ckpt")
     assert loaded.config() == method.config()
-    a, _ = generated_tracks(method, dataset, progress=False)
-    b, _ = generated_tracks(loaded, dataset, progress=False)
+    a, _ = generated_tracks(method, dataset)
+    b, _ = generated_tracks(loaded, dataset)
     assert all(np.array_equal(a[k], b[k]) for k in a)
 
 

@@ -18,12 +18,12 @@ def dataset():
 def test_ground_truth_returns_the_dataset_tracks_and_round_trips(dataset, tmp_path):
     gt = get_method("ground-truth")()
     gt.train(dataset, TrainingRequest(seed=0, budget=Budget()))
-    generated, _ = generated_tracks(gt, dataset, progress=False)
+    generated, _ = generated_tracks(gt, dataset)
     for (subject, sentence), tracks in generated.items():
         np.testing.assert_array_equal(tracks[0], dataset.coeffs(subject, sentence))
     gt.save(tmp_path)
     loaded = get_method("ground-truth").load(tmp_path)
-    again, _ = generated_tracks(loaded, dataset, progress=False)
+    again, _ = generated_tracks(loaded, dataset)
     assert all(np.array_equal(again[k], generated[k]) for k in generated)
 
 

@@ -75,8 +75,8 @@ def test_regression_learns_speech_driven_motion(dataset, trained):
     """jawOpen follows the audio envelope: the regression must beat the mean baseline."""
     mean = get_method("mean")()
     mean.train(dataset, TrainingRequest(seed=0, budget=Budget()))
-    reg_out, _ = generated_tracks(trained, dataset, progress=False)
-    mean_out, _ = generated_tracks(mean, dataset, progress=False)
+    reg_out, _ = generated_tracks(trained, dataset)
+    mean_out, _ = generated_tracks(mean, dataset)
     assert fake_evaluate(reg_out, dataset)["coeff_mse"]["mean"] < 0.5 * fake_evaluate(mean_out, dataset)["coeff_mse"]["mean"]
     assert trained.history["steps"] == SMALL["steps"]
 

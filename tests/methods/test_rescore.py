@@ -18,8 +18,8 @@ def test_rescoring_a_stored_run_with_an_expert_equals_scoring_with_it(built_data
     expert_path = tmp_path / "expert.pt"
     save_expert(build_expert({}, np.zeros(32), np.ones(32), BLENDVOCA_NAMES, {"data": "test"}), expert_path)
     scored = run(RunSpec("random", data_root=built_dataset, samples=2, results_dir=tmp_path / "a",
-                         sync_expert=expert_path, progress=False))
-    plain = run(RunSpec("random", data_root=built_dataset, samples=2, results_dir=tmp_path / "b", progress=False))
+                         sync_expert=expert_path))
+    plain = run(RunSpec("random", data_root=built_dataset, samples=2, results_dir=tmp_path / "b"))
     assert "av_confidence_expert" not in json.loads(plain.read_text())["metrics"]
     assert rescore_main([str(plain), "--sync-expert", str(expert_path), "--quiet"]) == 0
     a, b = json.loads(scored.read_text()), json.loads(plain.read_text())
@@ -56,7 +56,7 @@ def test_rescoring_a_build_edited_since_is_refused_unless_no_verify(built_datase
     shutil.copytree(built_dataset, build)
     expert_path = tmp_path / "expert.pt"
     save_expert(build_expert({}, np.zeros(32), np.ones(32), BLENDVOCA_NAMES, {"data": "test"}), expert_path)
-    path = run(RunSpec("random", data_root=build, samples=1, results_dir=tmp_path / "r", progress=False))
+    path = run(RunSpec("random", data_root=build, samples=1, results_dir=tmp_path / "r"))
     assert json.loads(path.read_text())["protocol"]["verified"] is True
     # a speaker the run did not score is not read, so not checked
     other = fmt.read_splits(build)["val"][0]

@@ -9,6 +9,7 @@ from benchmark.methods import (
     Method,
     MethodError,
     MethodOutputError,
+    progress_bars,
     register,
     show_progress,
     unregister,
@@ -28,7 +29,7 @@ def dataset():
 
 def _run(name, dataset, tmp_path, **kw):
     spec = RunSpec(name, data_root="unused", samples=kw.pop("samples", 3), seed=kw.pop("seed", 0),
-                   results_dir=tmp_path / "results", progress=False, **kw)
+                   results_dir=tmp_path / "results", **kw)
     return run(spec, evaluate=fake_evaluate, open_dataset=lambda root: dataset)
 
 
@@ -144,11 +145,11 @@ def test_result_file_contents(dataset, tmp_path):
 def test_deterministic_methods_get_one_sample(dataset):
     from benchmark.methods import get_method
 
-    generated, _ = generated_tracks(get_method("static")(), dataset, samples=7, progress=False)
+    generated, _ = generated_tracks(get_method("static")(), dataset, samples=7)
     assert all(v.shape[0] == 1 for v in generated.values())
-    generated, _ = generated_tracks(get_method("random")(), dataset, samples=7, seed=1, progress=False)
+    generated, _ = generated_tracks(get_method("random")(), dataset, samples=7, seed=1)
     assert all(v.shape[0] == 7 for v in generated.values())
-    again, _ = generated_tracks(get_method("random")(), dataset, samples=7, seed=1, progress=False)
+    again, _ = generated_tracks(get_method("random")(), dataset, samples=7, seed=1)
     assert all(np.array_equal(generated[k], again[k]) for k in generated)
 
 
@@ -173,10 +174,10 @@ class _Batching(Method):
 def test_sentence_batches_go_by_length_with_each_sentence_seed():
     data = speech_dataset(seed=4, sentences=4, seconds=1.0)
     one = _Batching()
-    alone, _ = generated_tracks(one, data, samples=2, seed=9, progress=False)
+    alone, _ = generated_tracks(one, data, samples=2, seed=9)
     assert one.calls == []  # one sentence per call: plain generate
     batching = _Batching()
-    batched, _ = generated_tracks(batching, data, samples=2, seed=9, progress=False, sentence_batch=3)
+    batched, _ = generated_tracks(batching, data, samples=2, seed=9, sentence_batch=3)
     items = [(s, n) for s in data.split("test") for n in data.sentences(s)]
     assert list(batched) == items == list(alone)  # the split's order, whatever the batches
     assert all(np.array_equal(batched[k], alone[k]) for k in items)
@@ -243,7 +244,7 @@ def test_default_data_root_builds_once_into_the_cache(tmp_path, monkeypatch):
     class Summary:
         failures = ()
 
-    def fake_build(out, vocaset, progress=True):
+    def fake_build(out, vocaset):
         calls.append((out, vocaset))
         (out / "manifest.json").parent.mkdir(parents=True, exist_ok=True)
         (out / "manifest.json").write_text("{}")
@@ -252,10 +253,10 @@ def test_default_data_root_builds_once_into_the_cache(tmp_path, monkeypatch):
     monkeypatch.delenv("BLENDVOCA_DATA", raising=False)
     monkeypatch.setenv("BLENDVOCA_CACHE", str(tmp_path / "cache"))
     monkeypatch.setattr(pipeline, "build_dataset", fake_build)
-    root = default_data_root(progress=False)
+    root = default_data_root()
     assert root == tmp_path / "cache" / "blendvoca-default"
     assert calls == [(root, None)]  # None: the bundled synthetic corpus
-    assert default_data_root(progress=False) == root and len(calls) == 1  # built once
+    assert default_data_root() == root and len(calls) == 1  # built once
     monkeypatch.setenv("BLENDVOCA_DATA", str(tmp_path / "mine"))
     assert default_data_root() == tmp_path / "mine"
 
@@ -493,8 +494,9 @@ class _Chatty(Method):
 def test_quiet_runs_silence_the_plugins_own_bars(progress, dataset, tmp_path, capsys):
     register("test-chatty")(_Chatty)
     try:
-        run(RunSpec("test-chatty", data_root="unused", samples=1, results_dir=tmp_path / "results", progress=progress),
-            evaluate=fake_evaluate, open_dataset=lambda root: dataset)
+        with progress_bars(progress):  # as benchmark.run --quiet sets it
+            run(RunSpec("test-chatty", data_root="unused", samples=1, results_dir=tmp_path / "results"),
+                evaluate=fake_evaluate, open_dataset=lambda root: dataset)
     finally:
         unregister("test-chatty")
     err = capsys.readouterr().err

@@ -65,7 +65,7 @@ def test_vertex_method_passes_and_its_vertices_are_fitted_to_the_known_track():
     method = RigDriven(level=0.4)
     method.train(dataset, TrainingRequest(seed=0))
     vertices = {}
-    tracks, _ = generated_tracks(method, dataset, samples=2, seed=5, progress=False, vertices_out=vertices)
+    tracks, _ = generated_tracks(method, dataset, samples=2, seed=5, vertices_out=vertices)
     for (subject, sentence), fitted in tracks.items():
         assert fitted.shape == (2, dataset.coeffs(subject, sentence).shape[0], 32)
         assert vertices[(subject, sentence)].shape[2:] == dataset.template(subject).shape

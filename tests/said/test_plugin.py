@@ -65,8 +65,8 @@ def test_plugin_batches_sentences_through_the_runner():
     method = SAiDMethod(**TINY)
     method.train(small_dataset(), TrainingRequest(seed=0, budget=Budget(max_steps=2)))
     data = small_dataset(test=["s0", "s1", "s3"])  # six sentences
-    alone, _ = generated_tracks(method, data, samples=2, seed=3, progress=False)
-    batched, _ = generated_tracks(method, data, samples=2, seed=3, progress=False, sentence_batch=4)
+    alone, _ = generated_tracks(method, data, samples=2, seed=3)
+    batched, _ = generated_tracks(method, data, samples=2, seed=3, sentence_batch=4)
     assert list(alone) == list(batched)
     for key in alone:
         assert alone[key].shape == batched[key].shape

@@ -15,7 +15,7 @@ from benchmark.sanity.expectations import EXPECTATIONS, Expectation
 def test_bundled_default_passes_every_declaration(tmp_path, assets_dir, capsys):
     from benchmark.protocol import default_data_root
 
-    data = default_data_root(progress=False)
+    data = default_data_root()
     rc = main(["--data", str(data), "--out", str(tmp_path), "--levels", "small", "--quiet"])
     out = capsys.readouterr().out
     assert rc == 0, out

@@ -71,7 +71,7 @@ def _lag_errors(root, assets_dir):
 def test_lip_motion_follows_the_audio_at_the_true_lag(tmp_path, assets_dir):
     # Without undetermined components (F = 1) the motion is the audio's plan at the true lag, exactly.
     root = generate_corpus(tmp_path / "f1", speakers=6, sentences=2, seed=0, duration=(1.5, 2.0),
-                           audio_determined=1.0, progress=False)
+                           audio_determined=1.0)
     found, from_sidecar, at_true = _lag_errors(root, assets_dir)
     assert np.median(at_true) > 0.6
     assert np.all(np.abs(found) <= 2) and np.median(np.abs(found)) <= 1
@@ -87,7 +87,7 @@ def test_lip_motion_follows_the_audio_at_the_default_f(synthetic_corpus, assets_
 
 
 def test_generation_is_byte_identical_for_a_seed(tmp_path):
-    kwargs = dict(speakers=3, sentences=1, seed=7, duration=(1.0, 1.2), progress=False)
+    kwargs = dict(speakers=3, sentences=1, seed=7, duration=(1.0, 1.2))
     a = generate_corpus(tmp_path / "a", **kwargs)
     b = generate_corpus(tmp_path / "b", **kwargs)
     files_a = sorted(p.relative_to(a) for p in a.rglob("*") if p.is_file())
@@ -99,7 +99,7 @@ def test_generation_is_byte_identical_for_a_seed(tmp_path):
 
 
 def test_processed_generation_is_byte_identical_too(tmp_path):
-    kwargs = dict(speakers=3, sentences=1, seed=7, duration=(1.0, 1.2), progress=False, layout="processed")
+    kwargs = dict(speakers=3, sentences=1, seed=7, duration=(1.0, 1.2), layout="processed")
     a, b = generate_corpus(tmp_path / "a", **kwargs), generate_corpus(tmp_path / "b", **kwargs)
     for name in ("data_verts.npy", "subj_seq_to_idx.pkl", "raw_audio_fixed.pkl", "templates.pkl", "synthetic.json"):
         assert (a / name).read_bytes() == (b / name).read_bytes()
@@ -122,7 +122,7 @@ def test_cli_and_bad_arguments(tmp_path, capsys):
     with pytest.raises(ValueError, match="speakers must be"):
         generate_corpus(tmp_path / "x", speakers=2)
     with pytest.raises(ValueError, match="layout"):
-        generate_corpus(tmp_path / "y", speakers=3, sentences=1, duration=(1, 1), layout="nope", progress=False)
+        generate_corpus(tmp_path / "y", speakers=3, sentences=1, duration=(1, 1), layout="nope")
     assert not (tmp_path / "y").exists()  # nothing half-written is left behind
 
 

@@ -11,7 +11,7 @@ from tests.fixtures.paths import FsPath
 
 
 def test_generate_corpus_into_a_pathlike(tmp_path, assets_dir):
-    out = generate_corpus(FsPath(tmp_path / "c"), speakers=3, sentences=1, duration=(0.8, 0.8), progress=False)
+    out = generate_corpus(FsPath(tmp_path / "c"), speakers=3, sentences=1, duration=(0.8, 0.8))
     assert out == tmp_path / "c" and (out / "synthetic.json").is_file()
     assert open_vocaset(FsPath(out)).subjects == ["Synth_000_TA", "Synth_001_TA", "Synth_002_TA"]
 

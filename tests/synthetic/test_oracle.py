@@ -24,8 +24,8 @@ def oracle_build(tmp_path_factory, assets_dir):
 
     root = tmp_path_factory.mktemp("oracle")
     corpus = generate_corpus(root / "corpus", speakers=3, sentences=3, seed=4, duration=(3.0, 5.0),
-                             oracle_samples=K, progress=False)
-    summary = build_dataset(root / "build", corpus, workers=2, progress=False)
+                             oracle_samples=K)
+    summary = build_dataset(root / "build", corpus, workers=2)
     assert not summary.failures, summary.failures
     return root / "build"
 
@@ -64,7 +64,7 @@ def test_a_rerun_of_an_oracle_build_does_nothing(oracle_build, tmp_path):
     shutil.copytree(oracle_build, copy)
     corpus = open_vocaset(json.loads((copy / "manifest.json").read_text())["inputs"]["vocaset"]["path"])
     before = (copy / "manifest.json").read_bytes()
-    summary = build_dataset(copy, corpus.root, workers=1, progress=False)
+    summary = build_dataset(copy, corpus.root, workers=1)
     assert summary.built == {"speakers": 0, "sentences": 0, "oracle": 0}
     assert summary.skipped == {"speakers": 3, "sentences": 9, "oracle": 9}
     assert (copy / "manifest.json").read_bytes() == before

@@ -23,7 +23,7 @@ from blendvoca.synthetic.signals import SIGNAL_NAMES
 #: The last commit before the undetermined components: its generator is the reference of F = 1.
 BASELINE_COMMIT = "c68a9a8443e2323999a04cb24bb420de92301f2e"
 REPO = Path(__file__).resolve().parents[2]
-SMALL = dict(speakers=3, sentences=2, seed=7, duration=(1.0, 1.2), progress=False)
+SMALL = dict(speakers=3, sentences=2, seed=7, duration=(1.0, 1.2))
 
 
 def frozen_package(tmp_path: Path) -> Path:
@@ -247,9 +247,9 @@ def test_a_build_of_the_old_corpus_is_the_old_build(tmp_path, assets_dir):
     kwargs = dict(SMALL, audio_determined=1.0)
     generate_corpus(corpus, **kwargs)
     run_frozen(frozen, f"from blendvoca.builder import build_dataset\n"
-                       f"assert build_dataset({str(old)!r}, {str(corpus)!r}, workers=2, progress=False).ok")
+                       f"assert build_dataset({str(old)!r}, {str(corpus)!r}, workers=2).ok")
     new = tmp_path / "new"
-    assert build_dataset(new, corpus, workers=2, progress=False).ok
+    assert build_dataset(new, corpus, workers=2).ok
     a, b = json.loads((old / "manifest.json").read_text()), json.loads((new / "manifest.json").read_text())
     # ``blas`` records the BLAS libraries loaded in the building process (this test
     # session loads more than a fresh interpreter): the environment, not the data
