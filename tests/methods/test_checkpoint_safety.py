@@ -303,3 +303,16 @@ def test_a_reference_checkpoint_without_its_tracks_is_named(tmp_path, runner, ca
     Method.save(get_method("ground-truth")(), folder)  # the config only: tracks.json and tracks.npz missing
     assert runner(tmp_path, "--method", "ground-truth", "--checkpoint", folder) == 2
     _one_error_line(capsys, "lacks tracks.json")
+
+
+def test_a_folder_is_converted_whole_or_not_at_all(tmp_path):
+    old, new = tmp_path / "old", tmp_path / "out" / "new"
+    old.mkdir()
+    (old / "config.json").write_text("{}")
+    torch.save({"weights": np.arange(3.0)}, old / "b.pt")  # numpy inside: converted only with trust
+    with pytest.raises(UserError, match="--trust"):  # the second file fails: nothing of new is left
+        convert_checkpoint(old, new)
+    assert list(new.parent.iterdir()) == []
+    assert convert_checkpoint(old, new, trust=True) == [new / "b.pt"]
+    assert sorted(p.name for p in new.iterdir()) == ["b.pt", "config.json"]
+    assert [p.name for p in new.parent.iterdir()] == ["new"]  # no staging folder left beside it
