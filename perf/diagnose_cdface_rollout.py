@@ -33,7 +33,8 @@ def sentence_figures(cdface, dataset, subject, sentence, samples: int) -> dict:
     """The figures of the module docstring for one sentence."""
     import torch
 
-    from benchmark.metrics import regions, vertex
+    from benchmark.metrics import vertex
+    from blendvoca import rig_regions as regions
 
     rig = dataset.rig(subject)
     deltas = np.asarray(rig.deltas, dtype=np.float64)

@@ -54,7 +54,8 @@ def main(argv=None) -> int:
     from benchmark.lipsync import geometric_sync, load_expert, mouth_activity
     from benchmark.lipsync.expert import save_expert
     from benchmark.lipsync.expert_training import dataset_items, train_expert
-    from benchmark.metrics import regions, vertex
+    from benchmark.metrics import vertex
+    from blendvoca import rig_regions as regions
     from blendvoca_example_method import energy_envelope
 
     if args.data is None:

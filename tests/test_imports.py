@@ -171,7 +171,8 @@ ABOVE = ("*",)
 ROOMS = (
     (("blendvoca.runtime",), ()),  # the standard library and third-party libraries only
     (("blendvoca.errors", "blendvoca.cli"), ABOVE),
-    (("blendvoca.registry", "blendvoca.names", "blendvoca.io", "blendvoca.assets", "blendvoca.rig"), ABOVE),
+    (("blendvoca.registry", "blendvoca.names", "blendvoca.io", "blendvoca.assets", "blendvoca.rig",
+      "blendvoca.rig_regions"), ABOVE),
     (("blendvoca.runtime.processes", "blendvoca.runtime.staging"), ABOVE),
     (("blendvoca.format",), ABOVE),
     (("blendvoca.vocaset", "blendvoca.synthetic", "blendvoca.retarget", "blendvoca.fit", "blendvoca.export",
@@ -182,7 +183,7 @@ ROOMS = (
     (("blendvoca.builder.__main__", "blendvoca.build", "blendvoca.synthetic.calibrate"), ABOVE),
     (("benchmark.methods",), ("blendvoca",)),
     (("benchmark.data", "benchmark.metrics", "benchmark.features", "benchmark.results", "benchmark.runs",
-      "benchmark.render", "benchmark.lipsync", "benchmark.vertex_fit", "benchmark.evaluation"),
+      "benchmark.render", "benchmark.lipsync", "benchmark.evaluation"),
      ("blendvoca", "benchmark.methods")),
     (("benchmark.protocol",), ABOVE),
     (("benchmark.run", "benchmark.rescore", "benchmark.sanity", "benchmark.testing"), ABOVE),
@@ -194,8 +195,6 @@ ROOMS = (
 #: Imports the table allows by name (each is named in its row of docs/architecture.md): importer, imported.
 EXCEPTIONS = {
     ("baselines.said.train", "benchmark.data"): "the SAiD training command opens a build",
-    ("baselines.cdface", "benchmark.metrics.regions"): "the lip and upper-face vertex sets",
-    ("baselines.mesh_adapter", "benchmark.vertex_fit"): "the vertex fit it shares with the runner",
 }
 
 

@@ -2,7 +2,7 @@
 
 The paper splits the face in two ("dual-partitioned") and gives each part its own
 VQ prior. Here the upper part is the front of the face above the nose tip
-(:func:`benchmark.metrics.regions.upper_face_vertices` of the mean training
+(:func:`blendvoca.rig_regions.upper_face_vertices` of the mean training
 template, minus any lip vertex), and the lip part is every other vertex (mouth,
 jaw, chin, cheeks below the nose, and the rest of the head), so every lip vertex
 of the metrics lies in the lip part: with the lip codes fixed, the lip vertices
@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from benchmark.metrics.regions import upper_face_vertices
+from blendvoca.rig_regions import upper_face_vertices
 
 __all__ = ["FaceParts", "face_parts"]
 
@@ -78,7 +78,7 @@ def face_parts(template, lip_vertices=None, active=None) -> FaceParts:
         A neutral mesh of the topology (e.g. the mean training template).
     lip_vertices : (L,) int array_like, optional
         Lip vertices that must fall in the lip part (e.g. the union of every
-        rig's :func:`benchmark.metrics.regions.lip_vertices`).
+        rig's :func:`blendvoca.rig_regions.lip_vertices`).
     active : (V,) bool array_like, optional
         Vertices to model (default all).
 

@@ -22,15 +22,15 @@ from baselines.common.device import checked_precision, method_device, precision_
 from baselines.common.presets import preset_options
 from benchmark.methods.base import Method, TrainingRequest
 from benchmark.methods.contract import OUTPUT_VERTICES
-from benchmark.metrics.regions import lip_vertices
 from blendvoca.errors import DataError, UserError
+from blendvoca.rig_regions import lip_vertices
 from blendvoca.runtime.progress import progress_bars
 
 CHECKPOINT_FILE = "cdface.pt"
 
 
 def dataset_lips(dataset, subjects):
-    """Union of every rig's :func:`benchmark.metrics.regions.lip_vertices` (None without rigs)."""
+    """Union of every rig's :func:`blendvoca.rig_regions.lip_vertices` (None without rigs)."""
     lips = []
     for s in subjects:
         try:

@@ -1,6 +1,6 @@
 """Vertex sequence -> BlendVOCA coefficient track through the speaker's rig.
 
-The fit itself is :func:`benchmark.vertex_fit.adapted_coefficients` (shared with the
+The fit itself is :func:`blendvoca.fit.vertex_tracks.adapted_coefficients` (shared with the
 runner's vertex-output methods); this module resolves the adapter's vertex subset.
 """
 
@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from benchmark.vertex_fit import FLAME_NUM_VERTICES, adapted_coefficients, rig_fit_vertices
+from blendvoca.fit.vertex_tracks import FLAME_NUM_VERTICES, adapted_coefficients, rig_fit_vertices
 
 __all__ = ["adapted_coefficients", "resolve_vertex_subset"]
 

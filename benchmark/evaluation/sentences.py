@@ -7,7 +7,7 @@ import sys
 
 import numpy as np
 
-from benchmark.metrics import regions
+from blendvoca import rig_regions as regions
 from blendvoca.runtime.processes import process_map
 from blendvoca.runtime.threads import limited_threads
 

@@ -10,7 +10,7 @@ The energy score of samplers: :func:`energy_scores`, :func:`vertex_energy_score`
 from benchmark.metrics.energy import energy_scores, vertex_energy_score
 from benchmark.metrics.frechet import feature_statistics, frechet_distance, frechet_distance_from_stats
 from benchmark.metrics.multimodality import multimodality, paired_samples
-from benchmark.metrics.regions import lip_vertices, lower_face_vertices, nose_tip_index, upper_face_vertices
+from blendvoca.rig_regions import lip_vertices, lower_face_vertices, nose_tip_index, upper_face_vertices
 from benchmark.metrics.vertex import (
     average_pairwise_distance,
     diversity_metrics,

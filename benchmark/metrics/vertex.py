@@ -208,7 +208,7 @@ def average_pairwise_distance(samples, idx=None) -> float:
     ``1 / (S (S - 1)) sum_i sum_{j != i} d(X_i, X_j)`` = the mean over the
     S (S - 1) / 2 unordered pairs, with ``d`` the length-normalised distance of
     :func:`sequence_distance`. On the upper-face vertices it is UPD, on the lip
-    vertices LPD (``benchmark.metrics.regions``).
+    vertices LPD (``blendvoca.rig_regions``).
 
     Parameters
     ----------

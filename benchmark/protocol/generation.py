@@ -199,7 +199,7 @@ def generated_tracks(method, dataset, *, split: str = "test", samples: int = 1, 
     generated : dict
         ``{(subject, sentence): (S, T, 32) float64 ndarray}`` in the split's order,
         ``T`` = ground-truth frames; for ``output = "vertices"`` methods the tracks
-        fitted to their vertices with the speaker's rig (:mod:`benchmark.vertex_fit`).
+        fitted to their vertices with the speaker's rig (:mod:`blendvoca.fit.vertex_tracks`).
     n_clipped : int
 
     Raises
@@ -277,7 +277,7 @@ def generated_tracks(method, dataset, *, split: str = "test", samples: int = 1, 
                 verts = validated_vertices(output, method=name, subject=subject, sentence=sentence,
                                            num_frames=num_frames, samples=num_samples,
                                            num_vertices=int(np.asarray(rig.neutral).shape[0]))
-                from benchmark.vertex_fit import fitted_sample_tracks
+                from blendvoca.fit.vertex_tracks import fitted_sample_tracks
 
                 tracks = fitted_sample_tracks(verts, rig, names or rig.names)
                 if store is not None:

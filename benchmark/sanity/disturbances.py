@@ -36,7 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.ndimage import gaussian_filter1d
 
-from benchmark.metrics.regions import mouth_shape_indices
+from blendvoca.rig_regions import mouth_shape_indices
 
 __all__ = [
     "DISTURBANCES",
@@ -115,7 +115,7 @@ def damping(track, level: float) -> np.ndarray:
 
 
 def mouth_damping(track, names: Sequence[str], level: float) -> np.ndarray:
-    """The jaw and mouth coefficients (:func:`benchmark.metrics.regions.mouth_shape_indices`)
+    """The jaw and mouth coefficients (:func:`blendvoca.rig_regions.mouth_shape_indices`)
     scaled by ``1 - level``; the other shapes (cheeks, nose) kept."""
     track = _track(track)
     if not 0 <= level <= 1:

@@ -23,7 +23,6 @@ from pathlib import Path
 import numpy as np
 
 from benchmark.data import open_blendvoca
-from benchmark.metrics.regions import lip_vertices
 from benchmark.metrics.vertex import rig_vertices
 from benchmark.results import Result, read
 from benchmark.runs import read_run
@@ -31,6 +30,7 @@ from blendvoca.errors import DataError, UserError
 from blendvoca.export.glb import write_glb
 from blendvoca.format import audio_path
 from blendvoca.io.coeffs import read_coeffs_csv
+from blendvoca.rig_regions import lip_vertices
 from blendvoca.runtime.progress import bar
 from leaderboard.collect import (
     MIN_PAIRED_SENTENCES,

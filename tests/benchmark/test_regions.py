@@ -43,7 +43,7 @@ def test_regions_on_a_built_rig_agree_with_flame_landmarks(built_dataset, assets
 
 
 def test_mouth_shape_indices():
-    from benchmark.metrics.regions import mouth_shape_indices
+    from blendvoca.rig_regions import mouth_shape_indices
     from blendvoca.names import BLENDVOCA_NAMES
 
     idx = mouth_shape_indices(BLENDVOCA_NAMES)

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from benchmark.metrics.regions import mouth_shape_indices
+from blendvoca.rig_regions import mouth_shape_indices
 from benchmark.sanity.disturbances import (
     DISTURBANCES,
     constant_offset,

@@ -14,8 +14,10 @@ from __future__ import annotations
 import numpy as np
 
 from blendvoca.assets import load_index_list
-from blendvoca.fit import fit_sequence, resample_sequence
-from blendvoca.fit.pose import FLAME_NUM_VERTICES
+
+from .coefficients import fit_sequence
+from .pose import FLAME_NUM_VERTICES
+from .resample import resample_sequence
 
 __all__ = ["FLAME_NUM_VERTICES", "adapted_coefficients", "fitted_sample_tracks", "rig_fit_vertices"]
 
