@@ -25,10 +25,8 @@ The JSON key ``dataset.path`` is the BlendVOCA root the run was scored on.
 
 from __future__ import annotations
 
-import os
 import re
 import shutil
-import socket
 import zipfile
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -37,10 +35,10 @@ from pathlib import Path
 import numpy as np
 
 from benchmark.results import Result, read
-from blendvoca.builder.outdir import is_running
 from blendvoca.errors import DataError
 from blendvoca.io.atomic import atomic_write
 from blendvoca.io.coeffs import read_coeffs_csv, write_coeffs_csv
+from blendvoca.runtime.staging import move_into_place, process_staging
 
 __all__ = [
     "TRACKS_KEY",
@@ -141,23 +139,6 @@ class StoredVertices(Mapping):
         return len(self._keys())
 
 
-def process_tag(pid: int | None = None) -> str:
-    """``<host>-<pid>`` (this process's by default): names a staging folder by its process
-    (dots of the host name kept)."""
-    return f"{socket.gethostname() or 'host'}-{os.getpid() if pid is None else pid}"
-
-
-def remove_dead_stagings(folder: Path, prefix: str) -> None:
-    """Remove the ``<prefix>.<this host>-<pid>.partial`` folders in ``folder`` left by killed
-    processes of this host (a kill -9 skips any cleanup); those of live processes, or of
-    another host sharing the folder, stay."""
-    head, tail = f"{prefix}.{socket.gethostname() or 'host'}-", ".partial"
-    for path in folder.iterdir() if folder.is_dir() else ():
-        pid = path.name[len(head):-len(tail)]
-        if path.name.startswith(head) and path.name.endswith(tail) and pid.isdigit() and not is_running(int(pid)):
-            shutil.rmtree(path, ignore_errors=True)
-
-
 class TrackWriter:
     """Writes a run's tracks folder; files land in ``.<final>.<host>-<pid>.partial`` until :meth:`commit`.
 
@@ -173,11 +154,7 @@ class TrackWriter:
         self.folder = Path(folder)
         self.names = tuple(names)
         # one staging folder per process: two runs of the same setting never share files
-        self.staging = self.folder.with_name(f".{self.folder.name}.{process_tag()}.partial")
-        if self.staging.exists():  # leftover of an interrupted run of this process id
-            shutil.rmtree(self.staging)
-        remove_dead_stagings(self.folder.parent, f".{self.folder.name}")
-        self.staging.mkdir(parents=True)
+        self.staging = process_staging(self.folder)
         self._templates = set()
 
     def write_tracks(self, subject: str, sentence: str, tracks) -> list[Path]:
@@ -210,16 +187,7 @@ class TrackWriter:
 
     def commit(self) -> Path:
         """Move the staged folder to its final name (replacing that run's previous tracks)."""
-        if self.folder.exists():
-            old = self.folder.with_name(f".{self.folder.name}.{os.getpid()}.old")
-            if old.exists():
-                shutil.rmtree(old)
-            os.replace(self.folder, old)
-            os.replace(self.staging, self.folder)
-            shutil.rmtree(old)
-        else:
-            os.replace(self.staging, self.folder)
-        return self.folder
+        return move_into_place(self.staging, self.folder, replace=True)
 
     def discard(self) -> None:
         """Remove the staged files (the run failed)."""

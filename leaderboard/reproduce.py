@@ -292,8 +292,9 @@ def archive_results(results_dir, archive) -> list:
 
 
 def reproduce(work, results_dir, tables_dir, *, only=None, force: bool = False, executor: str = "sequential",
-              address: str | None = None, data=None, seeds=SEEDS, max_steps: int | None = None, expert_steps: int = EXPERT_STEPS, cpus_per_task: int | None = None,
-              max_retries: int = 3, archive=None) -> list:
+              address: str | None = None, data=None, seeds=SEEDS, max_steps: int | None = None,
+              expert_steps: int = EXPERT_STEPS, cpus_per_task: int | None = None, max_retries: int = 3,
+              archive=None) -> list:
     """Build the dataset, score the plan's rows into ``results_dir`` and render ``tables_dir``.
 
     Parameters

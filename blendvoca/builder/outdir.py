@@ -33,6 +33,7 @@ from blendvoca.format.hashing import file_digest
 from blendvoca.format.layout import DATA_DIRS, DATA_FILES, MANIFEST_FILE, ORACLE_COEFFS_DIR, REPORT_DIR, STATE_DIR
 from blendvoca.format.manifest import BUILD_TOOL, written_by_build
 from blendvoca.io.atomic import atomic_write, temporary_owner
+from blendvoca.runtime.lifetime import is_running
 
 MARKER = "build.json"
 LOCK = "lock"
@@ -210,26 +211,6 @@ def drop_inherited_locks() -> None:
         except OSError:
             pass
     _HELD_LOCKS.clear()
-
-
-def is_running(pid: int) -> bool:
-    """True when a process ``pid`` exists (and is not a zombie) on this machine; True
-    where that cannot be told (not a POSIX system: ``os.kill`` would end the process)."""
-    if pid <= 0:
-        return False
-    if os.name != "posix":
-        return True
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        return True  # someone else's process
-    try:
-        with open(f"/proc/{pid}/stat", encoding="ascii", errors="replace") as stat:
-            return stat.read().rpartition(")")[2].split()[0] != "Z"
-    except (OSError, IndexError):
-        return True
 
 
 def remove_stale_temporaries(out) -> int:

@@ -78,3 +78,23 @@ def leave_interrupts_to_the_parent() -> None:
     """
     if signal.getsignal(signal.SIGINT) is not signal.SIG_IGN:  # a parent started with SIGINT ignored
         signal.signal(signal.SIGINT, signal.SIG_DFL)              # (nohup, a background job) keeps it ignored
+
+
+def is_running(pid: int) -> bool:
+    """True when a process ``pid`` exists (and is not a zombie) on this machine; True
+    where that cannot be told (not a POSIX system: ``os.kill`` would end the process)."""
+    if pid <= 0:
+        return False
+    if os.name != "posix":
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True  # someone else's process
+    try:
+        with open(f"/proc/{pid}/stat", encoding="ascii", errors="replace") as stat:
+            return stat.read().rpartition(")")[2].split()[0] != "Z"
+    except (OSError, IndexError):
+        return True

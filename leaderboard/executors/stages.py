@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import os
 import shutil
 import socket
 import time
@@ -53,11 +52,12 @@ from benchmark.protocol.convergence import NOT_CHECKED, HalfBudget, checked_conv
 from benchmark.protocol.seeds import combined_seed_scores, seed_stream, summed_timings
 from benchmark.protocol.storing import dataset_identity, store_seeds, track_writer
 from benchmark.results import Result, build_result, current_provenance, read, result_filename, write
-from benchmark.runs import TrackWriter, process_tag, remove_dead_stagings
+from benchmark.runs import TrackWriter
 from blendvoca.builder import build_dataset
 from blendvoca.errors import UserError
 from blendvoca.format import manifest_path
 from blendvoca.io.atomic import atomic_write
+from blendvoca.runtime.staging import move_into_place, process_staging
 from leaderboard.executors.core import log_progress
 
 __all__ = ["built_corpus", "data_stage", "expert_stage", "row_result_path", "score_stage", "single_stage",
@@ -211,13 +211,9 @@ def train_stage(spec, root):
         return json.loads(record_path.read_text()), None
     if all(_row_done(row, root) is not None for row in spec["rows"]):
         return {"seed": seed, "stored": True}, None  # every row of this training is stored: nothing to train for
-    final.parent.mkdir(parents=True, exist_ok=True)
-    remove_dead_stagings(final.parent, f".{final.name}")
     # trained into a folder of this process, renamed once saved: a worker killed while
     # training leaves no folder that a rerun would load as a trained method
-    partial = final.parent / f".{final.name}.{process_tag()}.partial"
-    shutil.rmtree(partial, ignore_errors=True)
-    partial.mkdir()
+    partial = process_staging(final)
     try:
         run = _run_spec(spec, root, seed=seed, checkpoint=partial)
         inputs = check_inputs(run)
@@ -229,9 +225,7 @@ def train_stage(spec, root):
                   "convergence_s": trained.convergence_s, "checked": check is not None, "reason": reason,
                   "half_budget": half, "host": socket.gethostname()}
         _write_json(record_path, record)
-        if final.exists():  # an earlier try finished after all (a lost node's): keep one
-            shutil.rmtree(final)
-        os.replace(partial, final)
+        move_into_place(partial, final, replace=True)  # an earlier try finished after all (a lost node's): keep one
     finally:
         shutil.rmtree(partial, ignore_errors=True)
     return record, {"train_s": trained.train_s, "convergence_s": trained.convergence_s,

@@ -60,7 +60,7 @@ def test_a_killed_runs_staging_is_removed_by_the_next_writer_not_a_live_ones(tmp
     import subprocess
     import sys
 
-    from benchmark.runs import process_tag
+    from blendvoca.runtime.staging import process_tag
 
     dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True,
                           text=True, check=True)
