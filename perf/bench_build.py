@@ -68,12 +68,12 @@ def main(argv=None):
 def rig_reuse(corpus_root):
     """Print the rig stage's compute time without and with the shared correspondence, and the ratio."""
     import numpy as np
-    from blendvoca.runtime.threads import limited_threads
 
     from blendvoca.assets import load_index_list
     from blendvoca.builder.speaker import speaker_rig
     from blendvoca.retarget import correspondence_for_target
     from blendvoca.rig import load_arkit_reference
+    from blendvoca.runtime.threads import limited_threads
     from blendvoca.vocaset import open_vocaset
 
     corpus = open_vocaset(corpus_root)

@@ -108,9 +108,8 @@ def raw_floor(neutral, deltas, frames):
 
 def floor_ratio(num_frames, repeats=7):
     """Print the constrained fit against both least-squares floors, with a breakdown."""
-    from blendvoca.runtime.threads import limited_threads
-
     from blendvoca.fit import banded_qp, fit_coefficients, normal_equations, solve_banded_qp
+    from blendvoca.runtime.threads import limited_threads
 
     neutral, deltas, frames = make_problem(num_frames)
     counts = {"factor": 0, "solve": 0}

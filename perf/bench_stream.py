@@ -86,10 +86,9 @@ def _machine():
 
 
 def timing(num_speakers, crop):
-    from blendvoca.runtime.threads import limited_threads
-
     from blendvoca.assets import load_index_list
     from blendvoca.fit import StreamingSolver, fit_sequence
+    from blendvoca.runtime.threads import limited_threads
 
     head = load_index_list("flame-head-idx")
     chosen = {k: v for k, v in configs().items() if k in ("SDK defaults", "SDK defaults, temporal 1",
@@ -131,10 +130,10 @@ def solvers(num_speakers, limit_frames):
     import piqp
     from scipy.linalg import cholesky, solve_triangular
     from scipy.optimize import lsq_linear
-    from blendvoca.runtime.threads import limited_threads
 
     from blendvoca.fit import StreamingSolver, solve_banded_qp
     from blendvoca.fit.box_qp import solve_box_qp
+    from blendvoca.runtime.threads import limited_threads
 
     problems = []
     for _, _, rig, frames in sentences(num_speakers):
@@ -199,10 +198,9 @@ def solvers(num_speakers, limit_frames):
 
 
 def compare(num_speakers):
-    from blendvoca.runtime.threads import limited_threads
-
     from blendvoca.assets import load_index_list
     from blendvoca.fit import StreamingSolver, fit_sequence
+    from blendvoca.runtime.threads import limited_threads
 
     head = load_index_list("flame-head-idx")
     rows = {"offline QP": []}
