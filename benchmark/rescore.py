@@ -27,7 +27,6 @@ from benchmark.results import check
 from benchmark.runs import read_run
 from blendvoca import cli
 from blendvoca.errors import UserError
-from blendvoca.runtime.progress import progress_bars
 
 __all__ = ["main", "rescored_result"]
 
@@ -112,9 +111,8 @@ def main(argv=None) -> int:
     cli.add_quiet_option(p)
     args = p.parse_args(argv)
     for run in args.runs:
-        with progress_bars(not args.quiet):
-            result = rescored_result(run, syncnet=args.syncnet_weights, sync_expert=args.sync_expert,
-                                     data=args.data, verify=args.verify)
+        result = rescored_result(run, syncnet=args.syncnet_weights, sync_expert=args.sync_expert,
+                                 data=args.data, verify=args.verify)
         path = Path(run)
         print(write_run(check(result, str(path)), path.parent, path.name))
     return cli.EXIT_OK

@@ -30,7 +30,6 @@ from blendvoca.errors import DataError, UserError
 from blendvoca.io.atomic import atomic_write
 from blendvoca.io.audio import load_audio
 from blendvoca.io.mesh import read_obj, write_obj
-from blendvoca.runtime.progress import progress_bars
 
 CHECKPOINT_FILE = "cdface.pt"
 
@@ -144,10 +143,9 @@ def main(argv=None) -> int:
         p.error(f"--samples: expected >= 1, got {args.samples}")
     if args.reference is not None and args.control != "lips":
         p.error("--reference fixes the lips: add --control lips")
-    with progress_bars(not args.quiet):
-        path = generate_file(args.audio, args.out, checkpoint=args.checkpoint, samples=args.samples, seed=args.seed,
-                             control=args.control, reference=args.reference, subject=args.subject,
-                             template=args.template, style=args.style, obj_dir=args.obj_dir)
+    path = generate_file(args.audio, args.out, checkpoint=args.checkpoint, samples=args.samples, seed=args.seed,
+                         control=args.control, reference=args.reference, subject=args.subject,
+                         template=args.template, style=args.style, obj_dir=args.obj_dir)
     print(path)
     return cli.EXIT_OK
 

@@ -43,7 +43,6 @@ from blendvoca.errors import DataError, UserError
 from blendvoca.export import FORMATS, NEEDS_RIG, export_track, load_rig
 from blendvoca.io.audio import load_audio
 from blendvoca.io.coeffs import read_coeffs_csv, write_coeffs_csv
-from blendvoca.runtime.progress import progress_bars
 
 CHECKPOINT_ENV = "BLENDVOCA_SAID_CHECKPOINT"
 
@@ -226,15 +225,14 @@ def main(argv=None) -> int:
     cli.add_device_option(p, default="cpu")
     cli.add_quiet_option(p)
     args = p.parse_args(argv)
-    with progress_bars(not args.quiet):
-        paths = generate_files(
-            args.audio, args.out, checkpoint=args.checkpoint, samples=args.samples, seed=args.seed,
-            reference_path=args.reference, mask_path=args.mask, sampler=args.sampler,
-            num_steps=args.steps, guidance=args.guidance, export=args.export, rig=args.rig,
-            official=args.official or None, eta=args.eta, guidance_rescale=args.guidance_rescale,
-            strength=args.strength, intermediates_dir=args.intermediates, image_path=args.image,
-            device=args.device,
-        )
+    paths = generate_files(
+        args.audio, args.out, checkpoint=args.checkpoint, samples=args.samples, seed=args.seed,
+        reference_path=args.reference, mask_path=args.mask, sampler=args.sampler,
+        num_steps=args.steps, guidance=args.guidance, export=args.export, rig=args.rig,
+        official=args.official or None, eta=args.eta, guidance_rescale=args.guidance_rescale,
+        strength=args.strength, intermediates_dir=args.intermediates, image_path=args.image,
+        device=args.device,
+    )
     for path in paths:
         print(path)
     return cli.EXIT_OK

@@ -30,7 +30,6 @@ from benchmark.data import open_blendvoca
 from benchmark.methods.training_loop import StepLoop, optimiser_step
 from blendvoca import cli
 from blendvoca.errors import DataError, UserError
-from blendvoca.runtime.progress import progress_bars
 
 
 def _check_pairs(pairs, k: int, where: str):
@@ -309,9 +308,8 @@ def main(argv=None) -> int:
     config = cli.parse_config(args.config)
     if args.wav2vec2_path:
         config["wav2vec2_path"] = args.wav2vec2_path
-    with progress_bars(not args.quiet):
-        history = train_file(args.data, args.out, preset=args.preset, config=config, seed=args.seed,
-                             max_steps=max_steps, max_seconds=max_seconds, device=args.device)
+    history = train_file(args.data, args.out, preset=args.preset, config=config, seed=args.seed,
+                         max_steps=max_steps, max_seconds=max_seconds, device=args.device)
     print(f"wrote {args.out}: {history['steps']} steps in {history['seconds']:.0f} s, "
           f"best validation loss {history['best_val_loss']}")
     return cli.EXIT_OK

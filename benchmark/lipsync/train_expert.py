@@ -15,7 +15,6 @@ from pathlib import Path
 
 from blendvoca import cli
 from blendvoca.errors import DataError, UserError
-from blendvoca.runtime.progress import progress_bars
 
 #: Training time when no budget is given.
 DEFAULT_SECONDS = 240.0
@@ -48,12 +47,11 @@ def main(argv=None) -> int:
     items = dataset_items(dataset, "train")
     if not items:
         raise DataError(f"{args.data}: the training split has no sentences")
-    with progress_bars(not args.quiet):
-        expert = train_expert(items, max_steps=max_steps, max_seconds=max_seconds,
-                              batch_size=args.batch_size, lr=args.lr, seed=args.seed,
-                              trained_on={"data": str(Path(args.data).expanduser().resolve()), "split": "train",
-                                          "subjects": dataset.split("train"),
-                                          "manifest_hash": dataset.manifest_hash})
+    expert = train_expert(items, max_steps=max_steps, max_seconds=max_seconds,
+                          batch_size=args.batch_size, lr=args.lr, seed=args.seed,
+                          trained_on={"data": str(Path(args.data).expanduser().resolve()), "split": "train",
+                                      "subjects": dataset.split("train"),
+                                      "manifest_hash": dataset.manifest_hash})
     save_expert(expert, out)
     info = expert.trained_on
     print(f"saved {out} (trained on {info['sentences']} sentences of {args.data} train split, "
