@@ -15,6 +15,7 @@ from blendvoca.assets import load_index_list
 from blendvoca.fit.resample import resample_sequence
 from blendvoca.io.audio import write_wav
 from blendvoca.io.mesh import write_obj, write_ply
+from blendvoca.runtime.progress import progress_bars
 from blendvoca.synthetic import generate_corpus, read_npz
 from blendvoca.vocaset import open_vocaset
 
@@ -40,7 +41,8 @@ def refine(faces, num_base, num_vertices):
 
 def posed_source(root):
     """The posed synthetic corpus (3 speakers, 1 sentence of ~1 s, seed 0) with its truth."""
-    corpus = generate_corpus(root, speakers=3, sentences=1, seed=0, duration=(1.0, 1.1), head_motion=True)
+    with progress_bars(False):  # no bar in a test's captured stderr
+        corpus = generate_corpus(root, speakers=3, sentences=1, seed=0, duration=(1.0, 1.1), head_motion=True)
     return open_vocaset(corpus), corpus
 
 

@@ -24,7 +24,7 @@ def test_generate_corpus_into_a_pathlike(tmp_path, assets_dir):
 ])
 def test_arguments_it_cannot_use_are_user_errors(tmp_path, kwargs, message):
     with pytest.raises(UserError, match=message):
-        generate_corpus(tmp_path / "c", **{"progress": False, **kwargs})
+        generate_corpus(tmp_path / "c", **kwargs)
     assert not (tmp_path / "c").exists()
 
 
