@@ -137,8 +137,8 @@ def test_same_seed_and_steps_give_identical_metrics(fake_dataset_dir, assets_dir
     assert all("lve_rig" in row for row in first["per_sentence"])
     if samples > 1:
         assert "sample_std" in first["metrics"]["lve_rig"] and "multimodality" in first["metrics"]
-    run = read_run(next((tmp_path / "a").glob("*.json")))
-    assert run.keys == sentences and run.dataset_root == fake_dataset_dir.resolve()
+    stored = read_run(next((tmp_path / "a").glob("*.json")))
+    assert stored.keys == sentences and stored.dataset_root == fake_dataset_dir.resolve()
     for key in sentences:
-        assert len(run.track_paths(*key)) == samples
-        assert run.tracks(*key).shape == (samples, ds.coeffs(*key).shape[0], 32)
+        assert len(stored.track_paths(*key)) == samples
+        assert stored.tracks(*key).shape == (samples, ds.coeffs(*key).shape[0], 32)
