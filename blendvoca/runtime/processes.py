@@ -106,7 +106,8 @@ def _chunks(items: Iterable, size: int) -> Iterator[list]:
 
 
 def _how_it_ended(processes) -> str:
-    """How the first worker that ended on its own ended ("killed by SIGKILL", "exit status 3")."""
+    """How the first worker that ended on its own ended ("killed by SIGKILL", "exit status 3");
+    "" when none is known any more (the pool may forget a worker that died at once)."""
     for process in processes:
         process.join(timeout=1.0)
         code = process.exitcode
@@ -118,7 +119,7 @@ def _how_it_ended(processes) -> str:
             except ValueError:
                 return f"killed by signal {-code}"
         return f"exit status {code}"
-    return "killed"
+    return ""
 
 
 def _end_workers(processes) -> None:
@@ -228,8 +229,9 @@ def _pooled(function, chunks, workers, initializer, initargs, progress, *, order
             progress.update(size)
     except BrokenProcessPool:
         where = f"{desc}: " if desc else ""
-        raise WorkerDied(f"{where}a worker process died ({_how_it_ended(processes.values())}: killed, or out of "
-                         "memory); rerun the same command to continue") from None
+        how = _how_it_ended(processes.values())
+        raise WorkerDied(f"{where}a worker process died ({how + ': ' if how else ''}killed, or out of memory); "
+                         "rerun the same command to continue") from None
     except BaseException:  # Ctrl-C, a task's error, the caller closing the generator: no worker outlives the map
         processes.update(pool._processes or {})
         _end_workers(processes.values())

@@ -104,10 +104,10 @@ def test_a_failing_step_leaves_nothing(tmp_path):
 def _evaluate(vae):
     from benchmark.evaluation import EvaluationSettings, evaluate_split
 
-    def evaluate(generated, dataset, split="test", vertices=None):
+    def evaluate(generated, dataset, split="test", vertices=None, metrics=None):
         settings = EvaluationSettings(extractor=vae, wind_repeats=2, wind_resamples=3, fd_resamples=50)
         return evaluate_split(generated if vertices is None else Generated(generated, vertices=vertices), dataset,
-                              split, settings)
+                              split, settings, metrics=metrics)
 
     return evaluate
 

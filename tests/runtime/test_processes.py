@@ -104,8 +104,9 @@ def test_a_task_error_reaches_the_caller_as_it_was(workers):
 
 
 def test_a_worker_killed_by_a_signal_is_a_clear_error():
-    with pytest.raises(WorkerDied, match=r"^squares: a worker process died \(killed by SIGKILL: killed, or out of "
-                                         r"memory\); rerun the same command to continue$"):
+    # the signal is named when the pool still knows the worker (one that dies at once may be forgotten)
+    with pytest.raises(WorkerDied, match=r"^squares: a worker process died \((killed by SIGKILL: )?killed, or out "
+                                         r"of memory\); rerun the same command to continue$"):
         list(process_map(_die, range(6), workers=2, desc="squares"))
 
 
