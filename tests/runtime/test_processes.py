@@ -171,7 +171,8 @@ from blendvoca.runtime.processes import process_map
 
 
 def task(i):
-    print("busy", flush=True)
+    if i == 0:  # one line from one worker (two workers printing at once may share a line)
+        print("busy", flush=True)
     time.sleep(60)
     return i
 
