@@ -120,7 +120,7 @@ def test_names_command_lists_and_shows_conventions():
     assert listed.returncode == 0
     assert all(name in listed.stdout for name in CONVENTIONS)
     shown = run("show", "unitalker51")
-    assert shown.returncode == 0 and "X-niper/UniTalker" in shown.stdout and "not verified" in shown.stdout
+    assert shown.returncode == 0 and "X-niper/UniTalker" in shown.stdout and "inhouse_arkit.npz" in shown.stdout
     assert "  19 jawOpen" in shown.stdout
     bad = run("show", "nope")
     assert bad.returncode == 2 and bad.stderr.startswith("error:") and "arkit52" in bad.stderr

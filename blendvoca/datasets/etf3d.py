@@ -1,7 +1,7 @@
 """The 3D-ETF adapter (``--dataset 3d-etf --root DIR``): EmoTalk's 52 ARKit-compatible weights.
 
-3D-ETF (EmoTalk, ICCV 2023) is given out on request by its authors, in a layout
-they do not publish. UniTalker redistributes it processed (its corpora D3, 3D-ETF
+3D-ETF (EmoTalk, ICCV 2023) is a public download since July 2025 (the link in
+psyai-net/EmoTalk_release issue 35), in a layout its authors do not document. UniTalker redistributes it processed (its corpora D3, 3D-ETF
 HDTF, and D4, 3D-ETF RAVDESS) in its own layout, which this adapter reads
 (:func:`blendvoca.datasets.unitalker.unitalker_layout_takes`): ``train.json``,
 ``val.json``, ``test.json`` naming ``(T, 52)`` ``.npy`` weights of annotation type

@@ -154,19 +154,19 @@ CONVENTIONS: dict[str, Convention] = {c.name: c for c in (
         "pascal",
         source="Live Link Face (iOS) CSV export; shape set as Unreal's EARFaceBlendShape "
                "(https://dev.epicgames.com/documentation/unreal-engine/API/Plugins/AppleARKit)",
-        checked="column order against a take exported by the app (tests/export: Live Link import and export)",
-        unverified="Epic publishes no specification of the CSV; the order is that of exported takes "
-                   "(JawRight before JawLeft, MouthRight before MouthLeft)"),
+        checked="the header of real exports: Timecode, BlendShapeCount (or BlendshapeCount: both spellings "
+                "occur), the 52 shapes in this order (JawRight before JawLeft, MouthRight before MouthLeft), then "
+                "the 9 head and eye rotations (tests/export: Live Link import and export)",
+        unverified="Epic publishes no specification of the CSV; the order is that of exported takes"),
     Convention(
         "unitalker51", "UniTalker's inhouse_blendshape_weight (corpora D6, D7)", UNITALKER_ORDER, 51, "camel",
         source="github.com/X-niper/UniTalker dataset/dataset_config.py @ f8fcb10293c1ec1bc781ef6679b383ce8d6243ac "
-               "(D6/D7: annot_type inhouse_blendshape_weight, annot_dim 51); the order is defined by "
-               "resources/binary_resources (arkit_flame.npz) in the repository's Git LFS resources.zip",
-        checked="the count (51) and the annotation type in dataset_config.py",
-        unverified="the column order: UniTalker defines it in a binary resource that could not be read here; "
-                   "the order listed is taken from a third-party remapping table of UniTalker's D6 output to "
-                   "ARKit's 52 and matches Faceshift's 51-shape grouping; check it against arkit_flame.npz "
-                   "before relying on it"),
+               "(D6/D7: annot_type inhouse_blendshape_weight, annot_dim 51); the order is that of UniTalker's "
+               "ARKit resource inhouse_arkit.npz, copied in github.com/GoldenFishes/UniTAF "
+               "a2f/resources/binary_resources/inhouse_arkit.npz @ 41d0760302cda6141d00e26bdd49291cff2f53b1",
+        checked="the order: the resource's 51 'blendshape' deltas equal the ARKit reference rig's "
+                "(arkit-reference-rig) one for one in this order (largest difference 0.0; its meanshape equals "
+                "the rig's neutral), and the count (51) and annotation type in dataset_config.py"),
     Convention(
         "beat", "BEAT (PantoMatrix): facial JSON captured with ARKit, one file per take", None, None, "camel",
         source="github.com/PantoMatrix/PantoMatrix dataloaders/beat.py @ 152d7c714522da77074016180366fcd43842057b "
