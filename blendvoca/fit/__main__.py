@@ -41,9 +41,14 @@ def load_frames(path: Path) -> np.ndarray:
     path = Path(os.fspath(path))
     if not path.is_file():
         raise FileNotFoundError(f"--frames: no such file: {path}")
+    with open(path, "rb") as f:
+        magic = f.read(6)
+    if magic != b"\x93NUMPY" and magic[:2] != b"PK":
+        raise DataError(f"--frames {path}: not a NumPy .npy file (it starts with {magic!r}, a .npy with "
+                        "b'\\x93NUMPY'); expected a .npy array of shape (T, V, 3) (numpy.save)")
     try:
         frames = np.load(path, allow_pickle=False, mmap_mode="r")
-    except ValueError as error:  # not a .npy, or pickled objects
+    except ValueError as error:  # pickled objects, or a broken header
         raise DataError(f"--frames {path}: expected a .npy array of shape (T, V, 3), {error}") from None
     if isinstance(frames, np.lib.npyio.NpzFile):
         frames.close()
@@ -98,6 +103,37 @@ def solver_config(entries, preset: str | None, pose_names: Path | None) -> Strea
     return PRESETS[preset or "sdk"](**changes)
 
 
+def _refuse_overwriting_an_input(args) -> None:
+    """UserError when ``--out`` is one of the command's inputs (the write would replace it)."""
+    inputs = {"--rig": args.rig, "--frames": args.frames, "--pose-names": args.pose_names,
+              **{"--config": Path(e) for e in args.config if "=" not in e}}
+    out = Path(os.fspath(args.out)).expanduser().resolve()
+    for flag, path in inputs.items():
+        if path is not None and Path(os.fspath(path)).expanduser().resolve() == out:
+            raise UserError(f"--out {args.out}: is the {flag} input; writing the coefficients there would "
+                            "replace it; give another --out path (a .csv)")
+
+
+def scale_checked(frames, rig, where: str) -> None:
+    """DataError naming the first frame with a vertex farther from the rig's neutral than 100 times the
+    rig's size (frames in other units, or a broken frame: the solve would give meaningless weights).
+    The frames are read in blocks (they may be a memory map larger than memory)."""
+    neutral = np.asarray(rig.neutral, dtype=np.float64)
+    size = float(np.linalg.norm(np.ptp(neutral, axis=0)))
+    centre = neutral.mean(axis=0)
+    for start in range(0, frames.shape[0], 256):
+        block = np.asarray(frames[start:start + 256], dtype=np.float64)
+        if frames.shape[1] != len(neutral):
+            reach = np.abs(block - centre).max(axis=(1, 2))
+        else:
+            reach = np.abs(block - neutral).max(axis=(1, 2))
+        bad = np.flatnonzero(reach > 100 * size)  # a non-finite frame is the solver's to name (with its vertex)
+        if bad.size:
+            t = start + int(bad[0])
+            raise DataError(f"{where}: frame {t} has a vertex {reach[bad[0]]:.3g} from the rig's neutral, the "
+                            f"rig is {size:.3g} across; expected frames in the rig's units and pose")
+
+
 @cli.command
 def main(argv=None) -> int:
     p = cli.parser("blendvoca.fit", __doc__, epilog=(
@@ -115,6 +151,7 @@ def main(argv=None) -> int:
                                           "Audio2Face-3D SDK's defaults)")
     cli.add_quiet_option(p)
     args = p.parse_args(argv)
+    _refuse_overwriting_an_input(args)
 
     config = solver_config(args.config, args.preset, args.pose_names)
     rig = load_rig(args.rig)
@@ -124,6 +161,7 @@ def main(argv=None) -> int:
         crop = "" if solver.num_fitted == solver.num_vertices else f" or (T, {solver.num_fitted}, 3) (its fitted crop)"
         raise DataError(f"--frames {args.frames}: expected (T, {solver.num_vertices}, 3) (the vertices of the rig "
                         f"{args.rig}){crop}, got {frames.shape}")
+    scale_checked(frames, rig, f"--frames {args.frames}")
     start = time.perf_counter()
     try:
         coeffs = solver.solve_sequence(frames)

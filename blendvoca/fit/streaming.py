@@ -346,6 +346,10 @@ class StreamingSolverConfig:
             if len(names) != num_poses:
                 raise UserError(f"{where}: names: expected numPoses={num_poses} pose names (the SDK's pose order), "
                                 f"got {len(names)}")
+            repeated = sorted({n for n in names if names.count(n) > 1})
+            if repeated:
+                raise UserError(f"{where}: names: each pose named once (the SDK's pose order), got "
+                                + ", ".join(f"{n!r} {names.count(n)} times" for n in repeated))
             keys = names
         else:
             keys = tuple(range(num_poses))
@@ -503,6 +507,11 @@ class StreamingSolver:
 
     def _setup(self, config: StreamingSolverConfig) -> None:
         k = self.num_shapes
+        if config.pose_names is not None and self.names is not None and not set(config.pose_names) & set(self.names):
+            raise UserError(f"StreamingSolver: none of the configuration's {len(config.pose_names)} pose names "
+                            f"({list(config.pose_names)[:4]}...) is a shape of the rig ({list(self.names)[:4]}...): "
+                            "its settings would apply to nothing; give the pose names of the file's arrays "
+                            "(ARKit names in any case)")
         names = self.names or ()
         symmetry = config.symmetry_pairs if config.symmetry_pairs is not None else default_symmetry_pairs(names)
         cancel = config.cancel_pairs if config.cancel_pairs is not None else default_cancel_pairs(names)

@@ -10,6 +10,7 @@ whose names it made, and only those of processes that are no longer running.
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
 import re
 import stat
@@ -40,6 +41,8 @@ def atomic_write(path, mode: str = "wb", **kwargs):
     on a full disk) is raised again naming ``path``.
     """
     path = Path(path)
+    if path.is_dir():  # os.replace would fail only after the write, naming the temporary
+        raise IsADirectoryError(errno.EISDIR, "a folder is there; expected the path of a file to write", str(path))
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=temporary_prefix(path.name), suffix=".tmp")

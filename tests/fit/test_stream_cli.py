@@ -155,3 +155,49 @@ def test_runs_as_a_module(files):
                           capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
     assert (folder / "m.csv").read_text().startswith(",".join(NAMES))
+
+
+def test_inputs_out_and_scale_are_checked_before_anything_is_written(files, capsys):
+    """Issue 56's stream cases: --out on an input or a folder, a frame in other units, a text file as
+    --frames, --pose-names that name nothing of the rig or one pose many times."""
+    folder, rig, frames = files
+    rig_bytes, frames_bytes = (folder / "rig.npz").read_bytes(), (folder / "frames.npy").read_bytes()
+    base = ["--rig", str(folder / "rig.npz"), "--frames", str(folder / "frames.npy")]
+    for target, flag in ((folder / "frames.npy", "--frames"), (folder / "rig.npz", "--rig")):
+        assert main(base + ["--out", str(target)]) == 2
+        line = _error_line(capsys)
+        assert f"is the {flag} input" in line and str(target) in line
+    assert (folder / "rig.npz").read_bytes() == rig_bytes and (folder / "frames.npy").read_bytes() == frames_bytes
+
+    assert main(base + ["--out", str(folder)]) == 2
+    line = _error_line(capsys)
+    assert str(folder) in line and "a folder is there" in line and not list(folder.glob(".blendvoca-*"))
+
+    huge = frames.copy()
+    huge[7] *= 1e30
+    np.save(folder / "huge.npy", huge)
+    assert main(["--rig", str(folder / "rig.npz"), "--frames", str(folder / "huge.npy"),
+                 "--out", str(folder / "o.csv")]) == 2
+    line = _error_line(capsys)
+    assert "huge.npy" in line and "frame 7" in line and "rig's units" in line and not (folder / "o.csv").exists()
+
+    (folder / "text.npy").write_text("not an array")
+    assert main(["--rig", str(folder / "rig.npz"), "--frames", str(folder / "text.npy"),
+                 "--out", str(folder / "o.csv")]) == 2
+    line = _error_line(capsys)
+    assert "not a NumPy .npy file" in line and "pickled" not in line
+
+    k = 3
+    params = {"strengthL1regularization": 1.0, "strengthL2regularization": 0.0, "strengthTemporalSmoothing": 0.0,
+              "strengthSymmetry": 0.0, "numPoses": k, "bsSolveActivePoses": [0] * k,
+              "bsSolveCancelPoses": [-1] * k, "bsSolveSymmetryPoses": [-1] * k,
+              "bsWeightMultipliers": [1.0] * k, "bsWeightOffsets": [0.0] * k}
+    (folder / "a2f.json").write_text(json.dumps({"blendshape_params": params}))
+    config = ["--config", str(folder / "a2f.json"), "--out", str(folder / "o.csv")]
+    (folder / "none.txt").write_text("poseA\nposeB\nposeC\n")
+    assert main(base + config + ["--pose-names", str(folder / "none.txt")]) == 2
+    assert "none of the configuration's 3 pose names" in _error_line(capsys)
+    (folder / "same.txt").write_text("jawOpen\n" * k)
+    assert main(base + config + ["--pose-names", str(folder / "same.txt")]) == 2
+    assert "'jawOpen' 3 times" in _error_line(capsys)
+    assert not (folder / "o.csv").exists()
