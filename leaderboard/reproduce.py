@@ -198,6 +198,9 @@ def plan_tasks(work, results_dir, *, only=None, data=None, seeds=SEEDS, max_step
     from leaderboard.executors import Resources, Task
     from leaderboard.executors import stages
 
+    if int(expert_steps) < 1:  # 0 or fewer steps would train until a budget that never comes
+        raise UserError(f"expert_steps: expected an integer >= 1, got {expert_steps}")
+
     entries = _entries(only)
     seeds = [int(s) for s in seeds]
     base = {"work": str(Path(work).expanduser().resolve()), "results": str(Path(results_dir).expanduser().resolve()),
@@ -389,8 +392,10 @@ def main(argv=None) -> int:
     max_steps, max_seconds = cli.budget_limits(args)
     if max_seconds is not None:
         parser.error("--budget/--max-seconds: the board's budgets are steps (deterministic); give --max-steps N")
-    if args.cpus_per_task is not None and args.cpus_per_task < 1:
-        parser.error("--cpus-per-task: expected an integer >= 1")
+    for flag, value, least in (("--cpus-per-task", args.cpus_per_task, 1), ("--expert-steps", args.expert_steps, 1),
+                               ("--max-retries", args.max_retries, 0)):
+        if value is not None and value < least:
+            parser.error(f"{flag}: expected an integer >= {least}, got {value}")
     from benchmark.protocol import parse_seeds
 
     for path in reproduce(args.work, args.results, args.tables, only=_split_names(args.only), force=args.force,

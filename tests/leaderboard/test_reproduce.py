@@ -1,3 +1,5 @@
+import pytest
+
 from benchmark.methods import get_method
 from leaderboard.reproduce import PLAN
 
@@ -319,3 +321,17 @@ def test_seed_scores_pass_between_stages_as_result_json_and_combine_as_before(tm
     expected, got = combined_seed_scores(runs, stream=7), combined_seed_scores(back, stream=7)
     assert got.metrics == expected.metrics and got.per_sentence == expected.per_sentence
     assert got.per_seed == expected.per_seed and got.convergence == expected.convergence
+
+
+@pytest.mark.parametrize("flag, value, least", [("--expert-steps", "0", 1), ("--expert-steps", "-5", 1),
+                                                ("--max-retries", "-1", 0), ("--cpus-per-task", "0", 1)])
+def test_counts_below_their_least_are_refused_before_any_work(tmp_path, capsys, flag, value, least):
+    """Issue 56: --expert-steps 0 or -5 trained forever; --max-retries -1 reached Ray."""
+    from leaderboard.reproduce import main
+
+    with pytest.raises(SystemExit) as info:
+        main(["--work", str(tmp_path / "w"), "--results", str(tmp_path / "r"), "--tables", str(tmp_path / "t"),
+              flag, value])
+    err = capsys.readouterr().err
+    assert info.value.code == 2 and f"{flag}: expected an integer >= {least}, got {value}" in err
+    assert not (tmp_path / "w").exists()
