@@ -30,7 +30,8 @@ def main(argv: list[str] | None = None) -> int:
                                       "command after an interruption.")
     p.add_argument("--dataset", default=None, metavar="NAME",
                    help=f"the corpus at --root: {', '.join(dataset_names())} (docs/datasets.md); default vocaset")
-    p.add_argument("--root", default=None, metavar="DIR", help="the corpus, in the layout of --dataset")
+    p.add_argument("--root", default=None, metavar="DIR", help="the corpus, in the layout of --dataset (facegood: default, its files through the "
+                        "asset resolver, data_manifest.yaml)")
     p.add_argument("--vocaset", default=None, metavar="DIR",
                    help="VOCASET root (official or processed layout): the same as --dataset vocaset --root DIR; "
                         "default: the bundled synthetic corpus")
@@ -54,11 +55,12 @@ def main(argv: list[str] | None = None) -> int:
     if args.dataset is None and args.root is not None:
         p.error(f"--root needs --dataset NAME ({', '.join(dataset_names())})")
     build = adapter(dataset)  # an unknown name is refused before anything else
-    if root is None and dataset != "vocaset":
+    if root is None and dataset != "vocaset" and build.default_root is None:
         p.error(f"--dataset {dataset} needs --root DIR, the corpus (docs/datasets.md)")
     if args.out is None:
-        if root is not None:
-            p.error(f"--out is required with {'--vocaset' if args.vocaset is not None else '--root'}")
+        if root is not None or dataset != "vocaset":
+            given = "--vocaset" if args.vocaset is not None else "--root" if root is not None else f"--dataset {dataset}"
+            p.error(f"--out is required with {given}")
         args.out = default_output_dir()
     extra = {}
     if args.pose_fit is not None:

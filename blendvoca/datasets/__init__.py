@@ -39,6 +39,8 @@ DATASETS: dict[str, str] = {
     "beat": "blendvoca.datasets.beat:ADAPTER",
     "unitalker": "blendvoca.datasets.unitalker:ADAPTER",
     "3d-etf": "blendvoca.datasets.etf3d:ADAPTER",
+    # a rig's own controls, mapped onto ARKit (blendvoca.names.controls_to_arkit); long takes cut into utterances
+    "facegood": "blendvoca.datasets.facegood:ADAPTER",
     # vertex corpora of other topologies: posed meshes, rig retargeted with the user's landmark file
     "biwi": "blendvoca.datasets.biwi:ADAPTER",
     "multiface": "blendvoca.datasets.multiface:ADAPTER",
@@ -51,10 +53,14 @@ class DatasetAdapter:
 
     Calling it calls ``build``; ``options`` tells the command line what it may pass
     (``("pose_fit",)`` for the posed corpora), so nothing reads the function's signature.
+    ``default_root``, when given, finds the corpus without ``--root`` (its files named in
+    ``data_manifest.yaml``, through the asset resolver): the build is then called with
+    ``root=None``.
     """
 
     build: Callable
     options: tuple[str, ...] = ()
+    default_root: Callable | None = None
 
     def __call__(self, root, out, **options):
         return self.build(root, out, **options)

@@ -366,14 +366,18 @@ def build_coefficient_dataset(out, root, takes: Iterable[Take], *, dataset: str,
     return summary
 
 
-def coefficient_adapter(read_takes: Callable, *, dataset: str, title: str, convention: str) -> DatasetAdapter:
+def coefficient_adapter(read_takes: Callable, *, dataset: str, title: str, convention: str,
+                        default_root: Callable | None = None) -> DatasetAdapter:
     """The adapter of a coefficient corpus: ``read_takes(root)`` finds its takes, then
     :func:`build_coefficient_dataset` writes them (``workers``, ``shapes`` and ``delta``
-    do not apply: nothing is fitted, every shape of the corpus is kept)."""
+    do not apply: nothing is fitted, every shape of the corpus is kept). ``default_root()``,
+    when given, is the corpus of a build without ``--root`` (``root=None``)."""
 
     def build(root, out, *, workers: int | None = None, shapes: str = "speech", delta: float = 0.1,
               report: bool = True) -> BuildSummary:
+        if root is None and default_root is not None:
+            root = default_root()
         return build_coefficient_dataset(out, root, read_takes(root), dataset=dataset, title=title,
                                          convention=convention, report=report)
 
-    return DatasetAdapter(build)
+    return DatasetAdapter(build, default_root=default_root)

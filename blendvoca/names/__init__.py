@@ -24,6 +24,7 @@ from blendvoca.names.conventions import (
     CONVENTIONS,
     Convention,
 )
+from blendvoca.names.facegood import FACEGOOD116, FACEGOOD_TO_ARKIT, FACEGOOD_UNMAPPED, ControlMapping  # noqa: F401
 from blendvoca.registry import Registry
 
 # Live Link Face's CSV export: the same 52 shapes in PascalCase, except that the app
@@ -151,10 +152,67 @@ def convention_names(name: str) -> tuple[str, ...]:
         (``beat``, ``a2f46``): the message says to pass the file's names instead.
     """
     found = convention(name)
+    if found.controls is not None:
+        raise UserError(f"the {name!r} convention names a rig's controls, not ARKit shapes; form ARKit shapes "
+                        f"from them with blendvoca.names.controls_to_arkit(values, controls, {name!r})")
     if found.names is None:
         raise UserError(f"the {name!r} convention has no fixed order: each file lists its own shapes "
                         f"({found.unverified or found.checked}); pass the file's names instead of {name!r}")
     return found.names
+
+
+def controls_to_arkit(values, controls, convention_name: str, *, where: str = "controls_to_arkit"
+                      ) -> tuple[np.ndarray, tuple[str, ...]]:
+    """A track of a rig's controls as ARKit shapes, by the rig convention's map (``to_arkit``).
+
+    Each ARKit shape is ``clip(sum(weight * control), 0, 1)`` over its mapping's terms
+    (:class:`~blendvoca.names.facegood.ControlMapping`); controls no mapping names are left out
+    (the convention's ``FACEGOOD_UNMAPPED``-style list says what they carry).
+
+    Parameters
+    ----------
+    values : (T, K) array_like of real numbers in [0, 1]
+    controls : K control names, in the track's column order (the file's names list)
+    convention_name : str
+        A convention with ``to_arkit`` (``facegood116``).
+    where : str
+        What the track is, for messages.
+
+    Returns
+    -------
+    track : (T, M) float64 ndarray in [0, 1]
+    names : M camelCase ARKit names, in ARKit's order
+
+    Raises
+    ------
+    UserError
+        A convention without a map, a control the map needs that ``controls`` lacks,
+        controls repeated, or a track whose width is not ``len(controls)``.
+    """
+    entry = convention(convention_name)
+    if not entry.to_arkit:
+        raise UserError(f"{where}: the {convention_name!r} convention has no map of rig controls onto ARKit; "
+                        f"conventions with one: {', '.join(n for n, c in CONVENTIONS.items() if c.to_arkit)}")
+    controls = tuple(str(c) for c in controls)
+    repeated = sorted({c for c in controls if controls.count(c) > 1})
+    if repeated:
+        raise UserError(f"{where}: controls named twice: {repeated[:5]}")
+    array = np.asarray(values)
+    if array.dtype.kind not in "fiub" or array.ndim != 2 or array.shape[1] != len(controls):
+        raise UserError(f"{where}: expected a (T, {len(controls)}) track of numbers, one column per control, "
+                        f"got shape {array.shape} ({array.dtype})")
+    position = {c: k for k, c in enumerate(controls)}
+    needed = [c for m in entry.to_arkit for c, _ in m.terms if c not in position]
+    if needed:
+        raise UserError(f"{where}: the {convention_name!r} map needs controls the names lack: {needed[:5]}"
+                        + (f" (+{len(needed) - 5} more)" if len(needed) > 5 else ""))
+    mappings = sorted(entry.to_arkit, key=lambda m: ARKIT_FACE_ORDER.index(m.arkit))
+    weights = np.zeros((len(controls), len(mappings)), dtype=np.float64)
+    for j, mapping in enumerate(mappings):
+        for control, weight in mapping.terms:
+            weights[position[control], j] += weight
+    track = np.clip(array.astype(np.float64) @ weights, 0.0, 1.0)
+    return track, tuple(m.arkit for m in mappings)
 
 
 def _names_of(spec, role: str) -> tuple[str, ...]:

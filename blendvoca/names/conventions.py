@@ -7,6 +7,11 @@ files carry their own list of names (BEAT's JSON ``names``, Audio2Face's
 ``facsNames``); their ``names`` is None and a reader passes the file's list to
 :func:`blendvoca.names.remap` instead of the convention's name.
 
+A rig's own controls are a convention too (``facegood116``): its files' columns are the
+rig's ``controls``, which are not ARKit names, so ``names`` is None and ``to_arkit`` (a
+table of :class:`~blendvoca.names.facegood.ControlMapping`) says how each ARKit shape is
+formed from them; :func:`blendvoca.names.controls_to_arkit` applies it.
+
 Every entry names its source and says what of it was checked against that source
 (``checked``), and what could not be (``unverified``); ``docs/datasets.md`` and
 ``python -m blendvoca.names show NAME`` print both.
@@ -15,6 +20,8 @@ Every entry names its source and says what of it was checked against that source
 from __future__ import annotations
 
 from dataclasses import dataclass
+
+from blendvoca.names.facegood import FACEGOOD116, FACEGOOD_TO_ARKIT, ControlMapping
 
 #: The 52 shapes in the order of Apple's ARFaceAnchor.BlendShapeLocation documentation,
 #: grouped as it groups them (left eye, right eye, mouth and jaw, eyebrows/cheeks/nose,
@@ -104,6 +111,10 @@ class Convention:
         What was compared with the source.
     unverified : str
         What could not be checked against a primary source ("" when nothing).
+    controls : tuple of str or None
+        A rig convention's columns: the rig's own control names (then ``names`` is None).
+    to_arkit : tuple of ControlMapping
+        How a rig convention's controls form ARKit shapes (empty for the others).
     """
 
     name: str
@@ -114,18 +125,22 @@ class Convention:
     source: str
     checked: str
     unverified: str = ""
+    controls: tuple[str, ...] | None = None
+    to_arkit: tuple[ControlMapping, ...] = ()
 
     @property
     def lacks(self) -> tuple[str, ...] | None:
-        """ARKit's shapes (of the 52, in ARKit's order) this convention has no column for;
-        None when the names come with each file."""
-        if self.names is None:
+        """ARKit's shapes (of the 52, in ARKit's order) this convention has no column for
+        (a rig convention: that its controls do not form); None when the names come with each file."""
+        if self.names is None and not self.to_arkit:
             return None
-        present = set(self.names)
+        present = set(self.names) if self.names is not None else {m.arkit for m in self.to_arkit}
         return tuple(n for n in ARKIT_FACE_ORDER if n not in present)
 
     def columns(self) -> tuple[str, ...] | None:
-        """The names as the convention's files spell them (PascalCase for ``pascal``)."""
+        """The names as the convention's files spell them (PascalCase for ``pascal``; a rig's controls)."""
+        if self.controls is not None:
+            return self.controls
         if self.names is None:
             return None
         if self.spelling == "pascal":
@@ -208,4 +223,19 @@ CONVENTIONS: dict[str, Convention] = {c.name: c for c in (
         source="github.com/psyai-net/EmoTalk_release render.py @ 2d0fbde4b5a369adda37311b19d2f2c9360e36ae "
                "(model_bsList, the order its outputs and renders use)",
         checked="the 52 names and their order in model_bsList"),
+    Convention(
+        "facegood116", "FACEGOOD-Audio2Face's rig: 116 FACS-like controls (not ARKit names)", None, 116, "camel",
+        source="github.com/FACEGOOD/FACEGOOD-Audio2Face code/train/shirley_1015_bs_name.npy @ "
+               "e6d41b6ed9e414b2f7427e52e18c401f7d1775a8 (the columns of code/train/bs_value/bs_value_*.npy)",
+        checked="the 116 names and their order against the file (tests/datasets/test_facegood.py, through the "
+                "asset resolver); that it is the values' order: the moving left/right control pairs correlate "
+                "at r >= 0.997 under it over the seven takes (0.015 under the repository's 1119 list); the map "
+                "onto ARKit by FACS name semantics, left/right symmetry and the speech envelope "
+                "(docs/results/datasets-measurements.md)",
+        unverified="FACEGOOD publishes no description of its controls nor meshes of the rig: the map onto "
+                   "ARKit rests on the names (FACS action units), except jawOpen, measured against the speech "
+                   "envelope; which side '_l' is (the face's left, as ARKit's Left, is assumed: the takes are "
+                   "symmetric, so the data cannot tell); mouth_chinRaise_u/_d as mouthShrugUpper/Lower; the "
+                   "weight of mouth_oo_c in mouthPucker",
+        controls=FACEGOOD116, to_arkit=FACEGOOD_TO_ARKIT),
 )}

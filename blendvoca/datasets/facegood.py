@@ -1,0 +1,194 @@
+"""The FACEGOOD adapter (``--dataset facegood [--root DIR]``): FACEGOOD-Audio2Face's captured takes.
+
+Layout read (the files of FACEGOOD-Audio2Face's ``code/train``, as ``SOURCES.md`` of the
+real-data folder lists them)::
+
+    <root>/bs_value_<take>.npy   (T, 116) float rig controls in [0, 1], 30 fps
+    <root>/<take>.wav            the take's speech (16 kHz mono)
+    <root>/bs_names_1015.npy     the 116 control names, in the values' column order
+
+The controls are FACEGOOD's own rig (:data:`blendvoca.names.FACEGOOD116`, the
+``facegood116`` convention), not ARKit names: each take's controls are moved onto ARKit's
+shapes by :func:`blendvoca.names.controls_to_arkit` (the map
+:data:`blendvoca.names.FACEGOOD_TO_ARKIT`; what it leaves out, the tongue, teeth and eyes,
+is listed by the build report). The corpus is one speaker; its splits are by take, each
+take a subject of the folder (:data:`DEFAULT_SPLITS`). Without ``--root`` the seven takes
+of the repository come through the asset resolver (:data:`ASSET_IDS`, the ids in
+``data_manifest.yaml``). See ``docs/datasets.md``.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from blendvoca.assets import resolve
+from blendvoca.datasets.coefficients import DatasetLayoutError, Take, coefficient_adapter, safe_name
+from blendvoca.errors import DataError
+from blendvoca.io.audio import load_audio
+from blendvoca.names import controls_to_arkit
+
+#: The names file of the layout (FACEGOOD's ``shirley_1015_bs_name.npy``).
+NAMES_FILE = "bs_names_1015.npy"
+#: A take's values file: ``bs_value_<take>.npy``.
+VALUES_FILE = re.compile(r"^bs_value_(?P<take>[A-Za-z0-9_.-]+)\.npy$")
+#: FACEGOOD's capture rate (the repository's step1_LPC.py: 30 frames per second of audio).
+FPS = 30.0
+#: The speaker of every take (FACEGOOD's names file is ``shirley_...``).
+SPEAKER = "shirley"
+#: Values may stray this far outside [0, 1] (``-0.0`` and rounding) before a take is refused.
+RANGE_TOLERANCE = 1e-6
+#: Each take's split in the folder: the takes of session 2 to train (the last of them to
+#: validate), the two shorter takes of session 3 to test.
+DEFAULT_SPLITS: dict[str, str] = {
+    "1114_2_01": "train", "1114_2_02": "train", "1114_2_03": "train", "1114_2_04": "train",
+    "1114_2_05": "val", "1114_3_15": "test", "1114_3_16": "test",
+}
+EXPECTED = (f"<root>/bs_value_<take>.npy ((T, 116) rig controls in [0, 1] at 30 fps), <root>/<take>.wav and "
+            f"<root>/{NAMES_FILE} (the 116 control names), e.g. bs_value_1114_2_01.npy and 1114_2_01.wav")
+
+
+def _asset_ids() -> dict[str, str]:
+    """Asset id -> file name of the corpus files ``data_manifest.yaml`` names."""
+    ids = {"facegood-names": NAMES_FILE}
+    for take in DEFAULT_SPLITS:
+        short = take.replace("_", "-")
+        ids[f"facegood-{short}-values"] = f"bs_value_{take}.npy"
+        ids[f"facegood-{short}-wav"] = f"{take}.wav"
+    return ids
+
+
+#: Asset id (``data_manifest.yaml``) -> file name, for the build without ``--root``.
+ASSET_IDS: dict[str, str] = _asset_ids()
+
+
+def resolved_root() -> Path:
+    """The folder holding FACEGOOD's files as the asset resolver finds them (each checked
+    against its sha256): the corpus of a build without ``--root``.
+
+    Raises
+    ------
+    AssetError
+        A file missing or corrupted (the message says where to put it).
+    DatasetLayoutError
+        The files found in different folders.
+    """
+    paths = {asset_id: resolve(asset_id) for asset_id in ASSET_IDS}
+    folders = sorted({str(p.parent) for p in paths.values()})
+    if len(folders) != 1 or any(p.name != ASSET_IDS[i] for i, p in paths.items()):
+        raise DatasetLayoutError(f"the FACEGOOD files resolve to several folders {folders}; put them in one "
+                                 f"(the mirror paths facegood/... of data_manifest.yaml) or give --root: {EXPECTED}")
+    return Path(folders[0])
+
+
+def read_names(path) -> tuple[str, ...]:
+    """The control names of a names file (a 1-D string array; Python 2's pickled files read too).
+
+    Raises
+    ------
+    DataError
+        Not a 1-D array of distinct strings (naming the file).
+    """
+    with warnings.catch_warnings():  # "created on Python 2": the repository's file is
+        warnings.simplefilter("ignore", UserWarning)
+        try:
+            names = np.load(path, allow_pickle=False, encoding="latin1")
+        except (ValueError, OSError) as error:
+            raise DataError(f"{path}: not a .npy array of control names ({error})") from None
+    if names.ndim != 1 or names.dtype.kind not in "US" or len(names) == 0:
+        raise DataError(f"{path}: expected a 1-D array of control names (strings), got {names.dtype} "
+                        f"of shape {names.shape}")
+    names = tuple(n.decode("latin1") if isinstance(n, bytes) else str(n) for n in names.tolist())
+    repeated = sorted({n for n in names if names.count(n) > 1})
+    if repeated:
+        raise DataError(f"{path}: control names repeated: {repeated[:5]}")
+    return names
+
+
+def read_values(path, names: tuple[str, ...], names_path) -> tuple[np.ndarray, tuple[str, ...], float]:
+    """One take's controls as ARKit shapes: ``(weights (T, M), ARKit names (M,), 30.0)``.
+
+    Raises
+    ------
+    DataError
+        Naming the file: not a (T, K) array of numbers, K not the names file's count,
+        a value not finite or outside [0, 1].
+    """
+    try:
+        with warnings.catch_warnings():  # the repository's files were saved by Python 2
+            warnings.simplefilter("ignore", UserWarning)
+            values = np.load(path, allow_pickle=False)
+    except (ValueError, OSError) as error:
+        raise DataError(f"{path}: not a .npy array of rig controls ({error})") from None
+    if values.ndim != 2 or values.dtype.kind not in "fiu" or len(values) == 0:
+        raise DataError(f"{path}: expected (T, {len(names)}) rig controls, got {values.dtype} of shape {values.shape}")
+    if values.shape[1] != len(names):
+        raise DataError(f"{path}: {values.shape[1]} columns, but {names_path} names {len(names)} controls; "
+                        "expected one column per name")
+    values = values.astype(np.float64)
+    bad = ~np.isfinite(values)
+    if bad.any():
+        t, k = np.argwhere(bad)[0]
+        raise DataError(f"{path}: value {values[t, k]} at frame {t}, control {names[k]!r}; expected finite "
+                        "values in [0, 1]")
+    outside = (values < -RANGE_TOLERANCE) | (values > 1 + RANGE_TOLERANCE)
+    if outside.any():
+        t, k = np.argwhere(outside)[0]
+        raise DataError(f"{path}: value {values[t, k]:.6g} at frame {t}, control {names[k]!r} "
+                        f"({int(outside.sum())} outside in all); expected rig controls in [0, 1]")
+    try:
+        track, arkit = controls_to_arkit(np.clip(values, 0.0, 1.0), names, "facegood116", where=str(path))
+    except ValueError as error:  # a UserError: the names lack controls the map needs
+        raise DataError(str(error)) from None
+    return track, arkit, FPS
+
+
+def facegood_takes(root) -> list[Take]:
+    """The takes of a FACEGOOD root (every ``bs_value_<take>.npy``), in name order.
+
+    A take without its WAV is kept: reading it fails, which the build reports as that
+    take's failure (the others are built).
+
+    Raises
+    ------
+    DatasetLayoutError
+        ``root`` is not a folder, has no names file, or no values file (:data:`EXPECTED`).
+    """
+    root = Path(os.fspath(root)).expanduser() if root is not None else resolved_root()
+    if not root.is_dir():
+        raise DatasetLayoutError(f"--root {root}: not a folder; expected FACEGOOD's layout: {EXPECTED}")
+    names_path = root / NAMES_FILE
+    values = sorted(p for p in root.iterdir() if VALUES_FILE.match(p.name) and p.is_file())
+    if not values:
+        raise DatasetLayoutError(f"--root {root}: no bs_value_<take>.npy found; expected {EXPECTED}")
+    if not names_path.is_file():
+        raise DatasetLayoutError(f"--root {root}: no {NAMES_FILE} (the control names of the values' columns); "
+                                 f"expected {EXPECTED}")
+    names = read_names(names_path)
+    takes = []
+    for path in values:
+        take = VALUES_FILE.match(path.name).group("take")
+        wav = root / f"{take}.wav"
+        takes.append(Take(
+            subject=safe_name(take), name=take, source=path.name,
+            weights=lambda path=path: read_values(path, names, names_path),
+            audio=lambda wav=wav, path=path: _read_audio(wav, path),
+            split=DEFAULT_SPLITS.get(take),
+        ))
+    return takes
+
+
+def _read_audio(wav: Path, values: Path) -> tuple[np.ndarray, int]:
+    """A take's speech at 16 kHz, or a DataError naming the WAV the take lacks."""
+    if not wav.is_file():
+        raise DataError(f"{wav}: no such file; the take {values.name} needs its speech as {wav.name} beside it")
+    return load_audio(wav, rate=16000), 16000
+
+
+#: The ``--dataset facegood`` adapter (:data:`blendvoca.datasets.DATASETS`).
+ADAPTER = coefficient_adapter(facegood_takes, dataset="facegood", title="FACEGOOD", convention="facegood116",
+                              default_root=resolved_root)
