@@ -6,7 +6,9 @@ downloads what is missing.
 
 Lookup order for an asset with a ``mirror`` path:
 
-1. ``$BLENDVOCA_ASSETS/<mirror>`` (a directory laid out like ``shared/assets``);
+1. ``$BLENDVOCA_ASSETS/<mirror>`` (a directory laid out like ``shared/assets``; several
+   directories separated by ``os.pathsep``, ``:`` on POSIX, are searched in order, e.g.
+   ``shared/assets:shared/realdata`` for the assets and the real recordings);
 2. the user cache, ``$BLENDVOCA_CACHE`` or ``$XDG_CACHE_HOME/blendvoca`` or
    ``~/.cache/blendvoca``, under ``assets/<mirror>``;
 3. a download from the pinned ``url`` into the cache, verified against ``sha256``.
@@ -72,11 +74,14 @@ def cache_dir() -> Path:
     return Path(base).expanduser() / "blendvoca"
 
 
+def asset_dirs() -> list[Path]:
+    """The directories ``$BLENDVOCA_ASSETS`` names (several separated by ``os.pathsep``), in order."""
+    return [Path(part).expanduser() for part in os.environ.get("BLENDVOCA_ASSETS", "").split(os.pathsep) if part]
+
+
 def search_dirs() -> list[Path]:
     """Directories searched for mirrored assets, in order."""
-    dirs = []
-    if os.environ.get("BLENDVOCA_ASSETS"):
-        dirs.append(Path(os.environ["BLENDVOCA_ASSETS"]).expanduser())
+    dirs = asset_dirs()
     dirs.append(cache_dir() / "assets")
     return dirs
 
@@ -119,7 +124,8 @@ def _where_to_put(item: dict) -> str:
     if not mirror:
         return ""
     places = " or ".join(str(d / mirror) for d in search_dirs())
-    return f" Put the file at {places} (set BLENDVOCA_ASSETS to a directory laid out like shared/assets)."
+    return (f" Put the file at {places} (set BLENDVOCA_ASSETS to a directory laid out like shared/assets, or "
+            f"several separated by {os.pathsep!r}).")
 
 
 def find_local(asset_id: str) -> Path | None:

@@ -1,9 +1,60 @@
+import os
 import shutil
+from pathlib import Path
 
 import pytest
 
 from blendvoca import assets, cli
 from blendvoca.assets import AssetError, load_manifest, resolve
+from tests.fixtures.assets import REALDATA_MARK
+
+#: The folders of shared/realdata (the real recordings data_manifest.yaml names, SOURCES.md there).
+REALDATA_FOLDERS = ("facegood", "beat2", "vocaset_audio")
+
+
+def _realdata_here() -> Path | None:
+    """The real-data folder ``$BLENDVOCA_ASSETS`` names, if any."""
+    for part in os.environ.get("BLENDVOCA_ASSETS", "").split(os.pathsep):
+        if part and (Path(part) / REALDATA_MARK).is_file():
+            return Path(part)
+    return None
+
+
+def _ids_here() -> list[str]:
+    """Every asset id, less the real recordings when no folder of them is named."""
+    realdata = _realdata_here()
+    return [i for i, e in load_manifest().items()
+            if realdata is not None or (e.get("mirror") or "").split("/")[0] not in REALDATA_FOLDERS]
+
+
+def test_manifest_names_every_real_recording_with_its_sha256(realdata_dir):
+    """Every file of shared/realdata (less SOURCES.md) has an entry: mirror = its path there, the
+    same size and sha256, a raw URL at a commit, a licence."""
+    entries = {e["mirror"]: e for e in load_manifest().values() if e.get("mirror")}
+    files = sorted(p for p in realdata_dir.rglob("*") if p.is_file() and p.name != "SOURCES.md")
+    assert len(files) == 18
+    for path in files:
+        rel = path.relative_to(realdata_dir).as_posix()
+        item = entries[rel]
+        assert item["sha256"] == assets.sha256_of(path) and item["size"] == path.stat().st_size, rel
+        assert item["url"].startswith("https://raw.githubusercontent.com/") and item["licence"], rel
+        commit = item["url"].split("/")[5]
+        assert len(commit) == 40 and all(c in "0123456789abcdef" for c in commit), item["url"]
+        assert item["url"].endswith(path.name) or rel == "facegood/bs_names_1015.npy"
+
+
+def test_several_asset_folders_are_searched_in_order(tmp_path, monkeypatch):
+    first, second = tmp_path / "a", tmp_path / "b"
+    for folder in (first, second):
+        (folder / "said").mkdir(parents=True)
+    (second / "said" / "ARKit_blendshapes.txt").write_text("x")
+    monkeypatch.setenv("BLENDVOCA_ASSETS", os.pathsep.join([str(first), "", str(second)]))
+    monkeypatch.setenv("BLENDVOCA_CACHE", str(tmp_path / "cache"))
+    assert assets.asset_dirs() == [first, second]
+    assert assets.search_dirs() == [first, second, tmp_path / "cache" / "assets"]
+    assert assets.find_local("arkit-blendshape-names") == second / "said" / "ARKit_blendshapes.txt"
+    (first / "said" / "ARKit_blendshapes.txt").write_text("y")
+    assert assets.find_local("arkit-blendshape-names") == first / "said" / "ARKit_blendshapes.txt"
 
 
 def test_manifest_covers_every_mirrored_file(assets_dir):
@@ -41,7 +92,8 @@ def corrupted_mirror(tmp_path, assets_dir, monkeypatch):
     path = mirror / "said" / "coeffs_std.csv"
     path.chmod(0o644)
     path.write_text(path.read_text().replace("0.1243", "0.1244"))
-    monkeypatch.setenv("BLENDVOCA_ASSETS", str(mirror))
+    realdata = _realdata_here()
+    monkeypatch.setenv("BLENDVOCA_ASSETS", os.pathsep.join([str(mirror)] + ([str(realdata)] if realdata else [])))
     monkeypatch.setenv("BLENDVOCA_CACHE", str(tmp_path / "cache"))
     return mirror
 
@@ -53,7 +105,7 @@ def test_corrupted_copy_is_rejected(corrupted_mirror):
 
 def test_verify_cli_exits_nonzero_on_mismatch(corrupted_mirror, capsys):
     # A corrupted copy is a check that found a problem (exit 4); exit 1 means an internal bug.
-    assert assets.main(["verify"]) == cli.EXIT_CHECK_FAILED
+    assert assets.main(["verify", *_ids_here()]) == cli.EXIT_CHECK_FAILED
     captured = capsys.readouterr()
     assert "corrupted coeffs-std" in captured.out and "ok       said-vae" in captured.out
     err = [line for line in captured.err.splitlines() if line.strip()]
@@ -82,7 +134,7 @@ def test_fetch_that_cannot_reach_an_asset_lists_it_and_exits_partial(tmp_path, m
 
 
 def test_verify_cli_passes_on_the_mirror(assets_dir, capsys):
-    assert assets.main(["verify"]) == 0
+    assert assets.main(["verify", *_ids_here()]) == 0
 
 
 def test_unreachable_download_says_where_to_put_the_file(tmp_path, monkeypatch):

@@ -12,8 +12,16 @@ What the folder holds, per speaker: ``blendshape_coeffs/<subject>/sentenceNN.csv
 lacks as 0 with a warning), ``audio/<subject>/sentenceNN.wav`` and
 ``rigs/<subject>.npz``, the ARKit reference rig (51 shapes): these corpora have no
 meshes, so every speaker is rendered through the one reference head (rig space
-only). ``splits.json`` splits by speaker; ``manifest.json`` records the dataset
-(``dataset``: name, title, kind, the source file of every sentence).
+only). ``splits.json`` splits by speaker (a corpus of fewer than 3 puts them all in
+test, and says so); ``manifest.json`` records the dataset (``dataset``: name, title,
+kind, the source file of every sentence).
+
+A take longer than an utterance (10 s) is cut at its pauses into utterances of 2-10 s
+(:mod:`blendvoca.datasets.utterances`), or where the user's cut list (``--cuts FILE``)
+says; each utterance is a sentence, numbered on from the subject's previous take, and
+the dataset record's ``utterances`` (:func:`blendvoca.format.utterance_record`) say
+which take and which seconds of it each sentence is. A corpus of long takes
+(``long_takes``, FACEGOOD) also fails a take shorter than one utterance (2 s).
 """
 
 from __future__ import annotations
@@ -33,6 +41,7 @@ from blendvoca.builder.outdir import build_lock, check_output_dir, claim_output_
 from blendvoca.builder.pipeline import BuildInputError, BuildSummary
 from blendvoca.builder.report import coeffs_std
 from blendvoca.datasets import DatasetAdapter
+from blendvoca.datasets.utterances import check_cut_list, read_cut_list, take_spans
 from blendvoca.errors import BlendVOCAError, DataError, UserError
 from blendvoca.fit.resample import resample_sequence
 from blendvoca.format.manifest import write_dataset_manifest
@@ -180,6 +189,10 @@ def corpus_splits(takes: list[Take]) -> tuple[dict, str | None]:
         Why the corpus's own split was not used, when it has one.
     """
     subjects = sorted({t.subject for t in takes})
+    if len(subjects) < 3:
+        return {"train": [], "val": [], "test": subjects}, (
+            f"the corpus has {len(subjects)} speaker(s) or take(s) ({', '.join(subjects)}), fewer than the 3 "
+            "splits: all are in the test split (nothing to train or validate on)")
     declared = {}
     for take in takes:
         if take.split is not None:
@@ -189,7 +202,10 @@ def corpus_splits(takes: list[Take]) -> tuple[dict, str | None]:
         if all(splits.values()) and set().union(*declared.values()) <= set(splits):
             return splits, None
     note = None
-    if declared:
+    if declared and len(declared) == len(subjects) and all(len(v) == 1 for v in declared.values()):
+        note = ("the corpus's own split of these takes leaves a split empty: they are split a sixth each to val "
+                "and test (sorted by name)")
+    elif declared:
         note = ("the corpus splits by sentence (a speaker's takes in several splits), a BlendVOCA folder by "
                 "speaker: the speakers are split a sixth each to val and test (sorted by name)")
     return subject_splits(subjects), note
@@ -225,18 +241,24 @@ def _previous_files(out: Path, dataset: str) -> list[str]:
 
 #: The data-format version of coefficient builds (part of their recipe id): change it when
 #: what the adapters write from the same corpus changes.
-COEFFICIENT_FORMAT = "coeffs1"
+#: coeffs2: takes longer than 10 s are cut into utterances (blendvoca.datasets.utterances).
+COEFFICIENT_FORMAT = "coeffs2"
 
 
-def coefficient_recipe(root: Path, dataset: str) -> dict:
+def coefficient_recipe(root: Path, dataset: str, cuts: dict | None = None) -> dict:
     """The recipe of building ``dataset`` from the corpus at ``root``: every corpus file, the
-    adapter, the frame rate and the reference rig every speaker gets (:func:`blendvoca.format.make_recipe`)."""
-    return fmt.make_recipe(fmt.corpus_files(root), {"dataset": dataset, "fps": fmt.FPS}, root=root,
+    adapter, the frame rate, the user's cut list if any and the reference rig every speaker gets
+    (:func:`blendvoca.format.make_recipe`)."""
+    parameters = {"dataset": dataset, "fps": fmt.FPS}
+    if cuts is not None:
+        parameters["cuts"] = {take: list(times) for take, times in sorted(cuts.items())}
+    return fmt.make_recipe(fmt.corpus_files(root), parameters, root=root,
                            assets={"arkit-reference-rig": fmt.file_digest(resolve("arkit-reference-rig"))},
                            format_version=COEFFICIENT_FORMAT)
 
 
-def _report(out: Path, dataset: dict, summary: BuildSummary, splits: dict, notes: list[str]) -> str:
+def _report(out: Path, dataset: dict, summary: BuildSummary, splits: dict, notes: list[str],
+            sections: list[str] = ()) -> str:
     """``report/README.md`` of a coefficient build; returns its relative path."""
     lines = [f"# {dataset['title']} as a BlendVOCA folder", "",
              f"Built by `python -m blendvoca.build --dataset {dataset['name']}` from `{dataset['root']}`: "
@@ -251,6 +273,8 @@ def _report(out: Path, dataset: dict, summary: BuildSummary, splits: dict, notes
     if summary.failures:
         lines += ["", "## Failed", ""] + [f"- {f['subject']} {f['sentence'] or ''}: {f['reason']}"
                                          for f in summary.failures]
+    for section in sections:
+        lines += ["", section.rstrip("\n")]
     rel = f"{fmt.REPORT_DIR}/README.md"
     (out / fmt.REPORT_DIR).mkdir(exist_ok=True)
     with atomic_write(out / rel, "w", encoding="utf-8") as f:
@@ -259,7 +283,8 @@ def _report(out: Path, dataset: dict, summary: BuildSummary, splits: dict, notes
 
 
 def build_coefficient_dataset(out, root, takes: Iterable[Take], *, dataset: str, title: str, convention: str,
-                              report: bool = True) -> BuildSummary:
+                              report: bool = True, cuts=None, long_takes: bool = False,
+                              report_sections: Callable | None = None) -> BuildSummary:
     """Write the BlendVOCA folder of a coefficient corpus.
 
     Parameters
@@ -276,6 +301,15 @@ def build_coefficient_dataset(out, root, takes: Iterable[Take], *, dataset: str,
         The corpus's naming convention (:mod:`blendvoca.names`), for the record.
     report : bool
         Write ``report/README.md``.
+    cuts : path, optional
+        The user's cut list (:func:`blendvoca.datasets.utterances.read_cut_list`): where to cut
+        the takes it names, instead of at the pauses found.
+    long_takes : bool
+        The corpus is of long takes: one shorter than an utterance (2 s) fails.
+    report_sections : callable (out, utterances) -> (sections, files), optional
+        More sections of the report (markdown) and the files they show (written under
+        ``report/``, relative paths), from the corpus's adapter; ``utterances`` maps
+        ``"subject/sentence"`` to its utterance record.
 
     Returns
     -------
@@ -286,25 +320,29 @@ def build_coefficient_dataset(out, root, takes: Iterable[Take], *, dataset: str,
     Raises
     ------
     BlendVOCAError
-        Before any work: fewer than 3 speakers, an unusable ``out``
-        (``OutputDirError``), takes named alike.
+        Before any work: an unusable ``out`` (``OutputDirError``), takes named alike, a
+        cut list that cannot be read or names a take the corpus lacks (``CutListError``).
     """
     started = time.perf_counter()
     out, root = Path(out).expanduser().resolve(), Path(root).expanduser().resolve()
-    takes = list(takes)
+    takes = sorted(takes, key=lambda t: (t.subject, t.name))
+    user_cuts = None
+    if cuts is not None:
+        user_cuts = read_cut_list(cuts)
+        check_cut_list(user_cuts, [t.name for t in takes], path=cuts)
     check_output_dir(out, root)
     splits, split_note = corpus_splits(takes)
-    numbers = sentence_names(takes)
+    sentence_names(takes)  # takes named alike are refused before any work
     previous = _previous_files(out, dataset)
-    recipe = coefficient_recipe(root, dataset)  # the identity, known before any output is written
+    recipe = coefficient_recipe(root, dataset, user_cuts)  # the identity, known before any output is written
     claim_output_dir(out)
     summary = BuildSummary(out=out)
     notes = [split_note] if split_note else []
     with build_lock(out):
         fmt.remove_manifest(out)
-        files, tracks, sources, built_subjects = [], [], {}, set()
+        files, tracks, sources, built_subjects, utterances, counts = [], [], {}, set(), {}, {}
         for take in bar(takes, desc=f"{dataset} takes", leave=False):
-            sentence = numbers[(take.subject, take.name)]
+            sentence = None
             where = f"{root / take.source}"
             try:
                 coeffs, names, fps = take.weights()
@@ -322,26 +360,36 @@ def build_coefficient_dataset(out, root, takes: Iterable[Take], *, dataset: str,
                 track, samples = track[:frames], samples[: int(round(frames / fmt.FPS * rate))]
                 if frames < 1:
                     raise DataError(f"{where}: shorter than one frame at {fmt.FPS} fps")
+                spans = take_spans(track, samples, int(rate), fmt.FPS, where=where, long_take=long_takes,
+                                   cuts_s=None if user_cuts is None else user_cuts.get(take.name))
             except (BlendVOCAError, OSError, ValueError, KeyError, TypeError) as error:
                 summary.failures.append({"subject": take.subject, "sentence": sentence, "stage": "input",
                                          "reason": f"{take.source}: {error}"})
                 continue
             for message in missing:
-                summary.warnings.append({"subject": take.subject, "sentence": sentence, "message": message})
-            try:
-                files.append(fmt.write_coeffs(out, take.subject, sentence, track, columns))
-                files.append(fmt.write_audio(out, take.subject, sentence, samples, int(rate)))
-            except OSError as error:
-                raise unwritable(error, out) from None
-            tracks.append(remap(track, columns, BLENDVOCA_NAMES, missing="refuse"))
-            sources[f"{take.subject}/{sentence}"] = take.source
+                summary.warnings.append({"subject": take.subject, "sentence": None, "message": message})
+            for span in spans:
+                counts[take.subject] = counts.get(take.subject, 0) + 1
+                sentence = f"sentence{counts[take.subject]:02d}"
+                piece = track[span.start:span.end]
+                sound = samples[int(round(span.start / fmt.FPS * rate)): int(round(span.end / fmt.FPS * rate))]
+                try:
+                    files.append(fmt.write_coeffs(out, take.subject, sentence, piece, columns))
+                    files.append(fmt.write_audio(out, take.subject, sentence, sound, int(rate)))
+                except OSError as error:
+                    raise unwritable(error, out) from None
+                tracks.append(remap(piece, columns, BLENDVOCA_NAMES, missing="refuse"))
+                sources[f"{take.subject}/{sentence}"] = take.source
+                utterances[f"{take.subject}/{sentence}"] = fmt.utterance_record(
+                    take.name, span.start, span.end, fmt.FPS, cut=span.cut)
+                summary.built["sentences"] += 1
             built_subjects.add(take.subject)
-            summary.built["sentences"] += 1
         if not tracks:
             raise DataError(f"{root}: no take of the {title} corpus could be read: "
                             + "; ".join(f["reason"] for f in summary.failures[:3]))
         splits = {name: [s for s in subjects if s in built_subjects] for name, subjects in splits.items()}
-        if not all(splits.values()):
+        all_test = not splits["train"] and not splits["val"] and split_note and "all are in the test" in split_note
+        if not splits["test"] or not (all_test or all(splits.values())):
             raise DataError(f"{root}: after the takes that failed, a split has no speaker left ({splits}); "
                             "see the failures: " + "; ".join(f["reason"] for f in summary.failures[:3]))
         reference = load_arkit_reference("all")
@@ -354,9 +402,13 @@ def build_coefficient_dataset(out, root, takes: Iterable[Take], *, dataset: str,
             raise unwritable(error, out) from None
         summary.built["speakers"] = len(built_subjects)
         record = {"name": dataset, "title": title, "kind": KIND, "meshes": False, "convention": convention,
-                  "root": str(root), "fps": fmt.FPS, "sources": dict(sorted(sources.items()))}
+                  "root": str(root), "fps": fmt.FPS, "sources": dict(sorted(sources.items())),
+                  "utterances": dict(sorted(utterances.items())),
+                  "cuts": str(Path(cuts).expanduser().resolve()) if cuts is not None else "pauses"}
         if report:
-            files.append(_report(out, record, summary, splits, notes))
+            sections, written = report_sections(out, record["utterances"]) if report_sections else ([], [])
+            files += written
+            files.append(_report(out, record, summary, splits, notes, sections))
         for rel in sorted(set(previous) - set(files)):
             (out / rel).unlink(missing_ok=True)
         write_dataset_manifest(out, files=files, dataset=record, failures=summary.failures,
@@ -367,17 +419,21 @@ def build_coefficient_dataset(out, root, takes: Iterable[Take], *, dataset: str,
 
 
 def coefficient_adapter(read_takes: Callable, *, dataset: str, title: str, convention: str,
-                        default_root: Callable | None = None) -> DatasetAdapter:
+                        default_root: Callable | None = None, long_takes: bool = False,
+                        report_sections: Callable | None = None) -> DatasetAdapter:
     """The adapter of a coefficient corpus: ``read_takes(root)`` finds its takes, then
     :func:`build_coefficient_dataset` writes them (``workers``, ``shapes`` and ``delta``
-    do not apply: nothing is fitted, every shape of the corpus is kept). ``default_root()``,
-    when given, is the corpus of a build without ``--root`` (``root=None``)."""
+    do not apply: nothing is fitted, every shape of the corpus is kept). It declares the
+    option ``cuts`` (``--cuts FILE``, a cut list). ``default_root()``, when given, is the
+    corpus of a build without ``--root`` (``root=None``); ``long_takes`` and
+    ``report_sections`` are passed to :func:`build_coefficient_dataset`."""
 
     def build(root, out, *, workers: int | None = None, shapes: str = "speech", delta: float = 0.1,
-              report: bool = True) -> BuildSummary:
+              report: bool = True, cuts=None) -> BuildSummary:
         if root is None and default_root is not None:
             root = default_root()
         return build_coefficient_dataset(out, root, read_takes(root), dataset=dataset, title=title,
-                                         convention=convention, report=report)
+                                         convention=convention, report=report, cuts=cuts, long_takes=long_takes,
+                                         report_sections=report_sections)
 
-    return DatasetAdapter(build, default_root=default_root)
+    return DatasetAdapter(build, options=("cuts",), default_root=default_root)

@@ -191,4 +191,4 @@ def _read_audio(wav: Path, values: Path) -> tuple[np.ndarray, int]:
 
 #: The ``--dataset facegood`` adapter (:data:`blendvoca.datasets.DATASETS`).
 ADAPTER = coefficient_adapter(facegood_takes, dataset="facegood", title="FACEGOOD", convention="facegood116",
-                              default_root=resolved_root)
+                              default_root=resolved_root, long_takes=True)

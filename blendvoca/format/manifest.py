@@ -51,11 +51,13 @@ __all__ = [
     "manifest_dict",
     "manifest_hash",
     "read_manifest",
+    "read_utterances",
     "recorded_vocaset",
     "remove_manifest",
     "write_folder_manifest",
     "write_manifest",
     "write_dataset_manifest",
+    "utterance_record",
     "written_by_build",
 ]
 
@@ -187,6 +189,29 @@ def recorded_vocaset(root) -> str | None:
     except (ManifestError, AttributeError):
         return None
     return path if isinstance(path, str) and path else None
+
+
+def utterance_record(take: str, start: int, end: int, fps: float, *, cut: str) -> dict:
+    """Where a sentence of a coefficient build comes from: take ``take``'s frames ``[start, end)``
+    at ``fps`` (the folder's rate) and the seconds they span; ``cut`` says how its end was decided
+    (``pause``, ``forced``, ``user`` or ``end``, :mod:`blendvoca.datasets.utterances`). The
+    manifest's ``dataset.utterances`` maps ``"subject/sentence"`` to these records."""
+    return {"take": str(take), "start_frame": int(start), "end_frame": int(end),
+            "start_s": round(start / fps, 6), "end_s": round(end / fps, 6), "cut": str(cut)}
+
+
+def read_utterances(root) -> dict[str, dict]:
+    """``{"subject/sentence": utterance record}`` of a coefficient build (:func:`utterance_record`);
+    empty for a folder whose manifest records none (a mesh build, an older coefficient build).
+
+    Raises
+    ------
+    ManifestError
+        No readable manifest.
+    """
+    dataset = read_manifest(root).get("dataset")
+    utterances = dataset.get("utterances") if isinstance(dataset, dict) else None
+    return dict(utterances) if isinstance(utterances, dict) else {}
 
 
 def written_by_build(root) -> bool:

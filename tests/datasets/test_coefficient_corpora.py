@@ -12,6 +12,7 @@ import pytest
 from blendvoca import format as fmt
 from blendvoca.builder.__main__ import main as build_main
 from blendvoca.datasets import DATASETS, adapter
+from blendvoca.datasets.coefficients import COEFFICIENT_FORMAT
 from blendvoca.errors import OutputDirError, UserError
 from blendvoca.names import ARKIT_FACE_ORDER, BLENDVOCA_NAMES, convention_names, remap
 from tests.datasets.corpora import write_beat, write_unitalker_layout
@@ -201,7 +202,7 @@ def test_a_coefficient_build_is_named_by_its_recipe(tmp_path):
     shutil.copytree(tmp_path / "beat", tmp_path / "moved")
     _build("beat", tmp_path / "moved", tmp_path / "b")
     recipe = fmt.read_manifest(tmp_path / "a")["recipe"]
-    assert recipe["format_version"] == "coeffs1" and recipe["parameters"] == {"dataset": "beat", "fps": 60}
+    assert recipe["format_version"] == COEFFICIENT_FORMAT == "coeffs2" and recipe["parameters"] == {"dataset": "beat", "fps": 60}
     # the corpus's place does not count; its files do
     assert fmt.dataset_id(tmp_path / "a") == fmt.dataset_id(tmp_path / "b") == recipe["id"]
     assert fmt.read_manifest(tmp_path / "a")["tolerances"]
