@@ -46,6 +46,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--pose-fit", choices=("joint", "remove"), default=None,
                    help="posed corpora (biwi, multiface): joint = alternate the rigid alignment and the fit "
                         "(default), remove = remove the pose first, then fit (docs/pose.md)")
+    p.add_argument("--cuts", default=None, metavar="FILE",
+                   help="coefficient corpora: where to cut long takes into utterances, a JSON object of take name "
+                        "-> cut times in seconds (docs/datasets.md); default: at the pauses found")
     cli.add_quiet_option(p)
     args = p.parse_args(argv)
     if args.vocaset is not None and (args.dataset is not None or args.root is not None):
@@ -68,6 +71,11 @@ def main(argv: list[str] | None = None) -> int:
             p.error(f"--pose-fit: the {dataset} corpus is not posed (it applies to posed corpora: "
                     f"{', '.join(n for n in dataset_names() if adapter(n).takes('pose_fit'))})")
         extra["pose_fit"] = args.pose_fit
+    if args.cuts is not None:
+        if not build.takes("cuts"):
+            p.error(f"--cuts: the {dataset} corpus is not cut into utterances (it applies to the coefficient "
+                    f"corpora: {', '.join(n for n in dataset_names() if adapter(n).takes('cuts'))})")
+        extra["cuts"] = args.cuts
     start = time.perf_counter()
     summary = build(root, args.out, workers=args.workers, shapes=args.shapes, delta=args.delta,
                     report=not args.no_report, **extra)

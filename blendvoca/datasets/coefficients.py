@@ -40,6 +40,7 @@ from blendvoca.assets import resolve
 from blendvoca.builder.outdir import build_lock, check_output_dir, claim_output_dir, unwritable
 from blendvoca.builder.pipeline import BuildInputError, BuildSummary
 from blendvoca.builder.report import coeffs_std
+from blendvoca.builder.report_takes import utterances_markdown
 from blendvoca.datasets import DatasetAdapter
 from blendvoca.datasets.utterances import check_cut_list, read_cut_list, take_spans
 from blendvoca.errors import BlendVOCAError, DataError, UserError
@@ -306,10 +307,10 @@ def build_coefficient_dataset(out, root, takes: Iterable[Take], *, dataset: str,
         the takes it names, instead of at the pauses found.
     long_takes : bool
         The corpus is of long takes: one shorter than an utterance (2 s) fails.
-    report_sections : callable (out, utterances) -> (sections, files), optional
+    report_sections : callable (out, dataset record, splits) -> (sections, files), optional
         More sections of the report (markdown) and the files they show (written under
-        ``report/``, relative paths), from the corpus's adapter; ``utterances`` maps
-        ``"subject/sentence"`` to its utterance record.
+        ``report/``, relative paths), from the corpus's adapter; the record is the manifest's
+        ``dataset`` (``root``, ``sources``, ``utterances``, ...).
 
     Returns
     -------
@@ -406,7 +407,9 @@ def build_coefficient_dataset(out, root, takes: Iterable[Take], *, dataset: str,
                   "utterances": dict(sorted(utterances.items())),
                   "cuts": str(Path(cuts).expanduser().resolve()) if cuts is not None else "pauses"}
         if report:
-            sections, written = report_sections(out, record["utterances"]) if report_sections else ([], [])
+            sections, written = report_sections(out, record, splits) if report_sections else ([], [])
+            if report_sections is None and any(u["cut"] != "end" for u in utterances.values()):
+                sections.append(utterances_markdown(utterances, splits))
             files += written
             files.append(_report(out, record, summary, splits, notes, sections))
         for rel in sorted(set(previous) - set(files)):

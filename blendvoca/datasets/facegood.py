@@ -26,11 +26,13 @@ from pathlib import Path
 
 import numpy as np
 
+from blendvoca import format as fmt
 from blendvoca.assets import resolve
+from blendvoca.builder.report_takes import speech_tracks_figure, utterances_markdown
 from blendvoca.datasets.coefficients import DatasetLayoutError, Take, coefficient_adapter, safe_name
 from blendvoca.errors import DataError
 from blendvoca.io.audio import load_audio
-from blendvoca.names import controls_to_arkit
+from blendvoca.names import FACEGOOD_TO_ARKIT, FACEGOOD_UNMAPPED, controls_to_arkit
 
 #: The names file of the layout (FACEGOOD's ``shirley_1015_bs_name.npy``).
 NAMES_FILE = "bs_names_1015.npy"
@@ -189,6 +191,78 @@ def _read_audio(wav: Path, values: Path) -> tuple[np.ndarray, int]:
     return load_audio(wav, rate=16000), 16000
 
 
+#: A control "moves" in a take when its largest value there is at least this.
+MOVES = 0.01
+#: The figure of tracks against the speech envelope in the build report.
+FIGURE = "speech_tracks.png"
+
+
+def control_peaks(root) -> dict[str, np.ndarray]:
+    """``{take: (K,) largest value of each control}`` of every take of ``root`` that reads."""
+    root = Path(root)
+    peaks = {}
+    for path in sorted(p for p in root.iterdir() if VALUES_FILE.match(p.name)):
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", UserWarning)
+                values = np.load(path, allow_pickle=False)
+        except (ValueError, OSError):
+            continue
+        if values.ndim == 2 and len(values) and values.dtype.kind in "fiu":
+            peaks[VALUES_FILE.match(path.name).group("take")] = np.nanmax(values, axis=0)
+    return peaks
+
+
+def lost_markdown(root) -> str:
+    """A markdown section: what FACEGOOD's controls carry that the map onto ARKit leaves out,
+    and which controls (mapped or not) move in the takes built."""
+    try:
+        names = read_names(Path(root) / NAMES_FILE)
+    except DataError:
+        return ""
+    peaks = {take: p for take, p in control_peaks(root).items() if len(p) == len(names)}
+    moving = {n for k, n in enumerate(names) if any(p[k] >= MOVES for p in peaks.values())}
+    groups: dict[str, list[str]] = {}
+    for control, carries in FACEGOOD_UNMAPPED:
+        groups.setdefault(carries, []).append(control)
+    lines = ["## What the map onto ARKit keeps and loses", "",
+             f"FACEGOOD's rig has {len(names)} controls; {len({c for m in FACEGOOD_TO_ARKIT for c, _ in m.terms})} "
+             f"form {len(FACEGOOD_TO_ARKIT)} ARKit shapes (`blendvoca.names.FACEGOOD_TO_ARKIT`, docs/datasets.md). "
+             f"A control moves when it reaches {MOVES} in a take; {len(moving)} move in the "
+             f"{len(peaks)} takes read.", "",
+             "| left out | controls | moving in these takes (largest value) |", "|---|---|---|"]
+    for carries, controls in groups.items():
+        moved = [f"{c} ({max(p[names.index(c)] for p in peaks.values()):.2f})" for c in controls if c in moving]
+        lines.append(f"| {carries} | {len(controls)} | {', '.join(moved) or 'none'} |")
+    lost = sorted(c for c, _ in FACEGOOD_UNMAPPED if c in moving)
+    lines += ["", "Lost: " + (f"{', '.join(lost)} move but form no ARKit shape: ARKit has no teeth apart "
+                              "from the jaw and no corrective shapes." if lost else "no moving control is left out.")
+              + " The tongue and the eyes do not move in these takes; ARKit's tongueOut is not on the "
+              "reference rig, and mouthClose has no FACEGOOD control (written as 0)."]
+    return "\n".join(lines) + "\n"
+
+
+def facegood_report(out, record: dict, splits: dict) -> tuple[list[str], list[str]]:
+    """The FACEGOOD sections of the build report and its figure (``report/speech_tracks.png``):
+    the utterances, what the map loses, and tracks of one utterance per split against the speech."""
+    utterances = record["utterances"]
+    sections = [utterances_markdown(utterances, splits), lost_markdown(record["root"])]
+    items = []
+    for name in ("train", "val", "test"):
+        subjects = splits.get(name) or []
+        keys = sorted(k for k in utterances if subjects and k.split("/")[0] == subjects[0])
+        if keys:
+            items.append(tuple(keys[len(keys) // 2].split("/")))
+    if not items:
+        return sections, []
+    rel = f"{fmt.REPORT_DIR}/{FIGURE}"
+    speech_tracks_figure(Path(out) / rel, out, items)
+    sections.append("## Tracks against the speech\n\nA middle utterance of the first take of each split: "
+                    "mapped ARKit tracks (left axis) and the speech energy (dB, dashed, right axis).\n\n"
+                    f"![tracks against the speech envelope]({FIGURE})\n")
+    return sections, [rel]
+
+
 #: The ``--dataset facegood`` adapter (:data:`blendvoca.datasets.DATASETS`).
 ADAPTER = coefficient_adapter(facegood_takes, dataset="facegood", title="FACEGOOD", convention="facegood116",
-                              default_root=resolved_root, long_takes=True)
+                              default_root=resolved_root, long_takes=True, report_sections=facegood_report)

@@ -36,6 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from blendvoca.errors import DataError, UserError
+from blendvoca.io.audio import energy_db
 
 #: Utterance lengths (seconds) the automatic cutting keeps to, and the length it prefers.
 MIN_S, MAX_S, TARGET_S = 2.0, 10.0, 6.0
@@ -73,18 +74,6 @@ class Span:
     cut: str
 
 
-def frame_energy_db(samples, rate: int, fps: float, frames: int, window_s: float = 0.03) -> np.ndarray:
-    """``(frames,)`` energy of the audio around each frame time ``t / fps`` in dB (Hann window of ``window_s``)."""
-    x = np.asarray(samples, dtype=np.float64)
-    if x.ndim != 1 or x.size == 0:
-        raise DataError(f"expected mono audio samples (N,), got shape {x.shape}")
-    half = max(1, int(round(window_s * rate / 2)))
-    taper = np.hanning(2 * half + 1)
-    energy = np.convolve(x**2, taper / taper.sum(), mode="same")
-    centres = np.clip(np.round(np.arange(frames) * rate / fps).astype(np.int64), 0, len(x) - 1)
-    return 10.0 * np.log10(energy[centres] + 1e-12)
-
-
 def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
     """``[start, end)`` of every run of True in a boolean vector."""
     padded = np.concatenate([[False], mask, [False]]).astype(np.int8)
@@ -94,7 +83,7 @@ def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
 
 def speech_activity(samples, rate: int, fps: float, frames: int) -> np.ndarray:
     """``(frames,)`` bool: whether each frame of the take speaks (module docstring, step 1)."""
-    db = frame_energy_db(samples, rate, fps, frames)
+    db = energy_db(samples, rate, fps, frames)
     active = db > np.percentile(db, 95) - SPEECH_RANGE_DB
     for start, end in _runs(~active):  # short silences inside speech are not pauses
         if start > 0 and end < frames and end - start < MIN_GAP_S * fps:
@@ -240,7 +229,7 @@ def take_spans(track, samples, rate: int, fps: float, *, where: str, cuts_s=None
     candidates, scores = cut_candidates(active, speed, fps)
     cuts = choose_cuts(frames, candidates, scores, fps, min_s=min_s, max_s=max_s)
     if not cuts:  # pauses alone cannot keep the limits: allow cuts where the sound is quietest
-        energy = frame_energy_db(samples, rate, fps, frames)
+        energy = energy_db(samples, rate, fps, frames)
         cuts = choose_cuts(frames, candidates, scores, fps, min_s=min_s, max_s=max_s, fallback=energy + speed)
     edges = [0] + [f for f, _ in cuts] + [frames]
     kinds = [k for _, k in cuts] + ["end"]

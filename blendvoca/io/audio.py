@@ -97,3 +97,24 @@ def write_wav(path, samples: np.ndarray, rate: int = SAMPLE_RATE) -> None:
         raise UserError(f"{path}: audio contains NaN or infinite samples")
     with atomic_write(path, "wb") as f:
         soundfile.write(f, np.clip(samples, -1.0, 1.0), int(rate), subtype="PCM_16", format="WAV")
+
+
+def energy_db(samples, rate: int, fps: float, frames: int, window_s: float = 0.03) -> np.ndarray:
+    """``(frames,)`` energy of mono audio around each motion frame's time ``t / fps``, in dB.
+
+    The mean square of the samples under a Hann window of ``window_s`` seconds centred at
+    the frame (``1e-12`` added before the log, so digital silence reads -120 dB).
+
+    Raises
+    ------
+    DataError
+        Samples that are not a non-empty (N,) array.
+    """
+    x = np.asarray(samples, dtype=np.float64)
+    if x.ndim != 1 or x.size == 0:
+        raise DataError(f"energy_db: expected mono audio samples (N,), got shape {x.shape}")
+    half = max(1, int(round(window_s * rate / 2)))
+    taper = np.hanning(2 * half + 1)
+    energy = np.convolve(x**2, taper / taper.sum(), mode="same")
+    centres = np.clip(np.round(np.arange(frames) * rate / fps).astype(np.int64), 0, len(x) - 1)
+    return 10.0 * np.log10(energy[centres] + 1e-12)
