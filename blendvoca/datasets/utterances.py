@@ -9,9 +9,10 @@ BlendVOCA sentence is an utterance of a few seconds. :func:`take_spans` cuts a t
    loud level (its 95th percentile); gaps shorter than :data:`MIN_GAP_S` (stop closures)
    are filled, bursts shorter than :data:`MIN_BURST_S` (clicks) dropped.
 2. **Pauses** (:func:`pauses`): the silent runs of at least :data:`MIN_PAUSE_S`. In each,
-   the candidate cut is the frame where the motion is quietest (:func:`motion_speed`:
-   the frame-to-frame change of all shapes, smoothed over 50 ms), so a cut falls where
-   sound and motion are both still. Its score is the pause's length (capped at 1 s),
+   the candidate cut is the still frame (:func:`motion_speed`, the frame-to-frame change
+   of all shapes smoothed over 50 ms, at most :data:`STILL` of the take's median, or the
+   pause's slowest frame) nearest the pause's middle, so a cut falls where sound and
+   motion are both quiet. Its score is the pause's length (capped at 1 s),
    scaled down when the motion there is faster than the take's median.
 3. **Choice** (:func:`choose_cuts`): dynamic programming over the candidates picks the
    cuts that keep every utterance within ``[min_s, max_s]`` (2-10 s) and maximise the
@@ -48,6 +49,8 @@ MIN_GAP_S = 0.15
 MIN_BURST_S = 0.05
 #: A silence is a pause a take may be cut at when at least this long.
 MIN_PAUSE_S = 0.25
+#: Within a pause, frames moving at most this share of the take's median speed count as still.
+STILL = 0.1
 #: The score of a cut where there is no pause (only where every other choice breaks the length limits).
 FORCED_SCORE = -20.0
 #: How a span's end was decided: at a pause, forced (no pause in reach), by the user's list, the take's end.
@@ -122,8 +125,9 @@ def cut_candidates(active: np.ndarray, speed: np.ndarray, fps: float) -> tuple[n
     for start, end in pauses(active, fps):
         if start == 0 or end == len(active):  # leading or trailing silence: nothing to cut from
             continue
-        inner = slice(start, end)
-        at = start + int(np.argmin(speed[inner]))
+        inside = speed[start:end]
+        still = np.flatnonzero(inside <= max(float(inside.min()), STILL * reference))
+        at = start + int(still[np.argmin(np.abs(still - (end - start - 1) / 2))])  # the still frame nearest the middle
         stillness = 1.0 if speed[at] <= reference or speed[at] == 0 else reference / speed[at]
         frames.append(at)
         scores.append(min((end - start) / fps, 1.0) * stillness)
