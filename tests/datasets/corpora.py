@@ -105,3 +105,46 @@ def write_unitalker_layout(root: Path, *, annot_type: str, convention: str, fps:
         (root / f"{split}.json").write_text(json.dumps(doc))
     np.save(root / "id_template.npy", np.zeros((len(speakers), len(names)), dtype=np.float32))
     return written
+
+
+def write_facegood(root: Path, takes=("1114_2_01", "1114_2_02", "1114_2_03", "1114_2_04", "1114_2_05",
+                                      "1114_3_15", "1114_3_16"), seconds: float = 14.0, seed: int = 0) -> dict:
+    """FACEGOOD's layout: ``bs_value_<take>.npy`` ((T, 116) controls at 30 fps in [0, 1]), ``<take>.wav``
+    (16 kHz) and ``bs_names_1015.npy`` (the 116 names, in FACEGOOD's order, as a Python 3 array).
+
+    Each take is sentences of syllables (noise bursts) with a 0.7 s pause every ~4.5 s; the
+    jaw controls (``mouth_stretch_c``, ``mouth_oh_c``) and the lips follow the syllables, left
+    and right alike. Returns ``{take: (T, 116) values}``.
+    """
+    from blendvoca.names import FACEGOOD116
+
+    root.mkdir(parents=True, exist_ok=True)
+    np.save(root / "bs_names_1015.npy", np.array(FACEGOOD116))
+    index = {n: k for k, n in enumerate(FACEGOOD116)}
+    written = {}
+    for number, take in enumerate(takes):
+        rng = np.random.default_rng([seed, number])
+        frames = int(round(seconds * 30))
+        samples = 1e-4 * rng.standard_normal(int(round(seconds * RATE)))
+        values = np.zeros((frames, len(FACEGOOD116)))
+        t = 0.5
+        while t < seconds - 0.8:
+            sentence_end = min(t + rng.uniform(3.5, 5.0), seconds - 0.8)
+            while t < sentence_end:
+                length = rng.uniform(0.2, 0.35)
+                a, b = int(t * RATE), int((t + length) * RATE)
+                samples[a:b] += 0.3 * rng.standard_normal(b - a) * np.hanning(b - a)
+                fa, fb = int(t * 30), int(np.ceil((t + length) * 30))
+                shape = np.sin(np.linspace(0, np.pi, fb - fa))
+                values[fa:fb, index["mouth_stretch_c"]] = rng.uniform(0.3, 0.8) * shape
+                values[fa:fb, index["mouth_oh_c"]] = rng.uniform(0.0, 0.6) * shape
+                for side in ("l", "r"):
+                    values[fa:fb, index[f"mouth_lowerLipDepress_{side}"]] = 0.3 * shape
+                for quarter in ("ul", "ur", "dl", "dr"):
+                    values[fa:fb, index[f"mouth_funnel_{quarter}"]] = 0.4 * shape
+                t += length + rng.uniform(0.05, 0.12)
+            t += 0.7
+        np.save(root / f"bs_value_{take}.npy", np.clip(values, 0.0, 1.0))
+        write_wav(root / f"{take}.wav", samples.astype(np.float32), RATE)
+        written[take] = np.clip(values, 0.0, 1.0)
+    return written
