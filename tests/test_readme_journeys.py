@@ -6,8 +6,8 @@ test does with it:
 ``<!-- journey: run -->``
     Its lines run, in README order, in one bash shell (so an ``export`` carries to
     later blocks) whose working folder is a fresh "clone" folder in a temporary
-    directory, with the public assets next to it as ``../shared/assets`` (the layout
-    Quick start describes) and ``python`` the interpreter running this test.
+    directory, with the public assets and the real recordings next to it as
+    ``../shared/assets`` and ``../shared/realdata`` (the layout Quick start describes) and ``python`` the interpreter running this test.
 ``<!-- journey: run; not run: PREFIX (why), PREFIX (why) -->``
     As ``run``, except the ``&&``-separated commands starting with one of the
     prefixes (e.g. ``pip install``: the test runs in the environment it installed).
@@ -147,11 +147,16 @@ def test_readme_journey_runs_as_written(tmp_path):
     from tests.leaderboard.browser import require_three_js
 
     require_three_js()  # the site step needs `npm ci --prefix leaderboard/site/web`, which the journey does not run
-    assets = Path(os.environ.get("BLENDVOCA_ASSETS") or ROOT.parent / "shared" / "assets").resolve()
+    named = [Path(p) for p in os.environ.get("BLENDVOCA_ASSETS", "").split(os.pathsep) if p]
+    assets = next((p for p in named if (p / "said").is_dir()), ROOT.parent / "shared" / "assets").resolve()
     if not assets.is_dir():
         pytest.skip(f"no assets folder at {assets} (set BLENDVOCA_ASSETS)")
+    realdata = next((p for p in named if (p / "facegood").is_dir()), ROOT.parent / "shared" / "realdata").resolve()
+    if not realdata.is_dir():  # the journey builds FACEGOOD and verifies every asset
+        pytest.skip(f"no real recordings at {realdata} (the README's FACEGOOD build needs shared/realdata)")
     (tmp_path / "shared").mkdir()
     (tmp_path / "shared" / "assets").symlink_to(assets)
+    (tmp_path / "shared" / "realdata").symlink_to(realdata)
     clone = tmp_path / "clone"
     clone.mkdir()
     lines = journey_lines(readme_blocks())

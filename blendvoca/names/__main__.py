@@ -46,6 +46,11 @@ def main(argv: list[str] | None = None) -> int:
     print(f"checked: {entry.checked}")
     if entry.unverified:
         print(f"not verified: {entry.unverified}")
+    if entry.to_arkit:
+        print("map onto ARKit (each shape clip(sum of weight x control, 0, 1)):")
+        for mapping in entry.to_arkit:
+            terms = " + ".join(f"{w:g} {c}" for c, w in mapping.terms)
+            print(f"  {mapping.arkit} = {terms}  [{mapping.basis}]")
     columns = entry.columns()
     if columns is not None:
         print("columns:")

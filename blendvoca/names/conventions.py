@@ -229,7 +229,7 @@ CONVENTIONS: dict[str, Convention] = {c.name: c for c in (
                "e6d41b6ed9e414b2f7427e52e18c401f7d1775a8 (the columns of code/train/bs_value/bs_value_*.npy)",
         checked="the 116 names and their order against the file (tests/datasets/test_facegood.py, through the "
                 "asset resolver); that it is the values' order: the moving left/right control pairs correlate "
-                "at r >= 0.997 under it over the seven takes (0.015 under the repository's 1119 list); the map "
+                "at r >= 0.997 under it over the seven takes (0.015 under the repository's 1119 list, as the real-data folder's SOURCES.md records); the map "
                 "onto ARKit by FACS name semantics, left/right symmetry and the speech envelope "
                 "(docs/results/datasets-measurements.md)",
         unverified="FACEGOOD publishes no description of its controls nor meshes of the rig: the map onto "
