@@ -206,6 +206,9 @@ def corpus_splits(takes: list[Take]) -> tuple[dict, str | None]:
     if declared and len(declared) == len(subjects) and all(len(v) == 1 for v in declared.values()):
         note = ("the corpus's own split of these takes leaves a split empty: they are split a sixth each to val "
                 "and test (sorted by name)")
+    elif declared and all(len(v) == 1 for v in declared.values()):
+        note = (f"the corpus's own split names {len(declared)} of the {len(subjects)} speakers or takes: all are "
+                "split a sixth each to val and test (sorted by name)")
     elif declared:
         note = ("the corpus splits by sentence (a speaker's takes in several splits), a BlendVOCA folder by "
                 "speaker: the speakers are split a sixth each to val and test (sorted by name)")

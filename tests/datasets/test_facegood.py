@@ -196,3 +196,16 @@ def test_the_real_takes_build_through_the_asset_resolver(realdata_resolver, tmp_
     coeffs, cols = fmt.read_coeffs(out, *key.split("/"))
     jaw = np.clip(values[:, k["mouth_stretch_c"]] + 0.25 * values[:, k["mouth_oh_c"]], 0, 1)
     assert np.allclose(coeffs[::2, cols.index("jawOpen")], jaw[: len(coeffs[::2])], atol=1e-6)  # the CSV keeps 6 decimals
+
+
+def test_a_take_outside_the_default_splits_and_a_root_without_names_file(tmp_path, capsys):
+    write_facegood(tmp_path / "fg", takes=("1114_2_01", "1114_2_05", "1114_3_15", "1114_2_06"), seconds=6.0)
+    summary = _build(tmp_path / "fg", tmp_path / "out")
+    splits = fmt.read_splits(tmp_path / "out")
+    assert sorted(t for v in splits.values() for t in v) == ["1114_2_01", "1114_2_05", "1114_2_06", "1114_3_15"]
+    assert all(splits.values()) and any("names 3 of the 4" in w["message"] for w in summary.warnings)
+    (tmp_path / "fg" / "bs_names_1015.npy").unlink()
+    code = build_main(["--dataset", "facegood", "--root", str(tmp_path / "fg"), "--out", str(tmp_path / "o2")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and err[-1].startswith("error: --root") and "no bs_names_1015.npy" in err[-1]
+    assert not (tmp_path / "o2").exists()
