@@ -210,3 +210,23 @@ def test_a_coefficient_build_is_named_by_its_recipe(tmp_path):
     first.write_text(first.read_text().replace("1", "2", 1))
     _build("beat", tmp_path / "moved", tmp_path / "c")
     assert fmt.dataset_id(tmp_path / "c") != recipe["id"]
+
+
+def test_long_takes_of_any_coefficient_corpus_become_utterances_numbered_on_per_speaker(tmp_path):
+    """BEAT takes of 25 s (speech without pauses): each is cut into utterances of 2-10 s (forced cuts),
+    numbered on from the speaker's previous take; the manifest maps each back to its take and seconds."""
+    written = write_beat(tmp_path / "beat", takes=2, seconds=25.0)
+    summary = _build("beat", tmp_path / "beat", tmp_path / "out")
+    assert not summary.failures and summary.built["sentences"] >= 18
+    utterances = fmt.read_utterances(tmp_path / "out")
+    for (subject, take), weights in written.items():
+        spans = sorted((r["start_frame"], r["end_frame"], key) for key, r in utterances.items() if r["take"] == take)
+        assert spans[0][0] == 0 and spans[-1][1] == len(weights)
+        assert all(a[1] == b[0] and 2 * 60 <= a[1] - a[0] <= 10 * 60 for a, b in zip(spans, spans[1:]))
+        assert {key.split("/")[0] for *_, key in spans} == {subject}
+        for start, end, key in spans:
+            coeffs, names = fmt.read_coeffs(tmp_path / "out", *key.split("/"))
+            assert np.allclose(coeffs, weights[start:end][:, [ARKIT_FACE_ORDER.index(n) for n in names]], atol=1e-6)
+    numbers = sorted(int(k.split("sentence")[1]) for k in utterances if k.startswith("1_wayne/"))
+    assert numbers == list(range(1, len(numbers) + 1))
+    assert "## Utterances" in (tmp_path / "out" / "report" / "README.md").read_text()
