@@ -234,7 +234,10 @@ def main(argv: list[str] | None = None) -> int:
 
     Exit status: 0 done; 2 an unknown asset id; 4 (``verify``) some local copy is
     corrupted or a public asset is missing; 5 (``fetch``) some asset could not be
-    fetched (each is listed, the others were).
+    fetched (each is listed, the others were). A plain ``fetch`` (no ids) lists the
+    registration-only and manual assets that are not present as ``manual`` with their
+    instructions and exits 0 when every downloadable one is present; naming such an id
+    (``fetch vocaset``) asks for it, so it fails (5) with the instructions.
     """
     parser = cli.parser("blendvoca.assets", __doc__)
     parser.add_argument("command", choices=["list", "verify", "fetch"])
@@ -243,7 +246,7 @@ def main(argv: list[str] | None = None) -> int:
     ids = args.ids or list(load_manifest())
     for asset_id in ids:
         entry(asset_id)  # unknown ids fail before any work
-    failures = 0
+    failures = manual = 0
     for asset_id in ids:
         item = entry(asset_id)
         if args.command == "list":
@@ -258,12 +261,21 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{status:8s} {asset_id}: {local or 'not found in ' + ', '.join(map(str, search_dirs()))}")
             failures += status != "ok"
         else:
+            if not args.ids and item.get("access") != "public" and find_local(asset_id) is None:
+                # registration-only or manual: never downloaded, so not a failure of a plain fetch
+                print(f"manual   {asset_id}: {item['access']} asset, not downloaded automatically; "
+                      f"{item.get('instructions', 'see ' + item['url'])}{_where_to_put(item)}".rstrip())
+                manual += 1
+                continue
             try:
                 print(f"ok       {asset_id}: {resolve(asset_id)}")
             except AssetError as error:
                 # One asset that cannot be fetched here does not stop the others.
                 print(f"error    {error}")
                 failures += 1
+    if manual:
+        print(f"{manual} manual asset(s) not present (listed above with how to get each); every "
+              "downloadable asset is fetched" if not failures else f"{manual} manual asset(s) not present (listed above)")
     if failures:
         print(f"{failures} asset(s) failed")
         if args.command == "verify":

@@ -150,3 +150,28 @@ def test_unreachable_download_says_where_to_put_the_file(tmp_path, monkeypatch):
     with pytest.raises(AssetError, match=r"could not download.*raw\.githubusercontent.*Put the file at .*said/vae\.pth"):
         resolve("said-vae")
     assert not list((tmp_path / "cache").rglob("*.part"))
+
+
+def test_fetch_of_everything_lists_manual_assets_and_exits_0(assets_dir, capsys):
+    # every downloadable asset is in the mirror; the registration-only and manual ones are listed, not failures
+    assert assets.main(["fetch"]) == cli.EXIT_OK
+    out = capsys.readouterr().out
+    manual = [asset_id for asset_id, item in load_manifest().items() if item["access"] != "public"]
+    assert manual and all(f"manual   {asset_id}: " in out for asset_id in manual)
+    assert "voca.is.tue.mpg.de" in out and "error" not in out
+    assert f"{len(manual)} manual asset(s) not present" in out
+
+
+def test_fetch_of_everything_still_fails_for_a_missing_public_asset(tmp_path, monkeypatch, capsys):
+    monkeypatch.setenv("BLENDVOCA_ASSETS", str(tmp_path / "empty"))
+    monkeypatch.setenv("BLENDVOCA_CACHE", str(tmp_path / "cache"))
+
+    def offline(*args, **kwargs):
+        import urllib.error
+
+        raise urllib.error.URLError("network is unreachable")
+
+    monkeypatch.setattr(assets.urllib.request, "urlopen", offline)
+    assert assets.main(["fetch"]) == cli.EXIT_PARTIAL
+    out = capsys.readouterr().out
+    assert "error    could not download asset 'said-vae'" in out and "manual   vocaset: " in out
