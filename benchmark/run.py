@@ -28,7 +28,7 @@ import json
 import sys
 from pathlib import Path
 
-from benchmark.methods import Budget, available_methods, method_schema
+from benchmark.methods import Budget, method_listing, method_schema
 from benchmark.protocol import DEFAULT_GENERATE_LIMIT, RunSpec, parse_seeds, run
 from blendvoca import cli
 
@@ -68,9 +68,10 @@ def _parser() -> argparse.ArgumentParser:
                    help="the VAE of the latent metrics (fd, wind, energy_latent): a checkpoint in the published "
                         "format; default the published one (asset said-vae). Needed for a dataset whose "
                         "coefficients are not the BlendVOCA 32 (docs/datasets.md)")
-    p.add_argument("--list", action="store_true", help="list the available methods and exit")
+    p.add_argument("--list", action="store_true",
+                   help="list the available methods (name, output kind, reference or ranked row, description) and exit")
     p.add_argument("--list-config", action="store_true",
-                   help="list the --config options of --method (name, type, default) and exit")
+                   help="list the --config options of --method (name, type, default, choices, help) and exit")
     cli.add_data_option(p)
     cli.add_results_option(p)
     cli.add_budget_options(p)
@@ -79,6 +80,14 @@ def _parser() -> argparse.ArgumentParser:
     cli.add_device_option(p, default="cpu")
     cli.add_quiet_option(p)
     return p
+
+
+def _print_listing() -> None:
+    """One line per method: name, what it outputs, whether the leaderboard ranks it, what it is."""
+    rows = [("METHOD", "OUTPUT", "ROW", "DESCRIPTION"), *method_listing()]
+    widths = [max(len(row[i]) for row in rows) for i in range(3)]
+    for row in rows:
+        print("  ".join(cell.ljust(width) for cell, width in zip(row[:3], widths)) + "  " + row[3])
 
 
 def _print_summary(path) -> None:
@@ -104,7 +113,7 @@ def main(argv=None) -> int:
     parser = _parser()
     args = parser.parse_args(argv)
     if args.list:
-        print("\n".join(available_methods()))
+        _print_listing()
         return cli.EXIT_OK
     if not args.method:
         parser.error("--method is required (or --list)")

@@ -28,8 +28,10 @@ class CodeTalkerMethod(ChunkedDecoder, StyleVertexMethod):
     Parameters
     ----------
     preset : {"cpu-demo", "paper"}, default "cpu-demo"
-    official, official_stage1 : str or os.PathLike, optional
-        The authors' ``vocaset_stage2.pth.tar`` and ``vocaset_stage1.pth.tar``; then nothing is trained.
+    official : str or os.PathLike, optional
+        The authors' ``vocaset_stage2.pth.tar`` (with ``official_stage1``); then nothing is trained.
+    official_stage1 : str or os.PathLike, optional
+        The authors' ``vocaset_stage1.pth.tar``, the VQ-VAE that ``official`` decodes with.
     official_wav2vec2 : "base", "tiny" or dict, default "base"
         wav2vec 2.0 architecture of those files (the released ones: base-960h).
     resolved : dict, optional

@@ -31,6 +31,8 @@ class MeshAdapterMethod(TrackLookupMethod):
         Path of the YAML adapter file (see :mod:`baselines.mesh_adapter.config`).
     split : str
         Split whose sentences must all have outputs.
+    adapter : dict, optional
+        The resolved adapter settings a saved checkpoint carries (its config round trip; not set by hand).
     **settings
         Inline settings instead of (or overriding) the file: ``vertices``,
         ``fps``, ``template``, ``delta``, ``vertex_subset``, ``max_frame_mismatch``,

@@ -33,14 +33,20 @@ class RegressionMethod(Method):
         Default number of optimisation steps (a ``Budget.max_steps`` overrides it).
     n_mels : int
         Mel bands (multiple of 4).
-    channels, hidden : int
-        CNN channels and GRU hidden size.
-    batch, window : int
-        Windows per step and window length in 60 fps frames.
+    channels : int
+        Channels of the CNN layers.
+    hidden : int
+        Hidden size of the GRU.
+    batch : int
+        Windows per optimisation step.
+    window : int
+        Window length in 60 fps frames.
     lr : float
         Adam learning rate.
     threads : int or None
         Torch threads while training and generating (the previous count is restored after).
+    mixed_precision : {"off", "bf16", "fp16"}
+        Autocast of the training loss on a GPU (docs/gpu.md); nothing on the CPU.
     """
 
     name = "regression"

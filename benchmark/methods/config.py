@@ -323,6 +323,14 @@ def _annotation_types(annotation) -> tuple:
     return (object,)
 
 
+def plain_text(text: str) -> str:
+    """``text`` without reStructuredText markup, as a terminal shows it: ````x```` reads
+    ``x``, ``:role:`x``` reads ``x`` (``:role:`~a.b``` reads ``b``)."""
+    text = re.sub(r":[a-z]+(?::[a-z]+)*:`~([^`]+)`", lambda m: m.group(1).rsplit(".", 1)[-1], text)
+    text = re.sub(r":[a-z]+(?::[a-z]+)*:`([^`]+)`", r"\1", text)
+    return re.sub(r"``([^`]+)``", r"\1", text)
+
+
 def _parameter_help(doc: str) -> tuple[dict, dict]:
     """``{name: first sentence}`` and ``{name: choices}`` from a numpydoc ``Parameters``
     section (``a, b : int`` names both; a type ``{"x", "y"}`` gives the choices)."""
@@ -333,7 +341,7 @@ def _parameter_help(doc: str) -> tuple[dict, dict]:
     helps, choices, names, lines = {}, {}, [], []
 
     def flush():
-        text = " ".join(lines).strip()
+        text = plain_text(" ".join(lines).strip())
         text = text.split(". ")[0].rstrip(".")
         for name in names:
             helps[name] = text

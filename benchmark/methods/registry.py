@@ -13,6 +13,7 @@ from blendvoca.errors import UserError
 from blendvoca.registry import Registry, import_target, is_target
 
 from .base import Method
+from .config import plain_text
 
 __all__ = [
     "ENTRY_POINT_GROUP",
@@ -22,6 +23,7 @@ __all__ = [
     "UnknownMethodError",
     "available_methods",
     "get_method",
+    "method_listing",
     "method_schema",
     "register",
     "register_lazy",
@@ -138,6 +140,28 @@ def get_method(name: str) -> type[Method]:
         _check_class(cls, name)
         return cls
     return METHODS.get(name)
+
+
+def method_listing() -> list[tuple[str, str, str, str]]:
+    """``(name, kind, row, description)`` of every available method, sorted by name.
+
+    ``kind`` is the method's ``output`` (``"coefficients"`` or ``"vertices"``), ``row``
+    ``"reference"`` (shown apart on the leaderboard, never ranked) or ``"ranked"``, and
+    ``description`` the first line of its class docstring without markup. A method
+    that does not import is listed with ``kind`` ``"?"`` and its error as description.
+    """
+    rows = []
+    for name in available_methods():
+        try:
+            cls = get_method(name)
+        except UnknownMethodError as exc:
+            rows.append((name, "?", "?", f"does not import: {exc}"))
+            continue
+        doc = (cls.__doc__ or "").strip().splitlines()
+        rows.append((name, getattr(cls, "output", "coefficients"),
+                     "reference" if getattr(cls, "reference", False) else "ranked",
+                     plain_text(doc[0].strip()) if doc else ""))
+    return rows
 
 
 def method_schema(method):

@@ -143,3 +143,42 @@ def test_list_config_prints_each_option(capsys):
 
 def test_option_describe():
     assert Option("k", (int, type(None)), 3, "help").describe() == "k (int | null, default 3): help"
+
+
+def test_list_config_gives_each_key_its_own_help_without_markup(capsys):
+    # numpydoc's "channels, hidden : int" gave both keys one sentence; each key now has its own entry
+    assert run_module.main(["--method", "regression", "--list-config"]) == cli.EXIT_OK
+    lines = {line.split(" ", 1)[0]: line for line in capsys.readouterr().out.splitlines()}
+    assert lines["channels"].endswith(": Channels of the CNN layers")
+    assert lines["hidden"].endswith(": Hidden size of the GRU")
+    assert lines["batch"] != lines["window"].replace("window", "batch")
+    assert 'one of "off", "bf16", "fp16"' in lines["mixed_precision"] and "Autocast" in lines["mixed_precision"]
+    assert "Budget.max_steps" in lines["steps"] and "``" not in lines["steps"]
+    for name in available_methods():
+        schema = method_schema(name)
+        if schema is None:
+            continue
+        options = list(schema)
+        for option in options:
+            assert "``" not in option.help and ":`" not in option.help, (name, option.name, option.help)
+        # the constructor's own keys (the presets' keys say their section and values) never share a help line
+        own = [o for o in options if o.help and not o.help.startswith("preset ")]
+        for a, b in zip(own, own[1:]):
+            assert a.help != b.help, (name, a.name, b.name, a.help)
+
+
+def test_plain_text_reads_rst_as_a_terminal_shows_it():
+    from benchmark.methods.config import plain_text
+
+    assert plain_text("the ``vocaset.pth`` of :meth:`config` and :class:`~a.b.Budget`") == \
+        "the vocaset.pth of config and Budget"
+
+
+def test_list_gives_kind_row_and_description(capsys):
+    assert run_module.main(["--list"]) == cli.EXIT_OK
+    rows = {line.split()[0]: line.split(None, 3) for line in capsys.readouterr().out.splitlines()[1:]}
+    assert set(rows) == set(available_methods())
+    assert rows["said"][1:3] == ["coefficients", "ranked"] and "diffusion" in rows["said"][3]
+    assert rows["faceformer"][1:3] == ["vertices", "ranked"]
+    assert rows["static"][1:3] == ["coefficients", "reference"] and rows["static"][3].startswith("Lower reference")
+    assert all("``" not in row[3] for row in rows.values())
