@@ -89,7 +89,7 @@ def main_of(command: str):
 
 def test_the_known_tools_are_found():
     expected = {"blendvoca.build", "blendvoca.synthetic", "blendvoca.retarget", "blendvoca.export", "blendvoca.assets",
-                "benchmark.run", "benchmark.rescore", "benchmark.render", "benchmark.features.train",
+                "benchmark.run", "benchmark.generate", "benchmark.rescore", "benchmark.render", "benchmark.features.train",
                 "benchmark.lipsync.train_expert", "leaderboard.build", "leaderboard.reproduce", "leaderboard.site",
                 "baselines.said.generate", "baselines.said.train", "baselines.cdface", "baselines.mesh_adapter.export"}
     assert expected <= set(COMMANDS), sorted(expected - set(COMMANDS))

@@ -186,7 +186,7 @@ ROOMS = (
       "benchmark.render", "benchmark.lipsync", "benchmark.evaluation"),
      ("blendvoca", "benchmark.methods")),
     (("benchmark.protocol",), ABOVE),
-    (("benchmark.run", "benchmark.rescore", "benchmark.sanity", "benchmark.testing"), ABOVE),
+    (("benchmark.run", "benchmark.generate", "benchmark.rescore", "benchmark.sanity", "benchmark.testing"), ABOVE),
     (("baselines.wav2vec2", "baselines.vq", "baselines.common"), ("blendvoca", "benchmark.methods")),
     (("baselines.*",), ("blendvoca", "benchmark.methods", "baselines.wav2vec2", "baselines.vq", "baselines.common")),
     (("leaderboard",), ABOVE),

@@ -28,6 +28,8 @@ class CorpusMeshesMethod(Method):
     reference = True
     learns = False
     output = "vertices"
+    #: the sentence's own source meshes: no new recording can be animated
+    new_audio = False
 
     contract = 3
 

@@ -158,6 +158,13 @@ class CDFaceMethod(Method):
             return generate_utterance_in_chunks(whole, utterance, samples=int(samples), seed=int(seed),
                                                 chunk_frames=self.chunk_frames, overlap_frames=self.chunk_overlap)
 
+    def styles(self) -> tuple[str, ...]:
+        """The speakers with a stored template, the training speakers first (the first is the default)."""
+        if self.cdface is None:
+            return ()
+        first = [s for s in self.cdface.styles if s in self.cdface.templates]
+        return tuple(first + sorted(s for s in self.cdface.templates if s not in first))
+
     def with_sampling_options(self, **options) -> CDFaceMethod:
         """The same trained model sampling with another ``control`` or ``style``."""
         self.check_sampling_options(options)

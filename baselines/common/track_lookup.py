@@ -61,6 +61,9 @@ class TrackLookupMethod(Method):
     in ``tracks.npz``.
     """
 
+    #: the output is the corpus's own track of the sentence: no new recording can be animated
+    new_audio = False
+
     #: largest frame-count mismatch padded or cropped in :meth:`generate`
     max_frame_mismatch: int = 0
     contract = 3

@@ -196,6 +196,11 @@ class StyleVertexMethod(Method):
             self.network.to(self.device)
         return self
 
+    def styles(self) -> tuple[str, ...]:
+        """The speakers with a template, the training speakers first (the first is the default)."""
+        first = [s for s in self.subjects if s in self.templates]
+        return tuple(first + sorted(s for s in self.templates if s not in first))
+
     def style_index(self, subject: str) -> int:
         """One-hot index of a training speaker."""
         if subject not in self.subjects:

@@ -65,6 +65,11 @@ class Method(abc.ABC):
     #: on a loaded method through :meth:`with_sampling_options`; any other key must
     #: equal the checkpoint's.
     sampling_options: tuple = ()
+    #: False for a method whose output is looked up by (subject, sentence) in what it
+    #: read from the corpus (the ground truth, oracle tracks, another method's stored
+    #: outputs): it cannot animate a recording it has not seen, so ``python -m
+    #: benchmark.generate`` refuses it.
+    new_audio: bool = True
     #: The method contract of the ``train`` defined in this class body (v3:
     #: ``train(dataset, request)``); a subclass that overrides ``train`` declares it again.
     contract: int = CONTRACT
@@ -147,6 +152,16 @@ class Method(abc.ABC):
             ``output == "vertices"``: metres, on the speaker's topology
             (``dataset.template(subject)``).
         """
+
+    def styles(self) -> tuple[str, ...] | None:
+        """The speakers this (trained) method can animate, the values ``Utterance.subject``
+        may take outside the corpus, first the default one; None when its output does not
+        depend on the speaker (the default).
+
+        A vertex method returns the speakers whose template it holds (the output is on
+        that speaker's face); ``python -m benchmark.generate --style S`` picks one.
+        """
+        return None
 
     def generate_many(self, utterances, *, samples: int = 1, seeds) -> list:
         """Animations for several utterances, one seed each (``benchmark.run --sentence-batch N``).
