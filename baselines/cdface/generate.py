@@ -12,12 +12,19 @@ the audio length). ``--control lips`` gives every sample the same lips (one lip
 sample, or the lip codes of ``--reference``, a ``(T, V, 3)`` ``.npy`` on the same
 topology) and varies the upper face. ``--obj-dir`` also writes one OBJ per frame,
 ``DIR/sample_K/frame_NNNNN.obj``.
+
+Plain generation is ``python -m benchmark.generate --method cdface --checkpoint DIR
+--audio WAV [--style SPEAKER] --samples N --out FILE.npy`` (the same flags for every
+method); used for it, this command prints a ``DeprecationWarning`` naming that one
+(plain generation here is removed after 2027-06-30). What stays its own: ``--control
+lips`` with ``--reference``, ``--template`` and ``--obj-dir``.
 """
 
 from __future__ import annotations
 
 import os
 import sys
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -122,6 +129,23 @@ def generate_file(audio_path: str | os.PathLike, out_path: str | os.PathLike, *,
     return out_path
 
 
+#: When plain generation through this command goes.
+REMOVED_AFTER = "2027-06-30"
+
+
+def warn_plain_generation(subject) -> None:
+    """One ``DeprecationWarning`` naming ``python -m benchmark.generate``."""
+    style = f" --style {subject}" if subject else ""
+    with warnings.catch_warnings():
+        if not sys.warnoptions:
+            warnings.simplefilter("default", DeprecationWarning)
+        warnings.warn(f"plain generation with python -m baselines.cdface is removed after {REMOVED_AFTER}: use "
+                      f"python -m benchmark.generate --method cdface --checkpoint DIR (the folder benchmark.run --checkpoint "
+                      f"saved){style} --audio WAV "
+                      "--samples N --out FILE.npy (the same flags for every method); this command keeps "
+                      "--control lips, --reference, --template and --obj-dir", DeprecationWarning, stacklevel=2)
+
+
 @cli.command
 def main(argv=None) -> int:
     """Command line entry point (see the module docstring)."""
@@ -147,6 +171,8 @@ def main(argv=None) -> int:
                          control=args.control, reference=args.reference, subject=args.subject,
                          template=args.template, style=args.style, obj_dir=args.obj_dir)
     print(path)
+    if args.control == "none" and args.template is None and args.obj_dir is None and args.style is None:
+        warn_plain_generation(args.subject)  # after the file: a mistake stays one error line
     return cli.EXIT_OK
 
 

@@ -1,5 +1,11 @@
 """Generate blendshape coefficient CSVs for a WAV file with a trained SAiD checkpoint.
 
+Plain generation is ``python -m benchmark.generate --method said --checkpoint DIR
+--audio WAV --out FILE`` (the same flags for every method); used for it, this command
+prints a ``DeprecationWarning`` naming that one (plain generation here is removed after
+2027-06-30). What stays its own: editing (``--reference``/``--mask``), the authors'
+weights' options, ``--export`` and ``--image``.
+
     python -m baselines.said.generate --audio x.wav --out y.csv [--samples N]
         [--checkpoint PATH] [--reference ref.csv --mask mask.csv]
 
@@ -29,6 +35,7 @@ from __future__ import annotations
 
 import os
 import sys
+import warnings
 from pathlib import Path
 
 from baselines.common.checkpoint import load_checkpoint_file, old_format_hint
@@ -198,6 +205,24 @@ def generate_files(
     return paths
 
 
+#: When plain generation through this command goes.
+REMOVED_AFTER = "2027-06-30"
+
+
+def warn_plain_generation() -> None:
+    """One ``DeprecationWarning`` naming ``python -m benchmark.generate`` (shown also where
+    DeprecationWarning is ignored by default)."""
+    with warnings.catch_warnings():
+        if not sys.warnoptions:
+            warnings.simplefilter("default", DeprecationWarning)
+        warnings.warn(f"plain generation with python -m baselines.said.generate is removed after {REMOVED_AFTER}: "
+                      "use python -m benchmark.generate --method said --checkpoint DIR (the folder benchmark.run --checkpoint "
+                      "saved) "
+                      "--audio WAV --out FILE (the same flags for every method); this command keeps editing "
+                      "(--reference/--mask), the authors' weights' options, --export and --image",
+                      DeprecationWarning, stacklevel=2)
+
+
 @cli.command
 def main(argv=None) -> int:
     """Command line entry point (see the module docstring); a user mistake is one ``error:`` line and exit 2."""
@@ -235,6 +260,9 @@ def main(argv=None) -> int:
     )
     for path in paths:
         print(path)
+    own = (args.reference, args.mask, args.intermediates, args.image, args.guidance_rescale)
+    if args.export == "csv" and not args.official and args.strength == 1.0 and all(v is None for v in own):
+        warn_plain_generation()  # after the files: a mistake stays one error line
     return cli.EXIT_OK
 
 

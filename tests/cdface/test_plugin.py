@@ -151,3 +151,23 @@ def test_cosine_schedule_sets_every_step_of_every_stage(monkeypatch):
     with pytest.raises(ValueError, match="lr_schedule"):
         CDFaceMethod(**PLUGIN_TINY, lr_schedule="step").train(FakeBlendVOCA(0, sentences=1),
                                                                TrainingRequest(seed=0, budget=Budget(max_steps=1)))
+
+
+def test_cli_plain_generation_warns_naming_benchmark_generate(tmp_path):
+    import warnings
+
+    from baselines.cdface.generate import main
+    from blendvoca.io.audio import write_wav
+
+    cdface, _template = _tiny_cdface()
+    cdface.save(tmp_path / "cdface.pt")
+    wav = tmp_path / "speech.wav"
+    write_wav(wav, np.random.default_rng(0).normal(scale=0.1, size=8000).astype(np.float32), 16000)
+    with pytest.warns(DeprecationWarning, match=r"removed after 2027-06-30: use python -m benchmark.generate "
+                                                r"--method cdface .* --style A --audio WAV"):
+        assert main(["--checkpoint", str(tmp_path), "--audio", str(wav), "--out", str(tmp_path / "p.npy"),
+                     "--subject", "A", "--quiet"]) == 0
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DeprecationWarning)  # lip control is this command's own: no warning
+        assert main(["--checkpoint", str(tmp_path), "--audio", str(wav), "--out", str(tmp_path / "l.npy"),
+                     "--subject", "A", "--control", "lips", "--quiet"]) == 0

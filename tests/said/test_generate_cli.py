@@ -124,3 +124,16 @@ def test_train_cli_mistakes_are_one_error_line(tmp_path, capsys):
         err = capsys.readouterr().err.strip().splitlines()
         assert code == 2 and len(err) == 1 and message in err[0], err
     assert not (tmp_path / "said.pt").exists()
+
+
+def test_plain_generation_warns_naming_benchmark_generate_and_editing_does_not(tmp_path, checkpoint, wav):
+    import warnings
+
+    with pytest.warns(DeprecationWarning, match=r"removed after 2027-06-30: use python -m benchmark.generate "
+                                                r"--method said --checkpoint DIR"):
+        assert main(["--audio", str(wav), "--out", str(tmp_path / "p.csv"), "--checkpoint", str(checkpoint)]) == 0
+    assert (tmp_path / "p.csv").is_file()  # still generates
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DeprecationWarning)  # the image is this command's own: no warning
+        assert main(["--audio", str(wav), "--out", str(tmp_path / "i.csv"), "--checkpoint", str(checkpoint),
+                     "--image", str(tmp_path / "i.png")]) == 0
