@@ -40,6 +40,7 @@ from blendvoca.errors import DataError, UserError
 __all__ = [
     "BEST_PROBABILITY",
     "MIN_PAIRED_SENTENCES",
+    "unpaired_reason",
     "ORDER_RESAMPLES",
     "BestMark",
     "Column",
@@ -425,6 +426,9 @@ class BestMark:
         Under ``"resampling"``: the probability that the best method beats the runner-up.
     best, runner_up : int or None
         Indices of the two rows compared.
+    reason : str or None
+        Under ``"intervals"``: why the two rows could not be resampled
+        (:func:`unpaired_reason`).
     """
 
     rows: frozenset = frozenset()
@@ -432,6 +436,28 @@ class BestMark:
     probability: float | None = None
     best: int | None = None
     runner_up: int | None = None
+    reason: str | None = None
+
+
+def unpaired_reason(a: Row, b: Row, name: str) -> str:
+    """Why :func:`pair_replicates` found nothing to resample for two rows' ``name``, in words:
+    too few sentences (naming the count and :data:`MIN_PAIRED_SENTENCES`), or no
+    per-sentence values and no bootstrap replicates stored."""
+    if a.result is None or b.result is None:
+        return "no result files behind these rows"
+    info = METRICS.get(name)
+    if info is None or info.level == "sentence":
+        va, vb = _seed_sentence_values(a.result, name), _seed_sentence_values(b.result, name)
+        if va and vb:
+            common = set.intersection(*(set(d) for d in va + vb))
+            return (f"only {len(common)} sentence(s) scored in common (fewer than {MIN_PAIRED_SENTENCES} sentences "
+                    "cannot be resampled)")
+    counts = [r.result.metrics[name].n for r in (a, b)
+              if name in r.result.metrics and r.result.metrics[name].n is not None]
+    if a.result.seed_replicates(name) and b.result.seed_replicates(name) and counts:
+        return (f"only {min(counts)} sentence(s) scored (fewer than {MIN_PAIRED_SENTENCES} sentences cannot be "
+                "resampled)")
+    return "the result files store neither per-sentence values nor bootstrap replicates"
 
 
 def best_mark(rows: list, column: Column, *, resamples: int = ORDER_RESAMPLES) -> BestMark:
@@ -462,7 +488,8 @@ def best_mark(rows: list, column: Column, *, resamples: int = ORDER_RESAMPLES) -
     if ci_best is None or ci_next is None:
         return BestMark(best=best, runner_up=runner_up)
     separated = ci_best[0] > ci_next[1] if column.higher_is_better else ci_best[1] < ci_next[0]
-    return BestMark(frozenset({best}) if separated else frozenset(), "intervals", None, best, runner_up)
+    return BestMark(frozenset({best}) if separated else frozenset(), "intervals", None, best, runner_up,
+                    unpaired_reason(rows[best], rows[runner_up], column.name))
 
 
 def pairwise_probabilities(rows: list, column: Column, *, resamples: int = ORDER_RESAMPLES) -> list:

@@ -17,7 +17,7 @@ import re
 from benchmark.evaluation.registry import METRICS
 from benchmark.results import Convergence
 
-from .collect import MIN_PAIRED_SENTENCES, Column, Row, Table, best_mark, column_decimals
+from .collect import Column, Row, Table, best_mark, column_decimals
 
 __all__ = ["AV_OFFSET_NOTE", "NOT_SETTLED_MARK", "group_notes", "latex_tables", "markdown_tables", "not_settled_text",
            "rtf_text"]
@@ -137,11 +137,16 @@ def group_notes(table: Table, columns: list, marks: list) -> list:
     if unsettled:
         notes.append(f"{NOT_SETTLED_MARK} Not settled (moved by more than the interval's half-width between half and "
                      "full training budget): " + "; ".join(not_settled_text(row) for row in unsettled) + ".")
-    fallback = [c.label for c, mark in zip(columns, marks) if mark.rule == "intervals"]
+    fallback: dict = {}
+    for column, mark in zip(columns, marks):
+        if mark.rule == "intervals":
+            fallback.setdefault(mark.reason or "nothing to resample in these result files", []).append(column.label)
     if fallback:
-        notes.append(f"Best in {', '.join(fallback)} by the older rule (95 % interval disjoint from the runner-up's): "
-                     "nothing to resample in these result files (neither per-sentence values nor bootstrap "
-                     f"replicates, or fewer than {MIN_PAIRED_SENTENCES} sentences).")
+        causes = "; ".join(f"{', '.join(labels)}: {reason}" if len(fallback) > 1 else reason
+                           for reason, labels in fallback.items())
+        labels = [label for group in fallback.values() for label in group]
+        notes.append(f"Best in {', '.join(labels)} by the older rule (95 % interval disjoint from the runner-up's), "
+                     f"as nothing could be resampled: {causes}.")
     return notes
 
 

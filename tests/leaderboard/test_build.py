@@ -507,3 +507,19 @@ def test_a_bad_v3_field_is_one_error_line_naming_it(edit, fragment, tmp_path, ca
         "fd": {"mean": 2.0, "std": 0.1, "higher_is_better": False, "unit": "latent^2"}}})))
     code, line = _cli_error(capsys, folder, tmp_path)
     assert code == 2 and str(path) in line and fragment in line, line
+
+
+def test_the_interval_rule_note_names_its_cause():
+    # four test sentences: per-sentence values stored, but too few to resample (at least 5)
+    a = _sentence_result("a", [1.0, 1.1, 1.2, 1.3])
+    b = _sentence_result("b", [3.0, 3.1, 3.2, 3.3])
+    (table,) = tables_by_manifest([a, b])
+    mark = best_mark(table.rows, table.columns[0])
+    assert mark.rule == "intervals" and mark.reason.startswith("only 4 sentence(s) scored in common (fewer than 5")
+    md = rendered_tables([a, b])["leaderboard.md"]
+    assert ("as nothing could be resampled: only 4 sentence(s) scored in common (fewer than 5 sentences cannot be "
+            "resampled)") in md
+    assert "neither per-sentence values" not in md
+    # result files without per-sentence values or replicates: that is the cause named
+    md = rendered_tables(_three())["leaderboard.md"]
+    assert "store neither per-sentence values nor bootstrap replicates" in md and "fewer than 5" not in md
