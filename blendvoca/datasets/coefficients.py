@@ -179,20 +179,20 @@ def subject_splits(subjects: list[str]) -> dict:
     return proportional_split(subjects)
 
 
-def corpus_splits(takes: list[Take]) -> tuple[dict, str | None]:
+def corpus_splits(takes: list[Take]) -> tuple[dict, str]:
     """The corpus's own split when it is by speaker, else :func:`subject_splits`.
 
     Returns
     -------
     splits : dict
         ``{"train": [...], "val": [...], "test": [...]}`` of subjects.
-    note : str or None
-        Why the corpus's own split was not used, when it has one.
+    note : str
+        The split rule that was applied, and why (the build's warning and its report say it).
     """
     subjects = sorted({t.subject for t in takes})
     if len(subjects) < 3:
         return {"train": [], "val": [], "test": subjects}, (
-            f"the corpus has {len(subjects)} speaker(s) or take(s) ({', '.join(subjects)}), fewer than the 3 "
+            f"split: the corpus has {len(subjects)} speaker(s) or take(s) ({', '.join(subjects)}), fewer than the 3 "
             "splits: all are in the test split (nothing to train or validate on)")
     declared = {}
     for take in takes:
@@ -201,17 +201,19 @@ def corpus_splits(takes: list[Take]) -> tuple[dict, str | None]:
     if declared and len(declared) == len(subjects) and all(len(v) == 1 for v in declared.values()):
         splits = {name: sorted(s for s, v in declared.items() if name in v) for name in ("train", "val", "test")}
         if all(splits.values()) and set().union(*declared.values()) <= set(splits):
-            return splits, None
-    note = None
+            return splits, "split: the corpus's own split, which is by speaker, is kept"
     if declared and len(declared) == len(subjects) and all(len(v) == 1 for v in declared.values()):
-        note = ("the corpus's own split of these takes leaves a split empty: they are split a sixth each to val "
-                "and test (sorted by name)")
+        note = ("split: the corpus's own split of these takes leaves a split empty: they are split a sixth each to "
+                "val and test (sorted by name)")
     elif declared and all(len(v) == 1 for v in declared.values()):
-        note = (f"the corpus's own split names {len(declared)} of the {len(subjects)} speakers or takes: all are "
-                "split a sixth each to val and test (sorted by name)")
+        note = (f"split: the corpus's own split names {len(declared)} of the {len(subjects)} speakers or takes: "
+                "all are split a sixth each to val and test (sorted by name)")
     elif declared:
-        note = ("the corpus splits by sentence (a speaker's takes in several splits), a BlendVOCA folder by "
+        note = ("split: the corpus splits by sentence (a speaker's takes in several splits), a BlendVOCA folder by "
                 "speaker: the speakers are split a sixth each to val and test (sorted by name)")
+    else:
+        note = ("split: the corpus has no split of its own: its speakers are split in VOCASET's proportions, "
+                "a sixth each to val and test (sorted by name)")
     return subject_splits(subjects), note
 
 
@@ -341,7 +343,7 @@ def build_coefficient_dataset(out, root, takes: Iterable[Take], *, dataset: str,
     recipe = coefficient_recipe(root, dataset, user_cuts)  # the identity, known before any output is written
     claim_output_dir(out)
     summary = BuildSummary(out=out)
-    notes = [split_note] if split_note else []
+    notes = [split_note]
     with build_lock(out):
         fmt.remove_manifest(out)
         files, tracks, sources, built_subjects, utterances, counts = [], [], {}, set(), {}, {}
@@ -356,11 +358,17 @@ def build_coefficient_dataset(out, root, takes: Iterable[Take], *, dataset: str,
                 seconds_audio, seconds_motion = len(samples) / float(rate), len(track) / fmt.FPS
                 if seconds_audio <= 0:
                     raise DataError(f"{where}: the take's audio is empty")
+                # the frames the audio covers, to within half a sample (a resampled WAV is rounded to a sample)
+                frames = min(len(track), int(np.floor(seconds_audio * fmt.FPS + 0.5 * fmt.FPS / rate + 1e-9)))
                 if abs(seconds_audio - seconds_motion) > DURATION_TOLERANCE * max(seconds_audio, seconds_motion):
                     summary.warnings.append({"subject": take.subject, "sentence": sentence, "message":
                                              f"audio {seconds_audio:.2f} s and motion {seconds_motion:.2f} s differ; "
                                              "both were cut to the shorter"})
-                frames = min(len(track), int(np.floor(seconds_audio * fmt.FPS + 1e-9)))
+                elif frames < len(track):  # within the tolerance, yet frames go: said, never silent
+                    summary.warnings.append({"subject": take.subject, "sentence": sentence, "message":
+                                             f"take {take.name}: {len(track) - frames} motion frame(s) after the "
+                                             f"audio's end ({seconds_audio:.3f} s) were cut ({len(track)} -> "
+                                             f"{frames} frames)"})
                 track, samples = track[:frames], samples[: int(round(frames / fmt.FPS * rate))]
                 if frames < 1:
                     raise DataError(f"{where}: shorter than one frame at {fmt.FPS} fps")

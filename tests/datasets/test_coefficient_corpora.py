@@ -230,3 +230,30 @@ def test_long_takes_of_any_coefficient_corpus_become_utterances_numbered_on_per_
     numbers = sorted(int(k.split("sentence")[1]) for k in utterances if k.startswith("1_wayne/"))
     assert numbers == list(range(1, len(numbers) + 1))
     assert "## Utterances" in (tmp_path / "out" / "report" / "README.md").read_text()
+
+
+def test_beat_build_reports_its_split_rule_and_every_frame_it_cuts(tmp_path):
+    import soundfile
+
+    written = write_beat(tmp_path / "beat")
+    # one take's audio ends a frame and a half before its motion (within the 5 % tolerance)
+    wav = tmp_path / "beat" / "2" / "2_scott_0_1_1.wav"
+    audio, rate = soundfile.read(str(wav), dtype="float32")
+    soundfile.write(str(wav), audio[: len(audio) - int(1.5 * rate / 60)], rate)
+    summary = _build("beat", tmp_path / "beat", tmp_path / "out")
+    messages = [w["message"] for w in summary.warnings]
+    rule = "split: the corpus has no split of its own: its speakers are split in VOCASET's proportions"
+    assert any(m.startswith(rule) for m in messages), messages
+    report = (tmp_path / "out" / "report" / "README.md").read_text()
+    assert rule in report
+    frames = len(written[("2_scott", "2_scott_0_1_1")])
+    cut = [w for w in summary.warnings if "motion frame(s) after the audio's end" in w["message"]]
+    assert [w["subject"] for w in cut] == ["2_scott"]
+    assert "take 2_scott_0_1_1: 2 motion frame(s) after the audio's end" in cut[0]["message"]
+    assert f"({frames} -> {frames - 2} frames)" in cut[0]["message"] and cut[0]["message"] in report
+    header, values = _csv(tmp_path / "out", "2_scott", "sentence01")
+    assert len(values) == frames - 2
+    # the takes whose audio covers the motion lose nothing
+    assert len(_csv(tmp_path / "out", "2_scott", "sentence02")[1]) == len(written[("2_scott", "2_scott_0_2_2")])
+
+
