@@ -33,10 +33,12 @@ def main(argv=None) -> int:
     if args.samples < 1:
         raise UserError(f"--samples: expected >= 1, got {args.samples}")
     out = build_site(args.results, args.out, data=args.data, max_samples=args.samples)
-    print(f"site written to {out}; open it through a web server (browsers refuse file:// modules), e.g. "
-          f"python -m leaderboard.site --results {args.results} --out {args.out} --serve", file=sys.stderr)
     if args.serve:
+        print(f"site written to {out}", file=sys.stderr)
         serve_site(out, port=args.port)
+    else:
+        print(f"site written to {out}; open it through a web server (browsers refuse file:// modules), e.g. "
+              f"python -m leaderboard.site --results {args.results} --out {args.out} --serve", file=sys.stderr)
     return cli.EXIT_OK
 
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import errno
 import functools
 import http.server
 import re
@@ -74,12 +75,24 @@ def site_server(site_dir, *, host: str = "127.0.0.1", port: int = 0) -> http.ser
     http.server.ThreadingHTTPServer
         ``server.server_address`` gives the bound address; call ``serve_forever``
         (or run it in a thread) and ``shutdown`` when done.
+
+    Raises
+    ------
+    UserError
+        No ``index.html`` in ``site_dir``, or ``port`` in use (the message names ``--port``).
     """
     site_dir = Path(site_dir)
     if not (site_dir / "index.html").is_file():
         raise UserError(f"leaderboard.site: {site_dir} has no index.html; build the site first")
     handler = functools.partial(_SiteHandler, directory=str(site_dir))
-    return http.server.ThreadingHTTPServer((host, int(port)), handler)
+    try:
+        return http.server.ThreadingHTTPServer((host, int(port)), handler)
+    except OSError as exc:
+        if exc.errno in (errno.EADDRINUSE, errno.EACCES):
+            why = "in use by another program" if exc.errno == errno.EADDRINUSE else "not open to this user"
+            raise UserError(f"--port {port}: {host}:{port} is {why}; serve on another with --port N "
+                            "(--port 0: any free port)") from None
+        raise
 
 
 def serve_site(site_dir, *, host: str = "127.0.0.1", port: int = 8000, background: bool = False):
