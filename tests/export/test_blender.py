@@ -2,9 +2,9 @@
 
 The subprocess is ``$BLENDVOCA_BPY_PYTHON`` (a Python with ``bpy``; CI makes one in
 its own virtual environment, since bpy pins an older numpy) or this interpreter.
-Skipped where neither has ``bpy``: its wheels (about 370 MB, ``pip install
-'blendvoca[blender]'``) exist for one Python version per Blender release (3.11 for
-Blender 4.1 to 5.0). In CI, with ``BLENDVOCA_BPY_PYTHON`` set, a missing ``bpy`` fails.
+Skipped where neither has ``bpy``, with :data:`BPY_INSTALL` (a virtual environment of
+its own: bpy pins an older numpy); its wheels (about 370 MB) exist for one Python
+version per Blender release (3.11 for Blender 4.1 to 5.0). In CI, with ``BLENDVOCA_BPY_PYTHON`` set, a missing ``bpy`` fails.
 """
 
 import functools
@@ -18,6 +18,12 @@ import numpy as np
 import pytest
 
 ADDON = Path(__file__).resolve().parents[2] / "blendvoca" / "blender" / "blendvoca_addon.py"
+#: How to get bpy without touching this environment: it pins an older numpy, so it gets a virtual environment of
+#: its own, as .ci/run makes one.
+BPY_INSTALL = ("bpy pins an older numpy, so install it in a virtual environment of its own (not this one, whose "
+               "numpy it would downgrade), as .ci/run does: python3.11 -m venv .cache/venv-bpy && "
+               ".cache/venv-bpy/bin/python -m pip install 'bpy==5.0.1' && "
+               "export BLENDVOCA_BPY_PYTHON=$PWD/.cache/venv-bpy/bin/python (Python 3.11 wheels, ~370 MB)")
 
 SCRIPT = r"""
 import importlib.util, json, sys
@@ -67,8 +73,7 @@ def bpy_python() -> str:
     python = named or sys.executable
     probe = subprocess.run([python, "-c", "import bpy"], capture_output=True, text=True, timeout=300)
     if probe.returncode != 0:
-        reason = (f"bpy (Blender as a Python module) does not import in {python}: pip install 'blendvoca[blender]' "
-                  "(Python 3.11 wheels, ~370 MB) or set BLENDVOCA_BPY_PYTHON")
+        reason = (f"bpy (Blender as a Python module) does not import in {python}: {BPY_INSTALL}")
         if named and os.environ.get("CI"):
             pytest.fail(reason)
         pytest.skip(reason)
@@ -99,3 +104,11 @@ def test_addon_imports_rig_and_livelink_track_with_audio(tmp_path, small_rig, tr
         np.testing.assert_allclose([values[n] for n in names], coeffs[t], atol=1e-6)
         vertices = np.load(tmp_path / f"v{t}.npy")
         np.testing.assert_allclose(vertices, small_rig.evaluate(coeffs[t]), atol=1e-5)
+
+
+def test_the_skip_message_installs_bpy_beside_this_environment_not_into_it():
+    # installing bpy here would pin numpy down; the message points at a virtual environment of its own
+    assert "pip install 'blendvoca[blender]'" not in BPY_INSTALL and "-m venv .cache/venv-bpy" in BPY_INSTALL
+    assert "BLENDVOCA_BPY_PYTHON=" in BPY_INSTALL and "numpy" in BPY_INSTALL
+    ci = (Path(__file__).resolve().parents[2] / ".ci" / "run").read_text()
+    assert 'BPY_VENV="$PWD/.cache/venv-bpy"' in ci and '"bpy==5.0.1"' in ci  # the same place and pin as CI
