@@ -15,10 +15,13 @@ test does with it:
     Not run (it needs data a user brings, or hours).
 
 A new ```bash block without a marker fails :func:`test_every_readme_block_is_marked`,
-so a README command is either run here or says why not. Placeholders a user brings
-get fixtures, made just before the first line naming them (:data:`FIXTURES`:
-``speech.wav`` a 2 s speech-like WAV, ``rigs/S.npz`` a speaker rig of the bundled
-default build). A line ending in ``--serve`` starts the server in the background on a
+so a README command is either run here or says why not. The commands name no
+placeholder a user would have to make: what they read is the bundled build
+(``$BUILD``), the assets (``$WAV``, a recording of ``$BLENDVOCA_ASSETS``) or what an
+earlier command wrote (:func:`test_run_blocks_read_no_placeholder`), and what they
+write in the clone is in ``.gitignore`` (:func:`test_what_run_blocks_write_is_ignored_by_git`).
+:data:`FIXTURES` (shell lines that would make a placeholder before its first use) is
+therefore empty. A line ending in ``--serve`` starts the server in the background on a
 free port, loads its ``index.html`` and stops it.
 
 Time budget: :data:`BUDGET_S`, 10 minutes on 2 cores (the README's commands use short
@@ -46,20 +49,9 @@ BUDGET_S = 600
 _MARKER = re.compile(r"<!--\s*journey:\s*(?P<body>.*?)\s*-->\s*\n```bash\n(?P<code>.*?)```", re.S)
 _BLOCK = re.compile(r"```bash\n(.*?)```", re.S)
 
-#: Shell lines that make a placeholder file, run before the first command naming it.
-FIXTURES = {
-    "speech.wav": (
-        "python -c \"import numpy as np, soundfile as sf; t = np.arange(32000) / 16000; "
-        "env = 0.5 + 0.5 * np.sin(2 * np.pi * 3 * t); "
-        "x = env * sum(np.sin(2 * np.pi * f * t) / k for k, f in enumerate((140, 280, 700, 1200), 1)); "
-        "x += 0.02 * np.random.default_rng(0).standard_normal(t.size); "
-        "sf.write('speech.wav', (0.3 * x / np.abs(x).max()).astype(np.float32), 16000)\""
-    ),
-    "rigs/S.npz": (
-        "mkdir -p rigs && cp \"$(python -c \"from blendvoca.builder.pipeline import default_output_dir; "
-        "print(sorted((default_output_dir() / 'rigs').glob('*.npz'))[0])\")\" rigs/S.npz"
-    ),
-}
+#: Shell lines that make a placeholder file, run before the first command naming it: none, the README's
+#: commands run on the bundled build and the assets as written.
+FIXTURES: dict = {}
 
 
 def readme_blocks(text: str | None = None) -> list[dict]:
@@ -182,3 +174,37 @@ def test_readme_journey_runs_as_written(tmp_path):
     for made in ("runs", "tables", "site/index.html", "coeffs.csv", "take.glb", "take.mp4", "samples.npy",
                  "said-ckpt/said.pt"):
         assert (clone / made).exists(), f"the journey did not make {made}"
+
+
+def test_run_blocks_read_no_placeholder():
+    """What a run block reads (``--audio``, ``--rig``, ``--coeffs``) is a variable the README sets from the
+    bundled build or the assets, or a file an earlier run line wrote."""
+    lines = journey_lines(readme_blocks())
+    assert not FIXTURES
+    script = "\n".join(lines)
+    assert 'WAV="$BLENDVOCA_ASSETS/' in script and 'BUILD="${BLENDVOCA_CACHE:-' in script
+    for n, line in enumerate(lines):
+        for flag, value in re.findall(r"--(audio|rig|coeffs)\s+(\S+)", line):
+            value = value.strip('"')
+            if value.startswith("$"):
+                continue
+            earlier = "\n".join(lines[:n])
+            assert re.search(rf"--out\s+{re.escape(value)}(\s|$)", earlier), \
+                f"README: `{line}` reads {value} (--{flag}), which no earlier command writes"
+
+
+def test_what_run_blocks_write_is_ignored_by_git():
+    """Every relative ``--out``, ``--results`` and ``--checkpoint`` of a run block is in ``.gitignore``."""
+    if not (ROOT / ".git").exists():
+        pytest.skip("not a git checkout")
+    written = set()
+    for line in journey_lines(readme_blocks()):
+        for _flag, value in re.findall(r"--(out|results|checkpoint)\s+(\S+)", line):
+            value = value.strip('"')
+            if not value.startswith(("$", "~", "/")):
+                written.add(value.rstrip("/") + ("/x" if value.endswith("/") else ""))
+    assert {"runs/x", "tables/x", "coeffs.csv", "samples.npy"} <= written
+    proc = subprocess.run(["git", "check-ignore", "--no-index", *sorted(written)], cwd=ROOT, capture_output=True,
+                          text=True, check=False)
+    ignored = set(proc.stdout.split())
+    assert ignored == written, f"not in .gitignore: {sorted(written - ignored)}"
