@@ -187,3 +187,24 @@ def test_bad_input_is_one_error_line_and_nothing_written(case, checkpoints, wav,
     _one_error(capsys, *words)
     assert not out.exists() and not (tmp_path / "out.npy").exists()
     assert not list(tmp_path.glob(".blendvoca-*"))  # no temporary left either
+
+
+def test_a_sampling_option_is_set_on_the_loaded_method(checkpoints, wav, tmp_path):
+    # CDFace's control is a sampling option: --config control=lips fixes the lips of every sample
+    out = tmp_path / "lips.npy"
+    folder = str(checkpoints["cdface"])
+    assert gen.main(["--method", "cdface", "--checkpoint", folder, "--audio", str(wav), "--samples", "3",
+                     "--config", "control=lips", "--out", str(out)]) == cli.EXIT_OK
+    verts = np.load(out)
+    lips = get_method("cdface").load(folder).cdface.parts.lips
+    np.testing.assert_array_equal(verts[0][:, lips], verts[2][:, lips])
+    assert not np.array_equal(verts[0], verts[1])  # the upper face still varies (two upper samples here)
+    free = tmp_path / "free.npy"  # without it the lips differ between samples
+    assert gen.main(["--method", "cdface", "--checkpoint", folder, "--audio", str(wav), "--samples", "3",
+                     "--out", str(free)]) == cli.EXIT_OK
+    diverse = np.load(free)
+    assert not np.array_equal(diverse[0][:, lips], diverse[2][:, lips])
+    # a key the checkpoint was trained with is not a sampling option: refused
+    assert gen.main(["--method", "cdface", "--checkpoint", folder, "--audio", str(wav), "--config", "width=32",
+                     "--out", str(tmp_path / "w.npy")]) == cli.EXIT_USER
+    assert not (tmp_path / "w.npy").exists()
