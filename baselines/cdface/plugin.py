@@ -15,11 +15,11 @@ from baselines.cdface.closure import lip_pair_for
 from baselines.cdface.generate import chunk_lengths
 from baselines.cdface.parts import face_parts
 from baselines.cdface.pipeline import CONTROL_MODES, CDFace
-from baselines.cdface.presets import DEFAULT_PRESET, PRESETS, resolve_config
+from baselines.cdface.presets import DEFAULT_PRESET, HELP, PRESETS, resolve_config
 from baselines.cdface.train import load_sentences, moving_vertices, prepare_sentences, train_cdface
 from baselines.common.chunking import FPS, generate_utterance_in_chunks
 from baselines.common.device import checked_precision, method_device, precision_config
-from baselines.common.presets import preset_options
+from baselines.common.presets import preset_help, preset_options
 from benchmark.methods.base import Method, TrainingRequest
 from benchmark.methods.contract import OUTPUT_VERTICES
 from blendvoca.errors import DataError, UserError
@@ -73,7 +73,8 @@ class CDFaceMethod(Method):
     @classmethod
     def config_schema(cls):
         """The constructor's keys plus every flat key of the presets, typed from their values."""
-        return super().config_schema().with_presets(PRESETS, default=DEFAULT_PRESET, extra=preset_options(encoder=True))
+        return super().config_schema().with_presets(PRESETS, default=DEFAULT_PRESET, extra=preset_options(encoder=True),
+            help=preset_help(HELP))
 
     def __init__(self, preset: str = "cpu-demo", control: str = "none", style: str | None = None,
                  resolved: dict | None = None, mixed_precision: str = "off", **overrides):

@@ -88,6 +88,45 @@ PRESETS: dict[str, dict[str, dict]] = {
 }
 
 
+#: One sentence per flat key (``benchmark.run --method cdface --list-config``), besides the shared ones.
+HELP = {
+    "active_threshold": "model only the vertices whose displacement std in training exceeds this, in metres (null: all)",
+    "vq_hidden": "width of the part VQ-VAEs' transformers",
+    "vq_layers": "transformer layers of each part VQ-VAE",
+    "vq_heads": "attention heads of the part VQ-VAEs",
+    "num_codes": "codes per frame of each part",
+    "code_dim": "size of one code vector",
+    "codebook_size": "entries of each part's codebook",
+    "vq_half_width": "frames each VQ-VAE frame attends to on either side (null: all)",
+    "width": "width of the code-querying transformer",
+    "query_layers": "layers of the code-querying transformer",
+    "heads": "attention heads of the code-querying transformer",
+    "audio_layers": "self-attention layers over the audio features",
+    "audio_self_half_width": "frames the audio self-attention sees on either side (null: all)",
+    "self_context": "past frames the querying self-attention sees (null: all)",
+    "audio_half_width": "audio frames a motion frame attends to on either side",
+    "num_lip_samples": "lip samples N^l drawn per sentence",
+    "num_upper_samples": "upper-face samples drawn per lip sample",
+    "upper_context": "past lips the upper face reads in training: ground-truth (teacher forcing) or predicted",
+    "lambda_d_lips": "weight of the lip diversity loss (Eq. 15/16)",
+    "lambda_d_upper": "weight of the upper-face diversity loss (Eq. 15/16)",
+    "lambda_rc_lips": "weight of the lip reconstruction loss (Eq. 15/16)",
+    "lambda_rc_upper": "weight of the upper-face reconstruction loss (Eq. 15/16)",
+    "lambda_rg": "weight of the regularisation loss (Eq. 15/16)",
+    "epsilon": "lip distance in metres under which a ground-truth frame counts as closed (closure mask)",
+    "batch_size": "windows per querying step",
+    "vq_batch_size": "windows per VQ-VAE step",
+    "lr_schedule": "constant, or cosine (each stage decays the rate to 0 on a half cosine)",
+    "vq_epochs": "epochs of each part VQ-VAE stage (null: by steps or seconds)",
+    "query_epochs": "epochs of the querying stage (null: by steps or seconds)",
+    "vq_max_steps": "steps of each part VQ-VAE stage",
+    "query_max_steps": "steps of the querying stage",
+    "vq_max_seconds": "seconds of each part VQ-VAE stage (lip prior, upper-face prior)",
+    "query_max_seconds": "seconds of the code-querying stage",
+    "past_dropout": "probability of zeroing a frame's ground-truth past in training (not in the paper)",
+}
+
+
 def resolve_config(preset: str = DEFAULT_PRESET, **overrides) -> dict:
     """Nested config of ``preset`` with flat ``overrides`` applied.
 

@@ -12,7 +12,7 @@ from pathlib import Path
 
 from baselines.codetalker.model import CodeTalker
 from baselines.codetalker.official import load_official
-from baselines.codetalker.presets import PREFIXES, PRESETS, resolve_config
+from baselines.codetalker.presets import HELP, PREFIXES, PRESETS, resolve_config
 from baselines.codetalker.train import split_budget, train_stage1, train_stage2
 from baselines.common.chunking import ChunkedDecoder
 from baselines.common.device import precision_config
@@ -48,7 +48,7 @@ class CodeTalkerMethod(ChunkedDecoder, StyleVertexMethod):
     # each style is predicted alone, at position 0, as the authors do.
     batch_styles = False
 
-    presets, preset_prefixes = PRESETS, PREFIXES
+    presets, preset_prefixes, preset_help = PRESETS, PREFIXES, HELP
 
     def __init__(self, preset: str = "cpu-demo", official: str | os.PathLike | None = None,
                  official_stage1: str | os.PathLike | None = None, official_wav2vec2="base", resolved: dict | None = None,

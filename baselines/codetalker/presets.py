@@ -16,7 +16,7 @@ from __future__ import annotations
 from baselines.common.chunking import chunk_section
 from baselines.common.presets import resolved_preset
 
-__all__ = ["PREFIXES", "PRESETS", "resolve_config"]
+__all__ = ["HELP", "PREFIXES", "PRESETS", "resolve_config"]
 
 #: The flat-key prefix of a section's keys: ``vq_hidden_size`` sets ``stage1.hidden_size``.
 PREFIXES = {"stage1": "vq_"}
@@ -46,6 +46,26 @@ PRESETS = {
                      "own_input_prob": 0.0, "val_free_running": False},
         "wav2vec2_path": "${BLENDVOCA_WAV2VEC2:-~/models/wav2vec2-base-960h}",
     },
+}
+
+
+#: One sentence per flat key (``benchmark.run --method codetalker --list-config``), besides the shared ones.
+HELP = {
+    "vq_hidden_size": "width of the stage-1 VQ-VAE's transformers",
+    "vq_num_hidden_layers": "transformer layers of the VQ-VAE's encoder and of its decoder",
+    "vq_num_attention_heads": "attention heads of the VQ-VAE",
+    "vq_intermediate_size": "feed-forward width of the VQ-VAE's transformer layers",
+    "vq_face_quan_num": "codes per frame",
+    "vq_zquant_dim": "size of one code vector",
+    "vq_n_embed": "entries of the codebook",
+    "stage1_lr": "learning rate of stage 1 (the VQ-VAE)",
+    "stage1_epochs": "epochs of stage 1 (null: by the budget's share, stage1_fraction)",
+    "stage1_step_epochs": "epochs between halvings of the stage-1 learning rate (null: constant)",
+    "stage1_fraction": "share of the step or time budget given to stage 1",
+    "lr": "learning rate of stage 2 (speech to codes)",
+    "quant_loss_weight": "weight of the codebook (quantisation) loss in stage 1",
+    "own_input_prob": "probability that stage 2 is fed its own predictions instead of the ground truth",
+    "val_free_running": "keep the stage-2 weights that validate best running free (not teacher-forced)",
 }
 
 

@@ -24,6 +24,36 @@ __all__ = ["expand_path", "preset_options", "resolved_preset"]
 WAV2VEC2_PATH = Option("wav2vec2_path", (str, type(None)), None, "local directory of the wav2vec2 encoder")
 
 
+#: The one-sentence help of the flat preset keys the baselines share (``--list-config``);
+#: each method's presets module adds its own in ``HELP`` (:func:`preset_help`).
+COMMON_HELP = {
+    "lr": "learning rate of the optimiser",
+    "weight_decay": "weight decay of the optimiser",
+    "grad_clip": "largest gradient norm, clipped to it (null: no clipping)",
+    "max_steps": "training steps when no budget is given (null: by epochs or seconds)",
+    "max_seconds": "training seconds when no budget is given (null: no time limit)",
+    "max_epochs": "training epochs when no step or time limit ends it first (null: none)",
+    "batch_size": "sequences per training step",
+    "window": "training window length in 60 fps frames (null: whole sentences)",
+    "num_threads": "torch threads while training and generating (null: torch's default)",
+    "dropout": "dropout probability of the network's blocks",
+    "motion_scale": "factor on vertex displacements inside the network (1000: millimetres, 1: metres)",
+    "period": "period in frames of the periodic positional encoding / alignment bias",
+    "feature_dim": "width of the decoder's features",
+    "n_head": "attention heads of the decoder",
+    "num_layers": "transformer decoder layers",
+    "audio": "audio encoder spec (a dict, or a kind string: logmel, wav2vec2)",
+    "encoder": "audio encoder spec (a dict, or a kind string: logmel, wav2vec2, wav2vec2-tiny)",
+    "heads": "attention heads",
+    "wav2vec2_path": "folder of the wav2vec 2.0 weights (from_pretrained layout) for that encoder",
+}
+
+
+def preset_help(own: dict | None = None) -> dict:
+    """The help of a method's flat preset keys: :data:`COMMON_HELP` with the method's ``own`` over it."""
+    return {**COMMON_HELP, **(own or {})}
+
+
 def preset_options(*, encoder: bool = False) -> tuple:
     """The options a preset-based baseline's schema adds to its presets' keys
     (:meth:`~benchmark.methods.config.ConfigSchema.with_presets`): ``mixed_precision``, the

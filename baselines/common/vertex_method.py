@@ -19,7 +19,7 @@ import torch
 from baselines.common.checkpoint import load_checkpoint_file, old_format_hint, safe_payload, save_checkpoint_file
 from baselines.common.device import checked_precision, method_device
 from baselines.common.encoders.trainable import load_pretrained_wav2vec2
-from baselines.common.presets import preset_options
+from baselines.common.presets import preset_help, preset_options
 from baselines.common.sequences import (
     MotionSequence,
     motion_frames,
@@ -82,12 +82,14 @@ class StyleVertexMethod(Method):
     #: The presets (``{name: nested config}``) and flat-key prefixes of the subclass.
     presets: dict = {}
     preset_prefixes: dict | None = None
+    #: One sentence per flat preset key of the subclass, besides the shared ones (``--list-config``).
+    preset_help: dict = {}
 
     @classmethod
     def config_schema(cls):
         """The constructor's keys plus every flat key of the presets, typed from their values."""
         return super().config_schema().with_presets(cls.presets, default="cpu-demo", prefixes=cls.preset_prefixes,
-                                                    extra=preset_options())
+                                                    extra=preset_options(), help=preset_help(cls.preset_help))
 
     def __init__(self, **config):
         super().__init__(**config)

@@ -14,7 +14,7 @@ from baselines.common.device import precision_config
 from baselines.common.vertex_method import StyleVertexMethod, training_limits
 from baselines.faceformer.model import Faceformer
 from baselines.faceformer.official import load_official
-from baselines.faceformer.presets import PRESETS, resolve_config
+from baselines.faceformer.presets import HELP, PRESETS, resolve_config
 from baselines.faceformer.train import train_faceformer
 
 __all__ = ["FaceFormerMethod"]
@@ -40,7 +40,7 @@ class FaceFormerMethod(ChunkedDecoder, StyleVertexMethod):
     label = "FaceFormer"
     checkpoint_file = "faceformer.pt"
 
-    presets = PRESETS
+    presets, preset_help = PRESETS, HELP
 
     def __init__(self, preset: str = "cpu-demo", official: str | os.PathLike | None = None, official_wav2vec2="base",
                  resolved: dict | None = None, mixed_precision: str = "off", **overrides):

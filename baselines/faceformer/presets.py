@@ -11,7 +11,7 @@ from __future__ import annotations
 from baselines.common.chunking import chunk_section
 from baselines.common.presets import resolved_preset
 
-__all__ = ["PRESETS", "resolve_config"]
+__all__ = ["HELP", "PRESETS", "resolve_config"]
 
 PRESETS = {
     "cpu-demo": {
@@ -31,6 +31,10 @@ PRESETS = {
         "wav2vec2_path": "${BLENDVOCA_WAV2VEC2:-~/models/wav2vec2-base-960h}",
     },
 }
+
+
+#: FaceFormer's flat keys are the shared ones (:data:`baselines.common.presets.COMMON_HELP`).
+HELP: dict = {}
 
 
 def resolve_config(preset: str, presets: dict = PRESETS, **overrides) -> dict:

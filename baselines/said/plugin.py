@@ -14,12 +14,12 @@ import torch
 
 from baselines.common.checkpoint import load_checkpoint_file
 from baselines.common.device import checked_precision, method_device, precision_config
-from baselines.common.presets import preset_options
+from baselines.common.presets import preset_help, preset_options
 from baselines.said.dataset import dataset_pairs, mirror_for
 from baselines.said.official import is_official_state, model_from_state
 from baselines.said.official_pipeline import OfficialSAiD
 from baselines.said.pipeline import SAiD, check_sampling
-from baselines.said.presets import DEFAULT_PRESET, PRESETS
+from baselines.said.presets import DEFAULT_PRESET, HELP, PRESETS
 from baselines.said.train import train_said
 from benchmark.methods.base import Method, TrainingRequest
 from blendvoca.errors import DataError, UserError
@@ -51,7 +51,8 @@ class SAiDMethod(Method):
     @classmethod
     def config_schema(cls):
         """The constructor's keys plus every flat key of the presets, typed from their values."""
-        return super().config_schema().with_presets(PRESETS, default=DEFAULT_PRESET, extra=preset_options(encoder=True))
+        return super().config_schema().with_presets(PRESETS, default=DEFAULT_PRESET, extra=preset_options(encoder=True),
+            help=preset_help(HELP))
 
     def __init__(self, preset: str = "cpu-demo", resolved: dict | None = None, mixed_precision: str = "off",
                  **overrides):

@@ -99,6 +99,40 @@ PRESETS: dict[str, dict[str, dict]] = {
 }
 
 
+#: One sentence per flat key (``benchmark.run --method said --list-config``), besides the shared ones.
+HELP = {
+    "architecture": "UNet layout: authors (the authors' ConditionalUNet1D) or compact (earlier checkpoints)",
+    "channels": "UNet width",
+    "cond_dim": "size of the audio condition fed to the cross-attention (null: the encoder's, unprojected)",
+    "heads": "attention heads of the UNet",
+    "dropout": "dropout of the residual blocks (authors) or of every block (compact)",
+    "adapter_layers": "convolution layers of the audio adapter between encoder and UNet",
+    "adapter_kernel": "kernel size of the audio adapter's convolutions",
+    "attention_half_width": "frames each coefficient frame attends to on either side in the audio (alignment bias)",
+    "zero_init": "start the layers the authors start at zero at zero (false: PyTorch's default initialisation)",
+    "num_train_steps": "diffusion steps of the noise schedule in training",
+    "schedule": "noise schedule of the diffusion: cosine, linear or scaled_linear",
+    "normalization": "how coefficients are normalised before diffusion (unit-interval, centered, standardized)",
+    "prediction": "what the network predicts: epsilon (the noise) or v",
+    "sampler": "sampler: ddim or ddpm",
+    "num_steps": "sampling steps",
+    "eta": "DDIM eta in [0, 1] (0: deterministic given the start noise)",
+    "guidance": "classifier-free guidance scale gamma (1: none)",
+    "clip": "clip each step's estimate of the clean track to the coefficients' range",
+    "batch_size": "training windows per step",
+    "lr_decay": "learning-rate schedule after warm-up: constant, linear or cosine",
+    "warmup_steps": "steps of linear learning-rate warm-up",
+    "betas": "Adam(W) betas",
+    "ema_decay": "decay of the exponential moving average of the weights (what generates)",
+    "cond_drop_prob": "probability of dropping the audio condition in training (for classifier-free guidance)",
+    "velocity_weight": "weight of the velocity term of the loss",
+    "loss_space": "where the loss is taken: noise, or v (with prediction v)",
+    "audio_shift_prob": "probability of the audio-shift augmentation of a training window",
+    "mirror_prob": "probability of the left/right mirror augmentation of a training window",
+    "val_every": "steps between validations (the best weights on validation are kept)",
+}
+
+
 def resolve_config(preset: str = DEFAULT_PRESET, **overrides) -> dict[str, dict]:
     """Return the nested config of ``preset`` with flat ``overrides`` applied.
 

@@ -218,7 +218,7 @@ class ConfigSchema:
         return ConfigSchema(merged, self.open if open is None else open)
 
     def with_presets(self, presets: dict, *, default: str, extra: tuple = (),
-                     prefixes: dict | None = None) -> ConfigSchema:
+                     prefixes: dict | None = None, help: dict | None = None) -> ConfigSchema:
         """This schema plus the flat keys of ``presets`` (``{name: {section: {key: value}}}``,
         the layout of ``baselines/*/presets.py``), closed to other keys.
 
@@ -227,7 +227,9 @@ class ConfigSchema:
         ``default`` preset's value; ``preset`` gets the preset names as choices.
         ``extra`` adds options the presets' resolver accepts besides their keys
         (e.g. ``wav2vec2_path``); ``prefixes`` maps a section to the prefix its flat
-        keys take (CodeTalker's ``{"stage1": "vq_"}``).
+        keys take (CodeTalker's ``{"stage1": "vq_"}``); ``help`` gives a flat key its own
+        sentence (``{"lr": "Adam learning rate"}``), followed by its section and the
+        presets' values (a key without one gets those alone).
         """
         found: dict[str, dict] = {}
         for name, sections in presets.items():
@@ -249,7 +251,9 @@ class ConfigSchema:
             kinds.sort(key=lambda tp: tp is type(None))
             where = f"{slot['section']} section" if slot["section"] else "top level"
             values = ", ".join(f"{p}: {json.dumps(v)}" for p, v in slot["values"].items())
-            options.append(Option(key, tuple(kinds), slot["values"].get(default), f"preset {where} ({values})"))
+            own = (help or {}).get(key)
+            text = f"{own} (preset {where}: {values})" if own else f"preset {where} ({values})"
+            options.append(Option(key, tuple(kinds), slot["values"].get(default), text))
         schema = self.with_options(*options, *extra, open=False)
         if "preset" in schema:
             preset = schema["preset"]

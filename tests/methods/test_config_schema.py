@@ -161,10 +161,12 @@ def test_list_config_gives_each_key_its_own_help_without_markup(capsys):
         options = list(schema)
         for option in options:
             assert "``" not in option.help and ":`" not in option.help, (name, option.name, option.help)
-        # the constructor's own keys (the presets' keys say their section and values) never share a help line
-        own = [o for o in options if o.help and not o.help.startswith("preset ")]
-        for a, b in zip(own, own[1:]):
-            assert a.help != b.help, (name, a.name, b.name, a.help)
+        # every key has a sentence of its own (a preset key's is followed by its section and the presets' values)
+        for option in options:
+            assert option.help and not option.help.startswith("preset "), (name, option.name, option.help)
+        own = [o.help.split(" (preset ")[0] for o in options]
+        for a, b, text_a, text_b in zip(options, options[1:], own, own[1:]):
+            assert text_a != text_b, (name, a.name, b.name, text_a)
 
 
 def test_plain_text_reads_rst_as_a_terminal_shows_it():
@@ -182,3 +184,12 @@ def test_list_gives_kind_row_and_description(capsys):
     assert rows["faceformer"][1:3] == ["vertices", "ranked"]
     assert rows["static"][1:3] == ["coefficients", "reference"] and rows["static"][3].startswith("Lower reference")
     assert all("``" not in row[3] for row in rows.values())
+
+
+def test_a_preset_key_gets_its_help_then_section_and_values(capsys):
+    assert run_module.main(["--method", "said", "--list-config"]) == cli.EXIT_OK
+    lines = {line.split(" ", 1)[0]: line for line in capsys.readouterr().out.splitlines()}
+    assert lines["lr"] == ("lr (float, default 0.001): learning rate of the optimiser (preset training section: "
+                           "cpu-demo: 0.001, paper: 1e-05)")
+    assert lines["guidance"].startswith("guidance (float, default 1.0): classifier-free guidance scale")
+    assert lines["audio_shift_prob"].split(": ", 1)[1] != lines["mirror_prob"].split(": ", 1)[1]
