@@ -2,7 +2,9 @@
 
 ``python -m blendvoca.assets list|verify|fetch [ID ...]`` lists them, checks the local
 copies against their sha256 (exit status 4 when one is corrupted or missing) and
-downloads what is missing.
+downloads what is missing; ``python -m blendvoca.assets path ID ...`` prints the local
+path of each (fetched first when missing), for a shell: ``--audio "$(python -m
+blendvoca.assets path speech-voca)"``.
 
 Lookup order for an asset with a ``mirror`` path:
 
@@ -230,7 +232,7 @@ def _status(asset_id: str) -> tuple[str, Path | None]:
 
 @cli.command
 def main(argv: list[str] | None = None) -> int:
-    """``python -m blendvoca.assets list|verify|fetch [ID ...]``.
+    """``python -m blendvoca.assets list|verify|fetch [ID ...]``, ``python -m blendvoca.assets path ID ...``.
 
     Exit status: 0 done; 2 an unknown asset id; 4 (``verify``) some local copy is
     corrupted or a public asset is missing; 5 (``fetch``) some asset could not be
@@ -240,12 +242,18 @@ def main(argv: list[str] | None = None) -> int:
     (``fetch vocaset``) asks for it, so it fails (5) with the instructions.
     """
     parser = cli.parser("blendvoca.assets", __doc__)
-    parser.add_argument("command", choices=["list", "verify", "fetch"])
-    parser.add_argument("ids", nargs="*", help="asset ids (default: all)")
+    parser.add_argument("command", choices=["list", "verify", "fetch", "path"])
+    parser.add_argument("ids", nargs="*", help="asset ids (default: all; path: at least one)")
     args = parser.parse_args(argv)
+    if args.command == "path" and not args.ids:
+        raise UserError("path: name the asset(s), e.g. python -m blendvoca.assets path speech-voca")
     ids = args.ids or list(load_manifest())
     for asset_id in ids:
         entry(asset_id)  # unknown ids fail before any work
+    if args.command == "path":  # one line per asset, nothing else on stdout; a missing manual one: exit 2
+        paths = [resolve(asset_id) for asset_id in ids]
+        print("\n".join(str(path) for path in paths))
+        return cli.EXIT_OK
     failures = manual = 0
     for asset_id in ids:
         item = entry(asset_id)

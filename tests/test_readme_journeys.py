@@ -17,7 +17,7 @@ test does with it:
 A new ```bash block without a marker fails :func:`test_every_readme_block_is_marked`,
 so a README command is either run here or says why not. The commands name no
 placeholder a user would have to make: what they read is the bundled build
-(``$BUILD``), the assets (``$WAV``, a recording of ``$BLENDVOCA_ASSETS``) or what an
+(``$BUILD``), the assets (``$WAV``, ``python -m blendvoca.assets path speech-voca``) or what an
 earlier command wrote (:func:`test_run_blocks_read_no_placeholder`), and what they
 write in the clone is in ``.gitignore`` (:func:`test_what_run_blocks_write_is_ignored_by_git`).
 :data:`FIXTURES` (shell lines that would make a placeholder before its first use) is
@@ -182,7 +182,7 @@ def test_run_blocks_read_no_placeholder():
     lines = journey_lines(readme_blocks())
     assert not FIXTURES
     script = "\n".join(lines)
-    assert 'WAV="$BLENDVOCA_ASSETS/' in script and 'BUILD="${BLENDVOCA_CACHE:-' in script
+    assert 'WAV="$(python -m blendvoca.assets path ' in script and 'BUILD="${BLENDVOCA_CACHE:-' in script
     for n, line in enumerate(lines):
         for flag, value in re.findall(r"--(audio|rig|coeffs)\s+(\S+)", line):
             value = value.strip('"')
