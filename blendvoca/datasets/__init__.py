@@ -41,6 +41,8 @@ DATASETS: dict[str, str] = {
     "3d-etf": "blendvoca.datasets.etf3d:ADAPTER",
     # a rig's own controls, mapped onto ARKit (blendvoca.names.controls_to_arkit); long takes cut into utterances
     "facegood": "blendvoca.datasets.facegood:ADAPTER",
+    # Live Link Face takes (CSV + WAV or video): the rate from the timecodes, the head pose kept
+    "livelink": "blendvoca.datasets.livelink:ADAPTER",
     # vertex corpora of other topologies: posed meshes, rig retargeted with the user's landmark file
     "biwi": "blendvoca.datasets.biwi:ADAPTER",
     "multiface": "blendvoca.datasets.multiface:ADAPTER",

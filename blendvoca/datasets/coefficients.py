@@ -12,7 +12,9 @@ What the folder holds, per speaker: ``blendshape_coeffs/<subject>/sentenceNN.csv
 lacks as 0 with a warning), ``audio/<subject>/sentenceNN.wav`` and
 ``rigs/<subject>.npz``, the ARKit reference rig (51 shapes): these corpora have no
 meshes, so every speaker is rendered through the one reference head (rig space
-only). ``splits.json`` splits by speaker (a corpus of fewer than 3 puts them all in
+only). A take that carries its head and eye rotations (``Take.pose``) has them in
+``pose/<subject>/sentenceNN.csv``, resampled and cut as its weights. ``splits.json``
+splits by speaker (a corpus of fewer than 3 puts them all in
 test, and says so); ``manifest.json`` records the dataset (``dataset``: name, title,
 kind, the source file of every sentence).
 
@@ -79,6 +81,12 @@ class Take:
     audio : callable () -> (samples (N,), rate)
     split : str, optional
         The corpus's own split of the take, if it has one.
+    pose : callable () -> (pose (T, 9), fps) or None, optional
+        The capture's head and eye rotations (:data:`blendvoca.format.POSE_COLUMNS`), one
+        row per row of ``weights``; written to ``pose/`` beside the track.
+    durations : {"warn", "fail"}
+        Audio and motion longer than each other by more than :data:`DURATION_TOLERANCE`:
+        both cut to the shorter and reported (``"warn"``), or the take fails.
     """
 
     subject: str
@@ -87,6 +95,8 @@ class Take:
     weights: Callable[[], tuple]
     audio: Callable[[], tuple]
     split: str | None = None
+    pose: Callable[[], tuple] | None = None
+    durations: str = "warn"
 
 
 def safe_name(text: str) -> str:
@@ -161,6 +171,38 @@ def take_track(coeffs, names, fps: float, *, where: str) -> tuple[np.ndarray, tu
         raise DataError(f"{where}: {error}") from None
     notes = [str(w.message) for w in caught if issubclass(w.category, MissingShapesWarning)]
     return resample_sequence(track, fps, fmt.FPS), columns, notes
+
+
+def take_pose(take: Take, frames: int, *, where: str) -> np.ndarray | None:
+    """A take's head and eye rotations as the build writes them: ``(frames, 9)`` at
+    :data:`blendvoca.format.FPS`, resampled as its weights are; None for a take without."""
+    got = None if take.pose is None else take.pose()
+    if got is None:
+        return None
+    pose, fps = got
+    pose = np.asarray(pose, dtype=np.float64)
+    if pose.ndim != 2 or pose.shape[1] != len(fmt.POSE_COLUMNS) or len(pose) == 0:
+        raise DataError(f"{where}: expected (T, {len(fmt.POSE_COLUMNS)}) head and eye rotations, got shape {pose.shape}")
+    if not np.all(np.isfinite(pose)):
+        raise DataError(f"{where}: NaN/inf rotation at frame {int(np.argwhere(~np.isfinite(pose))[0][0])}")
+    return resample_sequence(pose, fps, fmt.FPS)[:frames]
+
+
+def check_durations(take: Take, seconds_audio: float, seconds_motion: float, *, where: str) -> str | None:
+    """The warning for audio and motion of a take whose lengths differ by more than
+    :data:`DURATION_TOLERANCE` (both are then cut to the shorter), None when they agree.
+
+    Raises
+    ------
+    DataError
+        They differ and the take's ``durations`` is ``"fail"``.
+    """
+    if abs(seconds_audio - seconds_motion) <= DURATION_TOLERANCE * max(seconds_audio, seconds_motion):
+        return None
+    if take.durations == "fail":
+        raise DataError(f"{where}: audio {seconds_audio:.2f} s and motion {seconds_motion:.2f} s differ by more than "
+                        f"{DURATION_TOLERANCE:.0%}; expected the take's audio and motion to cover the same time")
+    return f"audio {seconds_audio:.2f} s and motion {seconds_motion:.2f} s differ; both were cut to the shorter"
 
 
 def subject_splits(subjects: list[str]) -> dict:
@@ -360,20 +402,18 @@ def build_coefficient_dataset(out, root, takes: Iterable[Take], *, dataset: str,
                     raise DataError(f"{where}: the take's audio is empty")
                 # the frames the audio covers, to within half a sample (a resampled WAV is rounded to a sample)
                 frames = min(len(track), int(np.floor(seconds_audio * fmt.FPS + 0.5 * fmt.FPS / rate + 1e-9)))
-                if abs(seconds_audio - seconds_motion) > DURATION_TOLERANCE * max(seconds_audio, seconds_motion):
-                    summary.warnings.append({"subject": take.subject, "sentence": sentence, "message":
-                                             f"audio {seconds_audio:.2f} s and motion {seconds_motion:.2f} s differ; "
-                                             "both were cut to the shorter"})
-                elif frames < len(track):  # within the tolerance, yet frames go: said, never silent
-                    summary.warnings.append({"subject": take.subject, "sentence": sentence, "message":
-                                             f"take {take.name}: {len(track) - frames} motion frame(s) after the "
-                                             f"audio's end ({seconds_audio:.3f} s) were cut ({len(track)} -> "
-                                             f"{frames} frames)"})
+                mismatch = check_durations(take, seconds_audio, seconds_motion, where=where)
+                if mismatch is None and frames < len(track):  # within the tolerance, yet frames go: said, never silent
+                    mismatch = (f"take {take.name}: {len(track) - frames} motion frame(s) after the audio's end "
+                                f"({seconds_audio:.3f} s) were cut ({len(track)} -> {frames} frames)")
                 track, samples = track[:frames], samples[: int(round(frames / fmt.FPS * rate))]
                 if frames < 1:
                     raise DataError(f"{where}: shorter than one frame at {fmt.FPS} fps")
+                pose = take_pose(take, frames, where=where)
                 spans = take_spans(track, samples, int(rate), fmt.FPS, where=where, long_take=long_takes,
                                    cuts_s=None if user_cuts is None else user_cuts.get(take.name))
+                if mismatch:
+                    summary.warnings.append({"subject": take.subject, "sentence": sentence, "message": mismatch})
             except (BlendVOCAError, OSError, ValueError, KeyError, TypeError) as error:
                 summary.failures.append({"subject": take.subject, "sentence": sentence, "stage": "input",
                                          "reason": f"{take.source}: {error}"})
@@ -388,6 +428,8 @@ def build_coefficient_dataset(out, root, takes: Iterable[Take], *, dataset: str,
                 try:
                     files.append(fmt.write_coeffs(out, take.subject, sentence, piece, columns))
                     files.append(fmt.write_audio(out, take.subject, sentence, sound, int(rate)))
+                    if pose is not None:
+                        files.append(fmt.write_pose(out, take.subject, sentence, pose[span.start:span.end]))
                 except OSError as error:
                     raise unwritable(error, out) from None
                 tracks.append(remap(piece, columns, BLENDVOCA_NAMES, missing="refuse"))

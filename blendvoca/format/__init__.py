@@ -15,7 +15,7 @@ and ``manifest.json``, which lists the files that make up the dataset. The build
     (``listed_subjects``, ``listed_sentences``, ``listed_samples``).
 :mod:`~blendvoca.format.items`
     Reading and writing the items: coefficient tracks (CSV, 60 fps), audio (WAV,
-    mono 16 kHz), rigs (``.npz`` and SAiD's OBJ heads), ``coeffs_std.csv`` and
+    mono 16 kHz), a capture's head and eye rotations (``pose/``, optional), rigs (``.npz`` and SAiD's OBJ heads), ``coeffs_std.csv`` and
     ``splits.json``.
 :mod:`~blendvoca.format.manifest`
     ``manifest.json``: reading (``listed_files``, ``read_manifest``), writing
@@ -44,12 +44,14 @@ from .items import (
     read_audio,
     read_coeffs,
     read_coeffs_file,
+    read_pose,
     read_rig,
     read_said_rig,
     read_splits,
     write_audio,
     write_coeffs,
     write_coeffs_std,
+    write_pose,
     write_rig,
     write_said_rig,
     write_splits,
@@ -65,6 +67,8 @@ from .layout import (
     FPS,
     MANIFEST_FILE,
     ORACLE_COEFFS_DIR,
+    POSE_COLUMNS,
+    POSE_DIR,
     REPORT_DIR,
     RESIDUALS_FILE,
     RIGS_DIR,
@@ -87,6 +91,8 @@ from .layout import (
     listed_sentences,
     listed_subjects,
     manifest_path,
+    pose_path,
+    pose_relpath,
     report_dir,
     residuals_path,
     rig_path,

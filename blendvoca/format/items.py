@@ -1,5 +1,5 @@
 """Reading and writing the items of a BlendVOCA folder: coefficient tracks, audio,
-rigs (``.npz`` and SAiD's OBJ heads), ``coeffs_std.csv`` and ``splits.json``.
+captured head poses, rigs (``.npz`` and SAiD's OBJ heads), ``coeffs_std.csv`` and ``splits.json``.
 
 Each function takes the folder's root and the item's subject / sentence, finds
 the file through :mod:`blendvoca.format.layout` and reads or writes it with
@@ -26,6 +26,7 @@ from blendvoca.rig import Rig
 from .layout import (
     AUDIO_RATE,
     COEFFS_STD_FILE,
+    POSE_COLUMNS,
     SPLITS_FILE,
     audio_path,
     audio_relpath,
@@ -34,6 +35,8 @@ from .layout import (
     blendshapes_relpath,
     coeffs_relpath,
     oracle_coeffs_relpath,
+    pose_path,
+    pose_relpath,
     rig_path,
     rig_relpath,
     splits_path,
@@ -46,6 +49,7 @@ __all__ = [
     "read_coeffs",
     "read_coeffs_file",
     "read_oracle_coeffs",
+    "read_pose",
     "read_rig",
     "read_said_rig",
     "read_splits",
@@ -53,6 +57,7 @@ __all__ = [
     "write_coeffs",
     "write_coeffs_std",
     "write_oracle_coeffs",
+    "write_pose",
     "write_rig",
     "write_said_rig",
     "write_splits",
@@ -142,6 +147,40 @@ def write_audio(root, subject: str, sentence: str, samples, rate: int) -> str:
 def read_audio(root, subject: str, sentence: str) -> tuple[np.ndarray, int]:
     """A sentence's speech: ``((N,) float32 mono, 16000)``."""
     return np.asarray(load_audio(audio_path(root, subject, sentence), rate=AUDIO_RATE), dtype=np.float32), AUDIO_RATE
+
+
+# ----------------------------------------------------------------------------- captured head pose
+
+
+def write_pose(root, subject: str, sentence: str, pose) -> str:
+    """Write a sentence's captured head and eye rotations (``(T, 9)``, columns
+    :data:`~blendvoca.format.layout.POSE_COLUMNS`, one row per frame of its track); return
+    its relative path."""
+    rel = pose_relpath(subject, sentence)
+    write_coeffs_csv(Path(root) / rel, pose, POSE_COLUMNS)
+    return rel
+
+
+def read_pose(root, subject: str, sentence: str) -> np.ndarray:
+    """A sentence's captured head and eye rotations, ``(T, 9)`` float64 in
+    :data:`~blendvoca.format.layout.POSE_COLUMNS` order.
+
+    Raises
+    ------
+    FileNotFoundError
+        The sentence has no pose file.
+    DataError
+        A header other than the pose columns, or a value that is no number (naming the file).
+    """
+    path = pose_path(root, subject, sentence)
+    lines = path.read_text(encoding="utf-8").splitlines()
+    header = tuple(h.strip() for h in lines[0].split(",")) if lines else ()
+    if header != POSE_COLUMNS:
+        raise DataError(f"{path}: header {list(header)}; expected the pose columns {list(POSE_COLUMNS)}")
+    try:
+        return np.loadtxt(lines[1:], delimiter=",", ndmin=2, dtype=np.float64).reshape(-1, len(POSE_COLUMNS))
+    except ValueError as error:
+        raise DataError(f"{path}: {error}") from None
 
 
 # ----------------------------------------------------------------------------- rigs

@@ -6,6 +6,7 @@ A BlendVOCA folder is SAiD's layout plus BlendVOCA's additions::
     blendshape_coeffs/<subject>/<sentence>-<k>.csv   optional extra samples k = 0, 1, ...
     oracle_coeffs/<subject>/<sentence>-<k>.csv       synthetic corpora: fitted oracle sample k = 0, 1, ...
     audio/<subject>/<sentence>.wav                   mono speech at 16 kHz
+    pose/<subject>/<sentence>.csv                    optional: the capture's head and eye rotations, 60 fps
     rigs/<subject>.npz                               the speaker's full-topology rig (blendvoca.rig.Rig)
     templates_head/<subject>.obj                     the neutral head (SAiD's layout)
     blendshapes_head/<subject>/<name>.obj            each blendshape's head (SAiD's layout)
@@ -28,6 +29,8 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
+from blendvoca.names import LIVELINK_ROTATION_COLUMNS
+
 __all__ = [
     "AUDIO_DIR",
     "AUDIO_RATE",
@@ -39,6 +42,8 @@ __all__ = [
     "FPS",
     "MANIFEST_FILE",
     "ORACLE_COEFFS_DIR",
+    "POSE_COLUMNS",
+    "POSE_DIR",
     "REPORT_DIR",
     "RESIDUALS_FILE",
     "RIGS_DIR",
@@ -62,6 +67,8 @@ __all__ = [
     "listed_subjects",
     "manifest_path",
     "oracle_coeffs_relpath",
+    "pose_path",
+    "pose_relpath",
     "report_dir",
     "residuals_path",
     "rig_path",
@@ -78,6 +85,13 @@ COEFFS_DIR = "blendshape_coeffs"
 ORACLE_COEFFS_DIR = "oracle_coeffs"
 #: Speech, ``<subject>/<sentence>.wav``.
 AUDIO_DIR = "audio"
+#: A captured sentence's head and eye rotations, ``<subject>/<sentence>.csv``: optional (a
+#: Live Link Face take has them), one row per frame of its coefficient track (60 fps),
+#: columns :data:`POSE_COLUMNS`. The rig has no head: the rotations are the capture's
+#: record, kept beside the track, never blendshapes.
+POSE_DIR = "pose"
+#: The columns of a pose file: Live Link Face's rotations, values as the app wrote them.
+POSE_COLUMNS: tuple[str, ...] = LIVELINK_ROTATION_COLUMNS
 #: Full-topology speaker rigs, ``<subject>.npz``.
 RIGS_DIR = "rigs"
 #: Neutral heads, ``<subject>.obj`` (SAiD's name).
@@ -97,7 +111,7 @@ SPLITS_FILE = "splits.json"
 #: The files that make up the dataset, with their sha256.
 MANIFEST_FILE = "manifest.json"
 #: Folders of data files (what a hand-made folder's manifest lists, with :data:`DATA_FILES`).
-DATA_DIRS = (COEFFS_DIR, AUDIO_DIR, RIGS_DIR, TEMPLATES_DIR, BLENDSHAPES_DIR)
+DATA_DIRS = (COEFFS_DIR, AUDIO_DIR, POSE_DIR, RIGS_DIR, TEMPLATES_DIR, BLENDSHAPES_DIR)
 #: Top-level data files.
 DATA_FILES = (COEFFS_STD_FILE, SPLITS_FILE)
 #: Frame rate of every coefficient track.
@@ -128,6 +142,11 @@ def oracle_coeffs_relpath(subject: str, sentence: str, sample: int) -> str:
 def audio_relpath(subject: str, sentence: str) -> str:
     """``audio/<subject>/<sentence>.wav``."""
     return f"{AUDIO_DIR}/{subject}/{sentence}.wav"
+
+
+def pose_relpath(subject: str, sentence: str) -> str:
+    """``pose/<subject>/<sentence>.csv``."""
+    return f"{POSE_DIR}/{subject}/{sentence}.csv"
 
 
 def rig_relpath(subject: str) -> str:
@@ -171,6 +190,11 @@ def coeffs_path(root, subject: str, sentence: str, sample: int | None = None) ->
 def audio_path(root, subject: str, sentence: str) -> Path:
     """``<root>/audio/<subject>/<sentence>.wav``."""
     return Path(root) / audio_relpath(subject, sentence)
+
+
+def pose_path(root, subject: str, sentence: str) -> Path:
+    """``<root>/pose/<subject>/<sentence>.csv``."""
+    return Path(root) / pose_relpath(subject, sentence)
 
 
 def rig_path(root, subject: str) -> Path:

@@ -1,7 +1,9 @@
-"""Speech audio: any WAV in, 16 kHz mono float32 out.
+"""Speech audio: any WAV (or the sound of a video) in, 16 kHz mono float32 out.
 
 soundfile reads every PCM/float WAV flavour; soxr does the band-limited resampling
-(both are small wheels with no system dependency).
+(both are small wheels with no system dependency). The sound of a ``.mov``/``.mp4``
+(a Live Link Face take's video, say) is decoded by PyAV, FFmpeg's libraries as a
+wheel (the ``capture`` extra: ``pip install blendvoca[capture]``), imported only then.
 """
 
 from __future__ import annotations
@@ -16,6 +18,8 @@ from blendvoca.io.arrays import float_array
 from blendvoca.io.atomic import atomic_write
 
 SAMPLE_RATE = 16000
+#: Suffixes read as a video container's audio stream (PyAV) rather than as a WAV.
+MEDIA_SUFFIXES: frozenset[str] = frozenset({".mov", ".mp4", ".m4a", ".m4v"})
 
 
 class AudioFormatError(DataError):
@@ -69,8 +73,66 @@ def read_wav(path) -> tuple[np.ndarray, int]:
     return samples, int(rate)
 
 
+def read_media_audio(path) -> tuple[np.ndarray, int]:
+    """The first audio stream of a video container (``.mov``, ``.mp4``): ``(N, C)`` float32
+    samples in [-1, 1] and the stream's rate, decoded by PyAV.
+
+    The samples start at the container's time 0, the video's first frame: a stream that
+    starts later is padded with silence, one that starts earlier is cut.
+
+    Raises
+    ------
+    FileNotFoundError
+        No such file.
+    UserError
+        PyAV is not installed (``pip install av``, or the ``capture`` extra).
+    AudioFormatError
+        A file FFmpeg cannot open or decode, or one with no audio stream (naming the file
+        and the streams it has).
+    """
+    path = Path(os.fspath(path))
+    if not path.is_file():
+        raise FileNotFoundError(f"audio file not found: {path}")
+    try:
+        import av
+    except ImportError:
+        raise UserError(f"{path}: reading the sound of a video needs PyAV: pip install av "
+                        "(or pip install 'blendvoca[capture]')") from None
+    try:
+        with av.open(str(path)) as container:
+            streams = list(container.streams)
+            audio = next((s for s in streams if s.type == "audio"), None)
+            if audio is None:
+                kinds = ", ".join(f"{s.type} ({s.codec_context.name})" for s in streams) or "none"
+                raise AudioFormatError(f"{path}: no audio stream (streams: {kinds}); expected the take's speech")
+            rate = int(audio.codec_context.sample_rate or audio.rate or 0)
+            if rate <= 0:
+                raise AudioFormatError(f"{path}: audio stream with sample rate {rate} Hz; expected a positive rate")
+            resampler = av.AudioResampler(format="flt", layout=audio.codec_context.layout.name, rate=rate)
+            chunks, first = [], None
+            for frame in container.decode(audio):
+                if first is None and frame.pts is not None and frame.time_base is not None:
+                    first = float(frame.pts * frame.time_base)
+                for out in resampler.resample(frame):
+                    chunks.append(out.to_ndarray().reshape(-1, out.layout.nb_channels))
+            for out in resampler.resample(None):
+                chunks.append(out.to_ndarray().reshape(-1, out.layout.nb_channels))
+            start = 0.0 if container.start_time is None else container.start_time / 1e6
+    except av.FFmpegError as error:
+        raise AudioFormatError(f"{path}: not a readable video or audio file: {error}") from None
+    width = chunks[0].shape[1] if chunks else 1
+    samples = np.concatenate(chunks).astype(np.float32) if chunks else np.zeros((0, width), np.float32)
+    lead = int(round(((first if first is not None else start) - start) * rate))
+    if lead > 0:
+        samples = np.concatenate([np.zeros((lead, width), np.float32), samples])
+    elif lead < 0:
+        samples = samples[-lead:]
+    return samples, rate
+
+
 def load_audio(path, rate: int = SAMPLE_RATE) -> np.ndarray:
-    """Any WAV file as mono float32 at ``rate`` Hz (16 kHz by default), ``(N,)``.
+    """Any WAV file, or the sound of a video (:data:`MEDIA_SUFFIXES`, :func:`read_media_audio`),
+    as mono float32 at ``rate`` Hz (16 kHz by default), ``(N,)``.
 
     Raises
     ------
@@ -80,7 +142,8 @@ def load_audio(path, rate: int = SAMPLE_RATE) -> np.ndarray:
         A file that does not decode, or holds no samples (naming the file): speech
         is what every caller needs, and an empty array would fail far from here.
     """
-    samples, native = read_wav(path)
+    media = Path(os.fspath(path)).suffix.lower() in MEDIA_SUFFIXES
+    samples, native = read_media_audio(path) if media else read_wav(path)
     if samples.shape[0] == 0:
         raise AudioFormatError(f"{path}: the audio holds no samples (a zero-length recording); expected speech")
     return resample_audio(to_mono(samples), native, rate)
