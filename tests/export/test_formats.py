@@ -60,6 +60,31 @@ def test_livelink_timecode_at_other_rates():
         parse_livelink_timecode("12.5", 60)
 
 
+def test_livelink_round_trip_at_59_94_fps(tmp_path):
+    """A track written at 59.94 fps with its timecodes reads back at 59.94 fps: resampled to 60 fps it
+    holds the same values at the same times, within linear interpolation's error."""
+    from blendvoca.fit.resample import resample_sequence
+
+    fps, freq, names = 59.94, np.array([0.7, 1.3, 2.1]), ("jawOpen", "mouthClose", "mouthFunnel")
+
+    def truth(t):
+        return 0.5 + 0.4 * np.sin(2 * np.pi * freq * t[:, None] + np.array([0.0, 1.0, 2.0]))
+
+    frames = int(20 * fps)
+    out = tmp_path / "take.csv"
+    export_track(out, truth(np.arange(frames) / fps), names, "livelink", fps=fps)
+    back, back_names, rate = read_track(out)
+    assert rate == pytest.approx(59.94, abs=1e-3) and back.shape == (frames, 52)
+    at_60 = resample_sequence(_by_name(back, back_names, names), rate, 60.0)
+    t = np.arange(len(at_60)) / 60.0
+    inside = t <= (frames - 1) / fps  # past the last frame the resampler holds it
+    bound = (1 / fps) ** 2 / 8 * 0.4 * (2 * np.pi * freq.max()) ** 2  # h^2 / 8 max|f''|
+    assert np.abs(at_60[inside] - truth(t[inside])).max() <= bound
+    # taken as 60 fps, the rows drift 1.2 frames behind over 20 s
+    as_60 = _by_name(back, back_names, names)
+    assert np.abs(as_60 - truth(np.arange(frames) / 60.0)).max() > 10 * bound
+
+
 def test_json_layouts(tmp_path, track):
     coeffs, names = track
     export_track(tmp_path / "a.json", coeffs, names, "arkit-json", fps=30.0)
