@@ -66,7 +66,7 @@ FRAME_RATES: tuple[float, ...] = TIMECODE_RATES + (90.0,)
 #: for: 3e-4, a third of the 1/1001 between 59.94 and 60 (a phone's clock is off by tens of ppm).
 RATE_SNAP = 3e-4
 
-_TIMECODE = re.compile(r"^(\d+)[:;](\d{2})[:;](\d{2})([:;])(\d+)(?:\.(\d+))?$")
+_TIMECODE = re.compile(r"^(\d{1,4})[:;](\d{2})[:;](\d{2})([:;])(\d{1,3})(?:\.(\d{1,9}))?$")
 
 
 @dataclass(frozen=True)
@@ -327,6 +327,11 @@ def read_livelink_take(path, *, fps: float | None = None) -> LiveLinkTake:
     if parts.drop_frame:
         _check_drop_frame_labels(parts, rate, where=str(path), rows=rows)
     times = _timecode_seconds(parts, rate)
+    back = np.diff(times) <= 0
+    if np.any(back):  # in order as written, out of order at the rate (a frame field past the rate)
+        i = int(np.argmax(back)) + 1
+        raise DataError(f"{path}: row {rows[i]} (frame {i}): timecode {fields[i][time_column]} is not after "
+                        f"{fields[i - 1][time_column]} at {rate:.3f} fps; expected increasing timecodes")
     if len(times) < 2:
         take_rate, index = float(fps), np.zeros(1, dtype=np.int64)
     else:

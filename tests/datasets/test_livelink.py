@@ -172,3 +172,54 @@ def test_a_59_94_take_is_resampled_not_relabelled(tmp_path):
     assert len(coeffs) == round(int(round(20.0 * NTSC_60)) * 60 / NTSC_60)
     t = np.arange(len(coeffs) - 1) / 60.0
     np.testing.assert_allclose(coeffs[:-1], weights_at(t), atol=RESAMPLING_ERROR)
+
+
+def delayed_takes(root, data, keys, delays) -> dict:
+    """Write each sentence ``keys`` of the build ``data`` as a Live Link take through the project's
+    exporter (the track resampled to 59.94 fps, timecodes at 59.94) with its audio as a WAV, once per
+    delay ``k`` in ``delays``: the audio moved k frames (k / 60 s) later, its length kept. Returns
+    ``{take name: (key, k)}``."""
+    from blendvoca.export import export_track
+    from blendvoca.fit.resample import resample_sequence
+    from blendvoca.io.audio import write_wav
+    from blendvoca.names import BLENDVOCA_NAMES
+
+    written = {}
+    for subject, sentence in keys:
+        track = np.clip(resample_sequence(data.coeffs(subject, sentence), 60.0, NTSC_60), 0.0, 1.0)
+        audio, rate = data.audio(subject, sentence)
+        for k in delays:
+            name = f"{subject}_{sentence}_delay{k}"
+            export_track(root / f"{name}.csv", track, BLENDVOCA_NAMES, "livelink", fps=59.94)
+            n = int(round(k * rate / 60))
+            write_wav(root / f"{name}.wav", np.concatenate([np.zeros(n, np.float32), audio[: len(audio) - n]]), rate)
+            written[name] = ((subject, sentence), k)
+    return written
+
+
+@pytest.mark.slow  # the bundled default (built once into the cache), one build and one scoring: ~30 s
+def test_audio_delayed_by_k_frames_reads_k_frames_lower(tmp_path, assets_dir, capsys):
+    """Issue 53's acceptance, on the synthetic corpus's test sentences and audio: each written as a
+    59.94 fps Live Link take and again with its audio delayed by 2 and 4 frames, built together and
+    scored with the geometric estimator; the delayed copies read k frames lower than the undelayed one."""
+    from benchmark.data import open_blendvoca
+    from benchmark.protocol import default_data_root
+    from benchmark.run import main as run_main
+
+    data = open_blendvoca(default_data_root())
+    keys = [(s, t) for s in data.split("test") for t in data.sentences(s)]
+    written = delayed_takes(tmp_path / "takes", data, keys, (0, 2, 4))
+    assert build_main(["--dataset", "livelink", "--root", str(tmp_path / "takes"), "--out", str(tmp_path / "out"),
+                       "--quiet"]) == 0
+    with pytest.warns(UserWarning, match="source meshes cannot be read"):
+        assert run_main(["--method", "ground-truth", "--data", str(tmp_path / "out"), "--results",
+                         str(tmp_path / "results"), "--quiet"]) == 0, capsys.readouterr().err
+    (path,) = (tmp_path / "results").glob("*.json")
+    result = json.loads(path.read_text())
+    sources = fmt.read_manifest(tmp_path / "out")["dataset"]["sources"]
+    take_of = {key.split("/")[1]: src[: -len(".csv")] for key, src in sources.items()}
+    offset = {written[take_of[p["sentence"]]]: p["av_offset_signed_geometric"] for p in result["per_sentence"]}
+    assert len(offset) == 3 * len(keys)
+    for key in keys:
+        for k in (2, 4):
+            assert abs(offset[(key, k)] - (offset[(key, 0)] - k)) <= 1, (key, k, offset)
