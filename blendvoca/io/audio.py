@@ -77,8 +77,8 @@ def read_media_audio(path) -> tuple[np.ndarray, int]:
     """The first audio stream of a video container (``.mov``, ``.mp4``): ``(N, C)`` float32
     samples in [-1, 1] and the stream's rate, decoded by PyAV.
 
-    The samples start at the container's time 0, the video's first frame: a stream that
-    starts later is padded with silence, one that starts earlier is cut.
+    The samples start at the video's first frame (the container's start without a video):
+    a sound that starts later is padded with silence, one that starts earlier is cut.
 
     Raises
     ------
@@ -103,12 +103,16 @@ def read_media_audio(path) -> tuple[np.ndarray, int]:
             streams = list(container.streams)
             audio = next((s for s in streams if s.type == "audio"), None)
             if audio is None:
-                kinds = ", ".join(f"{s.type} ({s.codec_context.name})" for s in streams) or "none"
+                kinds = ", ".join(f"{s.type} ({s.codec_context.name if s.codec_context else 'unknown codec'})"
+                                  for s in streams) or "none"
                 raise AudioFormatError(f"{path}: no audio stream (streams: {kinds}); expected the take's speech")
+            if audio.codec_context is None:
+                raise AudioFormatError(f"{path}: an audio stream in a codec FFmpeg does not know; expected the take's "
+                                       "speech in AAC, PCM or another common codec")
             rate = int(audio.codec_context.sample_rate or audio.rate or 0)
             if rate <= 0:
                 raise AudioFormatError(f"{path}: audio stream with sample rate {rate} Hz; expected a positive rate")
-            resampler = av.AudioResampler(format="flt", layout=audio.codec_context.layout.name, rate=rate)
+            resampler = av.AudioResampler(format="flt", rate=rate)  # packed float, the stream's channels
             chunks, first = [], None
             for frame in container.decode(audio):
                 if first is None and frame.pts is not None and frame.time_base is not None:
@@ -117,8 +121,14 @@ def read_media_audio(path) -> tuple[np.ndarray, int]:
                     chunks.append(out.to_ndarray().reshape(-1, out.layout.nb_channels))
             for out in resampler.resample(None):
                 chunks.append(out.to_ndarray().reshape(-1, out.layout.nb_channels))
-            start = 0.0 if container.start_time is None else container.start_time / 1e6
-    except av.FFmpegError as error:
+            video = next((s for s in streams if s.type == "video"), None)
+            if video is not None and video.start_time is not None and video.time_base is not None:
+                start = float(video.start_time * video.time_base)
+            else:
+                start = 0.0 if container.start_time is None else container.start_time / 1e6
+    except AudioFormatError:
+        raise
+    except (av.FFmpegError, ValueError, OverflowError) as error:  # PyAV's errors on a damaged file
         raise AudioFormatError(f"{path}: not a readable video or audio file: {error}") from None
     width = chunks[0].shape[1] if chunks else 1
     samples = np.concatenate(chunks).astype(np.float32) if chunks else np.zeros((0, width), np.float32)

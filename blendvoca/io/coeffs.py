@@ -4,7 +4,8 @@ header = blendshape names, one row per frame at 60 fps, no index column.
 Columns are always mapped by name, never by position, and names match in any case:
 Live Link Face's exports (``Timecode``, ``BlendShapeCount``, the 52 shapes in
 PascalCase with ``JawRight`` before ``JawLeft``, then head and eye rotations) read
-into camelCase ARKit columns; their timecode, count and rotation columns are ignored.
+into camelCase ARKit columns; their timecode, count and rotation columns are ignored
+(a take's frame rate and head pose are read by the format's owner, :mod:`blendvoca.io.livelink`).
 """
 
 from __future__ import annotations

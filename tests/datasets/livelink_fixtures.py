@@ -86,8 +86,10 @@ def write_sound(path: Path, seconds: float) -> None:
     write_wav(path, speech(seconds), RATE)
 
 
-def write_mov(path: Path, seconds: float, *, sound: bool = True, rate: int = 48000) -> None:
-    """A tiny video (32 x 32, 30 fps) with ``seconds`` of :func:`speech` as AAC (or no sound stream)."""
+def write_mov(path: Path, seconds: float, *, sound: bool = True, rate: int = 48000, samples=None,
+              sound_start: float = 0.0) -> None:
+    """A tiny video (32 x 32, 30 fps) of ``seconds`` with ``samples`` (default: :func:`speech` of
+    ``seconds``) at ``rate`` as AAC starting ``sound_start`` seconds into it (or no sound stream)."""
     import av
 
     with av.open(str(path), "w") as container:
@@ -104,10 +106,11 @@ def write_mov(path: Path, seconds: float, *, sound: bool = True, rate: int = 480
         for packet in video.encode():
             container.mux(packet)
         if audio is not None:
-            samples = speech(seconds, rate)
+            samples = speech(seconds, rate) if samples is None else np.asarray(samples, np.float32)
+            offset = int(round(sound_start * rate))
             for k in range(0, len(samples), 1024):
                 frame = av.AudioFrame.from_ndarray(samples[None, k:k + 1024], format="flt", layout="mono")
-                frame.sample_rate, frame.pts, frame.time_base = rate, k, fractions.Fraction(1, rate)
+                frame.sample_rate, frame.pts, frame.time_base = rate, offset + k, fractions.Fraction(1, rate)
                 for packet in audio.encode(frame):
                     container.mux(packet)
             for packet in audio.encode():
