@@ -59,7 +59,7 @@ def test_the_three_layouts_build_at_60_fps_with_the_head_pose(tmp_path):
         audio, rate = fmt.read_audio(tmp_path / "out", "alice", sentence)
         assert rate == 16000 and abs(len(audio) / rate - seconds) < 0.02
     assert fmt.read_splits(tmp_path / "out") == {"train": [], "val": [], "test": ["alice"]}
-    assert any("all in the test split" in w["message"] for w in summary.warnings)
+    assert any("all are in the test split" in w["message"] for w in summary.warnings)
 
 
 def test_one_take_alone_is_a_corpus_in_the_test_split(tmp_path):
@@ -163,15 +163,25 @@ def test_command_line_error_lines(tmp_path, capsys):
         assert not any((tmp_path / "x" / d).exists() for d in (fmt.COEFFS_DIR, fmt.AUDIO_DIR, fmt.POSE_DIR))
 
 
-def test_a_59_94_take_is_resampled_not_relabelled(tmp_path):
-    # 20 s at 59.94 fps: read as 60 fps its last frames would be 1.2 frames late
+def test_a_long_59_94_take_is_resampled_not_relabelled_and_its_pose_cut_with_it(tmp_path):
+    # 20 s at 59.94 fps: read as 60 fps its last frames would be 1.2 frames late; cut into utterances
     clock_take(tmp_path / "long" / "take.csv", 20.0)
     write_sound(tmp_path / "long" / "take.wav", 20.0)
     _build(tmp_path / "long", tmp_path / "out")
-    coeffs, _ = fmt.read_coeffs(tmp_path / "out", "long", "sentence01")
-    assert len(coeffs) == round(int(round(20.0 * NTSC_60)) * 60 / NTSC_60)
-    t = np.arange(len(coeffs) - 1) / 60.0
-    np.testing.assert_allclose(coeffs[:-1], weights_at(t), atol=RESAMPLING_ERROR)
+    utterances = fmt.read_utterances(tmp_path / "out")
+    assert len(utterances) >= 2
+    frames = round(int(round(20.0 * NTSC_60)) * 60 / NTSC_60)
+    spans = sorted((u["start_frame"], u["end_frame"]) for u in utterances.values())
+    assert spans[0][0] == 0 and spans[-1][1] == frames and all(a[1] == b[0] for a, b in zip(spans, spans[1:]))
+    for key, record in utterances.items():
+        subject, sentence = key.split("/")
+        coeffs, _ = fmt.read_coeffs(tmp_path / "out", subject, sentence)
+        pose = fmt.read_pose(tmp_path / "out", subject, sentence)
+        assert len(coeffs) == len(pose) == record["end_frame"] - record["start_frame"]
+        t = (record["start_frame"] + np.arange(len(coeffs))) / 60.0
+        inside = t < (frames - 1) / 60.0
+        np.testing.assert_allclose(coeffs[inside], weights_at(t[inside]), atol=RESAMPLING_ERROR)
+        np.testing.assert_allclose(pose[inside], pose_at(t[inside]), atol=RESAMPLING_ERROR)
 
 
 def delayed_takes(root, data, keys, delays) -> dict:
