@@ -441,8 +441,11 @@ def build_coefficient_dataset(out, root, takes: Iterable[Take], *, dataset: str,
         if not tracks:
             raise DataError(f"{root}: no take of the {title} corpus could be read: "
                             + "; ".join(f["reason"] for f in summary.failures[:3]))
-        splits = {name: [s for s in subjects if s in built_subjects] for name, subjects in splits.items()}
-        all_test = len({t.subject for t in takes}) < 3  # corpus_splits put every one in test
+        if built_subjects != {t.subject for t in takes}:  # split what was built (a failed take leaves no hole)
+            built_takes = [t for t in takes if t.subject in built_subjects]
+            splits, split_note = corpus_splits(built_takes)
+            notes[0] = f"{split_note} (over the {len(built_subjects)} speakers or takes built; see the failures)"
+        all_test = len(built_subjects) < 3  # corpus_splits put every one in test
         if not splits["test"] or not (all_test or all(splits.values())):
             raise DataError(f"{root}: after the takes that failed, a split has no speaker left ({splits}); "
                             "see the failures: " + "; ".join(f["reason"] for f in summary.failures[:3]))

@@ -1,6 +1,7 @@
 """The Live Link Face adapter (``--dataset livelink --root DIR``): takes captured with Epic's iOS app.
 
-Layouts read (one performer per root: the speaker is named after the root folder)::
+Layouts read (a subject per take, named after it, as FACEGOOD's: the build splits by
+take, so no take is in two splits; fewer than 3 takes all go to the test split)::
 
     <root>/<take>.csv + <root>/<take>.wav           a take and the WAV its user exported beside it
     <root>/<take>.csv + <root>/<take>.mov | .mp4    a take and its video, whose sound is decoded (PyAV)
@@ -119,14 +120,14 @@ def livelink_takes(root) -> list[Take]:
     root = Path(os.fspath(root)).expanduser()
     if not root.is_dir():
         raise DatasetLayoutError(f"--root {root}: not a folder; expected {EXPECTED}")
-    subject = safe_name(root.resolve().name or "livelink")
     folders = [root] + sorted(p for p in root.iterdir() if p.is_dir() and not p.name.startswith("."))
     takes = []
     for folder in folders:
         for stem, csv in _take_csvs(folder).items():
             reader = read_take(csv)
+            name = (csv.parent / stem).relative_to(root).as_posix()
             takes.append(Take(
-                subject=subject, name=(csv.parent / stem).relative_to(root).as_posix(),
+                subject=safe_name(name.replace("/", "_")), name=name,
                 source=csv.relative_to(root).as_posix(),
                 weights=lambda read=reader: (read().weights, read().names, read().fps),
                 audio=_audio(csv, _sound(folder, [stem, csv.stem]), stem),
