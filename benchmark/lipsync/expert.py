@@ -37,6 +37,13 @@ FPS = 60
 RATE = 16000
 FORMAT = "blendvoca-sync-expert"
 FORMAT_VERSION = 1
+#: Smallest RMS coefficient deviation an utterance is divided by (``motion_norm="utterance"``):
+#: a still track stays near 0 instead of turning round-off into motion.
+MOTION_FLOOR = 1e-3
+#: Recipe keys that a checkpoint's config holds only when they differ from the original
+#: recipe (so the weights digests of experts trained before them do not change):
+#: ``motion_norm`` ("training" or "utterance", :meth:`SyncExpert.motion_features`).
+OPTIONAL_CONFIG = {"motion_norm": "training"}
 DEFAULT_CONFIG = dict(num_coeffs=32, num_mels=40, channels=64, embedding=32, kernel=5, dilations=(1, 2, 2),
                       max_shift=15, nfft=512)
 
@@ -157,10 +164,31 @@ class SyncExpert:
             audio = resample_audio(audio, rate, RATE)
         T, r, S = len(coeffs), self.net.reach, self.max_shift
         mel = audio_features(audio, num_frames=T, num_mels=self.config["num_mels"], nfft=self.config["nfft"])
-        motion = (coeffs - self.coeff_mean) / self.coeff_std
-        motion = np.pad(motion, ((r, r), (0, 0)), mode="edge")
+        motion = np.pad(self.motion_features(coeffs), ((r, r), (0, 0)), mode="edge")
         mel = np.pad(mel, ((S + r, S + r), (0, 0)), mode="edge")
         return motion.astype(np.float32), mel
+
+    def motion_features(self, coeffs) -> np.ndarray:
+        """The motion stream's input ``(T, num_coeffs)`` float32 of a coefficient track.
+
+        ``config["motion_norm"]`` says how: ``"training"`` (the default)
+        standardises each shape with the training statistics; ``"utterance"``
+        subtracts the utterance's mean of each shape and divides by the
+        utterance's RMS deviation over all shapes (:data:`MOTION_FLOOR` at least),
+        as the audio features are normalised per utterance: a rig or capture that
+        moves its shapes more, or rests them elsewhere, gives the same input up to
+        the shapes' proportions, and a shape the training data hardly moves cannot
+        be blown up by a small training standard deviation.
+        """
+        coeffs = np.asarray(coeffs, dtype=np.float64)
+        mode = self.config.get("motion_norm", "training")
+        if mode == "training":
+            return ((coeffs - self.coeff_mean) / self.coeff_std).astype(np.float32)
+        if mode == "utterance":
+            centred = coeffs - coeffs.mean(axis=0, keepdims=True)
+            scale = max(float(np.sqrt((centred**2).mean(axis=0).sum() / coeffs.shape[1])), MOTION_FLOOR)
+            return (centred / scale).astype(np.float32)
+        raise DataError(f"SyncExpert: unknown motion_norm {mode!r} (expected 'training' or 'utterance')")
 
     @torch.no_grad()
     def embeddings(self, coeffs, audio, rate: int = RATE) -> tuple[np.ndarray, np.ndarray]:
@@ -220,6 +248,11 @@ def build_expert(config: dict, coeff_mean, coeff_std, names, trained_on=None) ->
     """An expert with a freshly initialised network."""
     cfg = {**DEFAULT_CONFIG, **config}
     cfg["dilations"] = list(cfg["dilations"])
+    if cfg.get("motion_norm", "training") not in ("training", "utterance"):
+        raise UserError(f"build_expert: motion_norm must be 'training' or 'utterance', got {cfg['motion_norm']!r}")
+    for key, original in OPTIONAL_CONFIG.items():
+        if cfg.get(key) == original:
+            del cfg[key]
     net = SyncExpertNet(cfg["num_coeffs"], cfg["num_mels"], cfg["channels"], cfg["embedding"], cfg["kernel"],
                         tuple(cfg["dilations"]))
     return SyncExpert(net=net, config=cfg, coeff_mean=np.asarray(coeff_mean, dtype=np.float64),

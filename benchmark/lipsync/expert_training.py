@@ -75,7 +75,8 @@ def _shift_logits(net, motion: torch.Tensor, mel: torch.Tensor, crop: int, max_s
 
 def train_expert(items, *, max_steps: int | None = None, max_seconds: float | None = None, batch_size: int = 32,
                  crop: int = 48, lr: float = 2e-3, temperature: float = 0.1, seed: int = 0, config=None,
-                 trained_on: dict | None = None, stop=None, threads: int = 1) -> SyncExpert:
+                 trained_on: dict | None = None, stop=None, threads: int = 1, channel_gain: float = 0.0,
+                 channel_drop: float = 0.0) -> SyncExpert:
     """Train a :class:`SyncExpert` on sentences.
 
     Parameters
@@ -100,6 +101,11 @@ def train_expert(items, *, max_steps: int | None = None, max_seconds: float | No
     threads : int
         Torch CPU threads while training (1: the small convolutions run several
         times faster single-threaded on a shared 2-core machine).
+    channel_gain, channel_drop : float
+        Motion augmentation (0: none, the original recipe): every crop's shapes are
+        scaled by ``exp(N(0, channel_gain))`` each and zeroed with probability
+        ``channel_drop`` each, so the expert reads the timing of whichever shapes
+        move rather than one rig's or capture's proportions.
 
     Returns
     -------
@@ -128,7 +134,7 @@ def train_expert(items, *, max_steps: int | None = None, max_seconds: float | No
             raise DataError(f"train_expert: {it.name}: lag {it.lag} exceeds max_shift {S}")
         T = len(it.coeffs)
         mel = audio_features(it.audio, num_frames=T, num_mels=cfg["num_mels"], nfft=cfg["nfft"])
-        motion = ((it.coeffs - expert.coeff_mean) / expert.coeff_std).astype(np.float32)
+        motion = expert.motion_features(it.coeffs)
         motions.append(np.pad(motion, ((r, r), (0, 0)), mode="edge"))
         mels.append(np.pad(mel, ((S + r, S + r), (0, 0)), mode="edge"))
         lags.append(it.lag)
@@ -149,6 +155,10 @@ def train_expert(items, *, max_steps: int | None = None, max_seconds: float | No
             a_batch.append(mels[i][c:c + crop + 2 * S + 2 * r])
             targets.append(S - lags[i])
         m_t = torch.from_numpy(np.stack(m_batch)).transpose(1, 2)
+        if channel_gain > 0 or channel_drop > 0:
+            scale = np.exp(rng.normal(0.0, channel_gain, size=(len(which), m_t.shape[1], 1)))
+            scale *= rng.random(size=scale.shape) >= channel_drop
+            m_t = m_t * torch.from_numpy(scale.astype(np.float32))
         a_t = torch.from_numpy(np.stack(a_batch)).transpose(1, 2)
         m_t = m_t + 0.05 * torch.randn_like(m_t)
         a_t = a_t + 0.05 * torch.randn_like(a_t)
@@ -164,6 +174,8 @@ def train_expert(items, *, max_steps: int | None = None, max_seconds: float | No
     expert.trained_on.update(steps=done.steps, seconds=round(done.seconds, 1),
                              final_loss=done.train_loss[-1] if done.train_loss else float("nan"),
                              sentences=len(items), crop=crop, batch_size=batch_size, seed=seed)
+    if channel_gain > 0 or channel_drop > 0:
+        expert.trained_on.update(channel_gain=channel_gain, channel_drop=channel_drop)
     return expert
 
 

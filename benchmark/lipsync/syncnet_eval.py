@@ -121,13 +121,28 @@ def syncnet_sync_track(model, vertices, faces, samples, rate: int = AUDIO_RATE, 
     vertices : (T, V, 3) at ``fps``; faces : (F, 3)
     samples : (N,) mono audio at 16 kHz
     """
+    frames = syncnet_frames(vertices, faces, fps, backend=backend)
+    return syncnet_sync(model, frames, samples, rate, vshift)
+
+
+def syncnet_frames(vertices, faces, fps: float = 60.0, backend: str = "auto") -> np.ndarray:
+    """The front-view renders SyncNet is given of a mesh sequence: resampled to 25 fps,
+    224 x 224, framed on the front half of the head (the face, as SyncNet's face crops).
+
+    Parameters
+    ----------
+    vertices : (T, V, 3) at ``fps``; faces : (F, 3)
+
+    Returns
+    -------
+    (T', 224, 224, 3) uint8 RGB at 25 fps
+    """
     video = resample_frames(vertices, fps, VIDEO_FPS)
     # frame the face as SyncNet's face crops do: only the front half of the head
     z = video[0, :, 2]
     front = z >= 0.5 * (z.min() + z.max())
     pose = front_camera(video[:, front], margin=1.05)
-    frames = render_sequence(video, faces, size=CROP, backend=backend, pose=pose)
-    return syncnet_sync(model, frames, samples, rate, vshift)
+    return render_sequence(video, faces, size=CROP, backend=backend, pose=pose)
 
 
 def syncnet_sync_video(model, path, vshift: int = 15) -> SyncEstimate:
