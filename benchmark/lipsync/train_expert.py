@@ -28,6 +28,15 @@ def main(argv=None) -> int:
     parser.add_argument("--lr", type=float, default=2e-3)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--overwrite", action="store_true", help="replace an existing --out")
+    parser.add_argument("--motion-norm", choices=("training", "utterance"), default="training",
+                        help="motion input: standardised by the training statistics (default) or normalised per "
+                             "utterance (the real-speech expert's recipe: docs/metrics.md)")
+    parser.add_argument("--channel-gain", type=float, default=0.0, metavar="SIGMA",
+                        help="augmentation: each shape of a crop scaled by exp(N(0, SIGMA)) (default 0: none)")
+    parser.add_argument("--channel-drop", type=float, default=0.0, metavar="P",
+                        help="augmentation: each shape of a crop zeroed with probability P (default 0)")
+    parser.add_argument("--also-data", action="append", default=[], metavar="DIR",
+                        help="another build whose training split is trained on too (repeatable)")
     cli.add_data_option(parser, required=True, help="BlendVOCA build (blendvoca.build output)")
     cli.add_budget_options(parser)
     cli.add_quiet_option(parser)
@@ -43,15 +52,26 @@ def main(argv=None) -> int:
     from benchmark.lipsync.expert import save_expert
     from benchmark.lipsync.expert_training import dataset_items, train_expert
 
-    dataset = open_blendvoca(args.data)
-    items = dataset_items(dataset, "train")
-    if not items:
-        raise DataError(f"{args.data}: the training split has no sentences")
+    if not 0.0 <= args.channel_drop < 1.0 or args.channel_gain < 0:
+        raise UserError(f"--channel-drop: expected 0 <= P < 1 and --channel-gain >= 0, got {args.channel_drop}, "
+                        f"{args.channel_gain}")
+    items, trained_on = [], {}
+    for k, data in enumerate([args.data, *args.also_data]):
+        dataset = open_blendvoca(data)
+        found = dataset_items(dataset, "train")
+        if not found:
+            raise DataError(f"{data}: the training split has no sentences")
+        items += found
+        record = {"data": str(Path(data).expanduser().resolve()), "split": "train", "subjects": dataset.split("train"),
+                  "manifest_hash": dataset.manifest_hash, "recipe_id": dataset.recipe_id}
+        if k == 0:
+            trained_on.update(record)
+        else:
+            trained_on.setdefault("also", []).append(record)
+    config = {"motion_norm": args.motion_norm}
     expert = train_expert(items, max_steps=max_steps, max_seconds=max_seconds,
-                          batch_size=args.batch_size, lr=args.lr, seed=args.seed,
-                          trained_on={"data": str(Path(args.data).expanduser().resolve()), "split": "train",
-                                      "subjects": dataset.split("train"),
-                                      "manifest_hash": dataset.manifest_hash})
+                          batch_size=args.batch_size, lr=args.lr, seed=args.seed, config=config,
+                          channel_gain=args.channel_gain, channel_drop=args.channel_drop, trained_on=trained_on)
     save_expert(expert, out)
     info = expert.trained_on
     print(f"saved {out} (trained on {info['sentences']} sentences of {args.data} train split, "

@@ -52,6 +52,7 @@ from benchmark.protocol.spec import (
     default_data_root,
     default_results_dir,
     open_data,
+    with_default_sync_expert,
 )
 from benchmark.protocol.seeds import CombinedScores, SeedRun, combined_seed_scores, parse_seeds, run_seeds
 from benchmark.protocol.storing import (
@@ -111,6 +112,7 @@ __all__ = [
     "store_seeds",
     "track_writer",
     "train",
+    "with_default_sync_expert",
     "write_run",
 ]
 
@@ -135,6 +137,8 @@ def run(spec: RunSpec, *, evaluate=None, open_dataset=None) -> Path:
     started = time.perf_counter()
     provenance = current_provenance()  # the code as it is when the run starts
     inputs = check_inputs(spec, open_dataset=open_dataset, evaluation_assets=evaluate is None)
+    if evaluate is None:  # the default evaluation scores a build of recorded speech with the real-speech expert
+        spec = with_default_sync_expert(spec, inputs.dataset)
     if spec.seeds is not None:
         return run_seeds(spec, inputs, evaluate=evaluate, provenance=provenance, started=started)
     check, reason = half_budget_check(spec, inputs, evaluate=evaluate)

@@ -3,6 +3,8 @@ before anything is trained (:func:`check_inputs`)."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import math
 import os
 import sys
@@ -23,6 +25,7 @@ __all__ = [
     "RunSpec",
     "UsageError",
     "check_inputs",
+    "with_default_sync_expert",
     "check_results_dir",
     "checked_seeds",
     "default_data_root",
@@ -282,6 +285,19 @@ def _check_evaluation_assets(syncnet, sync_expert) -> None:
     for flag, value in (("--syncnet-weights", syncnet), ("--sync-expert", sync_expert)):
         if isinstance(value, (str, os.PathLike)) and not Path(value).expanduser().exists():
             raise UsageError(f"{flag} {value}: no such file")
+
+
+def with_default_sync_expert(spec: RunSpec, dataset) -> RunSpec:
+    """``spec`` with the project's real-speech expert as ``sync_expert`` when none was given
+    and the build is of recorded speech (:func:`benchmark.lipsync.default_expert.default_sync_expert`):
+    a corpus too small to train its own expert (one Live Link take) is still scored with a
+    learned expert, and the result records it as any other (its weights digest)."""
+    if spec.sync_expert is not None:
+        return spec
+    from benchmark.lipsync.default_expert import default_sync_expert
+
+    default = default_sync_expert(dataset)
+    return spec if default is None else dataclasses.replace(spec, sync_expert=default)
 
 
 def trains_nothing(method) -> str | None:
