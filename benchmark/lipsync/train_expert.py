@@ -3,7 +3,10 @@
 ``python -m benchmark.lipsync.train_expert --data D --out PATH [--max-steps N] [--max-seconds S]``
 trains :mod:`benchmark.lipsync.expert` with :func:`benchmark.lipsync.expert_training.train_expert`
 and writes the checkpoint atomically; ``benchmark.lipsync.load_expert(PATH)`` reads it.
-Training stops at whichever budget ends first (240 s when none is given). Ctrl-C
+``--also-data D2`` adds another build's training split (repeatable);
+``--motion-norm utterance --channel-gain 0.3 --channel-drop 0.1`` is the real-speech
+expert's recipe (docs/metrics.md, "The real-speech expert"; the defaults are the
+original one). Training stops at whichever budget ends first (240 s when none is given). Ctrl-C
 stops training and saves the model trained so far. An existing ``--out`` is not
 replaced unless ``--overwrite``.
 """

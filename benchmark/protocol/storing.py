@@ -63,6 +63,10 @@ def lipsync_models_provenance(syncnet=None, sync_expert=None) -> dict:
         weights = {"weights_sha256": expert.weights_digest()} if hasattr(expert, "weights_digest") else {}
         out["sync_expert"] = {**model_file(sync_expert), **weights,
                               "trained_on": dict(getattr(expert, "trained_on", {}) or {})}
+        from benchmark.lipsync.default_expert import REAL_SPEECH_EXPERT
+
+        if isinstance(sync_expert, (str, os.PathLike)) and Path(sync_expert).resolve() == REAL_SPEECH_EXPERT.resolve():
+            out["sync_expert"]["project_expert"] = REAL_SPEECH_EXPERT.stem  # the default for recorded speech
     return out
 
 

@@ -1,0 +1,61 @@
+"""The project's real-speech lip-sync expert: the shipped checkpoint is the recorded one,
+and a build of recorded speech is scored with it when no expert is given."""
+
+import json
+
+import pytest
+
+from benchmark.lipsync.default_expert import (REAL_SPEECH_COMMAND, REAL_SPEECH_DIGEST, REAL_SPEECH_EXPERT,
+                                              default_sync_expert, is_real_speech)
+from benchmark.lipsync.expert import load_expert
+from benchmark.protocol import RunSpec, with_default_sync_expert
+
+
+def test_the_shipped_expert_is_the_recorded_one():
+    assert REAL_SPEECH_EXPERT.is_file() and REAL_SPEECH_EXPERT.stat().st_size < 1_000_000
+    expert = load_expert(REAL_SPEECH_EXPERT)
+    assert expert.weights_digest() == REAL_SPEECH_DIGEST
+    assert expert.config["motion_norm"] == "utterance"
+    assert "train_expert" in REAL_SPEECH_COMMAND and "--dataset facegood" in REAL_SPEECH_COMMAND
+    assert f"--max-steps {expert.trained_on['steps']}" in REAL_SPEECH_COMMAND
+    assert expert.trained_on["split"] == "train"
+
+
+class _Build:
+    def __init__(self, name):
+        self.dataset_name = name
+
+
+def test_recorded_speech_gets_the_default_and_the_synthetic_corpus_none(built_dataset):
+    from benchmark.data import open_blendvoca
+
+    synthetic = open_blendvoca(built_dataset)
+    assert not is_real_speech(synthetic) and default_sync_expert(synthetic) is None
+    for name in ("facegood", "livelink", "beat"):
+        assert is_real_speech(_Build(name)) and default_sync_expert(_Build(name)) == REAL_SPEECH_EXPERT
+    spec = RunSpec("ground-truth")
+    assert with_default_sync_expert(spec, _Build("facegood")).sync_expert == REAL_SPEECH_EXPERT
+    assert with_default_sync_expert(spec, synthetic) is spec
+    given = RunSpec("ground-truth", sync_expert="/my/expert.pt")
+    assert with_default_sync_expert(given, _Build("livelink")).sync_expert == "/my/expert.pt"
+
+
+@pytest.mark.slow  # builds a small BEAT corpus and scores the ground truth with every metric: ~40 s
+def test_a_build_of_recorded_speech_is_scored_with_the_real_speech_expert(tmp_path, assets_dir, monkeypatch, capsys):
+    from benchmark.run import main as run_main
+    from blendvoca.datasets import adapter
+    from tests.datasets.corpora import write_beat
+
+    monkeypatch.setenv("BLENDVOCA_ASSETS", str(assets_dir))
+    monkeypatch.delenv("BLENDVOCA_VOCASET", raising=False)
+    write_beat(tmp_path / "corpus", seconds=2.5)
+    adapter("beat")(tmp_path / "corpus", tmp_path / "out")
+    with pytest.warns(UserWarning, match="source meshes cannot be read"):
+        rc = run_main(["--method", "ground-truth", "--data", str(tmp_path / "out"), "--results",
+                       str(tmp_path / "results"), "--quiet"])
+    assert rc == 0, capsys.readouterr().err
+    (path,) = (tmp_path / "results").glob("*.json")
+    result = json.loads(path.read_text())
+    assert {"av_offset_signed_expert", "av_offset_signed_geometric"} <= set(result["metrics"])
+    record = result["protocol"]["lipsync_models"]["sync_expert"]
+    assert record["weights_sha256"] == REAL_SPEECH_DIGEST and record["project_expert"] == "real-speech-v1"
