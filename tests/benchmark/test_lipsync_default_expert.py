@@ -18,7 +18,8 @@ def test_the_shipped_expert_is_the_recorded_one():
     assert expert.config["motion_norm"] == "utterance"
     assert "train_expert" in REAL_SPEECH_COMMAND and "--dataset facegood" in REAL_SPEECH_COMMAND
     assert f"--max-steps {expert.trained_on['steps']}" in REAL_SPEECH_COMMAND
-    assert expert.trained_on["split"] == "train"
+    assert expert.trained_on["split"] == "train" and expert.trained_on["subjects"][0].startswith("1114_2_")
+    assert [also["split"] for also in expert.trained_on["also"]] == ["train"]  # with the synthetic 12 x 40 corpus
 
 
 class _Build:
