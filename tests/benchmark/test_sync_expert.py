@@ -164,3 +164,23 @@ def test_cached_expert_trains_once_per_build(built_dataset, tmp_path):
     again, same = cached_expert(built_dataset, max_steps=2, cache_dir=tmp_path)
     assert same == path and path.stat().st_mtime_ns == stamp
     assert again.trained_on == expert.trained_on and again.trained_on["steps"] == 2
+
+
+def test_per_utterance_motion_ignores_a_captures_scale_and_rest_pose():
+    torch.manual_seed(0)
+    expert = build_expert({"motion_norm": "utterance"}, np.zeros(32), np.full(32, 0.01), [f"c{i}" for i in range(32)])
+    item = _items(np.random.default_rng(6), count=1)[0]
+    feats = expert.motion_features(item.coeffs)
+    np.testing.assert_allclose(feats.mean(axis=0), 0.0, atol=1e-6)
+    assert np.sqrt((feats.astype(np.float64) ** 2).mean(axis=0).sum() / 32) == pytest.approx(1.0, rel=1e-5)
+    # the same motion five times larger on a rig resting elsewhere: the same input and the same estimate
+    other = 5.0 * item.coeffs + 0.2
+    np.testing.assert_allclose(expert.motion_features(other), feats, atol=1e-5)
+    a, b = expert.sync(item.coeffs, item.audio), expert.sync(other, item.audio)
+    assert a.offset == b.offset and a.confidence == pytest.approx(b.confidence, abs=1e-5)
+    assert np.abs(expert.motion_features(np.full((20, 32), 0.3))).max() < 1e-9  # a still track stays still
+    # the original recipe keeps its config (and so its experts' weights digests) as it was
+    original = build_expert({"motion_norm": "training"}, np.zeros(32), np.ones(32), ["c"] * 32)
+    assert "motion_norm" not in original.config and expert.config["motion_norm"] == "utterance"
+    with pytest.raises(ValueError, match="motion_norm must be 'training' or 'utterance'"):
+        build_expert({"motion_norm": "clip"}, np.zeros(32), np.ones(32), ["c"] * 32)
