@@ -16,8 +16,9 @@ confidence on true against shifted pairs.
 
 ``--beat2 NPZ`` calibrates the geometric estimator on an SMPL-X take with its speech
 (BEAT2: ``NPZ`` and the ``.wav`` of the same stem): the jaw's opening angle
-(``poses[:, 66:69]``) is the mouth activity, the take cut into ``--window``-second
-utterances (fixed windows: BEAT2 takes have no cut list).
+(``poses[:, 66:69]``) is the mouth activity, the take cut into utterances at its pauses
+as the builds cut long takes (:func:`blendvoca.datasets.utterances.take_spans`), or into
+fixed ``--window``-second pieces.
 """
 
 from __future__ import annotations
@@ -31,8 +32,6 @@ import numpy as np
 from blendvoca import cli
 from blendvoca.errors import DataError, UserError
 
-#: Length (s) of the fixed windows a ``--beat2`` take is cut into.
-DEFAULT_WINDOW = 6.0
 
 
 def _shifts(text: str) -> tuple[int, ...]:
@@ -99,10 +98,11 @@ def build_utterances(dataset, split: str, *, expert=None, syncnet=None, max_lag:
     return utterances, estimators, frames
 
 
-def jaw_utterances(npz, window: float = DEFAULT_WINDOW, max_lag: int = 15):
+def jaw_utterances(npz, window: float | None = None, max_lag: int = 15):
     """``(utterances, estimators, frames_per_shift)`` of an SMPL-X take and its speech
-    (the ``.wav`` beside ``npz``), cut into ``window``-second pieces; the geometric
-    estimator reads the jaw's opening angle (no visibility discount: it is an angle)."""
+    (the ``.wav`` beside ``npz``), cut at its pauses (``window`` None) or into
+    ``window``-second pieces; the geometric estimator reads the jaw's opening angle (no
+    visibility discount: it is an angle)."""
     from benchmark.lipsync.calibration import Utterance
     from benchmark.lipsync.geometric import geometric_sync
     from benchmark.lipsync.jaw import read_smplx_jaw
@@ -114,19 +114,26 @@ def jaw_utterances(npz, window: float = DEFAULT_WINDOW, max_lag: int = 15):
         raise UserError(f"--beat2 {npz}: no such file (an SMPL-X .npz with the take's .wav beside it)")
     if not wav.is_file():
         raise UserError(f"--beat2 {npz}: expected the take's speech at {wav}, which does not exist")
-    if not window > 0:
+    if window is not None and not window > 0:
         raise UserError(f"--window: expected seconds > 0, got {window}")
     jaw = read_smplx_jaw(npz, 60.0)
     samples = load_audio(wav)
-    n = int(round(window * 60))
     total = min(len(jaw), int(len(samples) * 60 // 16000))
-    if total < n:
-        raise DataError(f"{npz}: the take is {total / 60:.1f} s long, shorter than one {window:g} s window")
+    jaw, samples = jaw[:total], samples[: round(total * 16000 / 60)]
+    if window is None:
+        from blendvoca.datasets.utterances import take_spans
+
+        spans = [(s.start, s.end) for s in take_spans(jaw[:, None], samples, 16000, 60.0, where=str(npz))]
+    else:
+        n = int(round(window * 60))
+        if total < n:
+            raise DataError(f"{npz}: the take is {total / 60:.1f} s long, shorter than one {window:g} s window")
+        spans = [(start, start + n) for start in range(0, total - n + 1, n)]
     utterances = []
-    for start in range(0, total - n + 1, n):
-        audio = samples[round(start * 16000 / 60): round((start + n) * 16000 / 60)]
-        utterances.append(Utterance(name=f"{npz.stem}/{start / 60:.0f}s", audio=audio, rate=16000,
-                                    motion={"geometric": jaw[start:start + n]}))
+    for start, end in spans:
+        audio = samples[round(start * 16000 / 60): round(end * 16000 / 60)]
+        utterances.append(Utterance(name=f"{npz.stem}/{start / 60:.1f}-{end / 60:.1f}s", audio=audio, rate=16000,
+                                    motion={"geometric": jaw[start:end]}))
     estimators = {"geometric": lambda act, x, r: geometric_sync(act, x, r, 60.0, max_lag, visibility=0.0)}
     return utterances, estimators, {"geometric": 1.0}
 
@@ -158,8 +165,8 @@ def main(argv=None) -> int:
     parser.add_argument("--beat2", default=None, metavar="NPZ",
                         help="calibrate the geometric estimator on an SMPL-X take (BEAT2 .npz + .wav) instead "
                              "of a build: the jaw's opening angle is the mouth activity")
-    parser.add_argument("--window", type=float, default=DEFAULT_WINDOW,
-                        help=f"--beat2: seconds per utterance (default {DEFAULT_WINDOW:g})")
+    parser.add_argument("--window", type=float, default=None,
+                        help="--beat2: cut the take into pieces of this many seconds (default: at its pauses)")
     parser.add_argument("--out", default=None, metavar="FILE", help="also write the table (.md) or every "
                                                                      "estimate (.json)")
     cli.add_data_option(parser, help="BlendVOCA build (blendvoca.build output)")
@@ -173,7 +180,8 @@ def main(argv=None) -> int:
 
     if args.beat2 is not None:
         utterances, estimators, frames = jaw_utterances(args.beat2, args.window)
-        title = f"{Path(args.beat2).name}: {len(utterances)} windows of {args.window:g} s, jaw opening angle"
+        cut = "cut at pauses" if args.window is None else f"{args.window:g} s windows"
+        title = f"{Path(args.beat2).name}: {len(utterances)} utterances ({cut}), jaw opening angle"
     else:
         from benchmark.data import open_blendvoca
         from benchmark.lipsync.default_expert import default_sync_expert

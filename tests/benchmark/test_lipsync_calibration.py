@@ -144,6 +144,13 @@ def test_the_command_line_on_an_smplx_take(tmp_path, capsys):
     geo = result["estimators"]["geometric"]
     assert result["utterances"] == 3 and geo["within_1"] == 1.0
     assert geo["unshifted"]["min"] == geo["unshifted"]["max"] == 4
+    # by default the take is cut as the builds cut long takes: 2-10 s utterances covering it
+    assert calibrate_main(["--beat2", str(npz), "--out", str(out), "--quiet"]) == 0
+    result = json.loads(out.read_text())
+    spans = [tuple(float(t) for t in row["name"].split("/")[1].rstrip("s").split("-")) for row in result["per_utterance"]]
+    assert spans[0][0] == 0 and spans[-1][1] == pytest.approx(15.0, abs=0.05)
+    assert all(2 <= b - a <= 10 for a, b in spans) and all(p[1] == q[0] for p, q in zip(spans, spans[1:]))
+    assert result["estimators"]["geometric"]["within_1"] == 1.0
 
 
 @pytest.mark.parametrize("args, message", [
