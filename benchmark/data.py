@@ -19,11 +19,21 @@ once with ``python -m blendvoca.format manifest DIR``). Without ``splits.json`` 
 standard VOCASET split is used; without ``rigs/`` the rig is built from the
 SAiD-layout OBJ files.
 
-Vertex-trained methods read the source mesh sequences through
-:meth:`BlendVOCADataset.vertices` and :meth:`BlendVOCADataset.template`: they come
-from the VOCASET corpus the build recorded in ``manifest.json`` (``inputs.vocaset.path``),
-or from the corpus passed as ``open_blendvoca(root, vocaset=DIR)`` or named by
-``$BLENDVOCA_VOCASET``.
+Vertex-trained methods read mesh sequences through :meth:`BlendVOCADataset.vertices`
+and :meth:`BlendVOCADataset.template`; :attr:`BlendVOCADataset.vertex_space` says which:
+
+* ``"mesh"`` (a build with source meshes, VOCASET's FLAME topology): the source meshes,
+  from the VOCASET corpus the build recorded in ``manifest.json`` (``inputs.vocaset.path``),
+  or from the corpus passed as ``open_blendvoca(root, vocaset=DIR)`` or named by
+  ``$BLENDVOCA_VOCASET``.
+* ``"rig"`` (a build without source meshes to score against, :attr:`~BlendVOCADataset.has_meshes`
+  False: the coefficient corpora FACEGOOD, Live Link, BEAT, UniTalker, 3D-ETF, and the vertex
+  corpora of other topologies): the speaker's rig (``rigs/<subject>.npz``, the ARKit
+  reference rig's 1220 vertices on a coefficient corpus) evaluated at the sentence's
+  ground-truth coefficients, and the rig's neutral as the template. This is the reference
+  the rig-space metrics score with, and a vertex method's output is fitted back to
+  coefficients through the same rig, so on such a build a vertex method trains, generates
+  and is scored in rig space (no ``*_mesh`` metrics).
 """
 
 from __future__ import annotations
@@ -78,6 +88,10 @@ class BlendVOCADataset:
         metrics): False for coefficient corpora (BEAT, UniTalker, 3D-ETF), which have
         none, and for vertex corpora of other topologies than FLAME (BIWI, Multiface:
         the lip and upper-face regions are FLAME's), docs/datasets.md.
+    vertex_space : {"mesh", "rig"}
+        What :meth:`vertices` and :meth:`template` give a vertex method: ``"mesh"``, the
+        source meshes (builds with :attr:`has_meshes`); ``"rig"``, each speaker's rig
+        evaluated at the ground-truth coefficients (builds without).
     """
 
     def __init__(self, root: str | PathLike, vocaset: str | PathLike | None = None):
@@ -105,6 +119,7 @@ class BlendVOCADataset:
         self.dataset_title = str(record.get("title") or ("VOCASET" if self.dataset_name == "vocaset"
                                                            else self.dataset_name))
         self.has_meshes = bool(record.get("meshes", True)) and reader is None
+        self.vertex_space = "mesh" if self.has_meshes else "rig"
         if reader is not None:  # a vertex corpus read by its own reader (biwi, multiface): name it
             self.dataset_name = reader.rpartition(".")[2].split(":")[0]
             self.dataset_title = self.dataset_name.upper() if self.dataset_name == "biwi" else self.dataset_name.title()
@@ -327,22 +342,39 @@ class BlendVOCADataset:
         return open_vocaset(self.corpus_root())
 
     def vertices(self, subject: str, sentence: str) -> np.ndarray:
-        """Source mesh sequence of a sentence, ``(T, 5023, 3)`` float64 metres at 60 fps.
+        """Mesh sequence of a sentence at 60 fps, float64 metres, ``T`` = the coefficient
+        track's frame count.
 
-        ``T`` equals the coefficient track's frame count (the build fits every frame).
+        ``vertex_space == "mesh"``: the source meshes, ``(T, 5023, 3)`` (the build fits every
+        frame). ``"rig"``: the speaker's rig (its shapes ``names``) evaluated at the
+        ground-truth coefficients, ``(T, V, 3)`` on the rig's topology (1220 vertices
+        for the ARKit reference rig): the reference of the rig-space metrics.
         """
         self._check_subject(subject)
+        if self.vertex_space == "rig":
+            return self._speech_rig(subject).evaluate(self.coeffs(subject, sentence))
         return self.corpus.frames(subject, sentence)
 
     def template(self, subject: str) -> np.ndarray:
-        """The speaker's neutral mesh on the source topology, ``(5023, 3)`` float64 metres."""
+        """The speaker's neutral mesh, ``(V, 3)`` float64 metres: on the source topology
+        (``(5023, 3)``), or the rig's neutral when ``vertex_space == "rig"``."""
         self._check_subject(subject)
+        if self.vertex_space == "rig":
+            return np.array(self.rig(subject).neutral, dtype=np.float64)
         return self.corpus.template(subject)
 
     def faces(self) -> np.ndarray:
-        """Triangles of the source topology, ``(F, 3)`` int64."""
+        """Triangles of the topology :meth:`vertices` is on (the source's, or the first
+        speaker's rig's when ``vertex_space == "rig"``), ``(F, 3)`` int64."""
+        if self.vertex_space == "rig":
+            return np.asarray(self.rig(self.subjects[0]).faces, dtype=np.int64)
         faces = self.corpus.faces
         return np.asarray(faces() if callable(faces) else faces, dtype=np.int64)
+
+    def _speech_rig(self, subject: str):
+        """The speaker's rig with the shapes ``names`` in that order (what the coefficients drive)."""
+        rig = self.rig(subject)
+        return rig if tuple(rig.names) == self.names else rig.select(self.names)
 
     def __repr__(self) -> str:
         return f"BlendVOCADataset({str(self.root)!r}, subjects={len(self.subjects)})"

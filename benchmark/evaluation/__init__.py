@@ -89,10 +89,25 @@ def _check_generated(generated: Mapping, keys: list, channels: int) -> dict:
     return out
 
 
+def _has_source_meshes(dataset) -> bool:
+    """Whether ``dataset.vertices`` are source meshes (``vertex_space`` ``"mesh"``, the default)."""
+    return getattr(dataset, "vertex_space", "mesh") == "mesh"
+
+
 def _source_meshes(dataset, keys, mesh):
     """``dataset.vertices`` when the mesh space is scored, else None (``mesh=None``: when the
-    dataset can give its source meshes, with a warning when it cannot)."""
+    dataset can give its source meshes, with a warning when it cannot). A dataset whose
+    ``vertex_space`` is ``"rig"`` has no source meshes (its vertices are the rig's
+    reconstruction of the ground truth, the rig space's reference): None, with the warning."""
     if mesh is False:
+        return None
+    if not _has_source_meshes(dataset):
+        why = (f"{dataset!r} has no source meshes: its vertices are the rig's reconstruction of the ground truth, "
+               "vertex_space 'rig'")
+        if mesh:
+            raise ValueError(f"evaluate_split: {why}")
+        warnings.warn(f"evaluate_split: the source meshes cannot be read ({why}); the mesh-space metrics (*_mesh) "
+                      "are not computed", stacklevel=3)
         return None
     vertices = getattr(dataset, "vertices", None)
     try:
@@ -190,7 +205,10 @@ def evaluate_split(generated, dataset, split: str = "test", settings: Evaluation
     if vertex:
         mesh_vertices = None
         if "mesh" in spaces:
-            mesh_vertices = dataset.vertices if vertices is not None else _source_meshes(dataset, keys, settings.mesh)
+            if vertices is not None and _has_source_meshes(dataset):
+                mesh_vertices = dataset.vertices
+            else:
+                mesh_vertices = _source_meshes(dataset, keys, settings.mesh)
             if mesh_vertices is None:
                 spaces = tuple(s for s in spaces if s != "mesh")
         if spaces:

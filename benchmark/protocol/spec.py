@@ -365,7 +365,8 @@ def check_inputs(spec: RunSpec, *, open_dataset=None, evaluation_assets: bool = 
     if not subjects:
         raise UsageError(f"--split {spec.split!r}: no subjects of that split in {data_root}")
     cls = get_method(spec.method)
-    if getattr(cls, "output", OUTPUT_COEFFICIENTS) == OUTPUT_VERTICES and hasattr(dataset, "corpus_root"):
+    if (getattr(cls, "output", OUTPUT_COEFFICIENTS) == OUTPUT_VERTICES and hasattr(dataset, "corpus_root")
+            and getattr(dataset, "vertex_space", "mesh") == "mesh"):  # "rig": the build's rigs give the vertices
         try:  # the vertex metrics compare with the source meshes: fail now, not after training
             dataset.corpus_root()
         except FileNotFoundError as exc:
