@@ -19,7 +19,10 @@ class CorpusMeshesMethod(Method):
     the same meshes, about 0). Beside ``ground-truth`` (0 in rig space, the rig's
     floor in mesh space) it marks the floor of each reference space. It reads the
     source corpus of the build, so the build's recorded VOCASET must be reachable
-    (``benchmark.run --vocaset DIR``).
+    (``benchmark.run --vocaset DIR``). On a build without source meshes
+    (``dataset.vertex_space == "rig"``, a coefficient corpus) its vertices are the rig at
+    the ground-truth coefficients, so its rig-space row is the floor the protocol's fit
+    (the rate bound's smoothing) leaves any vertex method.
     """
 
     name = "corpus-meshes"

@@ -146,7 +146,7 @@ class CDFaceMethod(Method):
         return self.chunk_frames / FPS
 
     def generate(self, utterance, *, samples=1, seed=0):
-        """``(S, T, 5023, 3)`` vertices in metres on the speaker's template; a long utterance chunk by chunk,
+        """``(S, T, V, 3)`` vertices in metres on the speaker's template (the training data's topology); a long utterance chunk by chunk,
         each chunk restarting with its overlap as context (:mod:`baselines.common.chunking`)."""
         if self.cdface is None:
             raise RuntimeError("cdface: train or load the method before generate")

@@ -120,7 +120,9 @@ class Method(abc.ABC):
         ----------
         dataset : benchmark.data dataset
             As returned by ``benchmark.data.open_blendvoca``; vertex-trained methods
-            read ``dataset.vertices(subject, sentence)`` and ``dataset.template(subject)``.
+            read ``dataset.vertices(subject, sentence)`` and ``dataset.template(subject)``
+            (the source meshes, or on a build without them the speaker's rig at the
+            ground-truth coefficients: ``dataset.vertex_space``), and size themselves from them.
         request : TrainingRequest
             The seed, the budget, the device and the runner's checkpoint hook with its
             fractions (the hook's rules: docs/methods.md, "Settled or not"; the bundled
