@@ -114,7 +114,7 @@ def main(argv=None) -> int:
         result = rescored_result(run, syncnet=args.syncnet_weights, sync_expert=args.sync_expert,
                                  data=args.data, verify=args.verify)
         path = Path(run)
-        print(write_run(check(result, str(path)), path.parent, path.name))
+        print(write_run(check(result, str(path)), path.parent, path.name, overwrite=True))  # its own file
     return cli.EXIT_OK
 
 

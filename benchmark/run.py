@@ -68,6 +68,9 @@ def _parser() -> argparse.ArgumentParser:
                    help="the VAE of the latent metrics (fd, wind, energy_latent): a checkpoint in the published "
                         "format; default the published one (asset said-vae). Needed for a dataset whose "
                         "coefficients are not the BlendVOCA 32 (docs/datasets.md)")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace a result of other settings stored under this run's file name (refused otherwise; "
+                        "a run that is not plain is named with the digest of its settings, __c<digest>)")
     p.add_argument("--list", action="store_true",
                    help="list the available methods (name, output kind, reference or ranked row, description) and exit")
     p.add_argument("--list-config", action="store_true",
@@ -135,7 +138,7 @@ def main(argv=None) -> int:
                    checkpoint=args.checkpoint, clip=args.clip, generate_time_limit=args.generate_time_limit,
                    sentence_batch=args.sentence_batch, vocaset=args.vocaset, syncnet=args.syncnet_weights,
                    sync_expert=args.sync_expert, results_dir=args.results, verify=args.verify,
-                   device=device, vae=args.vae)
+                   device=device, vae=args.vae, overwrite=args.overwrite)
     path = run(spec)
     if not args.quiet:
         _print_summary(path)

@@ -132,6 +132,13 @@ class RunSpec:
         ``"cpu"``, ``"cuda"``, ``"cuda:N"`` or ``"auto"`` (``--device``): handed to the
         method's ``train`` and where the trained method generates; None: each method's
         own choice (the CPU for every built-in one). Checked when the spec is made.
+    overwrite : bool, default False
+        Replace a result of other settings stored under the name this run writes
+        (``--overwrite``); without it such a run is refused before anything is stored
+        (:class:`benchmark.protocol.storing.ResultExistsError`).
+    name : str, optional
+        The result's file name, for a caller that names its own results (the
+        leaderboard's rows); None: :func:`benchmark.protocol.storing.result_name`.
     """
 
     method: str
@@ -153,6 +160,8 @@ class RunSpec:
     verify: bool = True
     device: str | None = None
     vae: object = None
+    overwrite: bool = False
+    name: str | None = None
 
     def __post_init__(self):
         if not _is_count(self.samples):

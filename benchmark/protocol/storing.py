@@ -7,14 +7,25 @@ import json
 import os
 from pathlib import Path
 
+from benchmark.methods.base import Budget
 from benchmark.methods.contract import COEFFICIENT_NAMES
 from benchmark.protocol.limits import generate_limit
-from benchmark.results import Result, build_result, result_filename, write
+from benchmark.results import Result, build_result, check, read, result_filename, write
 from benchmark.runs import TrackWriter, seed_folder_name, tracks_folder_name
-from blendvoca.errors import MethodError
+from blendvoca.errors import DataError, MethodError, UserError
 from blendvoca.format import content_digest
+from blendvoca.runtime.locks import LockHeld, held_lock
 
-__all__ = ["dataset_identity", "lipsync_models_provenance", "result_name", "store", "store_seeds", "track_writer", "write_run"]
+__all__ = ["ResultExistsError", "dataset_identity", "is_plain", "lipsync_models_provenance", "result_name", "store",
+           "store_seeds", "track_writer", "write_run"]
+
+#: Seconds a writer waits for another process writing the same result file.
+RESULT_LOCK_WAIT_S = 600.0
+
+
+class ResultExistsError(UserError):
+    """The results folder holds, under the name a run would write, a result of other
+    settings (or a file that is no result); nothing was written (``--overwrite`` replaces it)."""
 
 
 def dataset_identity(dataset) -> dict:
@@ -26,19 +37,35 @@ def dataset_identity(dataset) -> dict:
     return {"manifest_hash": manifest_hash, "recipe_id": str(getattr(dataset, "recipe_id", None) or manifest_hash)}
 
 
-def result_name(spec, dataset, trained) -> str:
+def is_plain(spec) -> bool:
+    """True for a run asked for with nothing but its method, seed(s) and samples (a plain
+    ``benchmark.run --method NAME``): its result is named without a settings digest."""
+    return (not spec.config and (spec.budget or Budget()) == Budget() and spec.checkpoint is None
+            and getattr(spec, "vae", None) is None and spec.syncnet is None and spec.sync_expert is None
+            and not spec.clip and spec.split == "test" and spec.sentence_batch == 1
+            and getattr(spec, "device", None) in (None, "cpu"))
+
+
+def result_name(spec, dataset, trained, settings: str | None = None) -> str:
     """The result file's name: one per method label, build, samples and seed, or seeds
-    (:func:`benchmark.results.result_filename`: ``__seed0``, ``__seeds0-1-2``)."""
+    (:func:`benchmark.results.result_filename`: ``__seed0``, ``__seeds0-1-2``), and for a
+    run that is not :func:`is_plain`, the digest of its settings ``settings``
+    (:meth:`benchmark.results.Result.settings_digest`; ``__c<digest>``). A spec's ``name``
+    (a caller that names its own results: the leaderboard's rows) wins."""
+    if getattr(spec, "name", None):
+        return str(spec.name)
     identity = dataset_identity(dataset)
     return result_filename(trained.label or spec.method, identity["recipe_id"],
-                           spec.samples if trained.stochastic else 1, int(spec.seed), spec.seeds)
+                           spec.samples if trained.stochastic else 1, int(spec.seed), spec.seeds,
+                           None if is_plain(spec) else settings)
 
 
 def track_writer(spec, inputs, trained) -> TrackWriter:
     """A staging folder for the run's tracks, moved to its final name by :func:`store`
     (``discard()`` it when a step fails)."""
     names = tuple(getattr(inputs.dataset, "names", ()) or COEFFICIENT_NAMES)
-    filename = result_name(spec, inputs.dataset, trained)
+    # a provisional folder name: store() names the folder after the result, once its settings are known
+    filename = result_name(spec, inputs.dataset, trained, "pending")
     return TrackWriter(Path(inputs.results_dir) / tracks_folder_name(filename), names)
 
 
@@ -174,7 +201,7 @@ def store(spec, inputs, trained, generated, scored, *, writer: TrackWriter, timi
         The method's ``config()`` is not a JSON-serialisable dict (nothing written).
     """
     method = _method_section(spec, trained)  # first: a config() a file cannot hold writes nothing
-    filename = result_name(spec, inputs.dataset, trained)
+    filename = result_name(spec, inputs.dataset, trained, "pending")
     result = build_result(
         method=method,
         dataset=_dataset_section(spec, inputs, num_subjects=len({s for s, _ in generated.tracks}),
@@ -190,7 +217,23 @@ def store(spec, inputs, trained, generated, scored, *, writer: TrackWriter, timi
         latency=getattr(generated, "latency", None),
         convergence=convergence,
     )
-    return write_run(result, inputs.results_dir, filename, writer=writer)
+    return _write_named(spec, inputs, trained, result, writer)
+
+
+def _write_named(spec, inputs, trained, result: Result, writer: TrackWriter) -> Path:
+    """``result`` written under its final name (:func:`result_name` with its settings
+    digest), its ``tracks`` naming the folder of that name."""
+    filename = result_name(spec, inputs.dataset, trained, result.settings_digest())
+    folder = tracks_folder_name(filename)
+    record = result.to_json()
+    if record.get("tracks"):
+        record["tracks"] = folder + record["tracks"][len(tracks_folder_name(record["tracks"].split("/")[0])):]
+    for entry in record.get("per_seed") or ():
+        if entry.get("tracks"):
+            entry["tracks"] = folder + entry["tracks"][len(entry["tracks"].split("/")[0]):]
+    writer.folder = Path(inputs.results_dir) / folder
+    return write_run(check(record), inputs.results_dir, filename, writer=writer,
+                     overwrite=bool(getattr(spec, "overwrite", False)))
 
 
 def store_seeds(spec, inputs, trained, runs, combined, *, writer: TrackWriter, timings: dict, provenance: dict,
@@ -222,7 +265,7 @@ def store_seeds(spec, inputs, trained, runs, combined, *, writer: TrackWriter, t
         ``per_sentence`` and ``convergence`` (docs/methods.md, "Training seeds").
     """
     method = _method_section(spec, trained)  # first: a config() a file cannot hold writes nothing
-    filename = result_name(spec, inputs.dataset, trained)
+    filename = result_name(spec, inputs.dataset, trained, "pending")
     first = runs[0]
     folder = tracks_folder_name(filename)
     per_seed = []
@@ -248,19 +291,64 @@ def store_seeds(spec, inputs, trained, runs, combined, *, writer: TrackWriter, t
         per_seed=per_seed,
         convergence=combined.convergence,
     )
-    return write_run(result, inputs.results_dir, filename, writer=writer)
+    return _write_named(spec, inputs, trained, result, writer)
 
 
-def write_run(result: Result, results_dir, filename: str | None = None, *, writer: TrackWriter | None = None) -> Path:
+def _existing_conflict(path: Path, result: Result) -> str | None:
+    """Why the file ``path`` may not be replaced by ``result`` without ``--overwrite``
+    (another run's settings, or no result at all), or None (absent, or the same settings)."""
+    if not path.exists() and not path.is_symlink():
+        return None
+    try:
+        existing = read(path)
+    except (DataError, OSError) as exc:
+        return f"it holds no readable result ({exc})"
+    if existing.settings_digest() == result.settings_digest():
+        return None
+    theirs, ours = existing.settings(), result.settings()
+    differ = sorted(k for k in set(theirs) | set(ours) if theirs.get(k) != ours.get(k))
+    return (f"it holds a result of other settings (differing: {', '.join(differ)}; its settings digest "
+            f"{existing.settings_digest()}, this run's {result.settings_digest()})")
+
+
+def write_run(result: Result, results_dir, filename: str | None = None, *, writer: TrackWriter | None = None,
+              overwrite: bool = False) -> Path:
     """Commit ``writer``'s tracks folder (when given), then write ``result`` atomically
     into ``results_dir`` as ``filename`` (default :meth:`Result.filename`;
-    :func:`benchmark.results.write`).
+    :func:`benchmark.results.write`), with its ``protocol.record_sha256``
+    (:meth:`Result.record_digest`).
+
+    Both happen under an ``flock`` of ``results_dir`` itself (held for those two renames):
+    runs writing into one folder at once never leave one's result beside another's tracks. An
+    existing file of other settings (or one that is no result) is replaced only with
+    ``overwrite``.
 
     Returns
     -------
     Path
         The result file.
+
+    Raises
+    ------
+    ResultExistsError
+        ``filename`` holds a result of other settings and not ``overwrite`` (nothing written).
     """
-    if writer is not None:
-        writer.commit()
-    return write(Path(results_dir) / (filename or result.filename()), result)
+    results_dir = Path(results_dir)
+    filename = filename or result.filename()
+    path = results_dir / filename
+    record = result.to_json()
+    record["protocol"]["record_sha256"] = result.record_digest()
+    result = check(record, str(path))
+    try:
+        with held_lock(results_dir, wait=RESULT_LOCK_WAIT_S):
+            why = None if overwrite else _existing_conflict(path, result)
+            if why is not None:
+                raise ResultExistsError(
+                    f"--results {results_dir}: {filename} exists and {why}; nothing was written. Pass --overwrite "
+                    "to replace it, or write into another --results folder")
+            if writer is not None:
+                writer.commit()
+            return write(path, result)
+    except LockHeld as exc:
+        raise UserError(f"--results {results_dir}: another process has held the folder's lock for "
+                        f"{RESULT_LOCK_WAIT_S:g} s while {filename} was to be written; nothing was written") from None

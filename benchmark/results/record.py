@@ -11,10 +11,23 @@ its fields (each an :func:`~benchmark.results.parts.item` with its check), add a
 schema of :mod:`benchmark.results`, and give its round trip a test. Files without it
 stay valid (None), so ``SCHEMA_VERSION`` does not change; a part's new field that
 older files lack is optional in the same way.
+
+**Settings and digests.** :meth:`Result.settings` is what of a result decides its
+numbers (the method's config, the split, samples, seeds, budget, clipping, checkpoint,
+VAE, lip-sync models, sentence batch, device); :meth:`Result.settings_digest` hashes it.
+The file name carries that digest (``__c<digest>``, :func:`result_filename`) for every
+run that is not a plain ``benchmark.run --method NAME`` (benchmark.protocol.storing), and
+a writer refuses to replace a result of other settings (``--overwrite``).
+:meth:`Result.record_digest` hashes the measured part (``metrics``, ``per_sentence``,
+``per_seed``, ``convergence``); a run stores it in the optional ``protocol.record_sha256``,
+so a file whose numbers were edited by hand (a mean and its interval together) no longer
+matches it (:meth:`Result.edited`; the leaderboard refuses such a file).
 """
 
 from __future__ import annotations
 
+import hashlib
+import json
 import re
 from dataclasses import dataclass
 
@@ -44,7 +57,7 @@ from benchmark.results.parts import (
 
 __all__ = ["LATENCY_FIELDS", "METRIC_FIELDS", "SCHEMA_VERSION", "Convergence", "DatasetInfo", "Latency",
            "MethodInfo", "MetricCheck", "MetricEntry", "Protocol", "Provenance", "Result", "SeedRecord",
-           "replicates_array", "result_filename", "seed_replicates"]
+           "SETTINGS_PROTOCOL_KEYS", "replicates_array", "result_filename", "seed_replicates", "settings_digest"]
 
 SCHEMA_VERSION = 3
 #: Fields every metric entry writes (``std`` and ``unit`` may be null / "").
@@ -261,11 +274,33 @@ def _slug(text: str) -> str:
     return re.sub(r"[^a-z0-9._-]+", "-", str(text).lower()).strip("-") or "method"
 
 
-def result_filename(label: str, dataset_key: str, samples, seed, seeds=None) -> str:
+#: Length of the settings digest in a file name (hex digits).
+SETTINGS_DIGEST_CHARS = 10
+#: The ``protocol`` keys that change a result's numbers (with ``method.config`` and
+#: ``dataset.split``: :meth:`Result.settings`). Machine-dependent or informative keys
+#: (timings, ``generate_time_limit``, ``n_clipped``, the evaluation's records) are not among them.
+SETTINGS_PROTOCOL_KEYS = ("samples", "seed", "seeds", "budget", "clip", "checkpoint_sha256", "vae",
+                          "lipsync_models", "sentence_batch", "device")
+
+
+def _canonical_digest(value) -> str:
+    text = json.dumps(value, sort_keys=True, separators=(",", ":"), allow_nan=False, default=str)
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
+def settings_digest(settings: dict) -> str:
+    """The first :data:`SETTINGS_DIGEST_CHARS` hex digits of the sha256 of ``settings``
+    (:meth:`Result.settings`) as canonical JSON."""
+    return _canonical_digest(settings)[:SETTINGS_DIGEST_CHARS]
+
+
+def result_filename(label: str, dataset_key: str, samples, seed, seeds=None, settings: str | None = None) -> str:
     """``<label>__<dataset key[:12]>__s<samples>__seed<seed>.json`` (one file per run
-    setting; :attr:`Result.key`); a run over several training seeds ends ``__seeds0-1-2.json``."""
+    setting; :attr:`Result.key`); a run over several training seeds ends ``__seeds0-1-2.json``;
+    with ``settings`` (a :func:`settings_digest`), ``__c<settings>`` before ``.json``."""
     tail = f"seeds{'-'.join(str(int(s)) for s in seeds)}" if seeds else f"seed{seed}"
-    return f"{_slug(label)}__{_slug(dataset_key)[:12]}__s{samples}__{tail}.json"
+    digest = f"__c{_slug(settings)}" if settings else ""
+    return f"{_slug(label)}__{_slug(dataset_key)[:12]}__s{samples}__{tail}{digest}.json"
 
 
 def replicates_array(values) -> np.ndarray | None:
@@ -328,10 +363,50 @@ class Result(Part):
         seeds = self.seeds if self.seeds is not None else self.protocol.seeds
         return list(seeds or [])
 
-    def filename(self) -> str:
-        """The file name of this result (:func:`result_filename`)."""
+    def filename(self, *, with_settings: bool = False) -> str:
+        """The file name of this result (:func:`result_filename`); ``with_settings``: with
+        its :meth:`settings_digest` (what every run but a plain one is named with)."""
         return result_filename(self.label, self.key, self.protocol.samples, self.protocol.seed,
-                               self.protocol.seeds)
+                               self.protocol.seeds, self.settings_digest() if with_settings else None)
+
+    def settings(self) -> dict:
+        """What decides this result's numbers: ``{"method", "config", "split", <protocol
+        keys of SETTINGS_PROTOCOL_KEYS>}`` as the file holds them (a checkpoint by its
+        content digest, else its path; the VAE and lip-sync models by their digests)."""
+        record = self.protocol.to_json()
+        out = {"method": self.method.name, "config": self.method.config, "split": self.dataset.split}
+        for key in SETTINGS_PROTOCOL_KEYS:
+            if record.get(key) is not None:
+                out[key] = record[key]
+        if record.get("checkpoint_sha256") is None and record.get("checkpoint") is not None:
+            out["checkpoint"] = record["checkpoint"]
+        if isinstance(out.get("vae"), dict):
+            out["vae"] = out["vae"].get("sha256")
+        if isinstance(out.get("lipsync_models"), dict):
+            out["lipsync_models"] = {name: (model.get("weights_sha256") or model.get("sha256") or model.get("path"))
+                                     if isinstance(model, dict) else model
+                                     for name, model in out["lipsync_models"].items()}
+        return out
+
+    def settings_digest(self) -> str:
+        """:func:`settings_digest` of :meth:`settings`."""
+        return settings_digest(self.settings())
+
+    def record_digest(self) -> str:
+        """sha256 of the measured part of the record (``metrics``, ``per_sentence``,
+        ``per_seed``, ``convergence``) and its :meth:`settings`, as canonical JSON:
+        what ``protocol.record_sha256`` holds for a file as the run wrote it."""
+        record = self.to_json()
+        return _canonical_digest({"settings": self.settings(),
+                                  **{key: record.get(key) for key in ("metrics", "per_sentence", "per_seed",
+                                                                       "convergence")}})
+
+    def edited(self) -> bool:
+        """True when the file holds a ``protocol.record_sha256`` that its numbers no longer
+        match (edited by hand since the run wrote it); False when it matches or holds none
+        (a file written before the digest was stored)."""
+        stored = self.protocol.get("record_sha256")
+        return stored is not None and stored != self.record_digest()
 
     def seed_replicates(self, name: str) -> list | None:
         """Per training seed, the stored bootstrap replicates of ``name``

@@ -165,7 +165,7 @@ def single_stage(spec, root, expert):
         log_progress(f"{spec['row']}: {done} exists, kept (--force rescores)")
         return str(done), None
     log_progress(f"{spec['row']}: {spec['note']}")
-    path = run(_run_spec(spec, root, seed=0, checkpoint=None, expert=expert))
+    path = run(_run_spec(spec, root, seed=0, checkpoint=None, expert=expert, stores=True))
     timings = read(path).timings
     return str(path), {k: timings.get(k) for k in ("train_s", "load_s", "generate_s", "evaluate_s")}
 
@@ -185,12 +185,16 @@ def _exported_meshes(spec) -> None:
     exported_corpus_meshes(corpus, meshes, fps=60)
 
 
-def _run_spec(spec, root, *, seed, checkpoint, expert=None, seeds=None):
+def _run_spec(spec, root, *, seed, checkpoint, expert=None, seeds=None, stores: bool = False):
+    """The row's :class:`RunSpec`; ``stores``: a run that writes the row's result file,
+    named as the board names its rows (:func:`row_result_path`) and replacing a row's file
+    of other settings only when told (``--force``)."""
     name, config = _method_and_config(spec)
     return RunSpec(method=name, config=config, data_root=root, samples=spec["samples"], seed=int(seed),
                    seeds=seeds, budget=Budget(max_steps=spec["max_steps"]), checkpoint=checkpoint,
                    sync_expert=expert, results_dir=spec["results"],
-                   vocaset=_source_corpus(spec, root))
+                   vocaset=_source_corpus(spec, root), name=row_result_path(spec, root).name if stores else None,
+                   overwrite=bool(spec.get("force")))
 
 
 def _checkpoint(spec, seed: int) -> Path:
@@ -351,7 +355,7 @@ def store_stage(spec, root, expert, *scores_paths):
     loaded = [read(p) for p in scores_paths[:len(seeds)]]
     runs = [_seed_run(result) for result in loaded]
     run = _run_spec(spec, root, seed=seeds[0], seeds=tuple(seeds), expert=expert,
-                    checkpoint=Path(spec["work"]) / "trained" / spec["training"])
+                    checkpoint=Path(spec["work"]) / "trained" / spec["training"], stores=True)
     # a run over seeds refuses a checkpoint folder that holds trained methods (it would
     # train them again); here they are trained, so the inputs are checked without it
     inputs = check_inputs(dataclasses.replace(run, checkpoint=None))

@@ -129,7 +129,7 @@ def test_one_result_over_the_seeds_each_seed_as_its_own_run(dataset, tmp_path):
     from benchmark.methods import Budget
 
     path = _run(dataset, tmp_path / "seeds", seeds=[0, 1, 2], budget=Budget(max_steps=6))
-    assert path.name.endswith("__s2__seeds0-1-2.json")
+    assert "__s2__seeds0-1-2__c" in path.name  # not a plain run: its settings digest (issue 56)
     result = json.loads(path.read_text())
     assert result["seeds"] == [0, 1, 2] and result["protocol"]["seeds"] == [0, 1, 2]
     assert result["protocol"]["seed"] == 0 and result["protocol"]["fd_floor_probe"] == 1.5
