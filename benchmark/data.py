@@ -100,6 +100,7 @@ class BlendVOCADataset:
         self._vocaset = None if vocaset is None else Path(os.fspath(vocaset)).expanduser()
         self.names = tuple(BLENDVOCA_NAMES)
         self._listed = fmt.listed_files(root)  # the dataset is what manifest.json lists, nothing else
+        self._held = {}  # (what, subject, sentence) -> array read by hold(): the verified ground truth
         self.subjects = fmt.listed_subjects(self._listed)
         if not self.subjects:
             raise DataError(f"open_blendvoca: {fmt.manifest_path(root)} lists no "
@@ -153,8 +154,35 @@ class BlendVOCADataset:
         self._check_subject(subject)
         return fmt.listed_sentences(self._listed, subject)
 
+    def hold(self, subjects) -> int:
+        """Read the ground truth of ``subjects`` into memory: their tracks, stored samples,
+        oracle samples and audio, and their rigs; from now on :meth:`coeffs`,
+        :meth:`samples`, :meth:`oracle_coeffs` and :meth:`audio` answer for them from
+        memory (copies), whatever happens to the files (the runner holds the scored split
+        before a method runs, then verifies the folder again). Returns the arrays held."""
+        for subject in subjects:
+            self.rig(subject)
+            for sentence in self.sentences(subject):
+                self._held[("coeffs", subject, sentence)] = self.coeffs(subject, sentence)
+                self._held[("samples", subject, sentence)] = self.samples(subject, sentence)
+                self._held[("audio", subject, sentence)] = self.audio(subject, sentence)
+                if self.oracle_count(subject, sentence):
+                    self._held[("oracle", subject, sentence)] = self.oracle_coeffs(subject, sentence)
+        return len(self._held)
+
+    def _from_memory(self, what: str, subject: str, sentence: str):
+        held = self._held.get((what, subject, sentence))
+        if held is None:
+            return None
+        if isinstance(held, tuple):  # audio: (samples, rate)
+            return held[0].copy(), held[1]
+        return held.copy()
+
     def coeffs(self, subject: str, sentence: str) -> np.ndarray:
         """Ground-truth track, (T, 32) float64 in ``names`` order, 60 fps."""
+        held = self._from_memory("coeffs", subject, sentence)
+        if held is not None:
+            return held
         self._check_subject(subject)
         if self._listed_path(fmt.coeffs_relpath(subject, sentence)) is None:
             raise UserError(f"BlendVOCADataset.coeffs: no track {fmt.coeffs_path(self.root, subject, sentence)} "
@@ -165,6 +193,9 @@ class BlendVOCADataset:
     def samples(self, subject: str, sentence: str) -> np.ndarray:
         """All stored tracks of a sentence: ``sentenceNN-<k>.csv`` in k order, or the
         single ``sentenceNN.csv``; (S, T, 32) (tracks truncated to the shortest)."""
+        held = self._from_memory("samples", subject, sentence)
+        if held is not None:
+            return held
         self._check_subject(subject)
         found = fmt.listed_samples(self._listed, subject, sentence)
         if not found:
@@ -204,6 +235,9 @@ class BlendVOCADataset:
         DataError
             A listed file is missing or unreadable, or the samples differ in length.
         """
+        held = self._from_memory("oracle", subject, sentence)
+        if held is not None:
+            return held
         self._check_subject(subject)
         found = fmt.listed_oracle_samples(self._listed, subject, sentence)
         if not found:
@@ -223,6 +257,9 @@ class BlendVOCADataset:
 
     def audio(self, subject: str, sentence: str) -> tuple[np.ndarray, int]:
         """Speech of a sentence: ((N,) float32 mono at 16 kHz, 16000)."""
+        held = self._from_memory("audio", subject, sentence)
+        if held is not None:
+            return held
         if self._listed_path(fmt.audio_relpath(subject, sentence)) is None:
             raise UserError(f"BlendVOCADataset.audio: no audio {fmt.audio_path(self.root, subject, sentence)} "
                             f"(in {fmt.MANIFEST_FILE} and on disk)")

@@ -1,9 +1,10 @@
 """``python -m benchmark.run``: train or load a method, generate on the test split,
 score every metric and write one result JSON with its provenance.
 
-Before anything runs, the files of the scored split (coefficient tracks, audio,
-rigs) are checked against the digests of the build's ``manifest.json``: a build
-modified since it was made is refused (exit status 4) unless ``--no-verify``.
+Before anything runs, the files of every split (coefficient tracks, audio, rigs) are
+checked against the digests of the build's ``manifest.json``, and again after the method
+generated: a build modified since it was made, or while the method ran, is refused
+(exit status 4) unless ``--no-verify``.
 
 ``--seeds 0,1,2`` (instead of ``--seed``) trains, generates and scores one run per
 training seed and stores them as one result, whose intervals cover the seeds as well

@@ -22,6 +22,7 @@ from benchmark.methods import (
     validated_vertices,
 )
 from benchmark.protocol.limits import GenerateLimit, TimeLimit, generate_limit
+from benchmark.protocol.verification import reverified
 from benchmark.results import LATENCY_FIELDS
 from blendvoca.errors import DataError, MethodError, MethodOutputError, MethodTimeout, UserError
 from blendvoca.runtime.progress import bar, progress_bars
@@ -91,6 +92,7 @@ def generate(spec, dataset, trained, *, store=None) -> Generated:
         vertices = store.stored_vertices() if store is not None else in_memory
     # after the scored tracks are made, so that the extra calls cannot change them
     latency = measure_latency(trained.method, dataset, split=spec.split, seed=spec.seed, name=spec.method)
+    reverified(spec, dataset, when="while the method generated")  # a plug-in that wrote into the build: exit 4
     return Generated(tracks=tracks, n_clipped=int(n_clipped), seconds=seconds, vertices=vertices, latency=latency)
 
 

@@ -16,6 +16,7 @@ from benchmark.data import open_blendvoca
 from benchmark.methods import OUTPUT_COEFFICIENTS, OUTPUT_VERTICES, Budget, Method, MethodError, get_method
 from benchmark.protocol.limits import GenerateLimit
 from benchmark.protocol.training import make_method
+from benchmark.protocol.verification import held_ground_truth, verified_inputs
 from blendvoca.assets import find_local
 from blendvoca.errors import DataError, UserError
 from blendvoca.format import manifest_path
@@ -212,7 +213,7 @@ class Inputs:
     subjects : tuple of str
         The subjects of the run's split.
     verified : int or None
-        The number of the split's files checked against the build's manifest; None
+        The number of the build's files (of every split) checked against its manifest; None
         when they were not (``verify`` off, or a dataset without a manifest).
     """
 
@@ -388,9 +389,10 @@ def check_inputs(spec: RunSpec, *, open_dataset=None, evaluation_assets: bool = 
         raise UsageError(f"--config: {exc}") from None
     if spec.seeds is not None:
         _check_seeded_training(spec, method)
-    # last: the cheap checks above answer a mistyped flag before the files are read
-    verify = getattr(dataset, "verify", None) if spec.verify else None
-    verified = None if verify is None else int(verify(subjects))
+    # last: the cheap checks above answer a mistyped flag before the files are read; every
+    # split's files (the method trains on them too), then the scored split held in memory
+    verified = verified_inputs(spec, dataset)
+    held_ground_truth(spec, dataset)
     return Inputs(dataset=dataset, data_root=data_root, results_dir=results_dir, subjects=tuple(subjects),
                   verified=verified)
 

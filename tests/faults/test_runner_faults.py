@@ -70,8 +70,15 @@ def test_a_build_with_an_edited_csv_is_refused_and_no_verify_scores_it(build, tm
 
 
 def test_a_pristine_build_is_verified_and_recorded(build, tmp_path, capsys, fast_scoring):
-    # a file of the split that is not scored is not read, so not checked (only what the run reads)
-    _edit_one_value(_scored_csv(build, "val"))
+    # every split is checked (issue 56: the method trains on the other splits): an edited
+    # file of the validation split is refused too
+    edited = _scored_csv(build, "val")
+    original = edited.read_bytes()
+    _edit_one_value(edited)
+    code, out = _run(capsys, build, tmp_path / "r")
+    assert code == 4
+    assert_one_error_line(out.err, str(edited), "manifest.json")
+    edited.write_bytes(original)
     code, out = _run(capsys, build, tmp_path / "r")
     assert code == 0, out.err
     (path,) = (tmp_path / "r").glob("*.json")
