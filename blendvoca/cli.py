@@ -45,7 +45,16 @@ import re
 import sys
 import traceback
 
-from blendvoca.errors import CheckFailed, DataError, MethodError, UserError, error_line
+from blendvoca.errors import (
+    CheckFailed,
+    DataError,
+    MethodError,
+    OutOfResources,
+    UserError,
+    error_line,
+    out_of_resources,
+    ran_out_of,
+)
 from blendvoca.runtime.progress import set_progress
 
 __all__ = [
@@ -89,9 +98,12 @@ SHARED_TITLE = "shared options"
 
 
 def exit_code_of(error: BaseException) -> int:
-    """The exit code for an exception that escaped a tool (see the module's table)."""
+    """The exit code for an exception that escaped a tool (see the module's table); memory
+    or disk space that ran out (:func:`blendvoca.errors.ran_out_of`) is exit 2, never a bug."""
     if isinstance(error, KeyboardInterrupt):
         return EXIT_INTERRUPTED
+    if ran_out_of(error) is not None and not isinstance(error, (MethodError, CheckFailed)):
+        return EXIT_USER
     if isinstance(error, MethodError):
         return EXIT_METHOD
     if isinstance(error, CheckFailed):
@@ -112,6 +124,8 @@ def report(error: BaseException, *, stream=None) -> int:
         print(BUG_LINE, file=stream)
     elif code == EXIT_METHOD:
         print(error_line(error).replace("error: ", "error: the method misbehaved, nothing written: ", 1), file=stream)
+    elif ran_out_of(error) is not None and not isinstance(error, OutOfResources):
+        print(error_line(out_of_resources(error)), file=stream)
     else:
         print(error_line(error), file=stream)
     return code

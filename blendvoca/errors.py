@@ -7,7 +7,8 @@ of four branches, and the branch decides what a command-line tool does with it
     BlendVOCAError
     ├── UserError        (ValueError)    a mistake in what was asked: a flag, a path, a
     │   │                                config entry, a missing asset      -> exit 2
-    │   └── OutputDirError               an output folder that cannot be used
+    │   ├── OutputDirError               an output folder that cannot be used
+    │   └── OutOfResources               memory or disk ran out (what ran out, what to try)
     ├── DataError        (ValueError)    a file whose content is wrong; the message names
     │                                    the file and the position (subject, sentence,
     │                                    frame, line)                        -> exit 2
@@ -35,9 +36,12 @@ __all__ = [
     "MethodError",
     "MethodOutputError",
     "MethodTimeout",
+    "OutOfResources",
     "OutputDirError",
     "UserError",
     "error_line",
+    "out_of_resources",
+    "ran_out_of",
 ]
 
 
@@ -55,6 +59,54 @@ class DataError(BlendVOCAError, ValueError):
 
 class OutputDirError(UserError):
     """An output folder that cannot be used: not ours, not writable, full, locked."""
+
+
+class OutOfResources(UserError):
+    """The machine ran out of memory or disk space; the message says which, where, and what to try."""
+
+
+#: ``errno`` values that mean a resource ran out, and its name.
+_RESOURCE_ERRNOS = {12: "memory", 28: "disk space", 122: "disk quota"}  # ENOMEM, ENOSPC, EDQUOT
+
+#: What to try, per resource.
+_TRY = {
+    "memory": ("fewer worker processes (--workers 1), a smaller --sentence-batch, a smaller split, "
+               "or more memory (a higher `ulimit -v`, or close other programs)"),
+    "disk space": "free space on that file system, or write to another folder",
+    "disk quota": "free space within your quota, or write to another folder",
+}
+
+
+def ran_out_of(error: BaseException | None) -> str | None:
+    """``"memory"``, ``"disk space"`` or ``"disk quota"`` when ``error``, or an error
+    that caused it (``__cause__`` / ``__context__``), is a ``MemoryError`` or an
+    ``OSError`` of ENOMEM, ENOSPC or EDQUOT; else None."""
+    seen = set()
+    while error is not None and id(error) not in seen:
+        seen.add(id(error))
+        if isinstance(error, OutOfResources):
+            return getattr(error, "resource", "memory")
+        if isinstance(error, MemoryError):
+            return "memory"
+        if isinstance(error, OSError) and error.errno in _RESOURCE_ERRNOS:
+            return _RESOURCE_ERRNOS[error.errno]
+        error = error.__cause__ or error.__context__
+    return None
+
+
+def out_of_resources(error: BaseException, where: str = "") -> OutOfResources:
+    """The :class:`OutOfResources` that reports ``error`` (one :func:`ran_out_of` names):
+    what ran out, where (``where``, or the file of an ``OSError``), the original
+    message, and what to try."""
+    resource = ran_out_of(error) or "memory"
+    if not where and isinstance(error, OSError) and error.filename:
+        where = str(error.filename)
+    detail = error.strerror if isinstance(error, OSError) and error.strerror else str(error)
+    detail = f"{type(error).__name__}: {detail}" if detail else type(error).__name__
+    prefix = f"{where}: " if where else ""
+    exc = OutOfResources(f"{prefix}ran out of {resource} ({detail}); try {_TRY[resource]}")
+    exc.resource = resource
+    return exc
 
 
 class MethodError(BlendVOCAError, RuntimeError):

@@ -33,6 +33,7 @@ from benchmark.evaluation.registry import METRICS, ordered_metrics
 from benchmark.evaluation.settings import FD_RESAMPLES, WIND_RESAMPLES, EvaluationSettings
 from benchmark.evaluation.vertex import own_vertex_metrics, sentence_vertex_values, vertex_metrics, vertex_values
 from benchmark.metrics.windows import GT_DROP_LAST, window_starts
+from blendvoca.errors import out_of_resources, ran_out_of
 
 __all__ = [
     "FD_RESAMPLES",
@@ -115,6 +116,9 @@ def _source_meshes(dataset, keys, mesh):
             raise AttributeError(f"{type(dataset).__name__} has no vertices()")
         vertices(*keys[0])
     except (AttributeError, NotImplementedError, OSError, KeyError, ValueError) as exc:
+        if ran_out_of(exc) is not None:  # the meshes are there, the memory is not: never a smaller result
+            raise out_of_resources(exc, "evaluate_split: reading the source meshes for the mesh-space metrics") \
+                from exc
         if mesh:
             raise
         warnings.warn(f"evaluate_split: the source meshes cannot be read ({type(exc).__name__}: {exc}); "

@@ -8,6 +8,7 @@ import math
 import sys
 import time
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -21,10 +22,19 @@ from benchmark.methods import (
     validated_tracks,
     validated_vertices,
 )
+from benchmark.protocol.isolation import plugin_call, warn_notes
 from benchmark.protocol.limits import GenerateLimit, TimeLimit, generate_limit
 from benchmark.protocol.verification import reverified
 from benchmark.results import LATENCY_FIELDS
-from blendvoca.errors import DataError, MethodError, MethodOutputError, MethodTimeout, UserError
+from blendvoca.errors import (
+    DataError,
+    MethodError,
+    MethodOutputError,
+    MethodTimeout,
+    UserError,
+    out_of_resources,
+    ran_out_of,
+)
 from blendvoca.runtime.progress import bar, progress_bars
 
 __all__ = ["LATENCY_FIELDS", "LATENCY_SENTENCES", "Generated", "generate", "generated_tracks", "measure_latency",
@@ -80,6 +90,8 @@ def generate(spec, dataset, trained, *, store=None) -> Generated:
     """
     vertex_method = trained.output == OUTPUT_VERTICES
     in_memory = {} if vertex_method and store is None else None
+    results_dir = None if store is None else Path(store.folder).parent
+    before = None if results_dir is None else _files_under(results_dir)
     start = time.perf_counter()
     tracks, n_clipped = generated_tracks(trained.method, dataset, split=spec.split, samples=spec.samples,
                                          seed=spec.seed, clip=spec.clip, name=spec.method,
@@ -87,6 +99,8 @@ def generate(spec, dataset, trained, *, store=None) -> Generated:
                                          time_limit=generate_limit(spec.generate_time_limit),
                                          sentence_batch=spec.sentence_batch)
     seconds = time.perf_counter() - start
+    if store is not None:
+        _check_results_kept(spec.method, results_dir, before, store, tracks)
     vertices = None
     if vertex_method:
         vertices = store.stored_vertices() if store is not None else in_memory
@@ -94,6 +108,30 @@ def generate(spec, dataset, trained, *, store=None) -> Generated:
     latency = measure_latency(trained.method, dataset, split=spec.split, seed=spec.seed, name=spec.method)
     reverified(spec, dataset, when="while the method generated")  # a plug-in that wrote into the build: exit 4
     return Generated(tracks=tracks, n_clipped=int(n_clipped), seconds=seconds, vertices=vertices, latency=latency)
+
+
+def _files_under(folder: Path) -> set:
+    """The result files in ``folder`` (``*.json``): what other runs only ever replace
+    atomically, never remove (their tracks folders and staging folders come and go)."""
+    return {p.name for p in folder.glob("*.json") if not p.name.startswith(".")}
+
+
+def _check_results_kept(name: str, results_dir: Path, before: set, store, tracks: dict) -> None:
+    """MethodError when files under ``results_dir`` that were there before the method
+    generated, or the tracks it stored since, are gone (a plug-in that deleted them)."""
+    from benchmark.runs import track_path
+
+    gone = sorted(before - _files_under(results_dir))
+    staging = Path(getattr(store, "staging", store.folder))
+    missing = [track_path(staging, subject, sentence, k).relative_to(results_dir).as_posix()
+               for (subject, sentence), samples in tracks.items() for k in range(len(samples))
+               if not track_path(staging, subject, sentence, k).is_file()]
+    if gone or missing:
+        lost = gone + missing
+        shown = ", ".join(lost[:5]) + (f" and {len(lost) - 5} more" if len(lost) > 5 else "")
+        raise MethodError(f"method {name!r}: {len(lost)} file(s) under --results {results_dir} were deleted while "
+                          f"it generated ({shown}); nothing was stored, and the deleted files of earlier runs are "
+                          "lost (restore them from a copy)")
 
 
 def measure_latency(method, dataset, *, split: str = "test", seed: int = 0, name: str | None = None,
@@ -138,7 +176,7 @@ def measure_latency(method, dataset, *, split: str = "test", seed: int = 0, name
         head_audio = utterance.audio[:int(round(head * AUDIO_RATE / FPS))] if head < frames else utterance.audio
         prefix = dataclasses.replace(utterance, audio=head_audio, num_frames=head)
         try:
-            with progress_bars(False):
+            with progress_bars(False), plugin_call(f"method {name!r}: generate (latency)"):
                 if measured == 0:  # the first frame of the first sentence
                     start = time.perf_counter()
                     method.generate(prefix, samples=1, seed=sentence_seed(seed, index))
@@ -246,7 +284,7 @@ def generated_tracks(method, dataset, *, split: str = "test", samples: int = 1, 
     if time_limit is not None and not isinstance(time_limit, GenerateLimit):
         time_limit = GenerateLimit(base_s=float(time_limit)) if float(time_limit) > 0 else None
 
-    generated, n_clipped = {}, 0
+    generated, n_clipped, notes = {}, 0, []
     for group in groups:
         utterances = [utterance_of(index) for index in group]
         seeds = [sentence_seed(seed, index) for index in group]
@@ -257,15 +295,19 @@ def generated_tracks(method, dataset, *, split: str = "test", samples: int = 1, 
         if time_limit is not None and (time_limit.per_audio_second_s or len(group) > 1):
             how = time_limit.describe() + (f" per sentence, {len(group)} sentences" if len(group) > 1 else "")
         try:
-            with TimeLimit(limit, f"{where}: generate", how):
+            with plugin_call(f"{where}: generate", notes=notes), TimeLimit(limit, f"{where}: generate", how):
                 many = getattr(method, "generate_many", None) if sentence_batch > 1 else None
                 if many is None:  # one sentence per call, or a method without generate_many
                     outputs = [method.generate(u, samples=num_samples, seed=s) for u, s in zip(utterances, seeds)]
                 else:
                     outputs = list(many(utterances, samples=num_samples, seeds=seeds))
-        except (MethodTimeout, UserError, DataError, OSError):
+        except (MethodTimeout, UserError, DataError, OSError) as exc:
             # a build file the method reads that is missing or wrong is the data's fault
+            if ran_out_of(exc) is not None and not isinstance(exc, MethodTimeout):
+                raise out_of_resources(exc, f"{where}: generate") from exc
             raise
+        except MemoryError as exc:
+            raise out_of_resources(exc, f"{where}: generate") from exc
         except Exception as exc:
             raise MethodError(f"{where}: generate failed: {type(exc).__name__}: {exc}") from exc
         if len(outputs) != len(group):
@@ -296,4 +338,5 @@ def generated_tracks(method, dataset, *, split: str = "test", samples: int = 1, 
             generated[(subject, sentence)] = tracks
         sentences_bar.update(len(group))
     sentences_bar.close()
+    warn_notes(notes)
     return {key: generated[key] for key in items}, n_clipped

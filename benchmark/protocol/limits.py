@@ -2,13 +2,21 @@
 
 from __future__ import annotations
 
+import os
 import signal
+import sys
 import threading
 from dataclasses import dataclass
 
 from blendvoca.errors import MethodTimeout
 
-__all__ = ["DEFAULT_GENERATE_LIMIT", "GenerateLimit", "TimeLimit", "generate_limit"]
+__all__ = ["DEFAULT_GENERATE_LIMIT", "GenerateLimit", "TimeLimit", "generate_limit", "watchdog_grace"]
+
+
+def watchdog_grace(seconds: float) -> float:
+    """Seconds past a limit after which the watchdog ends a call that the alarm did not
+    stop: a tenth of the limit, at least 2 s, at most 60 s."""
+    return min(60.0, max(2.0, 0.1 * float(seconds)))
 
 
 @dataclass(frozen=True)
@@ -73,7 +81,10 @@ class TimeLimit:
     have passed.
 
     It runs on SIGALRM, so it is a no-op where signals are unavailable (off the main
-    thread, or on Windows) and for ``seconds`` of None or <= 0.
+    thread, or on Windows) and for ``seconds`` of None or <= 0. A watchdog thread, which
+    no signal setting of the limited code can mask, ends the process with exit status 3
+    and the limit's message when the call is still running :func:`watchdog_grace`
+    seconds past the limit (code that ignores or replaces SIGALRM, or blocks it in C).
 
     Parameters
     ----------
@@ -98,10 +109,29 @@ class TimeLimit:
             self._previous = signal.signal(signal.SIGALRM, self._fire)
             signal.setitimer(signal.ITIMER_REAL, float(self.seconds))
             self._armed = True
+            self._done = threading.Event()
+            self._watchdog = threading.Thread(target=self._watch, name="blendvoca-time-limit", daemon=True)
+            self._watchdog.start()
         return self
+
+    def _watch(self) -> None:
+        """The watchdog: the call is still running well past its limit, the alarm was
+        ignored: say so as the CLI would (exit 3) and end the process."""
+        grace = watchdog_grace(self.seconds)
+        if self._done.wait(float(self.seconds) + grace):
+            return
+        how = f" ({self.how})" if self.how else ""
+        try:
+            sys.stderr.write(f"error: the method misbehaved, nothing written: {self.what}: exceeded the limit of "
+                             f"{self.seconds:g} s{how} and did not stop when alarmed (it ignores or replaces "
+                             f"SIGALRM); the run was ended {grace:g} s later\n")
+            sys.stderr.flush()
+        finally:
+            os._exit(3)
 
     def __exit__(self, *exc):
         if self._armed:
+            self._done.set()
             signal.setitimer(signal.ITIMER_REAL, 0)
             signal.signal(signal.SIGALRM, self._previous)
         return False

@@ -9,6 +9,7 @@ from pathlib import Path
 
 from benchmark.methods.base import Budget
 from benchmark.methods.contract import COEFFICIENT_NAMES
+from benchmark.protocol.isolation import evaluation_threads
 from benchmark.protocol.limits import generate_limit
 from benchmark.results import Result, build_result, check, read, result_filename, write
 from benchmark.runs import TrackWriter, seed_folder_name, tracks_folder_name
@@ -158,6 +159,8 @@ def _protocol_section(spec, inputs, trained, *, n_clipped: int, evaluation: dict
         **({"convergence_check": convergence_check} if convergence_check is not None else {}),
         **({"vae": {"path": str(spec.vae), "sha256": content_digest(spec.vae)}}
            if getattr(spec, "vae", None) is not None else {}),
+        # the threads the evaluation computed with (a plug-in's change is put back: benchmark.protocol.isolation)
+        **({"threads": threads} if (threads := evaluation_threads()) else {}),
         # a GPU's results differ from the CPU's by float rounding: say where it ran (absent: the CPU)
         **({"device": spec.device} if getattr(spec, "device", None) not in (None, "cpu") else {}),
     }

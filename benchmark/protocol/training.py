@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import os
 import pickle
+import sys
 import time
 import zipfile
 from dataclasses import dataclass
@@ -14,8 +15,9 @@ from pathlib import Path
 from benchmark.methods import OUTPUT_COEFFICIENTS, Budget, get_method
 from benchmark.methods.base import CONFIG_FILE
 from benchmark.methods.request import CONTRACT, TrainingRequest, call_train
+from benchmark.protocol.isolation import plugin_call, warn_notes
 from benchmark.protocol.limits import TimeLimit
-from blendvoca.errors import DataError, MethodError, MethodTimeout, UserError
+from blendvoca.errors import DataError, MethodError, MethodTimeout, UserError, out_of_resources, ran_out_of
 
 __all__ = ["TRAIN_GRACE_S", "Trained", "make_method", "moved_to", "prepared_method",
            "train"]
@@ -216,19 +218,26 @@ def prepared_method(name: str, config: dict, dataset, *, seed: int, budget: Budg
                 raise
 
     request = TrainingRequest(seed=seed, budget=budget, device=device, on_checkpoint=on_checkpoint)
+    notes = []
     try:
-        with TimeLimit(limit, f"method {name!r}: train (budget {budget.max_seconds:g} s + grace)"
-                       if limit else ""):
+        with plugin_call(f"method {name!r}: train", notes=notes), \
+                TimeLimit(limit, f"method {name!r}: train (budget {budget.max_seconds:g} s + grace)" if limit else ""):
             call_train(method, dataset, request)
     except (MethodTimeout, UserError, DataError, OSError):
         # a build file that is missing or wrong is the data's fault, not the method's
+        if ran_out_of(sys.exc_info()[1]) is not None:
+            raise out_of_resources(sys.exc_info()[1], f"method {name!r}: train") from None
         raise
+    except MemoryError as exc:
+        raise out_of_resources(exc, f"method {name!r}: train") from exc
     except Exception as exc:
         for error in raised:  # the check's own failure (e.g. the half-trained method's output), unwrapped
             if _caused_by(exc, error):
                 raise error from None
         contract = f" (method contract v{CONTRACT}: train(dataset, request))" if isinstance(exc, TypeError) else ""
         raise MethodError(f"method {name!r}: train failed{contract}: {type(exc).__name__}: {exc}") from exc
+    finally:
+        warn_notes(notes)
     method = moved_to(method, device)
     timings["train_s"] = time.perf_counter() - start
     if path is not None:

@@ -106,3 +106,12 @@ class RaisesMemoryError(_Quiet):
 
     def act(self):
         raise MemoryError("Unable to allocate 9.3 TiB for an array with shape (1, 10**12)")
+
+
+class WaitsOnChild(_Quiet):
+    """Waits on a child that sleeps for a minute."""
+
+    name = "waits-on-child"
+
+    def act(self):
+        subprocess.run([sys.executable, "-c", "import time; time.sleep(60)"], check=False)

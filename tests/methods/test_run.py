@@ -130,6 +130,11 @@ def test_result_file_contents(dataset, tmp_path):
     assert r["method"]["config"] == {"mode": "ok"}
     assert r["dataset"]["manifest_hash"] == dataset.manifest_hash
     assert r["dataset"]["num_sentences"] == 4 and r["dataset"]["num_subjects"] == 2
+    # issue 56: the digest of the measured record, and the threads the evaluation used
+    from benchmark.results import read
+
+    assert r["protocol"].pop("record_sha256") == read(path).record_digest() and not read(path).edited()
+    assert set(r["protocol"].pop("threads", {})) <= {"torch"}
     assert r["protocol"] == {"samples": 4, "seed": 3, "budget": {"max_steps": 5, "max_seconds": None},
                              "clip": False, "n_clipped": 0, "checkpoint": None, "deterministic": True,
                              "generate_time_limit": {"base_s": 120.0, "per_audio_second_s": 60.0},

@@ -1,0 +1,157 @@
+"""Issue 56, deliverable 6: resource failures named as such, and a plug-in that cannot
+change what the evaluation runs with (threads, signal handlers), defeat the generate time
+limit, delete results unnoticed or leave processes behind."""
+
+from __future__ import annotations
+
+import errno
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from tests.faults.conftest import assert_one_error_line
+from tests.faults.test_runner_faults import fast_scoring  # noqa: F401 - a fixture
+
+ROOT = Path(__file__).resolve().parents[2]
+PLUGINS = "tests.faults.plugins"
+FAST = r"""
+import sys
+from benchmark.protocol import scoring
+from tests.methods.fakes import fake_evaluate_split
+scoring.evaluate_split = fake_evaluate_split
+from benchmark.run import main
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+def _run(capsys, build, results, method, *argv):
+    from benchmark.run import main
+
+    code = main(["--method", method, "--data", str(build), "--results", str(results), "--quiet", *map(str, argv)])
+    return code, capsys.readouterr()
+
+
+def _subprocess(build, results, method, *argv, env=None, timeout=120):
+    started = time.monotonic()
+    done = subprocess.run([sys.executable, "-c", FAST, "--method", method, "--data", str(build), "--results",
+                           str(results), "--quiet", *map(str, argv)], cwd=ROOT, capture_output=True, text=True,
+                          env={**os.environ, "PYTHONPATH": str(ROOT), **(env or {})}, timeout=timeout)
+    return done, time.monotonic() - started
+
+
+def test_a_plugin_cannot_change_the_evaluations_threads_or_signal_handlers(small_build, tmp_path, capsys,
+                                                                           fast_scoring):  # noqa: F811
+    import torch
+
+    before_threads = torch.get_num_threads()
+    torch.set_num_threads(2)
+    sigint, sigterm = signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)
+    try:
+        code, out = _run(capsys, small_build, tmp_path / "r", f"{PLUGINS}:SetsThreads")
+        assert code == 0, out.err
+        assert torch.get_num_threads() == 2
+        assert signal.getsignal(signal.SIGINT) is sigint and signal.getsignal(signal.SIGTERM) is sigterm
+        assert "torch threads 1 -> 2" in out.err and "SIGINT handler" in out.err
+        (path,) = (tmp_path / "r").glob("*.json")
+        assert json.loads(path.read_text())["protocol"]["threads"] == {"torch": 2}
+    finally:
+        torch.set_num_threads(before_threads)
+
+
+def test_the_time_limit_holds_against_a_plugin_that_ignores_the_alarm(small_build, tmp_path):
+    done, seconds = _subprocess(small_build, tmp_path / "r", f"{PLUGINS}:IgnoresAlarm", "--generate-time-limit", "2",
+                                env={"BLENDVOCA_TEST_TARGET": "60"})
+    assert done.returncode == 3, done.stderr
+    assert "exceeded the limit of 2 s" in done.stderr and "SIGALRM" in done.stderr
+    assert seconds < 40
+    assert not list((tmp_path / "r").glob("*.json"))
+
+
+def test_a_plugin_waiting_on_a_child_is_stopped_and_its_child_ended(small_build, tmp_path):
+    done, seconds = _subprocess(small_build, tmp_path / "r", f"{PLUGINS}:WaitsOnChild", "--generate-time-limit", "2")
+    assert done.returncode == 3, done.stderr
+    assert "exceeded the limit of 2 s" in done.stderr and "Traceback" not in done.stderr
+    assert seconds < 40
+    left = subprocess.run(["pgrep", "-f", "import time; time.sleep(60)"], capture_output=True, text=True)
+    assert not left.stdout.strip()
+
+
+def test_a_plugin_deleting_results_during_generate_is_named(small_build, tmp_path, capsys, monkeypatch,
+                                                            fast_scoring):  # noqa: F811
+    results = tmp_path / "r"
+    assert _run(capsys, small_build, results, "mean")[0] == 0
+    (earlier,) = results.glob("*.json")
+    monkeypatch.setenv("BLENDVOCA_TEST_TARGET", str(results))
+    code, out = _run(capsys, small_build, results, f"{PLUGINS}:DeletesResults")
+    assert code == 3
+    assert_one_error_line(out.err, "deleted while it generated", earlier.name, "nothing was stored")
+
+
+def test_children_a_plugin_leaves_running_are_named_and_ended(small_build, tmp_path, capsys,
+                                                              fast_scoring):  # noqa: F811
+    from tests.faults.plugins import SpawnsChildren
+
+    SpawnsChildren.started.clear()
+    code, out = _run(capsys, small_build, tmp_path / "r", f"{PLUGINS}:SpawnsChildren")
+    assert code == 0, out.err
+    assert "2 child process(es) it left running, ended" in out.err
+    assert len(SpawnsChildren.started) == 2
+    for child in SpawnsChildren.started:
+        assert child.poll() is not None  # ended (and reaped)
+
+
+def test_memory_running_out_in_a_plugin_is_named_not_a_bug(small_build, tmp_path, capsys,
+                                                           fast_scoring):  # noqa: F811
+    code, out = _run(capsys, small_build, tmp_path / "r", f"{PLUGINS}:RaisesMemoryError")
+    assert code == 2
+    assert_one_error_line(out.err, "ran out of memory", "generate", "try")
+    assert "internal error" not in out.err
+
+
+@pytest.mark.parametrize("error", [MemoryError("cannot allocate"), OSError(errno.ENOMEM, "Cannot allocate memory")])
+def test_the_mesh_metrics_fallback_does_not_swallow_memory_errors(error):
+    from benchmark.evaluation import _source_meshes
+    from blendvoca.errors import OutOfResources
+
+    class Dataset:
+        def vertices(self, subject, sentence):
+            try:
+                raise error
+            except Exception as exc:  # a reader that wraps what it hit, as the mesh readers do
+                raise ValueError(f"{subject}/{sentence}: could not read") from exc
+
+    with pytest.raises(OutOfResources, match="ran out of memory"):
+        _source_meshes(Dataset(), [("A", "s01")], None)
+
+    class NoMeshes:  # a corpus without meshes: still the quiet fallback
+        def vertices(self, subject, sentence):
+            raise FileNotFoundError("no meshes")
+
+    with pytest.warns(UserWarning, match="mesh-space metrics"):
+        assert _source_meshes(NoMeshes(), [("A", "s01")], None) is None
+
+
+def test_a_memory_error_escaping_a_tool_is_exit_2_with_what_to_try(capsys):
+    from blendvoca import cli
+
+    @cli.command
+    def main(argv=None):
+        raise MemoryError()
+
+    assert main([]) == 2
+    err = capsys.readouterr().err
+    assert_one_error_line(err, "ran out of memory", "try")
+    assert "internal error" not in err
+
+    @cli.command
+    def full(argv=None):
+        raise OSError(errno.ENOSPC, "No space left on device", "/tmp/site/index.html")
+
+    assert full([]) == 2
+    assert_one_error_line(capsys.readouterr().err, "/tmp/site/index.html", "ran out of disk space", "another folder")
