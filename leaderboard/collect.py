@@ -22,6 +22,8 @@ probability of improvement between any two rows. What is read for that:
 from __future__ import annotations
 
 import math
+import os
+import unicodedata
 import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -47,12 +49,14 @@ __all__ = [
     "Row",
     "Table",
     "best_mark",
+    "check_records",
     "check_scoring_models",
     "column_decimals",
     "load_results",
     "pair_replicates",
     "pairwise_probabilities",
     "ranks",
+    "result_files",
     "tables_by_manifest",
 ]
 
@@ -171,10 +175,58 @@ def load_results(results_dir) -> list[Result]:
     results_dir = Path(results_dir)
     if not results_dir.is_dir():
         raise UserError(f"results directory {results_dir} does not exist")
-    paths = sorted(results_dir.glob("*.json"))
+    paths = result_files(results_dir)
     results = [read(path) for path in paths]
+    check_records(results, paths)
     check_scoring_models(results, paths)
     return results
+
+
+def result_files(results_dir) -> list[Path]:
+    """The ``*.json`` files of ``results_dir``, sorted by name.
+
+    Raises
+    ------
+    DataError
+        A file name that is not UTF-8 text or holds control characters (named by its
+        bytes): the tables and the site name rows and pages after their files.
+    """
+    results_dir = Path(results_dir)
+    paths = sorted(results_dir.glob("*.json"))
+    for path in paths:
+        raw = os.fsencode(path.name)
+        try:
+            text = raw.decode("utf-8")
+        except UnicodeDecodeError:
+            text = None
+        if text is None or any(unicodedata.category(c) == "Cc" for c in text):
+            raise DataError(f"{results_dir}: the file name {raw!r} is not plain UTF-8 text; rename it (result files "
+                            "are named <label>__<dataset>__s<S>__seed<k>.json) or move it out of the folder")
+    return paths
+
+
+def check_records(results: list, paths: list) -> None:
+    """Refuse a result whose numbers were edited since its run wrote them
+    (:meth:`benchmark.results.Result.edited`: they no longer match its
+    ``protocol.record_sha256``), and the same result stored under two file names.
+
+    Raises
+    ------
+    DataError
+        Naming the edited file, or the files that hold one result.
+    """
+    for result, path in zip(results, paths):
+        if result.edited():
+            raise DataError(f"{path}: its numbers no longer match the digest its run stored "
+                            "(protocol.record_sha256): the file was edited after the run wrote it; restore it, "
+                            "or rerun the run (python -m benchmark.run)")
+    seen: dict = {}
+    for result, path in zip(results, paths):
+        digest = result.record_digest()
+        if digest in seen:
+            raise DataError(f"{seen[digest]} and {path} hold the same result (same settings, same numbers) under two "
+                            "file names: a row would be counted twice; remove one of them")
+        seen[digest] = path
 
 
 def check_scoring_models(results: list, paths: list) -> None:

@@ -47,6 +47,26 @@ def _latex_escape(text: str) -> str:
     return "".join(_LATEX_SPECIAL.get(c, c) for c in str(text))
 
 
+#: Characters of a name from a result file (a method label, a dataset title, a metric
+#: label) that Markdown would read as table structure, HTML or formatting.
+_MD_SPECIAL = {"\\": "\\\\", "|": "\\|", "<": "&lt;", ">": "&gt;", "&": "&amp;", "*": "\\*", "_": "\\_",
+               "`": "\\`", "[": "\\[", "]": "\\]", "\n": " ", "\r": " "}
+_TEX_LABEL = {"|": r"\textbar{}", "<": r"\textless{}", ">": r"\textgreater{}", "`": r"\textasciigrave{}",
+              "\n": " ", "\r": " "}
+
+
+def md_text(text) -> str:
+    """A name from a result file as literal Markdown text: table bars, HTML and
+    formatting characters escaped (a method named ``<script>`` or ``a | b`` stays one cell)."""
+    return "".join(_MD_SPECIAL.get(c, c) for c in str(text))
+
+
+def _latex_label(text) -> str:
+    """A name from a result file as literal LaTeX text (:func:`_latex_escape`, and ``|``,
+    ``<``, ``>``, backticks and line breaks, which the notes' markup would otherwise read)."""
+    return "".join(_TEX_LABEL.get(c) or _LATEX_SPECIAL.get(c, c) for c in str(text))
+
+
 def _latex_unit(unit: str) -> str:
     # "mm^2" -> "mm$^{2}$": units carry exponents, not literal carets
     parts = re.split(r"\^(-?\d+)", str(unit))
@@ -97,7 +117,7 @@ def _metric_label(name: str) -> str:
     return METRICS[name].label if name in METRICS else name
 
 
-def not_settled_text(row: Row) -> str:
+def not_settled_text(row: Row, label=str) -> str:
     """``"<label>: <metric> <at half> → <at full> (half-width <w>) between steps <B/2> and <B>"``
     for a row whose ``convergence.settled`` is false (for a row scoring another row's
     training, ``convergence.shared_with``: which row's training it is). A metric whose
@@ -105,7 +125,7 @@ def not_settled_text(row: Row) -> str:
     ``"<metric> on seed <k> <at half> → <at full> (half-width <w>)"``."""
     conv = row.convergence or Convergence()
     if conv.shared_with:  # scored with another row's training: that training's verdict
-        return f"{row.label}: row {conv.shared_with}'s training, not settled there"
+        return f"{label(row.label)}: row {label(conv.shared_with)}'s training, not settled there"
     half, full = conv.checked_at_step, conv.total_steps
     steps = f"steps {half} and {full}" if half is not None and full is not None else "half and full budget"
     moved = []
@@ -120,31 +140,33 @@ def not_settled_text(row: Row) -> str:
                 f"seed {seed} {_move_text(*values)}" for seed, *values in seeds))
         else:
             moved.append(f"{_metric_label(name)} {_move_text(at_half, at_full, half_width)}")
-    return f"{row.label}: " + (", ".join(moved) + f" between {steps}" if moved else f"moved between {steps}")
+    return f"{label(row.label)}: " + (", ".join(moved) + f" between {steps}" if moved else f"moved between {steps}")
 
 
 def _move_text(at_half: float, at_full: float, half_width: float | None) -> str:
     return f"{at_half:.3g} → {at_full:.3g}" + (f" (half-width {half_width:.3g})" if half_width is not None else "")
 
 
-def group_notes(table: Table, columns: list, marks: list) -> list:
+def group_notes(table: Table, columns: list, marks: list, label=str) -> list:
     """Plain-text lines under a group's table: the AV offset reading (lip-sync columns), the
-    rows not settled, and the columns whose best mark used the older interval rule."""
+    rows not settled, and the columns whose best mark used the older interval rule; names
+    from the result files through ``label`` (:func:`md_text` for Markdown)."""
     notes = []
     if any(c.name.startswith(("av_offset_", "av_lag_bias_")) for c in columns):
         notes.append(AV_OFFSET_NOTE)
     unsettled = [row for row in table.rows + table.references if row.settled is False]
     if unsettled:
         notes.append(f"{NOT_SETTLED_MARK} Not settled (moved by more than the interval's half-width between half and "
-                     "full training budget): " + "; ".join(not_settled_text(row) for row in unsettled) + ".")
+                     "full training budget): " + "; ".join(not_settled_text(row, label) for row in unsettled) + ".")
     fallback: dict = {}
     for column, mark in zip(columns, marks):
         if mark.rule == "intervals":
-            fallback.setdefault(mark.reason or "nothing to resample in these result files", []).append(column.label)
+            fallback.setdefault(mark.reason or "nothing to resample in these result files", []).append(
+                label(column.label))
     if fallback:
         causes = "; ".join(f"{', '.join(labels)}: {reason}" if len(fallback) > 1 else reason
                            for reason, labels in fallback.items())
-        labels = [label for group in fallback.values() for label in group]
+        labels = [name for group in fallback.values() for name in group]
         notes.append(f"Best in {', '.join(labels)} by the older rule (95 % interval disjoint from the runner-up's), "
                      f"as nothing could be resampled: {causes}.")
     return notes
@@ -191,26 +213,28 @@ def markdown_tables(tables: list[Table]) -> str:
     if not tables:
         lines += ["No results yet.", ""]
     for table in tables:
-        lines += [f"## {table.name + ': d' if table.name else 'D'}ataset `{table.recipe_id[:12]}`", "",
+        lines += [f"## {md_text(table.name) + ': d' if table.name else 'D'}ataset `{table.recipe_id[:12]}`", "",
                   f"Full recipe id `{table.recipe_id}`, "
                   f"{table.split} split" + (f", {table.num_sentences} sentences." if table.num_sentences else "."), ""]
         if table.latent_out_of_domain:
             lines += [OUT_OF_DOMAIN_NOTE, ""]
         for group, columns in table.groups:
             method_cells, reference_cells, bold, marks = _group_cells(table, columns)
-            header = ["Method"] + [f"{c.label}{f' ({c.unit})' if c.unit else ''} {_ARROWS[c.higher_is_better][0]}"
+            header = ["Method"] + [f"{md_text(c.label)}{f' ({md_text(c.unit)})' if c.unit else ''} "
+                                   f"{_ARROWS[c.higher_is_better][0]}"
                                    .rstrip() for c in columns] + ["S", "RTF"]
             lines += [f"### {group[:1].upper() + group[1:]}", "", "| " + " | ".join(header) + " |",
                       "|" + "|".join([":---"] + ["---:"] * (len(header) - 1)) + "|"]
             for i, row in enumerate(table.rows):
-                lines.append(_md_row(row.label, row, [col[i] for col in method_cells], [i in b for b in bold]))
+                lines.append(_md_row(md_text(row.label), row, [col[i] for col in method_cells],
+                                     [i in b for b in bold]))
             if table.references:
                 lines.append("| *reference rows (not ranked)* |" + " |" * (len(header) - 1))
                 for i, row in enumerate(table.references):
-                    lines.append(_md_row(f"*{row.label}*", row, [col[i] for col in reference_cells],
+                    lines.append(_md_row(f"*{md_text(row.label)}*", row, [col[i] for col in reference_cells],
                                          [False] * len(columns)))
             lines.append("")
-            for note in group_notes(table, columns, marks):
+            for note in group_notes(table, columns, marks, md_text):
                 lines += [note, ""]
     return "\n".join(lines)
 
@@ -251,13 +275,13 @@ def latex_tables(tables: list[Table]) -> str:
         for group, columns in table.groups:
             method_cells, reference_cells, bold, marks = _group_cells(table, columns)
             header = ["Method"] + [
-                f"{_latex_escape(c.label)}{' (' + _latex_unit(c.unit) + ')' if c.unit else ''} "
+                f"{_latex_label(c.label)}{' (' + _latex_unit(c.unit) + ')' if c.unit else ''} "
                 f"{_ARROWS[c.higher_is_better][1]}".rstrip() for c in columns] + ["$S$", "RTF"]
-            body = [_tex_row(_latex_escape(row.label), row, [col[i] for col in method_cells], [i in b for b in bold])
+            body = [_tex_row(_latex_label(row.label), row, [col[i] for col in method_cells], [i in b for b in bold])
                     for i, row in enumerate(table.rows)]
             if table.references:
                 body += [r"\midrule", f"\\multicolumn{{{len(header)}}}{{l}}{{\\textit{{Reference rows (not ranked)}}}} \\\\"]
-                body += [_tex_row(f"\\textit{{{_latex_escape(row.label)}}}", row, [col[i] for col in reference_cells],
+                body += [_tex_row(f"\\textit{{{_latex_label(row.label)}}}", row, [col[i] for col in reference_cells],
                                   [False] * len(columns)) for i, row in enumerate(table.references)]
             slug = re.sub(r"[^a-z0-9]+", "-", group.lower()).strip("-")
             parts += [
@@ -269,7 +293,8 @@ def latex_tables(tables: list[Table]) -> str:
                 r"\resizebox{\linewidth}{!}{%",
                 f"\\begin{{tabular}}{{l{'r' * len(columns)}rr}}", r"\toprule",
                 " & ".join(header) + r" \\", r"\midrule", *body, r"\bottomrule", r"\end{tabular}}",
-                *_tex_notes(group_notes(table, columns, marks)), r"\end{table}", "",
+                *_tex_notes(group_notes(table, columns, marks, lambda name: str(name).replace("`", "'"))),
+                r"\end{table}", "",
             ]
     if not tables:
         parts.append("% No results yet.")

@@ -15,6 +15,7 @@ one GLB rig per speaker, so the pages only fetch and draw:
 from __future__ import annotations
 
 import dataclasses
+import functools
 import json
 import math
 import shutil
@@ -28,6 +29,7 @@ from benchmark.results import Result, read
 from benchmark.runs import read_run
 from blendvoca.errors import DataError, UserError
 from blendvoca.export.glb import write_glb
+from blendvoca import format as fmt
 from blendvoca.format import audio_path
 from blendvoca.io.coeffs import read_coeffs_csv
 from blendvoca.rig_regions import lip_vertices
@@ -35,8 +37,10 @@ from blendvoca.runtime.progress import bar
 from leaderboard.collect import (
     MIN_PAIRED_SENTENCES,
     best_mark,
+    check_records,
     check_scoring_models,
     pairwise_probabilities,
+    result_files,
     tables_by_manifest,
 )
 from leaderboard.render import AV_OFFSET_NOTE, not_settled_text
@@ -61,9 +65,14 @@ class SiteRun:
 
     @property
     def dataset_root(self) -> Path | None:
-        """The BlendVOCA build the run was scored on, if it is on this machine."""
+        """The BlendVOCA build the run was scored on, if it is on this machine: the folder
+        ``dataset.path`` names only when it is a BlendVOCA build of the run's dataset
+        identity (a path such as ``/etc`` in a result file is not followed)."""
         path = self.result.dataset.path
-        return Path(path) if path and Path(path).is_dir() else None
+        identity = _build_identity(str(path)) if path else None
+        if identity is None or self.result.key not in identity:
+            return None
+        return Path(path)
 
     @property
     def recipe_id(self) -> str:
@@ -77,6 +86,18 @@ class SiteRun:
         except (DataError, FileNotFoundError):  # a run stored without tracks: nothing to play back
             return {}
         return {key: stored.track_paths(*key) for key in stored.keys}
+
+
+@functools.lru_cache(maxsize=64)
+def _build_identity(path: str) -> tuple | None:
+    """``(recipe id, content hash)`` of the BlendVOCA build at ``path``; None when it is
+    not one (no folder, no ``manifest.json``, an unreadable manifest)."""
+    if not Path(path).is_dir() or not fmt.manifest_path(path).is_file():
+        return None
+    try:
+        return fmt.dataset_id(path), fmt.manifest_hash(path)
+    except (DataError, OSError, ValueError):
+        return None
 
 
 def load_site_runs(results_dir) -> list[SiteRun]:
@@ -94,10 +115,11 @@ def load_site_runs(results_dir) -> list[SiteRun]:
     results_dir = Path(results_dir)
     if not results_dir.is_dir():
         raise UserError(f"leaderboard.site: results folder {results_dir} does not exist")
-    paths = sorted(results_dir.glob("*.json"))
+    paths = result_files(results_dir)
     runs = [SiteRun(path, read(path)) for path in paths]
     if not runs:
         raise UserError(f"leaderboard.site: {results_dir} holds no result *.json files")
+    check_records([run.result for run in runs], paths)
     check_scoring_models([run.result for run in runs], paths)
     return runs
 
@@ -252,7 +274,8 @@ def _tracks_note(run: SiteRun) -> str | None:
                 "their tracks).")
     if run.dataset_root is None:
         return (f"The dataset this run was scored on ({run.result.dataset.path}) is not on the machine "
-                f"that made this site; rebuild the site with --data DIR pointing at a copy to see its tracks.")
+                f"that made this site (or that folder is not a build of this run's dataset); rebuild the site "
+                f"with --data DIR pointing at a copy to see its tracks.")
     return None
 
 
