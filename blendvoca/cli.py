@@ -95,6 +95,10 @@ BUG_LINE = ("error: internal error (a bug in BlendVOCA, not in your input): plea
             "traceback above and the command you ran")
 
 SHARED_TITLE = "shared options"
+#: Options (by ``dest``) that name a file or folder: an empty string given to one is refused.
+PATH_OPTIONS = frozenset({"out", "results", "work", "data", "tables", "vocaset", "checkpoint", "root", "archive",
+                          "docs", "frames", "rig", "vae", "sync_expert", "syncnet_weights", "pose_names",
+                          "config_file", "corpus", "cache", "output"})
 
 
 def exit_code_of(error: BaseException) -> int:
@@ -156,6 +160,14 @@ class Parser(argparse.ArgumentParser):
     which sets the progress switch from ``--quiet`` (when it has that option)."""
 
     def parse_known_args(self, args=None, namespace=None):
+        raw = list(sys.argv[1:] if args is None else args)
+        # "" is no path (and Path("") is the working folder): one clear line, not what it does later
+        paths = {flag for action in self._actions if action.dest in PATH_OPTIONS for flag in action.option_strings}
+        for index, arg in enumerate(raw):
+            flag, equals, value = str(arg).partition("=")
+            if flag in paths and ((equals and not value) or (not equals and index + 1 < len(raw)
+                                                               and raw[index + 1] == "")):
+                self.error(f"{flag}: expected a path, got an empty string")
         namespace, extras = super().parse_known_args(args, namespace)
         if "quiet" in vars(namespace):
             set_progress(not namespace.quiet)

@@ -39,6 +39,7 @@ from pathlib import Path
 
 from blendvoca import cli
 from blendvoca.errors import UserError
+from blendvoca.runtime.locks import LockHeld, held_lock
 from blendvoca.runtime.progress import show_progress
 from leaderboard.executors import EXECUTORS, log_progress
 
@@ -52,6 +53,8 @@ CORPUS = {"speakers": 12, "sentences": 40, "seed": 0, "layout": "processed", "au
 #: work folder of an earlier corpus is not taken for this one).
 CORPUS_NAME = "synth-one-to-many"
 BUILD_NAME = "blendvoca12x40-one-to-many"
+#: The lock file of a work folder (held while a reproduce runs on it).
+WORK_LOCK = ".reproduce.lock"
 #: Training seeds of every trained row.
 SEEDS = (0, 1, 2)
 #: Training steps of built-in methods without their own entry.
@@ -333,13 +336,20 @@ def reproduce(work, results_dir, tables_dir, *, only=None, force: bool = False, 
     # an unknown --only row fails before the corpus and the build are made
     tasks = plan_tasks(work, results_dir, only=only, data=data, seeds=seeds, max_steps=max_steps,
                        expert_steps=expert_steps, cpus_per_task=cpus_per_task, force=force)
-    if archive is not None:
-        for path in archive_results(results_dir, archive):
-            log_progress(f"archived {path}")
-    values = run_tasks(tasks, executor=executor, address=address, max_retries=max_retries)
-    paths = [Path(values[t.key]) for t in tasks if t.stage in ("single", "store")]
-    for path in build_leaderboard(results_dir, tables_dir):
-        log_progress(f"wrote {path}")
+    work = Path(work).expanduser()
+    work.mkdir(parents=True, exist_ok=True)
+    try:
+        with held_lock(work / WORK_LOCK):  # one reproduce per work folder: two would run every stage twice
+            if archive is not None:
+                for path in archive_results(results_dir, archive):
+                    log_progress(f"archived {path}")
+            values = run_tasks(tasks, executor=executor, address=address, max_retries=max_retries)
+            paths = [Path(values[t.key]) for t in tasks if t.stage in ("single", "store")]
+            for path in build_leaderboard(results_dir, tables_dir):
+                log_progress(f"wrote {path}")
+    except LockHeld as exc:
+        raise UserError(f"--work {work}: another leaderboard.reproduce (pid {exc.holder or 'unknown'}) is using this "
+                        "work folder; wait for it to finish (rerunning then resumes), or give another --work") from None
     return paths
 
 

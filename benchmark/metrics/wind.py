@@ -147,10 +147,20 @@ def cached_gmm_components_many(jobs, cache, workers: int = 1, desc: str | None =
     missing = [i for i, fit in enumerate(out) if fit is None]
     from blendvoca.io.atomic import atomic_write
 
+    unwritable = None
     for i, fit in zip(missing, gmm_components_many([jobs[i] for i in missing], workers, desc)):
         out[i] = fit
-        with atomic_write(paths[i]) as f:
-            np.savez(f, weights=fit[0], means=fit[1], covariances=fit[2])
+        if unwritable is not None:
+            continue
+        try:
+            with atomic_write(paths[i]) as f:
+                np.savez(f, weights=fit[0], means=fit[1], covariances=fit[2])
+        except OSError as error:  # a cache only saves time: a read-only home keeps the numbers
+            unwritable = error
+            import warnings
+
+            warnings.warn(f"WInD: the fit cache {cache} cannot be written ({error}); the mixtures are fitted "
+                          "without it (set BLENDVOCA_CACHE to a writable folder to keep them)", stacklevel=2)
     return out
 
 

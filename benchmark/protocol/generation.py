@@ -38,7 +38,7 @@ from blendvoca.errors import (
 from blendvoca.runtime.progress import bar, progress_bars
 
 __all__ = ["LATENCY_FIELDS", "LATENCY_SENTENCES", "Generated", "generate", "generated_tracks", "measure_latency",
-           "sentence_seed"]
+           "motionless_sentences", "sentence_seed"]
 
 #: Sentences of the split (its first ones) the latency is measured on.
 LATENCY_SENTENCES = 3
@@ -64,6 +64,9 @@ class Generated:
         methods.
     latency : dict or None
         :func:`measure_latency`'s record (None when not measured).
+    motionless : int
+        Sentences whose every sample is constant over time (a face that never moves):
+        their lip-sync offsets carry no information (:func:`motionless_sentences`).
     """
 
     tracks: dict
@@ -71,6 +74,18 @@ class Generated:
     seconds: float = 0.0
     vertices: object = None
     latency: dict | None = None
+    motionless: int = 0
+
+
+def motionless_sentences(tracks: dict) -> list:
+    """``(subject, sentence)`` of the tracks ``{key: (S, T, K)}`` that do not move: every
+    sample's every coefficient constant over time (within 1e-9)."""
+    still = []
+    for key, samples in tracks.items():
+        samples = np.asarray(samples, dtype=np.float64)
+        if samples.ndim == 3 and samples.shape[1] > 0 and float(np.ptp(samples, axis=1).max(initial=0.0)) <= 1e-9:
+            still.append(key)
+    return still
 
 
 def generate(spec, dataset, trained, *, store=None) -> Generated:
@@ -107,7 +122,14 @@ def generate(spec, dataset, trained, *, store=None) -> Generated:
     # after the scored tracks are made, so that the extra calls cannot change them
     latency = measure_latency(trained.method, dataset, split=spec.split, seed=spec.seed, name=spec.method)
     reverified(spec, dataset, when="while the method generated")  # a plug-in that wrote into the build: exit 4
-    return Generated(tracks=tracks, n_clipped=int(n_clipped), seconds=seconds, vertices=vertices, latency=latency)
+    still = motionless_sentences(tracks)
+    if still:
+        subject, sentence = still[0]
+        print(f"warning: method {spec.method!r}: {len(still)} of {len(tracks)} sentences do not move at all (every "
+              f"coefficient constant over time, e.g. {subject}/{sentence}): scored as they are; their lip-sync "
+              "offsets carry no information (the result records protocol.motionless_sentences)", file=sys.stderr)
+    return Generated(tracks=tracks, n_clipped=int(n_clipped), seconds=seconds, vertices=vertices, latency=latency,
+                     motionless=len(still))
 
 
 def _files_under(folder: Path) -> set:

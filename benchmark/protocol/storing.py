@@ -136,7 +136,7 @@ def _dataset_section(spec, inputs, *, num_subjects: int, num_sentences: int) -> 
 
 
 def _protocol_section(spec, inputs, trained, *, n_clipped: int, evaluation: dict | None = None,
-                      convergence_check: str | None = None) -> dict:
+                      convergence_check: str | None = None, motionless: int = 0) -> dict:
     """The ``protocol`` section; ``evaluation``: what the evaluation attached
     (``Scores.protocol``, e.g. ``fd_floor_probe``), merged in."""
     checkpoint, limit = spec.checkpoint, generate_limit(spec.generate_time_limit)
@@ -153,6 +153,8 @@ def _protocol_section(spec, inputs, trained, *, n_clipped: int, evaluation: dict
         "deterministic": spec.budget.max_seconds is None,
         "generate_time_limit": None if limit is None else limit.to_dict(),
         "verified": inputs.verified is not None,
+        # sentences the method did not move at all (benchmark.protocol.generation.motionless_sentences)
+        **({"motionless_sentences": int(motionless)} if motionless else {}),
         **({"sentence_batch": spec.sentence_batch} if spec.sentence_batch > 1 else {}),
         **({"lipsync_models": lipsync_models_provenance(spec.syncnet, spec.sync_expert)}
            if spec.evaluates_lipsync_models else {}),
@@ -211,7 +213,8 @@ def store(spec, inputs, trained, generated, scored, *, writer: TrackWriter, timi
                                  num_sentences=len(generated.tracks)),
         protocol=_protocol_section(spec, inputs, trained, n_clipped=generated.n_clipped,
                                    evaluation=getattr(scored.metrics, "protocol", {}),
-                                   convergence_check=convergence_check),
+                                   convergence_check=convergence_check,
+                                   motionless=getattr(generated, "motionless", 0)),
         metrics=dict(scored.metrics),
         timings=timings,
         tracks=tracks_folder_name(filename),

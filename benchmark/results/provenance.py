@@ -9,7 +9,7 @@ import platform
 import subprocess
 from pathlib import Path
 
-import blendvoca
+from blendvoca.runtime.version import blendvoca_version
 from blendvoca.format import blas_kernels
 
 __all__ = ["OUTPUT_FOLDERS", "VERSIONED_PACKAGES", "current_provenance", "git_revision", "hardware_info",
@@ -31,7 +31,7 @@ def package_versions(packages=VERSIONED_PACKAGES) -> dict:
         except importlib.metadata.PackageNotFoundError:
             continue
     if "blendvoca" not in versions:  # running from a source checkout
-        versions["blendvoca"] = getattr(blendvoca, "__version__", "unknown") + "+source"
+        versions["blendvoca"] = blendvoca_version() + "+source"
     return dict(sorted(versions.items()))
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import time
 
-import blendvoca
+from blendvoca.runtime.version import blendvoca_version
 from blendvoca import format as fmt
 from blendvoca.format.hashing import file_digest, stage_key
 from blendvoca.format.manifest import remove_manifest, write_manifest
@@ -53,7 +53,7 @@ def write_summary_files(out, corpus, vocaset, subjects, params, summary, *, repo
     if recipe is not None:  # the manifest records it: another recipe, another manifest
         extra["recipe"] = recipe["id"]
     summary_key = stage_key({"stage": "summary", "keys": keys, "failures": summary.failures, "params": params,
-                             "report": report, "version": blendvoca.__version__, "splits": corpus.splits,
+                             "report": report, "version": blendvoca_version(), "splits": corpus.splits,
                              **extra})
     previous = read_record(summary_path)
     if is_up_to_date(out, previous, summary_key):
@@ -96,7 +96,7 @@ def write_summary_files(out, corpus, vocaset, subjects, params, summary, *, repo
         report_s = time.perf_counter() - clock
     files += [rel for rel in SUMMARY_OUTPUTS if (out / rel).is_file()]
     manifest = write_manifest(out, files=files, vocaset=vocaset, corpus=corpus, params=params, records=records,
-                              rig_records=rig_records, failures=summary.failures, version=blendvoca.__version__,
+                              rig_records=rig_records, failures=summary.failures, version=blendvoca_version(),
                               recipe=recipe)
     listed = fmt.listed_files(out)
     listed[fmt.MANIFEST_FILE] = file_digest(manifest)

@@ -27,7 +27,7 @@ import hashlib
 import json
 from pathlib import Path
 
-import blendvoca
+from blendvoca.runtime.version import blendvoca_version
 from blendvoca.assets import resolve
 from blendvoca.errors import DataError
 from blendvoca.io.json_file import read_json
@@ -318,7 +318,7 @@ def write_dataset_manifest(out, *, files, dataset: dict, params: dict, failures:
     """Write ``<out>/manifest.json`` of a build from a coefficient corpus (``blendvoca.datasets``:
     BEAT, UniTalker, 3D-ETF) atomically: the files with their sha256, the dataset record, the
     recipe (the dataset's identity) and the per-file tolerances; return its path."""
-    return _write(manifest_path(out), _build_record(out, files, version=blendvoca.__version__, params=params,
+    return _write(manifest_path(out), _build_record(out, files, version=blendvoca_version(), params=params,
                                                     failures=failures, recipe=recipe, tolerances=None,
                                                     dataset=dataset))
 

@@ -19,7 +19,7 @@ import re
 import shutil
 from pathlib import Path
 
-from blendvoca.errors import OutputDirError
+from blendvoca.errors import OutputDirError, out_of_resources, ran_out_of
 from blendvoca.runtime.staging import staged_folder
 
 from .data import load_site_runs, with_dataset, write_site_data
@@ -81,6 +81,15 @@ def build_site(results_dir, out, *, data=None, max_samples: int = 3, node_module
     runs = load_site_runs(results_dir)
     if data is not None:
         runs = with_dataset(runs, data)
+    try:
+        return _write_site(out, runs, max_samples=max_samples, node_modules=node_modules)
+    except OSError as exc:
+        if ran_out_of(exc) is not None:  # nothing half-written stays (staged): say what ran out, where
+            raise out_of_resources(exc, f"--out {out}: writing the site") from exc
+        raise
+
+
+def _write_site(out: Path, runs, *, max_samples, node_modules) -> Path:
     with staged_folder(out, replace=True) as tmp:  # _check_out: a site this tool wrote, or empty
         copy_vendor_files(tmp, node_modules)
         for page in sorted(_STATIC.iterdir()):
