@@ -14,6 +14,7 @@ from pathlib import Path
 
 from benchmark.results import read
 from blendvoca.io.atomic import atomic_write
+from blendvoca.io.json_file import read_json
 from blendvoca.runtime.progress import progress_bars
 from blendvoca.runtime.threads import limited_threads
 
@@ -158,7 +159,7 @@ def timing_records(work) -> list:
     folder = Path(work) / "stages" / "timings"
     if not folder.is_dir():
         return []
-    return [json.loads(p.read_text()) for p in sorted(folder.glob("*.json"))]
+    return [read_json(p, what="a stage timing record (JSON)") for p in sorted(folder.glob("*.json"))]
 
 
 def _new_timing_entry() -> dict:

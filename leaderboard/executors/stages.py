@@ -54,9 +54,10 @@ from benchmark.protocol.storing import dataset_identity, store_seeds, track_writ
 from benchmark.results import Result, build_result, current_provenance, read, result_filename, write
 from benchmark.runs import TrackWriter
 from blendvoca.builder import build_dataset
-from blendvoca.errors import UserError
+from blendvoca.errors import DataError, UserError
 from blendvoca.format import manifest_path
 from blendvoca.io.atomic import atomic_write
+from blendvoca.io.json_file import read_json
 from blendvoca.runtime.staging import move_into_place, process_staging
 from leaderboard.executors.core import log_progress
 
@@ -212,7 +213,11 @@ def train_stage(spec, root):
     seed = int(spec["seed"])
     final, record_path = _checkpoint(spec, seed), _train_record(spec, seed)
     if record_path.is_file() and final.is_dir() and any(final.iterdir()):
-        return json.loads(record_path.read_text()), None
+        record = read_json(record_path, what="a training record (JSON object)")
+        if not isinstance(record, dict):
+            raise DataError(f"{record_path}: expected a training record (a JSON object), got {type(record).__name__}; "
+                            "remove it to train again")
+        return record, None
     if all(_row_done(row, root) is not None for row in spec["rows"]):
         return {"seed": seed, "stored": True}, None  # every row of this training is stored: nothing to train for
     # trained into a folder of this process, renamed once saved: a worker killed while
