@@ -14,7 +14,8 @@ Schema (``schema_version`` 3)::
       "protocol": {"samples", "seed", "seeds"?, "budget", "clip", "n_clipped", "deterministic",
                    "generate_time_limit", "checkpoint", "checkpoint_sha256"?, "verified",
                    "sentence_batch"?, "lipsync_models"?: {model: {"path", "sha256", ...}},
-                   "convergence_check"?, "seed_bootstrap"?, the evaluation's settings ...},
+                   "convergence_check"?, "seed_bootstrap"?, "threads"?: {"torch": n},
+                   "motionless_sentences"?, "record_sha256"?, the evaluation's settings ...},
       "metrics":  {metric: {"mean", "std", "ci95", "n", "higher_is_better", "unit", "label", "group",
                             "replicates"? (set-level metrics), "seed_range"?, "n_seeds"? (several seeds)}},
       "per_sentence": [{"subject", "sentence", metric: value, ...}],
@@ -36,7 +37,11 @@ null where not known) and ``timings`` depend on the machine: they are not part o
 a rerun must reproduce (the metrics and per-sentence values).
 
 ``dataset.recipe_id`` is the dataset's identity (:func:`blendvoca.format.dataset_id`);
-it names the file and keys the leaderboard section (:attr:`Result.key`).
+it names the file and keys the leaderboard section (:attr:`Result.key`). A run with
+other settings than a plain one adds their digest to the name (``__c<digest>``,
+:meth:`Result.settings_digest`); ``protocol.record_sha256`` (:meth:`Result.record_digest`)
+lets the leaderboard refuse a file whose numbers were edited by hand (details:
+:mod:`benchmark.results.record`).
 ``dataset.manifest_hash`` is the content hash of the files scored, for information.
 
 Schema 3 holds the fields schema 2 held; ``python -m benchmark.results upgrade FILE...``
