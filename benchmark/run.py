@@ -104,6 +104,10 @@ def _print_summary(path) -> None:
         seeds = fields.get("seed_range")
         seeds = "" if not seeds else f" seeds {seeds[0]:.4g}..{seeds[1]:.4g}"
         print(f"  {metric:<28} {arrow} {fields['mean']:.4g}{ci}{seeds} {fields['unit']}".rstrip(), file=sys.stderr)
+    still, scored = result["protocol"].get("motionless_sentences"), result["dataset"].get("num_sentences")
+    if still and not result["method"].get("reference"):
+        print(f"  note: {still} of {scored} sentences do not move at all (every coefficient constant over time): "
+              "scored as they are; their lip-sync offsets carry no information", file=sys.stderr)
     convergence = result.get("convergence")
     if convergence:
         moved = ", ".join(f"{name} {m['half_budget']:.4g} -> {m['full_budget']:.4g}"

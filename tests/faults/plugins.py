@@ -94,9 +94,10 @@ class SpawnsChildren(_Quiet):
 
 
 class Motionless(_Quiet):
-    """A constant track (the same value every frame): the face never moves."""
+    """A constant track (the same value every frame): the face never moves (a ranked method, not a reference)."""
 
     name = "motionless"
+    reference = False
 
 
 class RaisesMemoryError(_Quiet):

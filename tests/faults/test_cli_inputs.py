@@ -96,7 +96,7 @@ def test_a_motionless_plugin_is_scored_and_named(small_build, tmp_path, capsys, 
     from benchmark.run import main
 
     code = main(["--method", "tests.faults.plugins:Motionless", "--data", str(small_build), "--results",
-                 str(tmp_path / "r"), "--quiet"])
+                 str(tmp_path / "r")])
     err = capsys.readouterr().err
     assert code == 0, err
     assert "sentences do not move at all" in err and "lip-sync offsets carry no information" in err

@@ -135,6 +135,7 @@ def test_result_file_contents(dataset, tmp_path):
 
     assert r["protocol"].pop("record_sha256") == read(path).record_digest() and not read(path).edited()
     assert set(r["protocol"].pop("threads", {})) <= {"torch"}
+    assert r["protocol"].pop("motionless_sentences", 0) in (0, 4)  # its tracks may be constant
     assert r["protocol"] == {"samples": 4, "seed": 3, "budget": {"max_steps": 5, "max_seconds": None},
                              "clip": False, "n_clipped": 0, "checkpoint": None, "deterministic": True,
                              "generate_time_limit": {"base_s": 120.0, "per_audio_second_s": 60.0},
