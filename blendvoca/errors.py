@@ -29,6 +29,8 @@ path) is an internal bug and is shown with its traceback.
 
 from __future__ import annotations
 
+import re
+
 __all__ = [
     "BlendVOCAError",
     "CheckFailed",
@@ -68,10 +70,15 @@ class OutOfResources(UserError):
 #: ``errno`` values that mean a resource ran out, and its name.
 _RESOURCE_ERRNOS = {12: "memory", 28: "disk space", 122: "disk quota"}  # ENOMEM, ENOSPC, EDQUOT
 
+#: The messages of torch's allocators when memory runs out (``DefaultCPUAllocator: can't
+#: allocate memory``, ``CUDA out of memory``, ``Error code 12``).
+_ALLOCATOR_FAILURE = re.compile(r"can't allocate memory|CUDA out of memory|OutOfMemoryError|"
+                                r"Error code 12 \(Cannot allocate memory\)")
+
 #: What to try, per resource.
 _TRY = {
-    "memory": ("fewer worker processes (--workers 1), a smaller --sentence-batch, a smaller split, "
-               "or more memory (a higher `ulimit -v`, or close other programs)"),
+    "memory": ("fewer worker processes (--workers 1 where the command has it), a smaller --sentence-batch, "
+               "a smaller split, or more memory (a higher `ulimit -v`, or close other programs)"),
     "disk space": "free space on that file system, or write to another folder",
     "disk quota": "free space within your quota, or write to another folder",
 }
@@ -90,6 +97,8 @@ def ran_out_of(error: BaseException | None) -> str | None:
             return "memory"
         if isinstance(error, OSError) and error.errno in _RESOURCE_ERRNOS:
             return _RESOURCE_ERRNOS[error.errno]
+        if isinstance(error, RuntimeError) and _ALLOCATOR_FAILURE.search(str(error)):
+            return "memory"  # torch's allocators (CPU and CUDA) raise RuntimeErrors
         error = error.__cause__ or error.__context__
     return None
 

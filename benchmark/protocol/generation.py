@@ -327,6 +327,8 @@ def generated_tracks(method, dataset, *, split: str = "test", samples: int = 1, 
         except MemoryError as exc:
             raise out_of_resources(exc, f"{where}: generate") from exc
         except Exception as exc:
+            if ran_out_of(exc) is not None:  # torch's allocator: memory, not the method's fault
+                raise out_of_resources(exc, f"{where}: generate") from exc
             raise MethodError(f"{where}: generate failed: {type(exc).__name__}: {exc}") from exc
         if len(outputs) != len(group):
             raise MethodOutputError(f"{where}: generate_many returned {len(outputs)} outputs for "

@@ -231,6 +231,8 @@ def prepared_method(name: str, config: dict, dataset, *, seed: int, budget: Budg
     except MemoryError as exc:
         raise out_of_resources(exc, f"method {name!r}: train") from exc
     except Exception as exc:
+        if ran_out_of(exc) is not None:  # torch's allocator: memory, not the method's fault
+            raise out_of_resources(exc, f"method {name!r}: train") from exc
         for error in raised:  # the check's own failure (e.g. the half-trained method's output), unwrapped
             if _caused_by(exc, error):
                 raise error from None

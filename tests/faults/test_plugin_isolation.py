@@ -155,3 +155,38 @@ def test_a_memory_error_escaping_a_tool_is_exit_2_with_what_to_try(capsys):
 
     assert full([]) == 2
     assert_one_error_line(capsys.readouterr().err, "/tmp/site/index.html", "ran out of disk space", "another folder")
+
+
+def test_torch_allocator_failures_are_memory():
+    from blendvoca.errors import ran_out_of
+
+    message = ("[enforce fail at alloc_cpu.cpp:127] err == 0. DefaultCPUAllocator: can't allocate memory: you tried "
+               "to allocate 15204352 bytes. Error code 12 (Cannot allocate memory)")
+    assert ran_out_of(RuntimeError(message)) == "memory"
+    assert ran_out_of(RuntimeError("CUDA out of memory. Tried to allocate 2.00 GiB")) == "memory"
+    assert ran_out_of(RuntimeError("shape mismatch")) is None
+
+
+LIMITED = r"""
+import resource, sys
+limit = int(sys.argv[1])
+resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
+from benchmark.run import main
+sys.exit(main(sys.argv[2:]))
+"""
+
+
+@pytest.mark.slow  # a real scoring under an address-space limit (about 30 s)
+def test_a_run_under_a_memory_limit_fails_naming_memory_or_has_every_metric(small_build, tmp_path):
+    results = tmp_path / "r"
+    done = subprocess.run([sys.executable, "-c", LIMITED, str(1200 * 2**20), "--method", "mean", "--data",
+                           str(small_build), "--results", str(results), "--quiet"], cwd=ROOT, capture_output=True,
+                          text=True, timeout=600, env={**os.environ, "PYTHONPATH": str(ROOT)})
+    assert "internal error" not in done.stderr and "Traceback" not in done.stderr, done.stderr[-2000:]
+    if done.returncode:
+        assert done.returncode == 2 and "ran out of memory" in done.stderr, done.stderr[-2000:]
+        assert not list(results.glob("*.json"))
+    else:
+        (path,) = results.glob("*.json")
+        metrics = json.loads(path.read_text())["metrics"]
+        assert {"lve_mesh", "lve_rig", "mve_mesh"} <= set(metrics)  # the mesh metrics were not dropped
