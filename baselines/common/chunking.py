@@ -180,9 +180,10 @@ def chunk_section() -> dict:
 def chunk_options() -> tuple:
     """The two ``--config`` options of :func:`chunk_section`, typed (an integer or null)."""
     return (Option("chunk_frames", (int, type(None)), None,
-                   "frames per chunk of a long utterance (null: the method's default)"),
+                   "frames per chunk of a long utterance (null: the method's default)", minimum=2),
             Option("chunk_overlap", (int, type(None)), None,
-                   "frames two consecutive chunks share, crossfaded (null: the method's default)"))
+                   "frames two consecutive chunks share, crossfaded (null: the method's default)", minimum=0,
+                   below="chunk_frames"))
 
 
 def chunk_setting(config: dict, key: str, default: int) -> int:

@@ -87,6 +87,11 @@ def _matches(value, tp) -> bool:
     return isinstance(value, tp)
 
 
+def _is_number(value) -> bool:
+    """True for an int or float that is not a bool."""
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
 @dataclass(frozen=True)
 class Option:
     """One config key of a method.
@@ -104,6 +109,11 @@ class Option:
         One line for ``--list-config`` and docs.
     choices : tuple or None
         The only values accepted, when the set is closed.
+    minimum : number or None
+        The smallest number accepted (None, and the option's null, are not numbers).
+    below : str or None
+        The name of an option this one's number must be smaller than, when both are given
+        (``chunk_overlap`` below ``chunk_frames``).
     """
 
     name: str
@@ -111,6 +121,8 @@ class Option:
     default: object = None
     help: str = ""
     choices: tuple | None = None
+    minimum: float | None = None
+    below: str | None = None
 
     @property
     def type(self) -> str:
@@ -125,6 +137,9 @@ class Option:
         if self.choices is not None and value not in self.choices:
             raise UserError(f"--config {self.name}: {method} expects one of "
                             f"{', '.join(json.dumps(c) for c in self.choices)}, got {json.dumps(value)}")
+        if self.minimum is not None and _is_number(value) and value < self.minimum:
+            raise UserError(f"--config {self.name}: {method} expects a number >= {self.minimum:g}, "
+                            f"got {json.dumps(value)}")
         return value
 
     def describe(self) -> str:
@@ -132,6 +147,10 @@ class Option:
         extra = f"default {json.dumps(self.default)}"
         if self.choices is not None:
             extra += "; one of " + ", ".join(json.dumps(c) for c in self.choices)
+        if self.minimum is not None:
+            extra += f"; at least {self.minimum:g}"
+        if self.below is not None:
+            extra += f"; below {self.below}"
         return f"{self.name} ({self.type}, {extra})" + (f": {self.help}" if self.help else "")
 
 
@@ -192,6 +211,12 @@ class ConfigSchema:
                 hint = f" (did you mean {', '.join(close)}?)" if close else \
                     f"; `--list-config` lists its {len(self.options)} keys"
                 raise UserError(f"--config {key}: {method} has no such option{hint}")
+        for key, value in config.items():
+            option = self.options.get(key)
+            bound = config.get(option.below) if option is not None and option.below else None
+            if _is_number(value) and _is_number(bound) and value >= bound:
+                raise UserError(f"--config {key}: {method} expects a number below {option.below} ({bound}), "
+                                f"got {json.dumps(value)}")
         return config
 
     def parse(self, pairs, *, method: str = "method") -> dict:

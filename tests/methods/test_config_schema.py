@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import pytest
 
 import benchmark.run as run_module
@@ -193,3 +195,21 @@ def test_a_preset_key_gets_its_help_then_section_and_values(capsys):
                            "cpu-demo: 0.001, paper: 1e-05)")
     assert lines["guidance"].startswith("guidance (float, default 1.0): classifier-free guidance scale")
     assert lines["audio_shift_prob"].split(": ", 1)[1] != lines["mirror_prob"].split(": ", 1)[1]
+
+
+@pytest.mark.parametrize("method", ["faceformer", "codetalker", "said", "cdface"])
+@pytest.mark.parametrize("pairs, message", [
+    (["chunk_frames=0"], "chunk_frames: {m} expects a number >= 2, got 0"),
+    (["chunk_frames=-5"], "chunk_frames: {m} expects a number >= 2, got -5"),
+    (["chunk_frames=1"], "chunk_frames: {m} expects a number >= 2, got 1"),
+    (["chunk_overlap=-1"], "chunk_overlap: {m} expects a number >= 0, got -1"),
+    (["chunk_frames=60", "chunk_overlap=60"], "chunk_overlap: {m} expects a number below chunk_frames (60), got 60"),
+])
+def test_chunk_settings_are_refused_before_any_training(method, pairs, message):
+    """Issue 56: chunk_frames 0, 1 or -5 and chunk_overlap >= chunk_frames or -1 were found only when
+    generating, after training (exit 3, blaming the method)."""
+    schema = method_schema(method)
+    with pytest.raises(UserError, match=re.escape(message.format(m=method))):
+        schema.parse(pairs, method=method)
+    assert schema.parse(["chunk_frames=60", "chunk_overlap=59"], method=method) == {"chunk_frames": 60,
+                                                                                       "chunk_overlap": 59}
