@@ -5,6 +5,7 @@
 and settled or not recorded."""
 
 import json
+import re
 import zlib
 
 import numpy as np
@@ -415,7 +416,7 @@ def test_cli_regression_over_two_seeds(fake_dataset_dir, assets_dir, tmp_path, m
                "--results", str(tmp_path / "r"), "--quiet"])
     assert rc == 0, capsys.readouterr().err
     (path,) = (tmp_path / "r").glob("*.json")
-    assert path.name.endswith("__s1__seeds0-1.json")
+    assert re.search(r"__s1__seeds0-1__c[0-9a-f]{10}\.json$", path.name)  # --max-steps: the settings digest
     result = json.loads(path.read_text())
     assert [p["seed"] for p in result["per_seed"]] == [0, 1] and result["seeds"] == [0, 1]
     assert {"lve_rig", "fd"} <= set(result["metrics"]) and "seed_range" in result["metrics"]["lve_rig"]

@@ -122,7 +122,9 @@ def test_two_reproduce_processes_on_one_work_folder(tmp_path, capsys):
 
 INTERRUPT = r"""
 import os, signal, subprocess, sys
-p = subprocess.Popen(sys.argv[1:], stderr=subprocess.PIPE, text=True, start_new_session=True)
+# SIGINT as in a terminal: a shell's background job (nohup, &) inherits it ignored
+p = subprocess.Popen(sys.argv[1:], stderr=subprocess.PIPE, text=True, start_new_session=True,
+                     preexec_fn=lambda: signal.signal(signal.SIGINT, signal.default_int_handler))
 seen = ""
 while "vertex metrics" not in seen:
     ch = p.stderr.read(1)

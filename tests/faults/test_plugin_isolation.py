@@ -51,6 +51,8 @@ def test_a_plugin_cannot_change_the_evaluations_threads_or_signal_handlers(small
 
     before_threads = torch.get_num_threads()
     torch.set_num_threads(2)
+    inherited = signal.getsignal(signal.SIGINT)
+    signal.signal(signal.SIGINT, signal.default_int_handler)  # as in a terminal (a background job inherits SIG_IGN)
     sigint, sigterm = signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)
     try:
         code, out = _run(capsys, small_build, tmp_path / "r", f"{PLUGINS}:SetsThreads")
@@ -62,6 +64,7 @@ def test_a_plugin_cannot_change_the_evaluations_threads_or_signal_handlers(small
         assert json.loads(path.read_text())["protocol"]["threads"] == {"torch": 2}
     finally:
         torch.set_num_threads(before_threads)
+        signal.signal(signal.SIGINT, inherited)
 
 
 def test_the_time_limit_holds_against_a_plugin_that_ignores_the_alarm(small_build, tmp_path):

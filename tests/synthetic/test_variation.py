@@ -45,6 +45,8 @@ def frozen_package(tmp_path: Path) -> Path:
 def run_frozen(frozen: Path, code: str) -> None:
     """Run ``code`` with the frozen package first on the path (a fresh interpreter)."""
     env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    if env.get("BLENDVOCA_ASSETS"):  # the baseline package reads one asset folder (now a list may be given)
+        env["BLENDVOCA_ASSETS"] = env["BLENDVOCA_ASSETS"].split(os.pathsep)[0]
     subprocess.run([sys.executable, "-c", f"import sys; sys.path.insert(0, {str(frozen)!r})\n{code}"],
                    cwd=frozen, env=env, check=True)
 
