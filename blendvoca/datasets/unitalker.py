@@ -30,6 +30,7 @@ from blendvoca.datasets.coefficients import DatasetLayoutError, Take, coefficien
 from blendvoca.errors import DataError
 from blendvoca.io.audio import load_audio
 from blendvoca.io.json_file import read_json
+from blendvoca.io.npy_file import read_array
 from blendvoca.names import convention_names
 
 SPLIT_FILES = ("train.json", "val.json", "test.json")
@@ -45,15 +46,8 @@ def expected_layout(annot_type: str, width: int) -> str:
 
 
 def _load_npy(path: Path, what: str) -> np.ndarray:
-    """The numeric array of a .npy file, or a DataError naming the file and ``what`` it should hold."""
-    try:
-        array = np.load(path, allow_pickle=False)
-    except (ValueError, OSError, EOFError, UnicodeError) as error:
-        raise DataError(f"{path}: not a .npy array of {what} ({error})") from None
-    if not isinstance(array, np.ndarray) or array.dtype.kind not in "fiu":
-        kind = array.dtype if isinstance(array, np.ndarray) else "an .npz archive"
-        raise DataError(f"{path}: holds {kind}; expected a .npy array of {what} (numbers)")
-    return array
+    """The numeric array of a .npy file (:func:`blendvoca.io.npy_file.read_array`)."""
+    return read_array(path, what=what)
 
 
 def read_audio(path: Path) -> tuple[np.ndarray, int]:
