@@ -251,13 +251,19 @@ def remove_stale_temporaries(out) -> int:
 def remove_own_outputs(out, record: dict | None) -> list[str]:
     """Delete the outputs a stage record lists whose sha256 is still the recorded one.
 
-    Files changed since (someone else's now) and missing files are left as they
-    are. Returns the relative paths removed.
+    Files changed since (someone else's now), missing files and paths that do not
+    resolve to a file under ``out`` (``../``, absolute, through a link: a tampered
+    record) are left as they are. Returns the relative paths removed.
     """
     removed = []
+    base = Path(out).resolve()
     for rel, digest in sorted(((record or {}).get("files") or {}).items()):
         path = Path(out, rel)
-        if path.is_file() and file_digest(path) == digest:
+        try:
+            inside = path.resolve().is_relative_to(base) and not path.is_symlink()
+        except (OSError, RuntimeError, ValueError):
+            inside = False
+        if inside and path.is_file() and file_digest(path) == digest:
             path.unlink()
             removed.append(rel)
     return removed

@@ -39,7 +39,7 @@ import numpy as np
 
 from blendvoca import format as fmt
 from blendvoca.assets import resolve
-from blendvoca.builder.outdir import build_lock, check_output_dir, claim_output_dir, unwritable
+from blendvoca.builder.outdir import build_lock, check_output_dir, claim_output_dir, remove_own_outputs, unwritable
 from blendvoca.builder.pipeline import BuildInputError, BuildSummary
 from blendvoca.builder.report import coeffs_std
 from blendvoca.builder.report_takes import utterances_markdown
@@ -58,6 +58,18 @@ from blendvoca.vocaset.splits import proportional_split
 DURATION_TOLERANCE = 0.05
 #: ``dataset.kind`` of a coefficient corpus in the manifest: no source meshes.
 KIND = "coefficients"
+#: Weights may stray this far outside the convention's range [0, 1] (capture noise: ARKit's solver
+#: and its exporters round to 1e-6 and overshoot by a few 1e-4) and are then kept as captured (not
+#: clipped, so a corpus within range builds the same folder as before); further out, or not finite,
+#: the take fails naming the file, frame and column.
+RANGE_TOLERANCE = 1e-3
+#: The frame rates a take may have (frames per second): a capture's rate is 24-240, UniTalker's
+#: 25-60; outside this range the times or the rate are wrong (microseconds or milliseconds read as
+#: seconds) and resampling them would make a take of a handful of frames or of millions.
+FPS_RANGE = (10.0, 1000.0)
+#: A take shorter than this (seconds of audio or motion, after cutting to the shorter) fails: it
+#: holds less than a syllable.
+MIN_TAKE_S = 0.25
 
 
 class DatasetLayoutError(UserError):
@@ -81,6 +93,9 @@ class Take:
     audio : callable () -> (samples (N,), rate)
     split : str, optional
         The corpus's own split of the take, if it has one.
+    speaker : str, optional
+        The speaker's name in the corpus, when ``subject`` is its :func:`folder_name` (recorded
+        in the manifest's ``dataset.speakers``; two names never share a folder).
     pose : callable () -> (pose (T, 9), fps) or None, optional
         The capture's head and eye rotations (:data:`blendvoca.format.POSE_COLUMNS`), one
         row per row of ``weights``; written to ``pose/`` beside the track.
@@ -97,6 +112,7 @@ class Take:
     split: str | None = None
     pose: Callable[[], tuple] | None = None
     durations: str = "warn"
+    speaker: str | None = None
 
 
 def safe_name(text: str) -> str:
@@ -104,6 +120,45 @@ def safe_name(text: str) -> str:
     (and no leading dot): a name the layout can use for a folder or a file."""
     name = re.sub(r"[^A-Za-z0-9_.-]", "_", str(text).strip()) or "_"
     return "_" + name[1:] if name.startswith(".") else name
+
+
+#: The characters a folder name keeps as they are; any other is written ``~HH`` per UTF-8 byte.
+_PLAIN = re.compile(r"[A-Za-z0-9_.-]")
+
+
+def folder_name(text: str) -> str:
+    """``text`` as a folder or file name: letters, digits, ``_``, ``.`` and ``-`` kept, every other
+    character (a space, a non-ASCII letter or digit, ``~``, ``/``) and a leading dot written as
+    ``~HH`` per byte of its UTF-8 (``spk a`` -> ``spk~20a``, ``说`` -> ``~E8~AF~B4``), the empty
+    name as ``~``.
+
+    Injective: ``~`` is never kept, so it always starts an escape and the name decodes back;
+    two different names never share a folder. Plain names (``1_wayne``) are unchanged.
+    """
+    text = str(text)
+    if not text:
+        return "~"
+    out = []
+    for k, char in enumerate(text):
+        if _PLAIN.fullmatch(char) and not (k == 0 and char == "."):
+            out.append(char)
+        else:
+            out.append("".join(f"~{b:02X}" for b in char.encode("utf-8", "surrogatepass")))
+    return "".join(out)
+
+
+def check_frame_rate(fps, *, where: str) -> float:
+    """``fps`` as a float when it is a plausible frame rate (:data:`FPS_RANGE`), else a DataError
+    naming ``where`` (checked before resampling: a rate of 1e6 or 0.001 is times in the wrong unit)."""
+    try:
+        fps = float(fps)
+    except (TypeError, ValueError, OverflowError):
+        raise DataError(f"{where}: frame rate {fps!r} is not a number; expected {FPS_RANGE[0]:g} to "
+                        f"{FPS_RANGE[1]:g} fps") from None
+    if not (FPS_RANGE[0] <= fps <= FPS_RANGE[1]):
+        raise DataError(f"{where}: a frame rate of {fps:g} fps; expected {FPS_RANGE[0]:g} to {FPS_RANGE[1]:g} fps "
+                        "(a capture's rate: are the frame times in seconds?)")
+    return fps
 
 
 def frame_rate(times, *, where: str) -> float:
@@ -117,7 +172,8 @@ def frame_rate(times, *, where: str) -> float:
     Raises
     ------
     DataError
-        Fewer than two times, or times that do not increase (naming ``where``).
+        Fewer than two times, times that do not increase, or a rate outside
+        :data:`FPS_RANGE` (naming ``where``).
     """
     times = np.asarray(times, dtype=np.float64)
     if times.ndim != 1 or len(times) < 2:
@@ -126,8 +182,12 @@ def frame_rate(times, *, where: str) -> float:
     if not np.all(np.isfinite(steps)) or np.any(steps <= 0):
         t = int(np.argmax(~np.isfinite(steps) | (steps <= 0)))
         raise DataError(f"{where}: frame times do not increase (frame {t + 1}: {times[t + 1]} after {times[t]})")
-    fps = (len(times) - 1) / (times[-1] - times[0])
-    return float(round(fps)) if abs(fps - round(fps)) <= 1e-3 * fps else float(fps)
+    with np.errstate(over="ignore"):
+        fps = (len(times) - 1) / (times[-1] - times[0])
+    if not np.isfinite(fps) or fps <= 0:
+        raise DataError(f"{where}: frame times {times[0]} to {times[-1]} give no frame rate")
+    fps = float(round(fps)) if abs(fps - round(fps)) <= 1e-3 * fps else float(fps)
+    return check_frame_rate(fps, where=where)
 
 
 def build_columns(names) -> tuple[str, ...]:
@@ -158,9 +218,15 @@ def take_track(coeffs, names, fps: float, *, where: str) -> tuple[np.ndarray, tu
     coeffs = np.asarray(coeffs, dtype=np.float64)
     if coeffs.ndim != 2 or len(coeffs) == 0:
         raise DataError(f"{where}: expected (T, K) weights with T >= 1, got shape {coeffs.shape}")
-    if not np.all(np.isfinite(coeffs)):
-        t, k = np.argwhere(~np.isfinite(coeffs))[0]
-        raise DataError(f"{where}: NaN/inf weight at frame {t}, column {k}")
+    fps = check_frame_rate(fps, where=where)
+    with np.errstate(invalid="ignore"):
+        outside = ~np.isfinite(coeffs) | (coeffs < -RANGE_TOLERANCE) | (coeffs > 1 + RANGE_TOLERANCE)
+    if outside.any():
+        t, k = (int(i) for i in np.argwhere(outside)[0])
+        column = repr(str(names[k])) if len(names) == coeffs.shape[1] else k
+        raise DataError(f"{where}: weight {coeffs[t, k]:g} at frame {t}, column {column} ({int(outside.sum())} "
+                        f"outside in all); expected finite weights in [0, 1] (up to {RANGE_TOLERANCE:g} of capture "
+                        "noise)")
     try:
         canonical = tuple(arkit_name(n) or str(n) for n in names)
         columns = build_columns(canonical)
@@ -276,15 +342,35 @@ def sentence_names(takes: list[Take]) -> dict:
     return out
 
 
-def _previous_files(out: Path, dataset: str) -> list[str]:
-    """Data files a previous build of ``dataset`` into ``out`` listed (to remove those no longer built)."""
+def _previous_files(out: Path, dataset: str) -> dict[str, str]:
+    """``{relative path: sha256}`` of the data files a previous build of ``dataset`` into ``out``
+    listed (to remove those no longer built: :func:`blendvoca.builder.outdir.remove_own_outputs`
+    removes only those under ``out`` whose sha256 is still the listed one)."""
     try:
         manifest = fmt.read_manifest(out)
     except (DataError, OSError):
-        return []
-    if (manifest.get("dataset") or {}).get("name") != dataset:
-        return []
-    return sorted(manifest.get("files") or {})
+        return {}
+    files = manifest.get("files")
+    if (manifest.get("dataset") or {}).get("name") != dataset or not isinstance(files, dict):
+        return {}
+    return {rel: sha for rel, sha in files.items() if isinstance(rel, str) and isinstance(sha, str)}
+
+
+def speaker_names(takes: list[Take]) -> dict[str, str]:
+    """``{folder: the corpus's speaker name}`` of the subjects whose folder name is not the name.
+
+    Raises
+    ------
+    DataError
+        Two different speaker names given one folder (an adapter's names that are not injective).
+    """
+    names: dict[str, str] = {}
+    for take in takes:
+        speaker = take.speaker if take.speaker is not None else take.subject
+        if names.setdefault(take.subject, speaker) != speaker:
+            raise DataError(f"speakers {names[take.subject]!r} and {speaker!r} would share the folder "
+                            f"{take.subject!r}; expected one folder per speaker")
+    return {subject: name for subject, name in sorted(names.items()) if subject != name}
 
 
 #: The data-format version of coefficient builds (part of their recipe id): change it when
@@ -381,6 +467,7 @@ def build_coefficient_dataset(out, root, takes: Iterable[Take], *, dataset: str,
     check_output_dir(out, root)
     splits, split_note = corpus_splits(takes)
     sentence_names(takes)  # takes named alike are refused before any work
+    speakers = speaker_names(takes)
     previous = _previous_files(out, dataset)
     recipe = coefficient_recipe(root, dataset, user_cuts)  # the identity, known before any output is written
     claim_output_dir(out)
@@ -400,6 +487,9 @@ def build_coefficient_dataset(out, root, takes: Iterable[Take], *, dataset: str,
                 seconds_audio, seconds_motion = len(samples) / float(rate), len(track) / fmt.FPS
                 if seconds_audio <= 0:
                     raise DataError(f"{where}: the take's audio is empty")
+                if min(seconds_audio, seconds_motion) < MIN_TAKE_S:
+                    raise DataError(f"{where}: audio of {seconds_audio:.3g} s and {seconds_motion:.2f} s of motion: "
+                                    f"too short; expected a take of at least {MIN_TAKE_S:g} s of both")
                 # the frames the audio covers, to within half a sample (a resampled WAV is rounded to a sample)
                 frames = min(len(track), int(np.floor(seconds_audio * fmt.FPS + 0.5 * fmt.FPS / rate + 1e-9)))
                 mismatch = check_durations(take, seconds_audio, seconds_motion, where=where)
@@ -462,14 +552,15 @@ def build_coefficient_dataset(out, root, takes: Iterable[Take], *, dataset: str,
                   "root": str(root), "fps": fmt.FPS, "sources": dict(sorted(sources.items())),
                   "utterances": dict(sorted(utterances.items())),
                   "cuts": str(Path(cuts).expanduser().resolve()) if cuts is not None else "pauses"}
+        if speakers:
+            record["speakers"] = {s: n for s, n in speakers.items() if s in built_subjects}
         if report:
             sections, written = report_sections(out, record, splits) if report_sections else ([], [])
             if report_sections is None and any(u["cut"] != "end" for u in utterances.values()):
                 sections.append(utterances_markdown(utterances, splits))
             files += written
             files.append(_report(out, record, summary, splits, notes, sections))
-        for rel in sorted(set(previous) - set(files)):
-            (out / rel).unlink(missing_ok=True)
+        remove_own_outputs(out, {"files": {rel: sha for rel, sha in previous.items() if rel not in set(files)}})
         write_dataset_manifest(out, files=files, dataset=record, failures=summary.failures,
                                params={"dataset": dataset, "fps": fmt.FPS, "report": bool(report)}, recipe=recipe)
     summary.warnings[:0] = [{"subject": "", "sentence": None, "message": n} for n in notes]

@@ -32,6 +32,7 @@ from blendvoca.builder.report_takes import speech_tracks_figure, utterances_mark
 from blendvoca.datasets.coefficients import DatasetLayoutError, Take, coefficient_adapter, safe_name
 from blendvoca.errors import DataError
 from blendvoca.io.audio import load_audio
+from blendvoca.io.npy_file import read_array
 from blendvoca.names import FACEGOOD_TO_ARKIT, FACEGOOD_UNMAPPED, controls_to_arkit
 
 #: The names file of the layout (FACEGOOD's ``shirley_1015_bs_name.npy``).
@@ -95,13 +96,8 @@ def read_names(path) -> tuple[str, ...]:
     DataError
         Not a 1-D array of distinct strings (naming the file).
     """
-    with warnings.catch_warnings():  # "created on Python 2": the repository's file is
-        warnings.simplefilter("ignore", UserWarning)
-        try:
-            names = np.load(path, allow_pickle=False, encoding="latin1")
-        except (ValueError, OSError) as error:
-            raise DataError(f"{path}: not a .npy array of control names ({error})") from None
-    if names.ndim != 1 or names.dtype.kind not in "US" or len(names) == 0:
+    names = read_array(path, what="control names (strings)", kinds="US", encoding="latin1")
+    if names.ndim != 1 or len(names) == 0:
         raise DataError(f"{path}: expected a 1-D array of control names (strings), got {names.dtype} "
                         f"of shape {names.shape}")
     names = tuple(n.decode("latin1") if isinstance(n, bytes) else str(n) for n in names.tolist())
@@ -120,12 +116,7 @@ def read_values(path, names: tuple[str, ...], names_path) -> tuple[np.ndarray, t
         Naming the file: not a (T, K) array of numbers, K not the names file's count,
         a value not finite or outside [0, 1].
     """
-    try:
-        with warnings.catch_warnings():  # the repository's files were saved by Python 2
-            warnings.simplefilter("ignore", UserWarning)
-            values = np.load(path, allow_pickle=False)
-    except (ValueError, OSError) as error:
-        raise DataError(f"{path}: not a .npy array of rig controls ({error})") from None
+    values = read_array(path, what=f"(T, {len(names)}) rig controls", encoding="latin1")
     if values.ndim != 2 or values.dtype.kind not in "fiu" or len(values) == 0:
         raise DataError(f"{path}: expected (T, {len(names)}) rig controls, got {values.dtype} of shape {values.shape}")
     if values.shape[1] != len(names):
