@@ -67,26 +67,34 @@ def _usage_figure(path, names, usage, activity):
     _save_figure(fig, path)
 
 
-def _tracks_figure(path, out, items, names):
+def tracks_against_figure(path, panels) -> None:
+    """``path`` (PNG): one panel per ``(title, coeffs (T, K), shapes, signal (T,), signal label, unit)``
+    of ``panels``: the shapes' tracks (left axis) and a signal of the same frames (right axis, dashed),
+    on one 60 fps time axis."""
     plt = _pyplot()
-    shapes = [s for s in TRACK_SHAPES if s in names]
-    fig, axes = plt.subplots(len(items), 1, figsize=(10, 2.6 * len(items)), squeeze=False)
-    for ax, ((subject, sentence), rec) in zip(axes[:, 0], items):
-        coeffs, _ = read_coeffs(out, subject, sentence, names=shapes)
+    fig, axes = plt.subplots(len(panels), 1, figsize=(10, 2.6 * len(panels)), squeeze=False)
+    for ax, (title, coeffs, shapes, signal, label, unit) in zip(axes[:, 0], panels):
         t = np.arange(coeffs.shape[0]) / 60.0
         for j, shape in enumerate(shapes):
             ax.plot(t, coeffs[:, j], label=shape, lw=1.2)
         ax.set_ylim(-0.02, 1.02)
         ax.set_ylabel("coefficient")
-        ax.set_title(f"{subject} {sentence}", fontsize=9)
+        ax.set_title(title, fontsize=9)
         ax2 = ax.twinx()
-        ax2.plot(t, rec["stats"]["lip_aperture_mm"], color="black", ls="--", lw=1.0, label="lip aperture")
-        ax2.set_ylabel("lip aperture (mm)")
+        ax2.plot(t, signal, color="black", ls="--", lw=1.0, label=label)
+        ax2.set_ylabel(f"{label} ({unit})")
         lines = ax.get_lines() + ax2.get_lines()
         ax.legend(lines, [ln.get_label() for ln in lines], fontsize=7, loc="upper right", ncol=3)
     axes[-1, 0].set_xlabel("time (s)")
     fig.tight_layout()
     _save_figure(fig, path)
+
+
+def _tracks_figure(path, out, items, names):
+    shapes = [s for s in TRACK_SHAPES if s in names]
+    tracks_against_figure(path, [(f"{subject} {sentence}", read_coeffs(out, subject, sentence, names=shapes)[0],
+                                  shapes, rec["stats"]["lip_aperture_mm"], "lip aperture", "mm")
+                                 for (subject, sentence), rec in items])
 
 
 def measured_share(out, splits: dict, items, names, *, count: int, declared: dict) -> dict:

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from blendvoca.builder.report import _pyplot, _save_figure
+from blendvoca.builder.report import tracks_against_figure
 from blendvoca.format.items import read_audio, read_coeffs
 from blendvoca.io.audio import energy_db
 
@@ -51,23 +51,11 @@ def utterances_markdown(utterances: dict, splits: dict | None = None) -> str:
 def speech_tracks_figure(path, out, items, shapes=SPEECH_TRACK_SHAPES) -> None:
     """``path`` (PNG): for each ``(subject, sentence)`` of ``items``, the tracks of ``shapes`` (those
     the folder has) and the speech energy (dB, right axis) of its audio, on one time axis."""
-    plt = _pyplot()
-    fig, axes = plt.subplots(len(items), 1, figsize=(10, 2.6 * len(items)), squeeze=False)
-    for ax, (subject, sentence) in zip(axes[:, 0], items):
+    panels = []
+    for subject, sentence in items:
         coeffs, names = read_coeffs(out, subject, sentence)
         chosen = [s for s in shapes if s in names]
-        t = np.arange(coeffs.shape[0]) / 60.0
-        for shape in chosen:
-            ax.plot(t, coeffs[:, names.index(shape)], label=shape, lw=1.2)
-        ax.set_ylim(-0.02, 1.02)
-        ax.set_ylabel("coefficient")
-        ax.set_title(f"{subject} {sentence}", fontsize=9)
         samples, rate = read_audio(out, subject, sentence)
-        ax2 = ax.twinx()
-        ax2.plot(t, energy_db(samples, rate, 60.0, len(t)), color="black", ls="--", lw=0.8, label="speech (dB)")
-        ax2.set_ylabel("speech energy (dB)")
-        lines = ax.get_lines() + ax2.get_lines()
-        ax.legend(lines, [ln.get_label() for ln in lines], fontsize=7, loc="upper right", ncol=3)
-    axes[-1, 0].set_xlabel("time (s)")
-    fig.tight_layout()
-    _save_figure(fig, path)
+        panels.append((f"{subject} {sentence}", coeffs[:, [names.index(s) for s in chosen]], chosen,
+                       energy_db(samples, rate, 60.0, len(coeffs)), "speech energy", "dB"))
+    tracks_against_figure(path, panels)
