@@ -11,8 +11,17 @@ from __future__ import annotations
 import sys
 import warnings
 
-import blendvoca.builder as _builder
-from blendvoca.builder.__main__ import main
+try:
+    import blendvoca.builder as _builder
+    from blendvoca.builder.__main__ import main
+except (ImportError, MemoryError) as _error:  # a library that cannot be mapped under a memory limit
+    from blendvoca.errors import ran_out_of
+
+    if __name__ != "__main__" or ran_out_of(_error) is None:
+        raise
+    sys.stderr.write(f"error: ran out of memory loading the build's libraries ({_error}); try more memory "
+                     "(a higher `ulimit -v`, or close other programs)\n")
+    sys.exit(2)
 
 __all__ = ["main"]
 

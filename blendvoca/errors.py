@@ -71,9 +71,11 @@ class OutOfResources(UserError):
 _RESOURCE_ERRNOS = {12: "memory", 28: "disk space", 122: "disk quota"}  # ENOMEM, ENOSPC, EDQUOT
 
 #: The messages of torch's allocators when memory runs out (``DefaultCPUAllocator: can't
-#: allocate memory``, ``CUDA out of memory``, ``Error code 12``).
+#: allocate memory``, ``CUDA out of memory``, ``Error code 12``), and of a thread that could not
+#: start (its stack is memory: under ``ulimit -v`` OpenBLAS's and Python's threads fail so).
 _ALLOCATOR_FAILURE = re.compile(r"can't allocate memory|CUDA out of memory|OutOfMemoryError|"
-                                r"Error code 12 \(Cannot allocate memory\)")
+                                r"Error code 12 \(Cannot allocate memory\)|"
+                                r"can't start new thread|Resource temporarily unavailable")
 
 #: What to try, per resource.
 _TRY = {
@@ -99,6 +101,8 @@ def ran_out_of(error: BaseException | None) -> str | None:
             return _RESOURCE_ERRNOS[error.errno]
         if isinstance(error, RuntimeError) and _ALLOCATOR_FAILURE.search(str(error)):
             return "memory"  # torch's allocators (CPU and CUDA) raise RuntimeErrors
+        if isinstance(error, ImportError) and "failed to map segment" in str(error):
+            return "memory"  # a shared library that could not be mapped (under `ulimit -v`)
         error = error.__cause__ or error.__context__
     return None
 

@@ -30,7 +30,7 @@ from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 
-from blendvoca.errors import BlendVOCAError, UserError
+from blendvoca.errors import BlendVOCAError, UserError, out_of_resources, ran_out_of
 
 from .lifetime import die_with_parent, leave_interrupts_to_the_parent
 from .progress import bar
@@ -68,9 +68,12 @@ def default_start_method() -> str:
 
 def failure_reason(error: BaseException) -> str:
     """What went wrong, for a message: a project error's own message (it names what and
-    where), else the exception's type and message."""
+    where), what ran out and what to try when memory or disk ran out, else the exception's
+    type and message."""
     if isinstance(error, BlendVOCAError):  # its message already says what and where
         return str(error)
+    if ran_out_of(error):
+        return str(out_of_resources(error))
     return f"{type(error).__name__}: {error}"
 
 

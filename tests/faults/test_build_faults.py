@@ -408,3 +408,45 @@ def test_every_reader_problem_is_a_listed_failure(copies, capsys):
         assert not (out / "blendshape_coeffs" / subject / "sentence02.csv").exists()
         assert (out / "blendshape_coeffs" / subject / "sentence01.csv").exists()
     assert err.count("FAILED") == 3
+
+
+# ----------------------------------------------------------------------------- a memory limit
+
+
+def _limited(megabytes):
+    def limit():
+        import resource
+
+        resource.setrlimit(resource.RLIMIT_AS, (megabytes << 20, megabytes << 20))
+    return limit
+
+
+def test_what_ran_out_is_said_with_what_to_try():
+    """A worker's MemoryError and a thread that could not start are memory, with what to try (issue 56)."""
+    from blendvoca.runtime.processes import failure_reason
+
+    for error in (MemoryError("Unable to allocate 20.0 MiB"), RuntimeError("Resource temporarily unavailable"),
+                  OSError(errno.ENOMEM, "Cannot allocate memory"),
+                  ImportError("libXau.so.6: failed to map segment from shared object")):
+        reason = failure_reason(error)
+        assert reason.startswith("ran out of memory") and "try fewer worker processes" in reason, reason
+    assert failure_reason(ValueError("bad")) == "ValueError: bad"
+
+
+@pytest.mark.slow  # three builds of the small corpus under an address-space limit (~30 s)
+@pytest.mark.parametrize("megabytes", [300, 400, 500])
+def test_a_build_under_a_memory_limit_names_memory_and_never_a_traceback(tmp_path, small_corpus, megabytes):
+    """Issue 56's `ulimit -v` 300 / 400 / 500 MB builds: a traceback at import, bare MemoryErrors and
+    'Resource temporarily unavailable' per item. Where a limit bites depends on the machine's libraries,
+    so this asserts what holds everywhere: no traceback, exit 0, 2 (one error line) or 5 (failures listed);
+    the per-item wording is test_what_ran_out_is_said_with_what_to_try's."""
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[2])}
+    done = subprocess.run([sys.executable, "-m", "blendvoca.build", "--vocaset", str(small_corpus), "--out",
+                           str(tmp_path / "out"), "--quiet"], env=env, capture_output=True, text=True, timeout=300,
+                          preexec_fn=_limited(megabytes))
+    assert "Traceback" not in done.stderr, done.stderr[-2000:]
+    assert done.returncode in (0, 2, 5), (done.returncode, done.stderr[-2000:])
+    if done.returncode == 2:
+        assert done.stderr.strip().splitlines()[-1].startswith("error:"), done.stderr[-2000:]
+    if done.returncode == 5:
+        assert any(line.startswith("FAILED") for line in done.stdout.splitlines() + done.stderr.splitlines())
