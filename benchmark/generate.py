@@ -256,6 +256,7 @@ def main(argv=None) -> int:
     cli.add_device_option(p, default="cpu")
     cli.add_quiet_option(p)
     args = p.parse_args(argv)
+    cli.require_address_space("benchmark.generate")
     schema = method_schema(args.method)  # an unknown method: exit 2 before any file is read
     config = cli.parse_config(args.config, preset=args.preset, schema=schema, method=args.method)
     device = cli.checked_device(args.device)

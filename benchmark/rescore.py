@@ -110,6 +110,7 @@ def main(argv=None) -> int:
                         "recorded in the result)")
     cli.add_quiet_option(p)
     args = p.parse_args(argv)
+    cli.require_address_space("benchmark.rescore")
     for run in args.runs:
         result = rescored_result(run, syncnet=args.syncnet_weights, sync_expert=args.sync_expert,
                                  data=args.data, verify=args.verify)

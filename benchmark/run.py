@@ -123,6 +123,7 @@ def main(argv=None) -> int:
     if args.list:
         _print_listing()
         return cli.EXIT_OK
+    cli.require_address_space("benchmark.run")
     if not args.method:
         parser.error("--method is required (or --list)")
     for flag, value in (("--data", args.data), ("--vocaset", args.vocaset)):

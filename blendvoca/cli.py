@@ -155,6 +155,26 @@ def command(main):
     return wrapped
 
 
+#: The address space (MiB) below which loading PyTorch beside the project's libraries aborts the
+#: process (a C++ ``std::bad_alloc``: no Python error to catch). Measured with ``benchmark.run
+#: --method mean`` on a 6-sentence build under ``RLIMIT_AS``: 700 MiB aborts at ``import torch``,
+#: 850 MiB loses a BLAS worker, 1000 MiB completes with every metric.
+TORCH_ADDRESS_SPACE_MIB = 1000
+
+
+def require_address_space(command: str, minimum_mib: int = TORCH_ADDRESS_SPACE_MIB) -> None:
+    """Refuse to start ``command`` (one ``error:`` line, exit 2) under an address-space limit
+    (``ulimit -v``) below ``minimum_mib``, where it would abort without a message."""
+    import resource
+
+    soft, _ = resource.getrlimit(resource.RLIMIT_AS)
+    if soft == resource.RLIM_INFINITY or soft >= minimum_mib << 20:
+        return
+    raise OutOfResources(f"{command} needs an address space of at least {minimum_mib} MiB (it loads PyTorch, "
+                         f"which aborts the process below that), and `ulimit -v` allows {soft >> 20} MiB here; "
+                         f"raise the limit (`ulimit -v unlimited`, or at least `ulimit -v {minimum_mib * 1024}`)")
+
+
 class Parser(argparse.ArgumentParser):
     """``argparse.ArgumentParser`` whose usage errors are one ``error:`` line and exit 2, and
     which sets the progress switch from ``--quiet`` (when it has that option)."""

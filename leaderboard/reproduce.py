@@ -406,6 +406,7 @@ def main(argv=None) -> int:
                                ("--max-retries", args.max_retries, 0)):
         if value is not None and value < least:
             parser.error(f"{flag}: expected an integer >= {least}, got {value}")
+    cli.require_address_space("leaderboard.reproduce")
     from benchmark.protocol import parse_seeds
 
     for path in reproduce(args.work, args.results, args.tables, only=_split_names(args.only), force=args.force,

@@ -45,6 +45,7 @@ def main(argv=None) -> int:
     cli.add_data_option(p)
     cli.add_quiet_option(p)
     args = p.parse_args(argv)
+    cli.require_address_space("benchmark.sanity")
     kinds = None
     if args.disturbances is not None:
         kinds = [k.strip() for k in args.disturbances.split(",") if k.strip()]

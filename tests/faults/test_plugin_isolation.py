@@ -193,3 +193,17 @@ def test_a_run_under_a_memory_limit_fails_naming_memory_or_has_every_metric(smal
         (path,) = results.glob("*.json")
         metrics = json.loads(path.read_text())["metrics"]
         assert {"lve_mesh", "lve_rig", "mve_mesh"} <= set(metrics)  # the mesh metrics were not dropped
+
+
+@pytest.mark.parametrize("megabytes", [700, 850])
+def test_a_run_below_pytorchs_address_space_is_refused_before_it_aborts(small_build, tmp_path, megabytes):
+    """Issue 56's `ulimit -v` 700 MB benchmark: PyTorch's import aborted the process (C++ std::bad_alloc,
+    exit 134, no message); below the measured floor the run is refused up front, naming the limit."""
+    results = tmp_path / "r"
+    done = subprocess.run([sys.executable, "-c", LIMITED, str(megabytes * 2**20), "--method", "mean", "--data",
+                           str(small_build), "--results", str(results), "--quiet"], cwd=ROOT, capture_output=True,
+                          text=True, timeout=600, env={**os.environ, "PYTHONPATH": str(ROOT)})
+    assert done.returncode == 2, done.stderr[-2000:]
+    assert done.stderr.count("error:") == 1 and "Traceback" not in done.stderr, done.stderr
+    assert f"allows {megabytes} MiB" in done.stderr and "ulimit -v" in done.stderr
+    assert not results.exists() or not list(results.iterdir())
