@@ -101,8 +101,8 @@ def ran_out_of(error: BaseException | None) -> str | None:
             return _RESOURCE_ERRNOS[error.errno]
         if isinstance(error, RuntimeError) and _ALLOCATOR_FAILURE.search(str(error)):
             return "memory"  # torch's allocators (CPU and CUDA) raise RuntimeErrors
-        if isinstance(error, ImportError) and "failed to map segment" in str(error):
-            return "memory"  # a shared library that could not be mapped (under `ulimit -v`)
+        if isinstance(error, (ImportError, OSError)) and "failed to map segment" in str(error):
+            return "memory"  # a shared library that could not be mapped (under `ulimit -v`; cffi's dlopen: OSError)
         error = error.__cause__ or error.__context__
     return None
 

@@ -168,6 +168,10 @@ def test_torch_allocator_failures_are_memory():
     assert ran_out_of(RuntimeError(message)) == "memory"
     assert ran_out_of(RuntimeError("CUDA out of memory. Tried to allocate 2.00 GiB")) == "memory"
     assert ran_out_of(RuntimeError("shape mismatch")) is None
+    # soundfile's cffi dlopen under `ulimit -v` (issue 56's 500 MB build, per item)
+    dlopen = OSError("cannot load library 'libsndfile.so': libsndfile.so: failed to map segment from shared object")
+    assert ran_out_of(dlopen) == "memory"
+    assert ran_out_of(OSError("cannot load library 'libsndfile.so': no such file")) is None
 
 
 LIMITED = r"""
