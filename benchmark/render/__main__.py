@@ -193,15 +193,15 @@ def _render(args) -> int:
     views = [face_camera(reference, yfov) if args.framing == "face" else front_camera(reference, yfov)]
     if args.side:
         views.append(face_camera(reference, yfov, side=True))
-    audio = None
+    audio, rate = None, None
     if audio_path:
-        from blendvoca.io.audio import load_audio
+        from blendvoca.io.audio import read_audio
 
         if not Path(audio_path).is_file():
             raise UserError(f"audio file not found: {audio_path}")
-        audio = load_audio(audio_path, rate=16000)
+        audio, rate = read_audio(audio_path)  # muxed at the recording's own rate and channels
     count, width, height = render_video(args.out, panels, faces, views, fps=out_fps, size=args.size,
-                                        backend=args.backend, yfov=yfov, audio=audio, rate=16000,
+                                        backend=args.backend, yfov=yfov, audio=audio, rate=rate,
                                         waveform=not args.no_waveform, jobs=args.jobs)
     print(f"wrote {args.out} ({count} frames at {out_fps:g} fps, {width}x{height} px)")
     return cli.EXIT_OK

@@ -175,7 +175,7 @@ def render_video(out: str | PathLike, panels: Sequence[Panel], faces, poses, *, 
 
     backend = choose_backend(backend, cpu_gl=False)
     if audio is not None:
-        audio = np.asarray(audio, dtype=np.float32).reshape(-1)
+        audio = np.asarray(audio, dtype=np.float32)  # (N,) or (N, C): muxed as recorded
         count = frame_count(fps, len(audio), rate)
     else:
         count = min(len(p.source) for p in panels)
@@ -184,7 +184,8 @@ def render_video(out: str | PathLike, panels: Sequence[Panel], faces, poses, *, 
     strip_height = max(size // 5, 16) if (audio is not None and waveform) else 0
     height = size + strip_height
     frame = np.full((height, width, 3), 255, dtype=np.uint8)
-    wave = Waveform(audio, rate, fps, width, strip_height) if strip_height else None
+    wave = Waveform(audio if audio.ndim == 1 else audio.mean(axis=1), rate, fps, width, strip_height) \
+        if strip_height else None
     masks = [label_mask(p.name, scale=max(1, size // 256)) if p.name else None for p in panels]
     checks = [[VisibilityCheck(f"render of {p.where}") for _ in poses] for p in panels]
     args = ([p.source for p in panels], faces, list(poses), size, backend, yfov)

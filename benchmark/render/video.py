@@ -22,12 +22,16 @@ import numpy as np
 CRF = 10
 
 
+#: AAC bit rate: transparent for speech at 44.1/48 kHz stereo (ffmpeg's default, 128k, is shared by the channels).
+AAC_BITRATE = "192k"
+
+
 class VideoError(RuntimeError):
     """ffmpeg failed to encode (its message is included)."""
 
 
 class VideoWriter:
-    """Stream RGB frames to an H.264 MP4 (with mono AAC audio when given).
+    """Stream RGB frames to an H.264 MP4 (with AAC audio at its own rate and channels when given).
 
     Use as a context manager: on a clean exit the file is finished and moved to ``path``;
     on an exception the encoder is stopped and the partial file removed.
@@ -38,7 +42,8 @@ class VideoWriter:
     width, height : int
         Frame size; odd sides are padded with one white row or column (H.264 4:2:0).
     fps : float
-    audio : (N,) float array_like in [-1, 1], optional
+    audio : (N,) or (N, C) float array_like in [-1, 1], optional
+        Encoded as AAC at ``rate`` with its C channels (a 44.1 kHz stereo recording stays one).
     rate : int
         Audio sample rate.
 
@@ -66,7 +71,7 @@ class VideoWriter:
 
             wav = Path(self._tmp.name) / "audio.wav"
             write_wav(wav, np.asarray(audio, dtype=np.float32), rate)
-            cmd += ["-i", str(wav), "-map", "0:v:0", "-map", "1:a:0", "-c:a", "aac"]
+            cmd += ["-i", str(wav), "-map", "0:v:0", "-map", "1:a:0", "-c:a", "aac", "-b:a", AAC_BITRATE]
         cmd += ["-c:v", "libx264", "-pix_fmt", "yuv420p", "-crf", str(CRF), "-f", "mp4", str(self._partial)]
         self._pad = None
         if self.padded != (self.height, self.width):
@@ -164,7 +169,7 @@ def hold_to_length(frames: Iterable, count: int) -> Iterator:
 
 
 def write_video(path: str | PathLike, frames, fps: float, audio=None, rate: int = 16000) -> Path:
-    """Encode RGB frames to H.264 MP4, muxing mono audio when given.
+    """Encode RGB frames to H.264 MP4, muxing the audio (AAC at its rate and channels) when given.
 
     With audio, the video lasts as long as the audio: frames past its end are left
     out and, when the frames end first, the last one is held.
@@ -175,7 +180,7 @@ def write_video(path: str | PathLike, frames, fps: float, audio=None, rate: int 
     frames : (T, H, W, 3) uint8 array_like, or an iterable of (H, W, 3) uint8 frames
         (streamed to the encoder one by one: nothing is held)
     fps : float
-    audio : (N,) float array_like in [-1, 1], optional
+    audio : (N,) or (N, C) float array_like in [-1, 1], optional
     rate : int
 
     Returns

@@ -66,7 +66,8 @@ def export_format(fmt: str, *, where: str = "export_track") -> ExportFormat:
 
 
 def export_track(out, coeffs, names: Sequence[str], fmt: str, *, rig=None, fps: float = 60.0,
-                 audio=None, clip: bool = False, convention: str | None = None) -> AlignedTrack:
+                 audio=None, clip: bool = False, convention: str | None = None,
+                 copy_audio: bool = False) -> AlignedTrack:
     """Write a ``(T, K)`` track in format ``fmt``.
 
     Parameters
@@ -78,13 +79,16 @@ def export_track(out, coeffs, names: Sequence[str], fmt: str, *, rig=None, fps: 
     rig : blendvoca.rig.Rig, needed by ``glb`` and ``usd``
     fps : float
     audio : path of the sound, optional (``a2f-json`` names it as ``trackPath``, ``usd``
-        references it)
+        references it; both by its path relative to ``out``)
     clip : bool
         Clip weights outside [0, 1] instead of refusing the track.
     convention : str, optional
         ``csv`` only: write the columns of this naming convention of :mod:`blendvoca.names`
         (``unitalker51``, ``metahuman``, ...), in its order and spelling, instead of the
         rig's names or BlendVOCA's 32.
+    copy_audio : bool
+        Copy ``audio`` beside ``out`` first and reference the copy (the export and its sound
+        then move together).
 
     Returns
     -------
@@ -106,7 +110,7 @@ def export_track(out, coeffs, names: Sequence[str], fmt: str, *, rig=None, fps: 
         raise UserError(f"export_track: a convention applies to the csv format only; {fmt!r} has its own columns")
     checked, _ = check_track(coeffs, names, where="export_track")
     coeffs, clipped = unit_range_track(checked, tuple(str(n) for n in names), where="export_track", clip=clip)
-    options = ExportOptions(fps=fps, rig=rig, audio=audio, convention=convention)
+    options = ExportOptions(fps=fps, rig=rig, audio=audio, convention=convention, copy_audio=copy_audio)
     aligned = writer.write(out, coeffs, names, options)
     return dataclasses.replace(aligned, clipped=clipped)
 

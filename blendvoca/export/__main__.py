@@ -1,7 +1,10 @@
 """Write a coefficient track as Live Link Face CSV, ARKit JSON, Audio2Face JSON, GLB or USD.
 
-``python -m blendvoca.export --coeffs CSV --format FMT --out FILE [--rig RIG] [--fps F] [--audio WAV] [--clip]
-[--convention NAME]``.
+``python -m blendvoca.export --coeffs CSV --format FMT --out FILE [--rig RIG] [--fps F] [--audio WAV
+[--copy-audio]] [--clip] [--convention NAME]``.
+
+The USD and Audio2Face files reference the audio by its path relative to ``--out`` (they
+can be moved with it); ``--copy-audio`` copies it beside ``--out`` first.
 
 ``--convention`` (``csv`` only) writes the columns of a naming convention of
 ``blendvoca.names`` (``python -m blendvoca.names list``) in its order and spelling.
@@ -33,7 +36,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--out", required=True, help="output file (.usda text or .usdc/.usd binary for usd)")
     parser.add_argument("--rig", help="rig .npz or SAiD folder (needed by glb and usd)")
     parser.add_argument("--fps", type=float, default=60.0, help="frame rate of the track (default 60)")
-    parser.add_argument("--audio", help="WAV of the speech (a2f-json trackPath, usd sound prim)")
+    parser.add_argument("--audio", help="WAV of the speech (a2f-json trackPath, usd sound prim; referenced by its "
+                                        "path relative to --out)")
+    parser.add_argument("--copy-audio", action="store_true",
+                        help="copy --audio beside --out and reference the copy (the two then move together)")
     parser.add_argument("--clip", action="store_true",
                         help="clip weights outside [0, 1] into it (and say how many moved) instead of refusing "
                              "the track")
@@ -56,8 +62,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     # checked here too so that a bad value is reported against the file the user gave
     coeffs, _ = check_track(coeffs, names, where=args.coeffs)
     coeffs, clipped = unit_range_track(coeffs, names, where=args.coeffs, clip=args.clip)
+    if args.copy_audio and not args.audio:
+        raise UserError("--copy-audio needs --audio")
     aligned = export_track(args.out, coeffs, names, args.fmt, rig=rig, fps=args.fps, audio=args.audio,
-                           convention=args.convention)
+                           convention=args.convention, copy_audio=args.copy_audio)
     aligned = dataclasses.replace(aligned, clipped=clipped)
     for note in aligned.notes():
         print(note, file=sys.stderr)

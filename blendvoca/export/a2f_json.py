@@ -8,7 +8,6 @@ weights" writes and Maya/Unreal importers read):
 from __future__ import annotations
 
 from collections.abc import Sequence
-from pathlib import Path
 
 import numpy as np
 
@@ -16,7 +15,7 @@ from blendvoca.errors import DataError
 from blendvoca.export._support import (count, positive_number, read_json_object, string_list, weight_matrix,
                                        write_json_document)
 from blendvoca.export.align import AlignedTrack, align_track
-from blendvoca.export.base import ExportFormat, ExportOptions
+from blendvoca.export.base import ExportFormat, ExportOptions, audio_reference, export_audio
 
 
 def a2f_document(coeffs, names: Sequence[str], fps: float = 60.0, track_path: str = "") -> tuple[dict, AlignedTrack]:
@@ -34,7 +33,8 @@ def a2f_document(coeffs, names: Sequence[str], fps: float = 60.0, track_path: st
 
 
 def write_a2f_json(path, coeffs, names: Sequence[str], fps: float = 60.0, track_path: str = "") -> AlignedTrack:
-    """Write the A2F JSON of a track, atomically; ``track_path`` names the audio."""
+    """Write the A2F JSON of a track, atomically; ``track_path`` names the audio (as written:
+    :func:`blendvoca.export.base.audio_reference` gives the path relative to the file)."""
     doc, aligned = a2f_document(coeffs, names, fps, track_path)
     write_json_document(path, doc, indent=1)
     return aligned
@@ -68,8 +68,8 @@ class A2fJson(ExportFormat):
     name, suffix = "a2f-json", ".json"
 
     def write(self, out, coeffs, names, options: ExportOptions) -> AlignedTrack:
-        audio = "" if options.audio is None else str(Path(options.audio).resolve())
-        return write_a2f_json(out, coeffs, names, options.fps, audio)
+        audio = export_audio(options, out)
+        return write_a2f_json(out, coeffs, names, options.fps, "" if audio is None else audio_reference(audio, out))
 
     def read(self, path, *, fps: float):
         return read_a2f_json(path)

@@ -4,11 +4,14 @@ one registry line)."""
 
 from __future__ import annotations
 
+import os
 from collections.abc import Sequence
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
+from blendvoca.errors import UserError
 from blendvoca.export.align import AlignedTrack
 
 
@@ -42,12 +45,60 @@ class ExportOptions:
     audio : path of the sound or None
     convention : a :mod:`blendvoca.names` convention whose columns to write, or None
         (``csv`` only)
+    copy_audio : reference a copy of the sound beside the export (:func:`export_audio`)
     """
 
     fps: float = 60.0
     rig: object = None
     audio: object = None
     convention: str | None = None
+    copy_audio: bool = False
+
+
+def audio_beside(audio, out) -> Path:
+    """A copy of the sound file ``audio`` beside the export ``out``, under its own name
+    (made atomically; an identical file already there is used).
+
+    Raises
+    ------
+    UserError
+        A different file of the sound's name is already there (it is never replaced).
+    """
+    import filecmp
+    import shutil
+
+    audio, folder = Path(os.fspath(audio)).resolve(), Path(os.fspath(out)).resolve().parent
+    target = folder / audio.name
+    if target == audio:
+        return target
+    if target.exists():
+        if not filecmp.cmp(audio, target, shallow=False):
+            raise UserError(f"--copy-audio: {target} exists and is not a copy of {audio}; move it or rename the audio")
+        return target
+    folder.mkdir(parents=True, exist_ok=True)
+    partial = target.with_name(f".{target.name}.partial")
+    shutil.copyfile(audio, partial)
+    os.replace(partial, target)
+    return target
+
+
+def audio_reference(audio, out) -> str:
+    """How an export at ``out`` names its sound file ``audio``: the path relative to the
+    export's folder, with ``/`` separators, so that the two can be moved together (absolute
+    only where no relative path exists: another drive)."""
+    audio, folder = Path(os.fspath(audio)).resolve(), Path(os.fspath(out)).resolve().parent
+    try:
+        return Path(os.path.relpath(audio, folder)).as_posix()
+    except ValueError:  # another drive (Windows)
+        return audio.as_posix()
+
+
+def export_audio(options: ExportOptions, out) -> Path | None:
+    """The sound file an export at ``out`` references: ``options.audio``, or its copy beside
+    the export when ``options.copy_audio``."""
+    if options.audio is None:
+        return None
+    return audio_beside(options.audio, out) if options.copy_audio else Path(os.fspath(options.audio))
 
 
 class ExportFormat:

@@ -23,7 +23,7 @@ import numpy as np
 from blendvoca.errors import DataError, UserError
 from blendvoca.export._support import foreign_parser, optional_module
 from blendvoca.export.align import AlignedTrack, align_track
-from blendvoca.export.base import ExportFormat, ExportOptions, RigAnimation
+from blendvoca.export.base import ExportFormat, ExportOptions, RigAnimation, audio_reference, export_audio
 from blendvoca.io.atomic import permissions_for
 
 SUFFIXES = (".usda", ".usdc", ".usd")
@@ -46,7 +46,8 @@ def write_usd(path, rig, coeffs, names: Sequence[str], fps: float = 60.0, audio=
     rig : blendvoca.rig.Rig
     coeffs : (T, K) track, columns ``names`` (mapped to ``rig.names`` by name)
     fps : float
-    audio : path of a sound file to reference, optional
+    audio : path of a sound file to reference, optional (written relative to ``path``, so that
+        the two can be moved together)
     """
     optional_module("pxr", "usd-core", "the usd format")
     from pxr import Gf, Sdf, Usd, UsdGeom, UsdMedia, UsdSkel, Vt
@@ -107,7 +108,7 @@ def write_usd(path, rig, coeffs, names: Sequence[str], fps: float = 60.0, audio=
 
         if audio is not None:
             sound = UsdMedia.SpatialAudio.Define(stage, "/Face/Audio")
-            sound.CreateFilePathAttr(Sdf.AssetPath(str(Path(audio).resolve())))
+            sound.CreateFilePathAttr(Sdf.AssetPath(audio_reference(audio, path)))  # relative to the layer
             sound.CreateAuralModeAttr(UsdMedia.Tokens.nonSpatial)
             sound.CreateStartTimeAttr(Sdf.TimeCode(0))
         stage.GetRootLayer().Export(tmp, args={"format": "usda" if path.suffix.lower() == ".usda" else "usdc"})
@@ -184,7 +185,7 @@ class Usd(ExportFormat):
     name, suffix, needs_rig = "usd", ".usda", True
 
     def write(self, out, coeffs, names, options: ExportOptions) -> AlignedTrack:
-        return write_usd(out, options.rig, coeffs, names, options.fps, audio=options.audio)
+        return write_usd(out, options.rig, coeffs, names, options.fps, audio=export_audio(options, out))
 
     def read(self, path, *, fps: float):
         usd = read_usd(path)

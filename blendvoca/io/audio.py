@@ -140,6 +140,25 @@ def read_media_audio(path) -> tuple[np.ndarray, int]:
     return samples, rate
 
 
+def read_audio(path) -> tuple[np.ndarray, int]:
+    """Any WAV file, or the sound of a video (:data:`MEDIA_SUFFIXES`), as it was recorded:
+    ``(N,)`` or ``(N, C)`` float32 samples in [-1, 1] and the source rate (what a review video
+    muxes, so that a 44.1 kHz stereo recording stays one).
+
+    Raises
+    ------
+    FileNotFoundError
+        No such file.
+    AudioFormatError
+        A file that does not decode, or holds no samples (naming the file).
+    """
+    media = Path(os.fspath(path)).suffix.lower() in MEDIA_SUFFIXES
+    samples, native = read_media_audio(path) if media else read_wav(path)
+    if samples.shape[0] == 0:
+        raise AudioFormatError(f"{path}: the audio holds no samples (a zero-length recording); expected speech")
+    return samples, native
+
+
 def load_audio(path, rate: int = SAMPLE_RATE) -> np.ndarray:
     """Any WAV file, or the sound of a video (:data:`MEDIA_SUFFIXES`, :func:`read_media_audio`),
     as mono float32 at ``rate`` Hz (16 kHz by default), ``(N,)``.
@@ -152,10 +171,7 @@ def load_audio(path, rate: int = SAMPLE_RATE) -> np.ndarray:
         A file that does not decode, or holds no samples (naming the file): speech
         is what every caller needs, and an empty array would fail far from here.
     """
-    media = Path(os.fspath(path)).suffix.lower() in MEDIA_SUFFIXES
-    samples, native = read_media_audio(path) if media else read_wav(path)
-    if samples.shape[0] == 0:
-        raise AudioFormatError(f"{path}: the audio holds no samples (a zero-length recording); expected speech")
+    samples, native = read_audio(path)
     return resample_audio(to_mono(samples), native, rate)
 
 

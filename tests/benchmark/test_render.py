@@ -211,6 +211,32 @@ def test_side_view_waveform_and_audio_length(tmp_path, fake_dataset_dir):
     assert (strip[..., 2].astype(int) - strip[..., 0].astype(int) > 40).any()  # blue waveform drawn
 
 
+def test_the_video_keeps_the_recordings_rate_and_channels(tmp_path, fake_dataset_dir):
+    """Issue 57: a 44.1 kHz stereo recording was muxed as 16 kHz mono; the review video keeps it as recorded."""
+    import av
+
+    from benchmark.render.__main__ import main
+    from blendvoca.io.audio import load_audio, read_audio, write_wav
+
+    speech = load_audio(fake_dataset_dir / "audio" / "FakeA" / "sentence01.wav", rate=44100)
+    left_right = np.stack([speech, 0.5 * speech], axis=1)  # the right channel at half the level
+    wav = tmp_path / "stereo.wav"
+    write_wav(wav, left_right, 44100)
+    out = tmp_path / "stereo.mp4"
+    assert main(["--coeffs", str(fake_dataset_dir / "blendshape_coeffs" / "FakeA" / "sentence01.csv"), "--rig",
+                 str(fake_dataset_dir / "rigs" / "FakeA.npz"), "--audio", str(wav), "--out", str(out), "--size", "32",
+                 "--backend", "software", "--out-fps", "25"]) == 0
+    with av.open(str(out)) as container:
+        (stream,) = container.streams.audio
+        assert (stream.codec_context.name, stream.codec_context.sample_rate, stream.codec_context.channels) == \
+            ("aac", 44100, 2)
+    back, rate = read_audio(out)
+    assert rate == 44100 and back.shape[1] == 2
+    n = min(len(back), len(left_right)) - 4096  # AAC's priming delay shifts the start by about 1024 samples
+    energy = (back[2048:n] ** 2).sum(axis=0)
+    assert energy[1] / energy[0] == pytest.approx(0.25, rel=0.1)  # the channels kept apart
+
+
 def test_waveform_strip_scrolls_with_time():
     from benchmark.render.compose import Waveform
 

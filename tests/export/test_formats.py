@@ -3,6 +3,7 @@
 import json
 import shutil
 import subprocess
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -202,3 +203,46 @@ def test_bad_tracks(tmp_path, small_rig):
     with pytest.raises(ValueError, match="needs a rig"):
         export_track(tmp_path / "a.glb", np.zeros((3, 1)), ["jawOpen"], "glb")
     assert set(FORMATS) >= {"livelink", "arkit-json", "a2f-json", "glb", "usd"}
+
+
+def test_usd_and_a2f_reference_the_audio_relatively_and_move_with_it(tmp_path, track, small_rig):
+    """Issue 57: the USD and Audio2Face exports wrote absolute audio paths (the file broke when moved)."""
+    from pxr import Sdf, Usd, UsdMedia
+
+    from blendvoca.export.__main__ import main
+    from blendvoca.io.audio import write_wav
+
+    coeffs, names = track
+    wav = tmp_path / "speech" / "take 1.wav"
+    wav.parent.mkdir()
+    write_wav(wav, np.zeros(1600, np.float32), 16000)
+    export_track(tmp_path / "out" / "a.usda", coeffs, names, "usd", rig=small_rig, audio=wav)
+    export_track(tmp_path / "out" / "a.json", coeffs, names, "a2f-json", audio=wav)
+    assert json.loads((tmp_path / "out" / "a.json").read_text())["trackPath"] == "../speech/take 1.wav"
+    # with the copy, the export and its sound move together to another place
+    export_track(tmp_path / "out" / "b.usda", coeffs, names, "usd", rig=small_rig, audio=wav, copy_audio=True)
+    export_track(tmp_path / "out" / "b.json", coeffs, names, "a2f-json", audio=wav, copy_audio=True)
+    assert (tmp_path / "out" / "take 1.wav").read_bytes() == wav.read_bytes()
+    moved = tmp_path / "elsewhere"
+    (tmp_path / "out").rename(moved)
+    assert json.loads((moved / "b.json").read_text())["trackPath"] == "take 1.wav"
+    stage = Usd.Stage.Open(str(moved / "b.usda"))
+    (sound,) = [UsdMedia.SpatialAudio(p) for p in stage.Traverse() if p.IsA(UsdMedia.SpatialAudio)]
+    asset = sound.GetFilePathAttr().Get()
+    assert asset.path == "take 1.wav"
+    resolved = stage.GetRootLayer().ComputeAbsolutePath(asset.path)
+    assert Path(resolved) == moved / "take 1.wav" and Path(resolved).is_file()
+    assert isinstance(asset, Sdf.AssetPath)
+    # a different file of the sound's name beside the export is never replaced
+    (moved / "take 1.wav").write_bytes(b"mine")
+    assert main(["--coeffs", str(_csv(tmp_path, coeffs, names)), "--format", "a2f-json", "--out",
+                 str(moved / "c.json"), "--audio", str(wav), "--copy-audio"]) == 2
+    assert (moved / "take 1.wav").read_bytes() == b"mine" and not (moved / "c.json").exists()
+
+
+def _csv(tmp_path, coeffs, names):
+    from blendvoca.io.coeffs import write_coeffs_csv
+
+    path = tmp_path / "track.csv"
+    write_coeffs_csv(path, coeffs, names)
+    return path
