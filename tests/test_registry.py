@@ -93,8 +93,8 @@ def test_a_dataset_adapter_declares_its_options():
 def test_an_export_format_is_one_class_and_one_registry_line():
     from blendvoca.export import FORMAT_REGISTRY, FORMATS, NEEDS_RIG, SUFFIX, ExportFormat
 
-    assert FORMATS == ("livelink", "arkit-json", "a2f-json", "glb", "usd", "csv")
+    assert FORMATS == ("livelink", "arkit-json", "a2f-json", "glb", "usd", "fbx", "csv")
     for name in FORMATS:
         cls = FORMAT_REGISTRY.get(name)
         assert issubclass(cls, ExportFormat) and cls.name == name and SUFFIX[name] == cls.suffix
-    assert NEEDS_RIG == {"glb", "usd"}
+    assert NEEDS_RIG == {"glb", "usd", "fbx"}

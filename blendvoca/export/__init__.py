@@ -9,6 +9,7 @@ format         what                                        needs a rig
 ``a2f-json``   Audio2Face-3D blendshape weights JSON       no
 ``glb``        glTF 2.0 mesh + morph targets + animation   yes
 ``usd``        UsdSkel blend shapes + SkelAnimation        yes
+``fbx``        FBX mesh + blend shapes + animation         yes (and Blender's ``bpy``)
 ``csv``        BlendVOCA/SAiD CSV (rig or BlendVOCA names) no
 =============  ==========================================  ==================
 
@@ -45,6 +46,7 @@ FORMAT_REGISTRY = Registry("format", {
     "a2f-json": "blendvoca.export.a2f_json:A2fJson",
     "glb": "blendvoca.export.glb:Glb",
     "usd": "blendvoca.export.usd:Usd",
+    "fbx": "blendvoca.export.fbx:Fbx",
     "csv": "blendvoca.export.coeffs_csv:CoeffsCsv",
 })
 FORMATS: tuple[str, ...] = FORMAT_REGISTRY.names()
@@ -132,6 +134,8 @@ def detect_format(path) -> str:
         return "glb"
     if suffix in (".usd", ".usda", ".usdc"):
         return "usd"
+    if suffix == ".fbx":
+        return "fbx"
     if suffix == ".json":
         doc = read_json_object(path, "an ARKit or Audio2Face weights JSON")
         if "weightMat" in doc:
@@ -148,7 +152,7 @@ def detect_format(path) -> str:
             raise DataError(f"{path}: not a UTF-8 text file ({error.reason} at byte {error.start}); "
                             f"a coefficient CSV is UTF-8") from None
         return "livelink" if first.split(",")[0].strip() == "Timecode" else "csv"
-    raise UserError(f"{path}: unknown suffix {suffix!r}; expected .csv, .json, .glb, .usd, .usda or .usdc")
+    raise UserError(f"{path}: unknown suffix {suffix!r}; expected .csv, .json, .glb, .fbx, .usd, .usda or .usdc")
 
 
 def read_track(path, fmt: str | None = None, *, fps: float = 60.0) -> tuple[np.ndarray, tuple[str, ...], float]:

@@ -1,9 +1,10 @@
-"""Write a coefficient track as Live Link Face CSV, ARKit JSON, Audio2Face JSON, GLB or USD.
+"""Write a coefficient track as Live Link Face CSV, ARKit JSON, Audio2Face JSON, GLB, USD or FBX.
 
 ``python -m blendvoca.export --coeffs CSV --format FMT --out FILE [--rig RIG] [--fps F] [--audio WAV
 [--copy-audio]] [--clip] [--convention NAME]``.
 
-The USD and Audio2Face files reference the audio by its path relative to ``--out`` (they
+``fbx`` is written by Blender (a Python with ``bpy``: ``$BLENDVOCA_BPY_PYTHON``). The USD,
+FBX and Audio2Face files reference the audio by its path relative to ``--out`` (they
 can be moved with it); ``--copy-audio`` copies it beside ``--out`` first.
 
 ``--convention`` (``csv`` only) writes the columns of a naming convention of
@@ -34,7 +35,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--coeffs", required=True, help="coefficient CSV (BlendVOCA/SAiD layout or Live Link Face)")
     parser.add_argument("--format", required=True, choices=FORMATS, dest="fmt")
     parser.add_argument("--out", required=True, help="output file (.usda text or .usdc/.usd binary for usd)")
-    parser.add_argument("--rig", help="rig .npz or SAiD folder (needed by glb and usd)")
+    parser.add_argument("--rig", help="rig .npz or SAiD folder (needed by glb, usd and fbx)")
     parser.add_argument("--fps", type=float, default=60.0, help="frame rate of the track (default 60)")
     parser.add_argument("--audio", help="WAV of the speech (a2f-json trackPath, usd sound prim; referenced by its "
                                         "path relative to --out)")

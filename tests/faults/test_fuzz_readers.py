@@ -657,12 +657,13 @@ def test_synthetic_sidecar_gives_splits_or_a_tree_error(tmp_path, data):
 
 @pytest.fixture(scope="module")
 def exported() -> dict:
-    """``{format: bytes}`` of a 3-frame track exported to each format (glb and usd on a 4-vertex rig)."""
+    """``{format: bytes}`` of a 3-frame track exported to each format (glb and usd on a 4-vertex rig;
+    not fbx, whose reader is Blender in a subprocess: too slow for a fuzz test)."""
     from blendvoca.export import FORMATS, SUFFIX, export_track
 
     folder = Path(tempfile.mkdtemp())
     files = {}
-    for fmt in FORMATS:
+    for fmt in (f for f in FORMATS if f != "fbx"):
         path = folder / f"track{SUFFIX[fmt]}"
         export_track(path, np.full((3, 2), 0.25), ("jawOpen", "mouthClose"), fmt, rig=_tiny_rig())
         files[fmt] = path.read_bytes()
