@@ -14,13 +14,21 @@ the tasks that depend on it do not run.
 Every node must see the work folder, the results folder and the build at the same
 paths (a shared file system) and have the project installed in the same environment;
 the ``BLENDVOCA_*`` variables of this process are passed to the workers.
+
+Progress: the workers draw no bars (Ray forwards their output to this terminal, where
+several bars interleave); this process shows one bar of the tasks done and a line per
+finished task, and the stages' own ``[reproduce]`` lines come through as they are.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import os
 
+from tqdm import tqdm
+
 from blendvoca.errors import UserError
+from blendvoca.runtime.progress import bar
 from leaderboard.executors.core import execute
 
 __all__ = ["run_ray"]
@@ -105,19 +113,25 @@ def run_ray(tasks, *, address: str | None = None, max_retries: int = 3, log=prin
         remote = ray.remote(execute)
         refs, keys = {}, {}
         for task in tasks:
-            ref = remote.options(**_options(task, max_retries)).remote(task, *(refs[d] for d in task.deps))
+            # the workers draw no bars: forwarded to this terminal, every worker's bar updates interleave
+            # (a run of two cheap rows printed 713 fragments); this process shows one bar of the tasks
+            quiet = dataclasses.replace(task, spec={**task.spec, "progress": False})
+            ref = remote.options(**_options(task, max_retries)).remote(quiet, *(refs[d] for d in task.deps))
             refs[task.key], keys[ref] = ref, task.key
         log(f"{len(tasks)} task(s) submitted to Ray ({ray.cluster_resources().get('CPU', 0):g} CPUs, "
             f"{ray.cluster_resources().get('GPU', 0):g} GPUs)")
         values, errors, pending = {}, {}, list(refs.values())
-        while pending:
-            done, pending = ray.wait(pending, num_returns=1)
-            key = keys[done[0]]
-            try:
-                values[key] = ray.get(done[0])
-                log(f"{key}: done")
-            except ray.exceptions.RayError as error:
-                errors[key] = error
+        with bar(total=len(tasks), desc="tasks", unit="task", mininterval=5.0) as tasks_done:
+            while pending:
+                done, pending = ray.wait(pending, num_returns=1)
+                key = keys[done[0]]
+                try:
+                    values[key] = ray.get(done[0])
+                    with tqdm.external_write_mode():  # the line above the bar, not through it
+                        log(f"{key}: done ({len(values) + len(errors)}/{len(tasks)})")
+                except ray.exceptions.RayError as error:
+                    errors[key] = error
+                tasks_done.update(1)
         if errors:
             # the first failure in plan order; the tasks that depended on it report the same error
             first = next(t.key for t in tasks if t.key in errors)
