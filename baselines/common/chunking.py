@@ -29,6 +29,7 @@ import numpy as np
 
 from benchmark.methods import AUDIO_RATE, FPS
 from benchmark.methods.config import Option
+from blendvoca.runtime.progress import bar
 
 __all__ = [
     "FPS",
@@ -227,7 +228,8 @@ def generate_in_chunks(generate_chunk: Callable[[np.ndarray, int, int], np.ndarr
         raise ValueError(f"generate_in_chunks: the plan is for {plan.num_frames} frames, got {num_frames}")
     audio = np.asarray(audio)
     out = None
-    for chunk in plan.chunks:
+    # a counter of the chunks: a method's own bars (diffusion steps, ...) restart at each one
+    for chunk in bar(plan.chunks, desc="chunks", unit="chunk", leave=False, disable=len(plan.chunks) < 2):
         first, last = chunk.samples(audio.shape[0])
         piece = audio[first:last]
         expected = frame_sample(chunk.stop) - frame_sample(chunk.start)

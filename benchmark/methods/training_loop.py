@@ -13,6 +13,7 @@ from __future__ import annotations
 import contextlib
 import copy
 import math
+import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -218,6 +219,11 @@ class StepLoop:
                 if not self.interruptible:
                     raise
             finally:
+                if self.step < self.max_steps and self.elapsed() >= self.max_seconds and not progress.disable:
+                    # the bar stops short of its total: say why, not leave it at 66 %
+                    progress.write(f"{self.desc}: the time budget of {self.max_seconds:g} s ran out at "
+                                   f"{self.unit} {self.step}" + ("" if math.isinf(self.max_steps) else
+                                                                 f" of {int(self.max_steps)}"), file=sys.stderr)
                 progress.close()
             if self.validate is not None and self.step and (not result.val or result.val[-1][0] != self.step):
                 self._validated()

@@ -253,3 +253,19 @@ def test_said_long_audio_peak_memory_stays_near_a_short_one():
     short, long = bench.measure([10.0, 240.0], num_steps=2)
     assert (short["frames"], long["frames"]) == (600, 14400)
     assert long["peak_rss_mb"] < 1.5 * short["peak_rss_mb"], (short, long)
+
+
+def test_a_chunked_generation_counts_its_chunks(capsys):
+    """Issue 57: chunked SAiD showed 12 restarting bars and no chunk counter."""
+    from blendvoca.runtime.progress import progress_bars
+
+    plan = chunk_plan(500, 90, 25)
+    audio = np.zeros(frame_sample(500), np.float32)
+    with progress_bars(True):
+        generate_in_chunks(lambda wav, frames, index: np.zeros((1, frames, 2)), audio, 500, plan)
+    err = capsys.readouterr().err
+    assert f"chunks:   0%|          | 0/{len(plan.chunks)}" in err  # counted (the bar clears itself when done)
+    with progress_bars(True):  # one chunk: no counter
+        generate_in_chunks(lambda wav, frames, index: np.zeros((1, frames, 2)), audio[:frame_sample(60)], 60,
+                           chunk_plan(60, 90, 25))
+    assert "chunks" not in capsys.readouterr().err

@@ -174,3 +174,24 @@ def test_the_loop_calls_at_every_fraction_the_runner_asks_for():
         assert calls == [(round(8 * f), 8) for f in fractions]
         weights.append([v.clone() for v in method.model.state_dict().values()])
     assert all(torch.equal(a, b) for a, b in zip(*weights))  # a quarter-budget call changes nothing either
+
+
+def test_a_time_budget_that_ends_training_early_says_so(capsys):
+    """Issue 57: a time-budgeted training bar stopped at 66 % without saying the budget ran out."""
+    import time
+
+    from benchmark.methods.training_loop import StepLoop
+    from blendvoca.runtime.progress import progress_bars
+
+    def step(loop):
+        time.sleep(0.02)
+        return 1.0
+
+    with progress_bars(True):
+        result = StepLoop(max_steps=10_000, max_seconds=0.1, desc="training").run(step)
+    err = capsys.readouterr().err
+    assert result.steps < 10_000
+    assert f"training: the time budget of 0.1 s ran out at step {result.steps} of 10000" in err
+    with progress_bars(True):
+        StepLoop(max_steps=3, max_seconds=60, desc="training").run(step)  # the steps ran out: no line
+    assert "time budget" not in capsys.readouterr().err
