@@ -26,6 +26,9 @@ def add_arguments(parser) -> None:
                         help="the row every other row is compared with ('Ours'); default the study's first row")
     parser.add_argument("--board", metavar="DIR",
                         help="a folder holding the studied rows' result files: hold their metrics against the answers")
+    parser.add_argument("--store", action="store_true",
+                        help="with --board: store the study's verdict in the studied rows' result files "
+                             "(their human_preference part, the leaderboard's 'human preference' column)")
     parser.add_argument("--replicates", type=int, default=None, metavar="B",
                         help="bootstrap replicates (default 2000)")
     parser.add_argument("--seed", type=int, default=0, help="the bootstrap's seed (default 0)")
@@ -88,6 +91,8 @@ def run(args) -> int:
     if args.reference is not None and args.reference not in study_rows(study):
         raise UserError(f"--reference {args.reference!r} is not a row of the study {folder}: expected one of "
                         f"{', '.join(study_rows(study))}")
+    if args.store and not args.board:
+        raise UserError("--store writes into the result files of --board DIR: give --board")
     board = board_results(args.board, study, study_rows(study)) if args.board else None
     export = _export_folder(folder, args.db)
     answers, participants = read_answers(export)
@@ -97,6 +102,10 @@ def run(args) -> int:
     markdown, latex = markdown_tables(record), latex_tables(record)
     png = figure_png(record)
     paths = write_outputs(folder / ANALYSIS_FOLDER, record, markdown, latex, png)
+    if args.store:
+        from benchmark.study.analysis.store import store_preferences
+
+        paths += store_preferences(board, record, folder.resolve().name)
     print(record["exclusions"]["summary"])
     print()
     print(markdown, end="")
