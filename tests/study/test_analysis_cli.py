@@ -150,3 +150,15 @@ def test_everybody_excluded_is_refused(tmp_path, capsys):
     study = make_study(folder)
     make_export(folder, study, people={k: v for k, v in PEOPLE.items() if k not in KEPT})
     assert "no answers left after the exclusions" in _refused(capsys, folder)
+
+
+def test_the_minimum_time_falls_back_on_the_session_times(study_folder):
+    from benchmark.study.design import read_study
+
+    answers, participants = read_answers(study_folder / "export")
+    for record in participants:
+        if record["participant"] == "p1":  # 90 s between start and finish, no seconds recorded
+            record.update(seconds=None, started_at="2026-01-01T00:00:00Z", finished_at="2026-01-01T00:01:30Z")
+    kept, counts = apply_exclusions(read_study(study_folder), answers, participants)
+    assert counts["by_reason"]["too_fast"] == EXCLUDED["too_fast"] + 1
+    assert "p1" not in {a["participant"] for a in kept}

@@ -47,8 +47,8 @@ def board_results(folder, study, rows: list[str]) -> dict:
         by_label = [p for p, r in found.items() if r.label in (row, info.get("label"))]
         matches = by_name or by_label
         if not matches:
-            raise DataError(f"--board {folder}: no result file for the studied row {row!r} "
-                            f"(expected {Path(info['result']).name if info.get('result') else 'a result labelled ' + repr(row)})")
+            expected = Path(info["result"]).name if info.get("result") else f"a result labelled {row!r}"
+            raise DataError(f"--board {folder}: no result file for the studied row {row!r} (expected {expected})")
         if len(matches) > 1:
             raise DataError(f"--board {folder}: several result files for the studied row {row!r}: "
                             f"{', '.join(p.name for p in matches)}; keep one")
@@ -115,7 +115,7 @@ def metrics_against_people(judgements, record: dict, chosen: dict) -> dict:
                      for s in record["bradley_terry"].get(question, {}).get("strengths", [])}
         entries = []
         for metric in metric_names:
-            first = chosen[rows[0]][1].metrics[metric] if rows[0] in chosen else next(iter(chosen.values()))[1].metrics[metric]
+            first = next(iter(chosen.values()))[1].metrics[metric]
             higher = first.higher_is_better
             entry = {"metric": metric, "label": first.label or metric, "higher_is_better": higher,
                      "sentence_agreement": None, "sentence_units": 0, "pair_agreement": None, "pairs": 0,

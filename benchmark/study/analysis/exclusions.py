@@ -3,7 +3,8 @@
 A participant is left out when they
   - failed an attention check (a trial of kind ``attention`` answered otherwise than its
     ``expected`` answer, in any of its questions),
-  - finished faster than ``study.min_seconds`` (CodeTalker discards submissions under two minutes),
+  - finished faster than ``study.min_seconds`` (``seconds``, else ``finished_at - started_at``;
+    CodeTalker discards submissions under two minutes),
   - did not finish (``status`` other than ``complete``),
   - failed the sound check (``sound_check_passed`` false, when the study has one).
 Practice trials are never counted, whoever answered them. A participant may hit several
@@ -12,11 +13,22 @@ reasons: each reason counts them, ``excluded`` counts them once.
 
 from __future__ import annotations
 
+from datetime import datetime
+
 from blendvoca.errors import DataError
 
 REASONS = ("attention", "too_fast", "incomplete", "sound_check")
 REASON_TEXT = {"attention": "failed an attention check", "too_fast": "finished faster than the minimum time",
                "incomplete": "did not finish", "sound_check": "failed the sound check"}
+
+
+def _elapsed(started: str, finished: str) -> float | None:
+    """Seconds between two ISO 8601 times (None when either does not parse)."""
+    try:
+        return (datetime.fromisoformat(finished.replace("Z", "+00:00"))
+                - datetime.fromisoformat(started.replace("Z", "+00:00"))).total_seconds()
+    except ValueError:
+        return None
 
 
 def _reasons(study, record: dict, attention_failed: set) -> list[str]:
@@ -26,6 +38,8 @@ def _reasons(study, record: dict, attention_failed: set) -> list[str]:
         reasons.append("attention")
     complete = record.get("status") == "complete"
     seconds = record.get("seconds")
+    if seconds is None and record.get("started_at") and record.get("finished_at"):
+        seconds = _elapsed(record["started_at"], record["finished_at"])
     if complete and seconds is not None and study.min_seconds and seconds < study.min_seconds:
         reasons.append("too_fast")
     if not complete:

@@ -15,7 +15,8 @@ def _panel(axis, labels, questions, values, lows, highs, reference_line, xlabel,
     for k, question in enumerate(questions):
         y = np.arange(len(labels)) + (k - (len(questions) - 1) / 2) * height
         v, lo, hi = (np.asarray(x[k], dtype=float) for x in (values, lows, highs))
-        axis.errorbar(v, y, xerr=[np.maximum(v - lo, 0), np.maximum(hi - v, 0)], fmt="o", capsize=3, label=question_label(question))
+        axis.errorbar(v, y, xerr=[np.maximum(v - lo, 0), np.maximum(hi - v, 0)], fmt="o", capsize=3,
+                      label=question_label(question))
     if reference_line is not None:
         axis.axvline(reference_line, color="grey", linestyle="--", linewidth=1)
     axis.set_yticks(np.arange(len(labels)), labels)

@@ -80,7 +80,8 @@ def table_list(record: dict) -> list[tuple[str, list[str], list[list[str]]]]:
               ["answers analysed", f"{ex['answers_kept']} of {ex['answers']}"]]
     tables.append(("Exclusions (participants)", ["", "count"], lines))
     for q, entries in record.get("board", {}).get("questions", {}).items():
-        lines = [[e["label"], "higher" if e["higher_is_better"] else ("lower" if e["higher_is_better"] is False else "-"),
+        direction = {True: "higher", False: "lower", None: "-"}
+        lines = [[e["label"], direction[e["higher_is_better"]],
                   _number(e["sentence_agreement"]), str(e["sentence_units"]), _number(e["pair_agreement"]),
                   str(e["pairs"]), _number(e["spearman"], signed=True), _number(e["kendall"], signed=True)]
                  for e in entries]
