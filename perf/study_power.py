@@ -34,6 +34,9 @@ def main(argv=None) -> None:
     parser.add_argument("--sentences", type=int, default=30, help="sentences per comparison")
     parser.add_argument("--per-participant", type=int, default=24, help="pairs each participant judges")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--figure", metavar="PNG",
+                        help="also write the analysis figure of one simulated study of 30 participants, two "
+                             "questions (docs/img/study-analysis-figure.png)")
     args = parser.parse_args(argv)
 
     from benchmark.study.analysis.bootstrap import crossed_weights
@@ -71,6 +74,30 @@ def main(argv=None) -> None:
         print(f"| {participants} | {judges} | {answers} | {np.mean(widths):.3f} | {np.mean(hits):.3f} | "
               f"{np.mean(rejected):.3f} | {binomial:.3f} | {np.mean(bt_widths):.2f} |", flush=True)
     print(f"\n{time.perf_counter() - start:.0f} s")
+    if args.figure:
+        write_figure(args.figure, strengths, comparisons, args, rng)
+
+
+def write_figure(path, strengths, comparisons, args, rng) -> None:
+    """The figure of ``analyze`` for one simulated study (rows named Ours, X1...; two questions)."""
+    from benchmark.study.analysis.bootstrap import crossed_weights
+    from benchmark.study.analysis.bradley_terry import bradley_terry
+    from benchmark.study.analysis.figure import figure_png
+    from benchmark.study.analysis.preference import preference_shares
+    from benchmark.study.analysis.simulate import simulate_ab
+
+    strengths = strengths + np.linspace(0, 0.8, strengths.size) * (np.arange(strengths.size) > 0)
+    pairs = len(comparisons) * args.sentences
+    judgements = simulate_ab(strengths, comparisons, items=args.sentences, participants=30,
+                             judges=max(1, round(30 * args.per_participant / pairs)), questions=2, rng=rng)
+    judgements.questions = ["lipsync", "realism"]
+    judgements.rows = ["Ours"] + [f"X{k}" for k in range(1, strengths.size)]
+    weights = crossed_weights(judgements.participant, judgements.item, len(judgements.participants),
+                              len(judgements.items), args.replicates, rng)
+    record = {"preference": preference_shares(judgements, weights), "mos": [],
+              "bradley_terry": bradley_terry(judgements, weights, "Ours", progress=False)}
+    Path(path).write_bytes(figure_png(record))
+    print(f"wrote {path}")
 
 
 if __name__ == "__main__":

@@ -19,6 +19,8 @@ def _panel(axis, labels, questions, values, lows, highs, reference_line, xlabel,
                       label=question_label(question))
     if reference_line is not None:
         axis.axvline(reference_line, color="grey", linestyle="--", linewidth=1)
+    if reference_line == 50:  # shares: the whole 0-100 % scale
+        axis.set_xlim(0, 100)
     axis.set_yticks(np.arange(len(labels)), labels)
     axis.invert_yaxis()
     axis.set_xlabel(xlabel)
@@ -54,7 +56,8 @@ def figure_png(record: dict) -> bytes:
         entries = [{**s, "question": q} for q, bt in record["bradley_terry"].items() for s in bt["strengths"]]
         questions = list(record["bradley_terry"])
         rows, v, lo, hi = _grid(entries, lambda s: s["row"], "log_strength", questions)
-        anchor = labels.get(record["bradley_terry"][questions[0]]["reference"])
+        anchor_row = record["bradley_terry"][questions[0]]["reference"]
+        anchor = labels.get(anchor_row, anchor_row)
         panels.append(([labels.get(r, r) for r in rows], questions, v, lo, hi, 0,
                        f"log-strength relative to {anchor}", "Bradley-Terry (95 % interval)"))
     if record["mos"]:
