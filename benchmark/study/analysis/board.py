@@ -31,7 +31,8 @@ from blendvoca.errors import DataError, UserError
 def board_results(folder, study, rows: list[str]) -> dict:
     """``{row: (path, Result)}`` for every studied row, from the result files in ``folder``.
 
-    A row is found by its result file's name as the study recorded it, else by its label.
+    A row is found by its result file's name as the study recorded it, else by its label, else
+    by its method's name.
     Refused: a folder without a studied row's result, or rows scored on different builds.
     """
     folder = Path(folder)
@@ -45,7 +46,8 @@ def board_results(folder, study, rows: list[str]) -> dict:
         info = study.rows.get(row, {})
         by_name = [p for p in found if info.get("result") and p.name == Path(info["result"]).name]
         by_label = [p for p, r in found.items() if r.label in (row, info.get("label"))]
-        matches = by_name or by_label
+        by_method = [p for p, r in found.items() if r.method.name == row]
+        matches = by_name or by_label or by_method
         if not matches:
             expected = Path(info["result"]).name if info.get("result") else f"a result labelled {row!r}"
             raise DataError(f"--board {folder}: no result file for the studied row {row!r} (expected {expected})")
