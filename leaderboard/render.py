@@ -19,7 +19,8 @@ from benchmark.results import Convergence
 
 from .collect import Column, Row, Table, best_mark, column_decimals
 
-__all__ = ["AV_OFFSET_NOTE", "NOT_SETTLED_MARK", "group_notes", "latex_tables", "markdown_tables", "not_settled_text",
+__all__ = ["AV_OFFSET_NOTE", "HUMAN_PREFERENCE_NOTE", "NOT_SETTLED_MARK", "group_notes", "has_study",
+           "human_preference_text", "latex_tables", "markdown_tables", "not_settled_text",
            "rtf_text"]
 
 #: Mark after the label of a row whose training had not settled (``convergence.settled`` false).
@@ -192,7 +193,44 @@ def rtf_text(row: Row, decimals: int = 3) -> str:
     return "-" if rtf is None else f"{float(rtf):.{decimals}g}"
 
 
-def _md_row(label: str, row: Row, cells, bold_flags) -> str:
+#: Short names of a study's questions in the "human preference" column.
+_QUESTION_NAMES = {"lipsync": "lip sync", "realism": "realism", "diversity": "diversity",
+                   "expressiveness": "expressiveness"}
+HUMAN_PREFERENCE_NOTE = ("Human pref.: a perceptual study of these rows (`python -m benchmark.study analyze --board "
+                         "--store`): per question, the share of answers preferring the row to the study's reference "
+                         "row [95 % interval, participants and sentences resampled], or its mean opinion score; "
+                         "- for rows outside the study.")
+
+
+def has_study(table: Table) -> bool:
+    """Whether a row of ``table`` carries a perceptual study's verdict (``human_preference``)."""
+    return any(row.result is not None and row.result.human_preference is not None
+               for row in table.rows + table.references)
+
+
+def human_preference_text(row: Row) -> str:
+    """The row's "human preference" cell: per question the share of answers preferring it to the
+    study's reference (``lip sync 38 % [27, 50]``) or its MOS, then ``vs. REFERENCE``; ``reference``
+    for the reference row; ``-`` for a row without a study."""
+    study = row.result.human_preference if row.result is not None else None
+    if study is None:
+        return "-"
+    parts = []
+    for question, entry in study.questions.items():
+        name = _QUESTION_NAMES.get(question, question)
+        if entry.share is not None:
+            interval = f" [{100 * entry.ci95[0]:.0f}, {100 * entry.ci95[1]:.0f}]" if entry.ci95 else ""
+            parts.append(f"{name} {100 * entry.share:.0f} %{interval}")
+        elif entry.mos is not None:
+            interval = f" [{entry.mos_ci95[0]:.2f}, {entry.mos_ci95[1]:.2f}]" if entry.mos_ci95 else ""
+            parts.append(f"{name} MOS {entry.mos:.2f}{interval}")
+    if not parts:
+        return "reference" if study.reference == row.label else "-"
+    vs = f" vs. {study.reference}" if study.reference and study.reference != row.label and study.design == "ab" else ""
+    return "; ".join(parts) + vs
+
+
+def _md_row(label: str, row: Row, cells, bold_flags, study: bool = False) -> str:
     out = [_label(row, label, NOT_SETTLED_MARK)]
     for cell, is_bold in zip(cells, bold_flags):
         if cell is None:
@@ -202,7 +240,7 @@ def _md_row(label: str, row: Row, cells, bold_flags) -> str:
         mean = f"**{mean}**" if is_bold else mean
         text = mean if interval is None else f"{mean} {interval}"
         out.append(text if seeds is None else f"{text} seeds {seeds}")
-    out += [str(row.samples), rtf_text(row)]
+    out += [str(row.samples), rtf_text(row)] + ([md_text(human_preference_text(row))] if study else [])
     return "| " + " | ".join(out) + " |"
 
 
@@ -223,23 +261,25 @@ def markdown_tables(tables: list[Table]) -> str:
             header = ["Method"] + [f"{md_text(c.label)}{f' ({md_text(c.unit)})' if c.unit else ''} "
                                    f"{_ARROWS[c.higher_is_better][0]}"
                                    .rstrip() for c in columns] + ["S", "RTF"]
+            study = has_study(table)
+            header += ["Human pref."] if study else []
             lines += [f"### {group[:1].upper() + group[1:]}", "", "| " + " | ".join(header) + " |",
                       "|" + "|".join([":---"] + ["---:"] * (len(header) - 1)) + "|"]
             for i, row in enumerate(table.rows):
                 lines.append(_md_row(md_text(row.label), row, [col[i] for col in method_cells],
-                                     [i in b for b in bold]))
+                                     [i in b for b in bold], study))
             if table.references:
                 lines.append("| *reference rows (not ranked)* |" + " |" * (len(header) - 1))
                 for i, row in enumerate(table.references):
                     lines.append(_md_row(f"*{md_text(row.label)}*", row, [col[i] for col in reference_cells],
-                                         [False] * len(columns)))
+                                         [False] * len(columns), study))
             lines.append("")
-            for note in group_notes(table, columns, marks, md_text):
+            for note in group_notes(table, columns, marks, md_text) + ([HUMAN_PREFERENCE_NOTE] if study else []):
                 lines += [note, ""]
     return "\n".join(lines)
 
 
-def _tex_row(label: str, row: Row, cells, bold_flags) -> str:
+def _tex_row(label: str, row: Row, cells, bold_flags, study: bool = False) -> str:
     out = [_label(row, label, r"$^\dagger$")]
     for cell, is_bold in zip(cells, bold_flags):
         if cell is None:
@@ -250,7 +290,7 @@ def _tex_row(label: str, row: Row, cells, bold_flags) -> str:
         small = " ".join(part for part in ([f"${interval}$"] if interval else []) + (
             [f"seeds ${seeds}$"] if seeds else []))
         out.append(f"{mean} {{\\scriptsize {small}}}" if small else mean)
-    out += [str(row.samples), rtf_text(row)]
+    out += [str(row.samples), rtf_text(row)] + ([_latex_label(human_preference_text(row))] if study else [])
     return " & ".join(out) + r" \\"
 
 
@@ -277,12 +317,14 @@ def latex_tables(tables: list[Table]) -> str:
             header = ["Method"] + [
                 f"{_latex_label(c.label)}{' (' + _latex_unit(c.unit) + ')' if c.unit else ''} "
                 f"{_ARROWS[c.higher_is_better][1]}".rstrip() for c in columns] + ["$S$", "RTF"]
-            body = [_tex_row(_latex_label(row.label), row, [col[i] for col in method_cells], [i in b for b in bold])
-                    for i, row in enumerate(table.rows)]
+            study = has_study(table)
+            header += ["Human pref."] if study else []
+            body = [_tex_row(_latex_label(row.label), row, [col[i] for col in method_cells], [i in b for b in bold],
+                             study) for i, row in enumerate(table.rows)]
             if table.references:
                 body += [r"\midrule", f"\\multicolumn{{{len(header)}}}{{l}}{{\\textit{{Reference rows (not ranked)}}}} \\\\"]
                 body += [_tex_row(f"\\textit{{{_latex_label(row.label)}}}", row, [col[i] for col in reference_cells],
-                                  [False] * len(columns)) for i, row in enumerate(table.references)]
+                                  [False] * len(columns), study) for i, row in enumerate(table.references)]
             slug = re.sub(r"[^a-z0-9]+", "-", group.lower()).strip("-")
             parts += [
                 r"\begin{table}[t]", r"\centering",
@@ -291,9 +333,10 @@ def latex_tables(tables: list[Table]) -> str:
                 "several seeds; bold: best, beats the runner-up in at least 95\\,\\% of the paired resamples.}",
                 f"\\label{{tab:blendvoca-{table.recipe_id[:12]}-{slug}}}",
                 r"\resizebox{\linewidth}{!}{%",
-                f"\\begin{{tabular}}{{l{'r' * len(columns)}rr}}", r"\toprule",
+                f"\\begin{{tabular}}{{l{'r' * len(columns)}rr{'l' if study else ''}}}", r"\toprule",
                 " & ".join(header) + r" \\", r"\midrule", *body, r"\bottomrule", r"\end{tabular}}",
-                *_tex_notes(group_notes(table, columns, marks, lambda name: str(name).replace("`", "'"))),
+                *_tex_notes(group_notes(table, columns, marks, lambda name: str(name).replace("`", "'"))
+                            + ([HUMAN_PREFERENCE_NOTE] if study else [])),
                 r"\end{table}", "",
             ]
     if not tables:

@@ -28,13 +28,19 @@ Schema (``schema_version`` 3)::
       "provenance": {"date", "git_revision", "git_dirty", "python", "platform",
                      "versions": {package: version}, "hardware": {...}},
       "timings":  {"train_s", "load_s", "generate_s", "evaluate_s", "total_s"},
-      "latency"?: {"lookahead_s", "first_frame_s", "compute_per_audio_s", "rtf"}
+      "latency"?: {"lookahead_s", "first_frame_s", "compute_per_audio_s", "rtf"},
+      "human_preference"?: {"study", "reference", "design", "participants", "date",
+                            "questions": {question: {"share", "ci95", "answers", "log_strength",
+                                                     "strength_ci95", "mos", "mos_ci95"}}}
     }
 
 Fields marked ``?`` are optional; a part keeps the fields it does not type as
 written. ``latency`` (:func:`benchmark.protocol.generation.measure_latency`; seconds,
 null where not known) and ``timings`` depend on the machine: they are not part of what
-a rerun must reproduce (the metrics and per-sentence values).
+a rerun must reproduce (the metrics and per-sentence values). Nor is ``human_preference``,
+a perceptual study's verdict on the row (``python -m benchmark.study analyze --board DIR
+--store``; each question's share of answers preferring this row to the study's reference,
+Bradley-Terry strength and MOS with their intervals), which the leaderboard shows as a column.
 
 ``dataset.recipe_id`` is the dataset's identity (:func:`blendvoca.format.dataset_id`);
 it names the file and keys the leaderboard section (:attr:`Result.key`). A run with
@@ -66,10 +72,12 @@ from benchmark.results.record import (
     SCHEMA_VERSION,
     Convergence,
     DatasetInfo,
+    HumanPreference,
     Latency,
     MethodInfo,
     MetricCheck,
     MetricEntry,
+    PreferenceEntry,
     Protocol,
     Provenance,
     Result,
@@ -81,7 +89,8 @@ from benchmark.results.record import (
 
 __all__ = [
     "LATENCY_FIELDS", "METRIC_FIELDS", "OUTPUT_FOLDERS", "SCHEMA_VERSION", "VERSIONED_PACKAGES", "Convergence",
-    "DatasetInfo", "Latency", "MethodInfo", "MetricCheck", "MetricEntry", "Protocol", "Provenance", "Result",
+    "DatasetInfo", "HumanPreference", "Latency", "MethodInfo", "MetricCheck", "MetricEntry", "PreferenceEntry",
+    "Protocol", "Provenance", "Result",
     "SeedRecord", "build_result", "check", "current_provenance", "git_revision", "hardware_info",
     "package_versions", "read", "replicates_array", "result_filename", "seed_replicates", "write",
 ]

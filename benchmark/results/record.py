@@ -56,7 +56,7 @@ from benchmark.results.parts import (
 )
 
 __all__ = ["LATENCY_FIELDS", "METRIC_FIELDS", "SCHEMA_VERSION", "Convergence", "DatasetInfo", "Latency",
-           "MethodInfo", "MetricCheck", "MetricEntry", "Protocol", "Provenance", "Result", "SeedRecord",
+           "HumanPreference", "MethodInfo", "MetricCheck", "MetricEntry", "PreferenceEntry", "Protocol", "Provenance", "Result", "SeedRecord",
            "SETTINGS_PROTOCOL_KEYS", "replicates_array", "result_filename", "seed_replicates", "settings_digest"]
 
 SCHEMA_VERSION = 3
@@ -253,6 +253,40 @@ class Latency(Part):
 
 
 @dataclass(frozen=True, kw_only=True)
+class PreferenceEntry(Part):
+    """One question of ``human_preference``: this row against the study's reference row."""
+
+    #: Share of the answers preferring this row to the reference, and its 95 % interval (crossed bootstrap).
+    share: float | None = item(number)
+    ci95: list | None = item(pair)
+    #: Answers comparing the two rows.
+    answers: int | None = item(integer)
+    #: Bradley-Terry log-strength relative to the reference (studies of more than two rows).
+    log_strength: float | None = item(number)
+    strength_ci95: list | None = item(pair)
+    #: Mean opinion score (1-5) and its interval (MOS studies).
+    mos: float | None = item(number)
+    mos_ci95: list | None = item(pair)
+
+
+@dataclass(frozen=True, kw_only=True)
+class HumanPreference(Part):
+    """``human_preference``: a perceptual study's verdict on this row, stored by
+    ``python -m benchmark.study analyze STUDY --board DIR --store`` (the leaderboard's
+    "human preference" column reads it). Not part of what a rerun reproduces."""
+
+    #: The study's name (its folder's name) and the row every row was compared with.
+    study: str = item(string, required=True)
+    reference: str | None = item(string)
+    design: str | None = item(string)
+    #: Participants kept after the exclusions.
+    participants: int | None = item(integer)
+    date: str | None = item(string)
+    #: ``{question: PreferenceEntry}`` in the study's order (lipsync, realism, ...).
+    questions: dict = item(mapping_of(part(PreferenceEntry)), required=True)
+
+
+@dataclass(frozen=True, kw_only=True)
 class Provenance(Part):
     """``provenance``: the code and machine when the run started."""
 
@@ -343,6 +377,8 @@ class Result(Part):
     latency: Latency | None = item(part(Latency))
     #: The stored tracks folder, relative to the JSON's folder (:mod:`benchmark.runs`).
     tracks: str | None = item(string)
+    #: A perceptual study's verdict on this row (:class:`HumanPreference`).
+    human_preference: HumanPreference | None = item(part(HumanPreference))
 
     def validate(self, value, where):
         if not self.metrics:
