@@ -215,7 +215,7 @@ def run(args) -> int:
         truth = len(plan)
         plan.append((("_ground_truth", subject, sentence), "truth", subject, sentence, None, "attention"))
         distractor = len(plan)
-        plan.append((("_mismatched" if other else "_static", subject, sentence), "mismatched" if other else "static",
+        plan.append(((f"_mismatched:{other}" if other else "_static", subject, sentence), "mismatched" if other else "static",
                      subject, sentence, other, "attention"))
         attention_clips.append((truth, distractor))
 
@@ -249,7 +249,7 @@ def run(args) -> int:
                                        backend=args.backend)
             stimuli_out[names[index]] = d.Stimulus(
                 path=relative, sha256=d.sha256_of(staging / relative), row=key[0], subject=subject,
-                sentence=sentence if kind != "mismatched" else f"{sentence} (motion of {payload})",
+                sentence=sentence,
                 sample=int(samples[0]), seconds=round(clip.seconds, 6), samples=tuple(int(s) for s in samples),
                 role=role, fps=float(args.fps), width=clip.width, height=clip.height, frames=clip.frames)
         stimulus_of = {index: names[index] for index in range(len(plan))}
@@ -302,8 +302,7 @@ def run(args) -> int:
             sound_check=None, min_seconds=float(args.min_seconds), judgements_per_item=args.judgements,
             rows={row.name: row.record() for row in rows},
             created={"date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
-                     "command": "python -m benchmark.study create " + shlex.join(sys.argv[2:] if len(sys.argv) > 2
-                                                                                  else []),
+                     "command": _command(args),
                      "git_revision": _revision()},
             settings={"size": args.size, "fps": float(args.fps), "max_seconds": args.max_seconds,
                       "samples": wanted, "participants": participants, "per_participant": per_participant,
@@ -328,6 +327,18 @@ def run(args) -> int:
           f"({participants} participants x {per_participant} items, {args.attention_checks} attention checks and a "
           f"practice trial each; {participants * per_participant - judged} judgements beyond the minimum)")
     return cli.EXIT_OK
+
+
+def _command(args) -> str:
+    """The command line that makes this study again (every option spelled out)."""
+    words = ["python", "-m", "benchmark.study", "create"]
+    for flag in ("results", "rows", "design", "questions", "out", "sentences", "participants", "per_participant",
+                 "judgements", "samples", "attention_checks", "attention", "seed", "size", "fps", "max_seconds",
+                 "min_seconds", "sound_check", "sound_check_answer", "sound_check_span", "data", "backend"):
+        value = getattr(args, flag, None)
+        if value is not None:
+            words += ["--" + flag.replace("_", "-"), str(value)]
+    return shlex.join(words)
 
 
 def _with_sound_check(study, sound_check):

@@ -174,7 +174,7 @@ def samples_shown(num_samples: int, wanted: int, index: int, offset: int) -> tup
     row's samples (styles) is shown about equally often; a deterministic row shows its one."""
     wanted = max(1, min(wanted, num_samples))
     start = (offset + index * wanted) % num_samples
-    return tuple((start + k) % num_samples for k in range(wanted))
+    return tuple(sorted((start + k) % num_samples for k in range(wanted)))
 
 
 class Head:
