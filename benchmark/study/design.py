@@ -232,6 +232,11 @@ def check_study(study: Study, where: str) -> None:
         unknown = [q for q in trial.questions if q not in question_ids]
         if unknown:
             raise DataError(f"{where}: trial {trial.id!r} asks unknown questions {unknown}")
+        if trial.kind == "attention":
+            choices = {c for q in study.questions if q.id in trial.questions for c in q.choices}
+            if trial.expected not in choices:
+                raise DataError(f"{where}: attention check {trial.id!r} expects {trial.expected!r}, not one of its "
+                                f"questions' choices {sorted(choices)}")
     for slot in study.participants:
         unknown = [t for t in slot.trials if t not in trial_ids]
         if unknown:

@@ -256,11 +256,31 @@ def render_clip(out: Path, sources, head: Head, audio, *, size: int, fps: float,
     from blendvoca.runtime.progress import progress_bars
 
     panels = [Panel("", resampled(source, TRACK_FPS, fps), f"{out.name} panel {k}") for k, source in enumerate(sources)]
-    with progress_bars(False):
-        frames, width, height = render_video(out, panels, head.faces, [head.pose], fps=fps, size=size,
-                                             backend=backend, yfov=head.yfov, audio=audio, rate=RATE,
-                                             waveform=False, jobs=1)
+    drawn = out.with_name(f".{out.stem}.drawn.mp4")
+    try:
+        with progress_bars(False):
+            frames, width, height = render_video(drawn, panels, head.faces, [head.pose], fps=fps, size=size,
+                                                 backend=backend, yfov=head.yfov, audio=audio, rate=RATE,
+                                                 waveform=False, jobs=1)
+        faststart(drawn, out)
+    finally:
+        drawn.unlink(missing_ok=True)
     return Clip(frames, width, height, frames / fps)
+
+
+def faststart(source: Path, out: Path) -> None:
+    """Copy an MP4 with its index (``moov``) moved before the media, so that a browser starts
+    playing it before the whole file has arrived (the streams are copied, not re-encoded)."""
+    import subprocess
+
+    import imageio_ffmpeg
+
+    done = subprocess.run([imageio_ffmpeg.get_ffmpeg_exe(), "-y", "-loglevel", "error", "-i", str(source),
+                           "-map", "0", "-c", "copy", "-movflags", "+faststart", "-f", "mp4", str(out)],
+                          capture_output=True, text=True, check=False)
+    if done.returncode != 0:
+        out.unlink(missing_ok=True)
+        raise DataError(f"ffmpeg could not write {out}: {done.stderr.strip().splitlines()[-1:] or done.returncode}")
 
 
 # ---------------------------------------------------------------------------------------

@@ -89,10 +89,26 @@ def _study(folder):
 
 # --- the clips ---------------------------------------------------------------------------
 
+def _top_level_boxes(path) -> list[str]:
+    """The names of an MP4's top-level boxes, in file order."""
+    import struct
+
+    data, names, at = Path(path).read_bytes(), [], 0
+    while at + 8 <= len(data):
+        size, name = struct.unpack(">I4s", data[at:at + 8])
+        if size == 1:
+            size = struct.unpack(">Q", data[at + 8:at + 16])[0]
+        names.append(name.decode("latin-1"))
+        at += size if size else len(data)
+    return names
+
+
 def test_every_clip_is_h264_yuv420p_with_aac_and_the_clips_of_a_sentence_last_as_long(ab_study):
     study = _study(ab_study)
     by_sentence = defaultdict(set)
     for stimulus in study.stimuli.values():
+        boxes = _top_level_boxes(ab_study / stimulus.path)
+        assert boxes.index("moov") < boxes.index("mdat")  # a browser plays it while it loads
         codecs, frames, audio_seconds = _decode(ab_study / stimulus.path)
         assert codecs == ("h264", "aac", "yuv420p")
         assert frames.shape[1:] == (SIZE, SIZE * len(stimulus.samples), 3)
@@ -139,6 +155,8 @@ def test_the_stimuli_are_verified_by_their_sha256(ab_study, tmp_path):
 
     study = read_study(ab_study)
     verify_stimuli(study, ab_study)
+    listed = {s.path for s in study.stimuli.values()} | {study.sound_check.path}
+    assert {p.relative_to(ab_study).as_posix() for p in ab_study.rglob("*") if p.is_file()} == listed | {"study.json"}
     copy = tmp_path / "copy"
     shutil.copytree(ab_study, copy)
     write_study(study, copy)
