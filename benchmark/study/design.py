@@ -11,18 +11,35 @@ Format (``"format": "blendvoca-study-1"``)::
       "seed": 0,
       "questions": [{"id": "lipsync", "prompt": "...", "choices": ["left", "right"] | ["1", ..., "5"]}],
       "stimuli": {stimulus_id: {"path": "stimuli/....mp4", "sha256", "row", "subject", "sentence",
-                                "sample", "seconds"}},
+                                "sample", "seconds",
+                                "samples": [k, ...]  (the row's samples shown side by side, left to right),
+                                "role": "item" | "attention" | "practice",
+                                "fps", "width", "height", "frames"}},
       "trials": [{"id", "kind": "ab" | "mos" | "attention" | "practice",
                   "stimuli": [stimulus_id, ...]   (ab, attention, practice: [left, right]; mos: [one]),
                   "questions": [question_id, ...],
-                  "expected": "left" | "right" | null   (attention checks: the unmistakable answer)}],
+                  "expected": "left" | "right" | null   (attention checks: the unmistakable answer),
+                  "item": item_id | null   (ab/mos: the item judged; an A/B item's two
+                                            left/right orders are two trials of one item)}],
       "participants": [{"slot": 0, "trials": [trial_id, ...]}]   (the order each participant sees),
-      "sound_check": {"path", "sha256", "answer"},   (the word a participant must type)
+      "sound_check": {"path", "sha256", "answer",   (the word a participant must type)
+                      "accepted": [...],  (every accepted spelling, lower case; answer included)
+                      "prompt": "...",    (what the page asks)
+                      "source": "..."},   (where the sound came from)
       "min_seconds": 120,   (a session finished faster is excluded, as CodeTalker does)
       "judgements_per_item": 3,
       "rows": {row: {"result": path, "result_sha256", "recipe_id", "label"}},
-      "created": {"date", "command", "git_revision"}
+      "created": {"date", "command", "git_revision"},
+      "settings": {"size", "fps", "max_seconds", "samples", "participants", "per_participant",
+                   "attention_checks", "attention", "backend", "sentences": [[subject, sentence], ...]}
     }
+
+Fields added after the first version (``samples``, ``role``, ``fps``, ``width``, ``height``,
+``frames`` of a stimulus; ``item`` of a trial; ``accepted``, ``prompt``, ``source`` of the
+sound check; ``settings``) have defaults, so a design written without them still reads.
+A MOS study's attention checks are A/B trials (the ground truth against a motionless or
+mismatched face) asking the question ``"attention"`` (:data:`ATTENTION_QUESTION`), whose
+choices are ``"left"``/``"right"``; it is not a rating and the analysis leaves it out of the MOS.
 
 Paths are relative to the study folder. Choices: an A/B question is answered ``"left"`` or
 ``"right"`` (forced choice, as CodeTalker and CDFace ask); a MOS question ``"1"`` to ``"5"``.
@@ -43,6 +60,9 @@ DESIGNS = ("ab", "mos")
 TRIAL_KINDS = ("ab", "mos", "attention", "practice")
 AB_CHOICES = ("left", "right")
 MOS_CHOICES = ("1", "2", "3", "4", "5")
+
+#: The question of a MOS study's attention checks (an A/B lip-sync question, left or right).
+ATTENTION_QUESTION = "attention"
 
 # The papers' wording (CodeTalker Sec. 4.4; CDFace Sec. IV-C adds diversity and expressiveness).
 QUESTION_PROMPTS = {
@@ -77,6 +97,12 @@ class Stimulus:
     sentence: str
     sample: int = 0
     seconds: float = 0.0
+    samples: tuple[int, ...] = ()
+    role: str = "item"
+    fps: float = 0.0
+    width: int = 0
+    height: int = 0
+    frames: int = 0
 
 
 @dataclass(frozen=True)
@@ -86,6 +112,7 @@ class Trial:
     stimuli: tuple[str, ...]
     questions: tuple[str, ...]
     expected: str | None = None
+    item: str | None = None
 
 
 @dataclass(frozen=True)
@@ -99,6 +126,14 @@ class SoundCheck:
     path: str
     sha256: str
     answer: str
+    accepted: tuple[str, ...] = ()
+    prompt: str = "Type the word you hear."
+    source: str = ""
+
+    def accepts(self, typed: str) -> bool:
+        """Whether ``typed`` (any case, surrounding spaces and final punctuation ignored) is the answer."""
+        text = " ".join(str(typed).strip().strip(".!?").lower().split())
+        return text in {a.lower() for a in (self.answer, *self.accepted)}
 
 
 @dataclass(frozen=True)
@@ -114,6 +149,7 @@ class Study:
     judgements_per_item: int = 3
     rows: dict[str, dict] = field(default_factory=dict)
     created: dict = field(default_factory=dict)
+    settings: dict = field(default_factory=dict)
 
     def question(self, question_id: str) -> Question:
         for question in self.questions:
@@ -133,7 +169,10 @@ class Study:
 
 
 def question(question_id: str, design: str) -> Question:
-    """The papers' wording of ``question_id`` for ``design`` ("ab" or "mos")."""
+    """The papers' wording of ``question_id`` for ``design`` ("ab" or "mos"); ``"attention"``:
+    the A/B lip-sync question a MOS study's attention checks ask (left or right)."""
+    if question_id == ATTENTION_QUESTION and design == "mos":
+        return Question(ATTENTION_QUESTION, QUESTION_PROMPTS["ab"]["lipsync"], AB_CHOICES)
     prompts = QUESTION_PROMPTS[design]
     if question_id not in prompts:
         raise UserError(f"unknown question {question_id!r}: expected one of {', '.join(prompts)}")
@@ -163,11 +202,11 @@ def study_from_json(data: dict, where: str) -> Study:
     body = {key: value for key, value in data.items() if key != "format"}
     try:
         body["questions"] = tuple(_tuple_fields(Question, q, where, ("choices",)) for q in body["questions"])
-        body["stimuli"] = {key: _tuple_fields(Stimulus, s, where) for key, s in body["stimuli"].items()}
+        body["stimuli"] = {key: _tuple_fields(Stimulus, s, where, ("samples",)) for key, s in body["stimuli"].items()}
         body["trials"] = tuple(_tuple_fields(Trial, t, where, ("stimuli", "questions")) for t in body["trials"])
         body["participants"] = tuple(_tuple_fields(Slot, p, where, ("trials",)) for p in body["participants"])
         if body.get("sound_check") is not None:
-            body["sound_check"] = _tuple_fields(SoundCheck, body["sound_check"], where)
+            body["sound_check"] = _tuple_fields(SoundCheck, body["sound_check"], where, ("accepted",))
     except (KeyError, AttributeError, TypeError) as error:
         raise DataError(f"{where}: malformed study design ({error!r})") from None
     study = _tuple_fields(Study, body, where)
@@ -193,6 +232,11 @@ def check_study(study: Study, where: str) -> None:
         unknown = [q for q in trial.questions if q not in question_ids]
         if unknown:
             raise DataError(f"{where}: trial {trial.id!r} asks unknown questions {unknown}")
+        if trial.kind == "attention":
+            choices = {c for q in study.questions if q.id in trial.questions for c in q.choices}
+            if trial.expected not in choices:
+                raise DataError(f"{where}: attention check {trial.id!r} expects {trial.expected!r}, not one of its "
+                                f"questions' choices {sorted(choices)}")
     for slot in study.participants:
         unknown = [t for t in slot.trials if t not in trial_ids]
         if unknown:
