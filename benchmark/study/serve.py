@@ -54,15 +54,15 @@ def _check_port(host: str, port: int) -> None:
 def run(args) -> int:
     import uvicorn
 
-    from benchmark.study.server import create_app, open_store
+    from benchmark.study.server import create_app
     from benchmark.study.server.store import default_db_url
 
     if args.completion_code is not None and not args.completion_code.replace("-", "").isalnum():
         raise UserError(f"--completion-code {args.completion_code!r}: expected letters, digits and -")
     _check_port(args.host, args.port)
-    store = open_store(args.study, args.db)
-    app = create_app(args.study, completion_url=args.completion_url, completion_code=args.completion_code,
-                     store=store)
+    # the study is checked (stimuli, jsPsych) before the database is opened: a refused study writes nothing
+    app = create_app(args.study, args.db, completion_url=args.completion_url, completion_code=args.completion_code)
+    store = app.state.store
     where = store.url.render_as_string(hide_password=True) if args.db else default_db_url(args.study)
     print(f"serving {args.study} at http://{args.host}:{args.port}/ (answers in {where}); Ctrl-C stops",
           flush=True)

@@ -314,3 +314,30 @@ def browser_participant(driver, url: str, choose, *, reload_after: int | None = 
             raise AssertionError(f"unexpected page {current!r}: {driver.page_source[:1000]}")
     code = driver.find_element(By.ID, "completion-code").text
     return {"code": code, "answers": answers, "session_url": session_url, "reloaded": reloaded}
+
+
+# -- fixtures (imported by the test modules) --------------------------------------------------------
+
+@pytest.fixture(scope="session")
+def study_clips(tmp_path_factory):
+    """The tiny study's MP4 clips, made once per session."""
+    return make_clips(tmp_path_factory.mktemp("study-clips"))
+
+
+@pytest.fixture(scope="session")
+def jspsych_installed():
+    """Serving needs the pinned jsPsych (npm ci); skip (fail in CI) without it."""
+    from benchmark.study.server.pages import VENDOR_FILES, WEB_DIR
+
+    if not all((WEB_DIR / "node_modules" / rel).is_file() for rel in VENDOR_FILES.values()):
+        message = f"jsPsych for the study server is not installed; run `npm ci --prefix {WEB_DIR}` once"
+        if os.environ.get("CI"):
+            pytest.fail(message)
+        pytest.skip(message)
+
+
+@pytest.fixture
+def ab_study(tmp_path, study_clips, jspsych_installed):
+    """``(folder, study)``: a fresh A/B study folder."""
+    folder = tmp_path / "study"
+    return folder, tiny_study(folder, study_clips)

@@ -51,7 +51,7 @@ _ID = re.compile(r"[A-Za-z0-9_.:-]{1,64}")
 _TOKEN = re.compile(r"[A-Za-z0-9_-]{20,128}")
 _SECURITY_HEADERS = {
     "Content-Security-Policy": ("default-src 'self'; script-src 'self'; style-src 'self' 'unsafe-inline'; "
-                                "media-src 'self'; img-src 'self' data:; object-src 'none'; base-uri 'none'; "
+                                "media-src 'self'; img-src 'self' data:; font-src 'self' data:; object-src 'none'; base-uri 'none'; "
                                 "frame-ancestors 'none'; form-action 'self'"),
     "X-Content-Type-Options": "nosniff",
     "Referrer-Policy": "no-referrer",
@@ -232,9 +232,13 @@ def create_app(folder, db_url: str | None = None, *, completion_url: str | None 
         names = PLATFORM_PARAMETERS.get(platform, (None, None, None))
         pid, study_id, session_id = (values.get(n) if n else None for n in names)
         if platform is not None:
-            earlier = store.participant_by_platform(platform, pid, session_id)
-            if earlier is not None:  # the same platform session, back again: a new token, same state
-                return RedirectResponse(f"/s/{store.new_token(earlier.id)}/", status_code=303)
+            earlier = store.participant_by_platform(platform, pid)
+            if earlier is not None:
+                participant, started_in = earlier
+                if started_in != session_id:
+                    raise Refused(409, "this platform id has already taken part in this study")
+                # the same platform session, back again: a new token, the same place in the study
+                return RedirectResponse(f"/s/{store.new_token(participant.id)}/", status_code=303)
         token, _ = store.add_participant(slots, platform, pid, study_id, session_id, completion_code)
         return RedirectResponse(f"/s/{token}/", status_code=303)
 

@@ -213,13 +213,13 @@ class Store:
                 participants.c.token_sha256 == token_sha256(token))).one_or_none()
         return None if row is None else _participant(row)
 
-    def participant_by_platform(self, platform: str, platform_id: str, platform_session: str | None):
-        """The participant who started with this platform id and session (for a new token)."""
+    def participant_by_platform(self, platform: str, platform_id: str) -> tuple[Participant, str | None] | None:
+        """The participant who started with this platform id, and the platform session they started in."""
         with self.engine.connect() as connection:
             row = connection.execute(select(participants).where(
-                participants.c.platform == platform, participants.c.platform_id == platform_id,
-                participants.c.platform_session == platform_session)).first()
-        return None if row is None else _participant(row)
+                participants.c.platform == platform, participants.c.platform_id == platform_id)
+                .order_by(participants.c.id)).first()
+        return None if row is None else (_participant(row), row.platform_session)
 
     def new_token(self, participant_id: int) -> str:
         """Replace a participant's session token (the old one stops working)."""
