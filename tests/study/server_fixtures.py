@@ -172,40 +172,45 @@ def postgres_bin() -> Path | None:
 
 
 @contextlib.contextmanager
-def postgres_cluster(tmp: Path):
-    """A throwaway PostgreSQL cluster (initdb + pg_ctl) on a free port; yields its URL. Skips
-    (fails in CI) when PostgreSQL is not installed."""
+def postgres_cluster():
+    """A throwaway PostgreSQL cluster (initdb + pg_ctl, in a temporary folder, on a free port);
+    yields its URL. Skips (fails in CI) when PostgreSQL is not installed. As root, the cluster
+    runs as the ``postgres`` user (PostgreSQL refuses to run as root)."""
+    import tempfile
+
     bin_dir = postgres_bin()
     if bin_dir is None:
+        message = "PostgreSQL is not installed; apt-get install postgresql"
         if os.environ.get("CI"):
-            pytest.fail("PostgreSQL is not installed; apt-get install postgresql")
-        pytest.skip("PostgreSQL is not installed; apt-get install postgresql")
-    data = tmp / "pgdata"
-    port = free_port()
-    user = "study"
-    env = dict(os.environ)
+            pytest.fail(message)
+        pytest.skip(message)
     run_as = []
-    if os.geteuid() == 0:  # initdb refuses root: run the cluster as the nobody-like 'postgres' user
+    folder = Path(tempfile.mkdtemp(prefix="blendvoca-pg-"))
+    if os.geteuid() == 0:
         import pwd
+
         try:
-            pwd.getpwnam("postgres")
+            owner = pwd.getpwnam("postgres")
         except KeyError:
-            pytest.skip("PostgreSQL cannot run as root and there is no 'postgres' user")
+            pytest.skip("PostgreSQL refuses to run as root and there is no 'postgres' user to run it as")
+        os.chown(folder, owner.pw_uid, owner.pw_gid)
         run_as = ["runuser", "-u", "postgres", "--"]
-        tmp.chmod(0o777)
-    subprocess.run([*run_as, str(bin_dir / "initdb"), "-D", str(data), "-U", user, "-A", "trust"],
-                   check=True, capture_output=True, env=env)
-    log = tmp / "pg.log"
-    subprocess.run([*run_as, str(bin_dir / "pg_ctl"), "-D", str(data), "-l", str(log), "-w", "-o",
-                    f"-p {port} -k {tmp} -c listen_addresses=127.0.0.1 -c fsync=on", "start"],
-                   check=True, capture_output=True, env=env)
+    data, port, user = folder / "data", free_port(), "study"
     try:
-        subprocess.run([str(bin_dir / "createdb"), "-h", "127.0.0.1", "-p", str(port), "-U", user, "study"],
+        subprocess.run([*run_as, str(bin_dir / "initdb"), "-D", str(data), "-U", user, "-A", "trust", "-E", "UTF8"],
                        check=True, capture_output=True)
-        yield f"postgresql://{user}@127.0.0.1:{port}/study"
+        subprocess.run([*run_as, str(bin_dir / "pg_ctl"), "-D", str(data), "-l", str(folder / "log"), "-w", "-o",
+                        f"-p {port} -k {folder} -c listen_addresses=127.0.0.1", "start"],
+                       check=True, capture_output=True)
+        try:
+            subprocess.run([str(bin_dir / "createdb"), "-h", "127.0.0.1", "-p", str(port), "-U", user, "study"],
+                           check=True, capture_output=True)
+            yield f"postgresql://{user}@127.0.0.1:{port}/study"
+        finally:
+            subprocess.run([*run_as, str(bin_dir / "pg_ctl"), "-D", str(data), "-m", "immediate", "-w", "stop"],
+                           capture_output=True)
     finally:
-        subprocess.run([*run_as, str(bin_dir / "pg_ctl"), "-D", str(data), "-m", "immediate", "stop"],
-                       capture_output=True)
+        shutil.rmtree(folder, ignore_errors=True)
 
 
 # -- scripted participants --------------------------------------------------------------------------
