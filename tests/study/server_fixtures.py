@@ -65,9 +65,11 @@ def make_clips(folder: Path) -> Path:
     return folder
 
 
-def tiny_study(folder: Path, clips: Path, *, design: str = "ab", slots: int = 3, prompt_suffix: str = "") -> Study:
-    """A study folder in ``folder``: 2 compared pairs (ab) or 4 rated clips (mos), one attention
-    check, one practice trial, ``slots`` participant slots (orders rotated), a sound check."""
+def tiny_study(folder: Path, clips: Path, *, design: str = "ab", slots: int = 3, prompt_suffix: str = "",
+               pairs: int = 2) -> Study:
+    """A study folder in ``folder``: ``pairs`` compared pairs (ab; the clips reused past 2) or 4
+    rated clips (mos), one attention check, one practice trial, ``slots`` participant slots
+    (orders rotated), a sound check."""
     stimuli_dir = folder / "stimuli"
     stimuli_dir.mkdir(parents=True, exist_ok=True)
     for clip in clips.glob("*.mp4"):
@@ -86,6 +88,8 @@ def tiny_study(folder: Path, clips: Path, *, design: str = "ab", slots: int = 3,
         trials = [Trial("t1", "ab", ("good-s1", "bad-s1"), ids), Trial("t2", "ab", ("bad-s2", "good-s2"), ids),
                   Trial("att1", "attention", ("gt-s3", "static-s3"), ids, expected="left"),
                   Trial("practice", "practice", ("good-s1", "static-s3"), ("lipsync",))]
+        trials += [Trial(f"t{k}", "ab", (("good-s1", "bad-s1"), ("bad-s2", "good-s2"))[k % 2], ids)
+                   for k in range(3, pairs + 1)]
     else:
         trials = [Trial(f"m-{s}", "mos", (s,), ids) for s in ("good-s1", "bad-s1", "good-s2", "bad-s2")]
         trials += [Trial("practice", "practice", ("gt-s3",), ("lipsync",))]
@@ -142,26 +146,9 @@ def serve_in_thread(folder, db_url: str | None = None, **app_options):
 
 def start_server_process(folder, port: int, db_url: str | None = None) -> subprocess.Popen:
     """``python -m benchmark.study serve`` as a child process; returns once it answers."""
-    import httpx
+    from benchmark.study.server.load import start_server
 
-    command = [sys.executable, "-m", "benchmark.study", "serve", str(folder), "--port", str(port)]
-    if db_url:
-        command += ["--db", db_url]
-    env = {**os.environ, "PYTHONPATH": str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", "")}
-    process = subprocess.Popen(command, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    deadline = time.monotonic() + 60
-    while True:
-        if process.poll() is not None:
-            raise RuntimeError(f"the study server exited: {process.stdout.read()}")
-        try:
-            if httpx.get(f"http://127.0.0.1:{port}/", timeout=1).status_code == 200:
-                return process
-        except httpx.HTTPError:
-            pass
-        if time.monotonic() > deadline:
-            process.kill()
-            raise RuntimeError("the study server did not start in 60 s")
-        time.sleep(0.1)
+    return start_server(folder, port, db_url)
 
 
 # -- PostgreSQL ---------------------------------------------------------------------------------------
