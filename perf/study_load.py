@@ -12,6 +12,7 @@ concurrent participants answering as fast as the server replies for ``--seconds`
 
     python perf/study_load.py                                   # 50 clients, 2 minutes each run
     python perf/study_load.py --clients 10 --seconds 20 --kill-at 8
+    python perf/study_load.py --think-ms 5000 --skip-kill      # participants' pace: an answer every ~5 s
     python perf/study_load.py --db postgresql://study@127.0.0.1:5432/study   # an empty database
 """
 
@@ -37,6 +38,7 @@ def main(argv=None) -> int:
     parser.add_argument("--think-ms", type=float, default=0.0, help="mean pause before each answer (default 0)")
     parser.add_argument("--db", default=None, help="database URL (default a fresh SQLite file per run)")
     parser.add_argument("--skip-clean", action="store_true", help="only the SIGKILL run")
+    parser.add_argument("--skip-kill", action="store_true", help="only the clean run")
     parser.add_argument("--json", type=Path, default=None, help="also write the figures here")
     args = parser.parse_args(argv)
 
@@ -48,7 +50,8 @@ def main(argv=None) -> int:
         tmp = Path(tmp)
         clips = make_clips(tmp / "clips")
         runs = [("clean", None)] if not args.skip_clean else []
-        runs.append(("sigkill", args.kill_at))
+        if not args.skip_kill:
+            runs.append(("sigkill", args.kill_at))
         for name, kill_at in runs:
             folder = tmp / name
             tiny_study(folder, clips, pairs=args.pairs, slots=3)

@@ -239,7 +239,9 @@ def load_run(folder, *, clients: int, seconds: float, sound_word: str, kill_at: 
             acks_by_token.setdefault(token, []).append(moment)
         interrupted = {t for t, moments in acks_by_token.items()
                        if min(moments) < kill and result.finished_tokens.get(t, float("inf")) > kill}
-        resumed = {t for t in interrupted if max(acks_by_token[t]) > events["restarted"]}
+        # resumed: answered again after the restart, or found its last answer stored and finished
+        resumed = {t for t in interrupted if max(acks_by_token[t]) > events["restarted"]
+                   or result.finished_tokens.get(t, 0) > events["restarted"]}
         figures.update(killed_after_s=kill_at, restart_s=events["restarted"] - kill,
                        interrupted=len(interrupted), resumed=len(resumed),
                        acknowledged_before_kill=sum(m < kill for ms in acks_by_token.values() for m in ms))
