@@ -13,7 +13,13 @@ from benchmark.study.export import export_study
 from benchmark.study.server.steps import question_screens
 
 from ..leaderboard.browser import chromium_driver
-from .server_fixtures import ab_study, browser_participant, jspsych_installed, serve_in_thread, study_clips  # noqa: F401
+from .server_fixtures import (  # noqa: F401 - fixtures
+    ab_study,
+    browser_participant,
+    jspsych_installed,
+    serve_in_thread,
+    study_clips,
+)
 
 
 def prefer(*good_rows):

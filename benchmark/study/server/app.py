@@ -51,7 +51,8 @@ _ID = re.compile(r"[A-Za-z0-9_.:-]{1,64}")
 _TOKEN = re.compile(r"[A-Za-z0-9_-]{20,128}")
 _SECURITY_HEADERS = {
     "Content-Security-Policy": ("default-src 'self'; script-src 'self'; style-src 'self' 'unsafe-inline'; "
-                                "media-src 'self'; img-src 'self' data:; font-src 'self' data:; object-src 'none'; base-uri 'none'; "
+                                "media-src 'self'; img-src 'self' data:; font-src 'self' data:; object-src 'none'; "
+                                "base-uri 'none'; "
                                 "frame-ancestors 'none'; form-action 'self'"),
     "X-Content-Type-Options": "nosniff",
     "Referrer-Policy": "no-referrer",
