@@ -198,3 +198,47 @@ def test_a_receiver_not_listening_yet_is_no_error(track, capsys):
 def test_parse_target_keeps_ipv6_hosts():
     target = parse_target("osc://[::1]:39539")
     assert (target.host, target.port, str(target)) == ("::1", 39539, "osc://[::1]:39539")
+
+
+def test_a_vertex_method_is_solved_on_the_rig_by_the_streaming_solver(tmp_path, monkeypatch, capsys):
+    """faceformer's meshes (here written by a stand-in for its generate step: training it is slow) are
+    solved frame by frame on --rig; the weights sent are the streaming solver's, near the true ones."""
+    soundfile = pytest.importorskip("soundfile")
+    import benchmark.generate
+    from blendvoca.fit.streaming import StreamingSolver
+    from blendvoca.rig import Rig
+
+    rng = np.random.default_rng(1)
+    names = ("jawOpen", "mouthFunnel", "mouthSmileLeft", "mouthSmileRight")
+    neutral = rng.normal(0, 0.05, (60, 3))
+    rig = Rig(neutral, rng.normal(0, 0.01, (4, 60, 3)), names, np.array([[0, 1, 2]]))
+    rig.save(tmp_path / "rig.npz")
+    truth = rng.uniform(0.1, 0.9, (30, 4))
+    truth[:, 3] = truth[:, 2]  # symmetric smile: the solver's symmetry term keeps it
+    frames = rig.evaluate(truth)
+
+    def fake_generate_file(method, audio, out, **kwargs):
+        assert method == "faceformer" and str(out).endswith(".npy")
+        np.save(out, frames[None].astype(np.float32))
+        return [out]
+
+    monkeypatch.setattr(benchmark.generate, "generate_file", fake_generate_file)
+    wav = tmp_path / "speech.wav"
+    soundfile.write(wav, np.zeros(8000, np.float32), 16000)
+    with DatagramRecorder() as receiver:
+        assert main(["--method", "faceformer", "--checkpoint", str(tmp_path), "--audio", str(wav), "--quiet",
+                     "--rig", str(tmp_path / "rig.npz"), "--fps", "300",
+                     "--to", f"livelink://127.0.0.1:{receiver.port}"]) == 0
+        assert receiver.wait(30, 5)
+    got = np.stack([decode_packet(data).values for _, data in receiver.datagrams])[:, [PACKET_NAMES.index(n)
+                                                                                       for n in names]]
+    expected = StreamingSolver.from_rig(rig).solve_sequence(frames.astype(np.float32).astype(np.float64))
+    np.testing.assert_allclose(got, expected, atol=1e-6)
+    assert np.abs(got - truth).max() < 0.1
+
+
+def test_a_vertex_method_without_rig_is_refused(tmp_path, capsys):
+    wav = tmp_path / "speech.wav"
+    wav.write_bytes(b"")
+    assert main(["--method", "faceformer", "--audio", str(wav), "--to", "livelink://127.0.0.1:11111"]) == 2
+    assert "outputs vertices; give --rig" in _error_line(capsys)
