@@ -5,6 +5,7 @@
     python -m blendvoca.live --coeffs FILE --to livelink://HOST:PORT [--fps F] [--loop]
     python -m blendvoca.live --method NAME [--checkpoint DIR] [--rig RIG] --audio WAV \\
         --to osc://HOST:PORT [--osc-style arkit|vmc] [--play-audio]
+    python -m blendvoca.live --listen livelink://HOST:PORT --out take.csv [--frames N] [--seconds S]
 
 ``--to livelink://HOST:11111`` sends Live Link Face's UDP packets (Unreal's Live Link
 Face source: add it in Window > Live Link with the subject name of ``--subject``);
@@ -17,11 +18,14 @@ VSeeFace and VirtualMotionCapture, port 39539). ``--coeffs`` is a BlendVOCA / SA
 Frames leave at ``start + k / fps`` on the monotonic clock; ``--loop`` repeats the
 track until Ctrl-C. ``--play-audio`` plays ``--audio`` from the first frame (needs
 ``sounddevice``). The last line says how many frames were sent and how late.
+``--listen livelink://HOST:PORT --out take.csv [--frames N] [--seconds S]`` receives
+instead: the Live Link packets that arrive (from this command or Epic's app) are
+written as a Live Link Face take.
 
 A mistake is one ``error:`` line and exit status 2, before the first frame: a malformed
 ``--to`` (scheme, host, port) or one that cannot be reached, a file that is missing or
 malformed, a track with names the protocol has no place for (named), a method or WAV
-``benchmark.generate`` refuses. See docs/streaming.md, "Live output".
+``benchmark.generate`` refuses, a ``--listen`` port in use. See docs/streaming.md, "Live output".
 """
 
 from __future__ import annotations
@@ -31,6 +35,7 @@ import sys
 from blendvoca import cli
 from blendvoca.errors import UserError
 from blendvoca.live import livelink_udp, osc
+from blendvoca.live.receiver import parse_listen, record_take
 from blendvoca.live.sender import open_socket, parse_target, send_frames
 from blendvoca.live.sources import track_from_file, track_from_method
 
@@ -47,8 +52,13 @@ def build_parser():
                            "or benchmark.generate's .npy")
     what.add_argument("--method", metavar="NAME",
                       help="animate --audio with this method first (python -m benchmark.run --list)")
-    p.add_argument("--to", required=True, metavar="URL",
+    what.add_argument("--listen", metavar="URL",
+                      help="receive instead: record the Live Link packets arriving at livelink://HOST:PORT to --out")
+    p.add_argument("--to", metavar="URL",
                    help="livelink://HOST:PORT (Unreal's Live Link Face source, port 11111) or osc://HOST:PORT")
+    p.add_argument("--out", metavar="FILE", help="--listen: the Live Link Face take (.csv) to write")
+    p.add_argument("--frames", type=int, metavar="N", help="--listen: stop after N frames (default: at Ctrl-C)")
+    p.add_argument("--seconds", type=float, metavar="S", help="--listen: stop after S seconds")
     p.add_argument("--audio", metavar="WAV", help="speech: the input of --method, the sound of --play-audio")
     p.add_argument("--checkpoint", metavar="DIR", help="--method's trained folder (benchmark.run --checkpoint DIR)")
     p.add_argument("--style", metavar="S", help="--method's speaker (default: its first)")
@@ -78,6 +88,24 @@ def build_parser():
 
 def _checked_args(args) -> None:
     """Refuse flag combinations that cannot run, before anything is read or generated."""
+    if args.listen is not None:
+        for flag, value in (("--to", args.to), ("--audio", args.audio), ("--loop", args.loop)):
+            if value:
+                raise UserError(f"{flag} belongs to sending; --listen records what arrives")
+        if args.out is None:
+            raise UserError("--listen needs --out FILE.csv, the Live Link Face take to write")
+        if not str(args.out).lower().endswith(".csv"):
+            raise UserError(f"--out {args.out}: expected a .csv (a Live Link Face take)")
+        if args.frames is not None and args.frames < 1:
+            raise UserError(f"--frames: expected an integer >= 1, got {args.frames}")
+        if args.seconds is not None and not args.seconds > 0:
+            raise UserError(f"--seconds: expected a positive number, got {args.seconds}")
+        return
+    for flag, value in (("--out", args.out), ("--frames", args.frames), ("--seconds", args.seconds)):
+        if value is not None:
+            raise UserError(f"{flag} belongs to --listen")
+    if args.to is None:
+        raise UserError("--to URL is needed: livelink://HOST:PORT or osc://HOST:PORT")
     if args.method is None:
         for flag, value in (("--checkpoint", args.checkpoint), ("--style", args.style), ("--rig", args.rig),
                             ("--config", args.config or None), ("--preset", args.preset)):
@@ -94,6 +122,11 @@ def main(argv=None) -> int:
     """Command line entry point (see the module docstring)."""
     args = build_parser().parse_args(argv)
     _checked_args(args)
+    if args.listen is not None:
+        host, port = parse_listen(args.listen)
+        written = record_take(host, port, args.out, frames=args.frames, seconds=args.seconds)
+        print(f"recorded {written} frames from {args.listen} to {args.out}")
+        return cli.EXIT_OK
     target = parse_target(args.to)
     carries = ("Live Link Face's packet (the 52 ARKit shapes and 9 rotations)" if target.scheme == "livelink"
                else "OSC output (ARKit shapes by name)")

@@ -242,3 +242,69 @@ def test_a_vertex_method_without_rig_is_refused(tmp_path, capsys):
     wav.write_bytes(b"")
     assert main(["--method", "faceformer", "--audio", str(wav), "--to", "livelink://127.0.0.1:11111"]) == 2
     assert "outputs vertices; give --rig" in _error_line(capsys)
+
+
+def _free_port() -> int:
+    import socket
+
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:
+        probe.bind(("127.0.0.1", 0))
+        return probe.getsockname()[1]
+
+
+def _bound(port: int) -> bool:
+    import socket
+
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:
+        try:
+            probe.bind(("127.0.0.1", port))
+        except OSError:
+            return True
+    return False
+
+
+def test_listen_records_what_the_sender_sends_as_a_live_link_take(tmp_path, capsys):
+    from blendvoca.io.livelink import read_livelink_take
+
+    rng = np.random.default_rng(5)
+    weights, pose = rng.uniform(0, 1, (150, 52)), rng.uniform(-0.5, 0.5, (150, 9))
+    take = tmp_path / "take.csv"
+    write_livelink_take(take, weights, ARKIT_FACE_ORDER, fps=60.0, pose=pose)
+    port, out, codes = _free_port(), tmp_path / "recorded.csv", []
+    listener = threading.Thread(target=lambda: codes.append(main(
+        ["--listen", f"livelink://127.0.0.1:{port}", "--out", str(out), "--frames", "150", "--seconds", "20"])))
+    listener.start()
+    for _ in range(200):
+        if _bound(port):
+            break
+        threading.Event().wait(0.02)
+    assert main(["--coeffs", str(take), "--to", f"livelink://127.0.0.1:{port}", "--quiet", "--fps", "120"]) == 0
+    listener.join(30)
+    assert codes == [0]
+    recorded = read_livelink_take(out)
+    assert recorded.fps == 120.0 and recorded.weights.shape == (150, 52)
+    np.testing.assert_allclose(recorded.weights, weights, atol=1e-7)
+    np.testing.assert_allclose(recorded.pose, pose, atol=1e-7)
+    assert "recorded 150 frames" in capsys.readouterr().out
+
+
+def test_listen_on_a_port_in_use_is_one_error_line_and_writes_nothing(tmp_path, capsys):
+    out = tmp_path / "take.csv"
+    with DatagramRecorder() as taken:
+        port = taken.port
+        assert main(["--listen", f"livelink://127.0.0.1:{port}", "--out", str(out), "--frames", "1"]) == 2
+    line = _error_line(capsys)
+    assert f"port {port} on 127.0.0.1 is in use" in line and "--listen" in line
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--listen", "osc://127.0.0.1:9000", "--out", "t.csv"], "the scheme 'osc'"),
+    (["--listen", "livelink://127.0.0.1:11111"], "--listen needs --out"),
+    (["--listen", "livelink://127.0.0.1:11111", "--out", "t.csv", "--to", "osc://127.0.0.1:1"], "--to belongs"),
+    (["--coeffs", "x.csv", "--to", "osc://127.0.0.1:1", "--frames", "3"], "--frames belongs to --listen"),
+    (["--coeffs", "x.csv"], "--to URL is needed"),
+])
+def test_listen_flags_are_checked(argv, message, capsys):
+    assert main(argv) == 2
+    assert message in _error_line(capsys)
