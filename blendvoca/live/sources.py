@@ -14,7 +14,6 @@ from __future__ import annotations
 import csv
 import os
 import tempfile
-from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -182,10 +181,3 @@ def solved_vertices(frames, rig) -> tuple[np.ndarray, tuple[str, ...]]:
     solver = StreamingSolver.from_rig(rig)
     return solver.solve_sequence(np.asarray(frames, dtype=np.float64)), tuple(rig.names)
 
-
-def check_track_names(names: Sequence[str]) -> None:
-    """A UserError for names repeated (any case)."""
-    lower = [str(n).lower() for n in names]
-    repeated = sorted({n for n in names if lower.count(str(n).lower()) > 1})
-    if repeated:
-        raise UserError(f"track names repeated (any case): {repeated}")
