@@ -188,6 +188,7 @@ ROOMS = (
     (("benchmark.protocol",), ABOVE),
     (("benchmark.run", "benchmark.generate", "benchmark.rescore", "benchmark.sanity", "benchmark.testing",
       "benchmark.study"), ABOVE),
+    (("blendvoca.live",), ABOVE),  # live output: its --method animates through benchmark.generate
     (("baselines.wav2vec2", "baselines.vq", "baselines.common"), ("blendvoca", "benchmark.methods")),
     (("baselines.*",), ("blendvoca", "benchmark.methods", "baselines.wav2vec2", "baselines.vq", "baselines.common")),
     (("leaderboard",), ABOVE),
