@@ -229,8 +229,8 @@ def test_playback_moves_the_mouth_in_sync_with_the_audio(browser, served, site):
     def canvas_at(seconds):
         return browser.execute_async_script(
             "const done = arguments[arguments.length - 1];"
-            "window.player.seek(arguments[0]).then(() => done("
-            "[window.player.frame, document.getElementById('player-canvas').toDataURL()]));", seconds)
+            "window.player.seek(arguments[0]).then(() => done([window.player.frame, "
+            "[...document.querySelectorAll('#players canvas')].map(c => c.toDataURL()).join()]));", seconds)
 
     jaw = gt["names"].index("jawOpen")
     opening = [f[jaw] for f in gt["coeffs"]]
