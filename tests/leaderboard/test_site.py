@@ -193,6 +193,7 @@ def test_leaderboard_page_rows_and_sorting(browser, served, results_dir):
                                   ".map(r => r.dataset.run)")
     assert runs == ["late", "still"] and len(refs) == 2
     assert sorted(runs + refs) == sorted(p.stem for p in results_dir.glob("*.json"))  # one row per stored run
+    browser.find_element("css selector", "#table-0 .tabs button[data-tab='vertex']").click()  # its metric group
     header = browser.find_element("css selector", "th[data-metric='lve_rig']")
     header.click()  # descending first
     assert browser.execute_script("return [...document.querySelectorAll('tbody.methods tr')]"

@@ -7,7 +7,7 @@ import { GLTFLoader } from "../vendor/jsm/loaders/GLTFLoader.js";
 import { el, fetchJSON, param } from "./site.js";
 
 const FPS = 60;
-const VIEW = 360;  // px: each view (front, side) of a column is VIEW x VIEW
+const VIEW = 400;  // px: each view (front, side) of a column is VIEW x VIEW
 const players = document.getElementById("players");
 const audio = document.getElementById("audio");
 const scrub = document.getElementById("scrub");
@@ -89,9 +89,10 @@ function cameras(template, aspect) {
   const box = template.geometry.boundingBox;
   const center = box.getCenter(new THREE.Vector3());
   const size = box.getSize(new THREE.Vector3());
-  // Frame the face: the lower two thirds of the head fill the view, the mouth near the centre.
-  center.y -= 0.12 * size.y;
-  const distance = 0.75 * size.y / (2 * Math.tan((25 / 2) * Math.PI / 180));
+  // Frame the head: it fills about 85 % of the view's height (the rigs' head spans about half
+  // their bounding box's height, whose lower part is the neck and shoulders).
+  center.y -= 0.058 * size.y;
+  const distance = 0.62 * size.y / (2 * Math.tan((25 / 2) * Math.PI / 180));
   const front = new THREE.PerspectiveCamera(25, aspect, distance / 100, distance * 10);
   front.position.set(center.x, center.y, center.z + distance);
   front.lookAt(center);
