@@ -213,6 +213,11 @@ def test_screenshots_of_the_table_and_a_chart(browser, committed_site, track_sit
     _, url = track_site
     assert open_page(browser, url + "method.html?run=late") == []
     browser.find_element("id", "plots").screenshot(str(folder / "site-method.png"))
+    outside = browser.execute_script(
+        "return [...document.querySelectorAll('#plots svg')].flatMap(svg => [...svg.querySelectorAll('text')]"
+        ".filter(t => { const b = t.getBBox(); return b.x < 0 || b.y < 0 || b.x + b.width > svg.width.baseVal.value"
+        " || b.y + b.height > svg.height.baseVal.value; }).map(t => t.textContent))")
+    assert outside == []  # the method page's plots clip no text either
     from PIL import Image
 
     assert Image.open(folder / "site-leaderboard.png").size == (WIDTH, HEIGHT)

@@ -144,7 +144,7 @@ export function svg(tag, attrs = {}) {
 // Line plot of several series over frames: series = [{values, color, label, dash}].
 export function linePlot(series, { width = 640, height = 200, fps = 60, title = "", yLabel = "" } = {}) {
   const pad = { left: 48, right: 10, top: 34, bottom: 28 };
-  const root = svg("svg", { width, height, viewBox: `0 0 ${width} ${height}` });
+  const root = svg("svg", { width, height, viewBox: `0 0 ${width} ${height}`, "font-family": CHART_FONT });
   const all = series.flatMap((s) => s.values.filter((v) => v !== null));
   const length = Math.max(1, ...series.map((s) => s.values.length));
   let lo = Math.min(0, ...all), hi = Math.max(...all, lo + 1e-9);
@@ -171,7 +171,7 @@ export function linePlot(series, { width = 640, height = 200, fps = 60, title = 
     const label = svg("text", { x: legendX, y: 27, "text-anchor": "end", "font-size": 11, fill: s.color });
     label.textContent = s.label;
     root.append(label);
-    legendX -= 12 + 6.5 * s.label.length;
+    legendX -= 12 + textWidth(s.label, 11);  // measured: legends never overlap
   }
   for (const s of series) {
     const points = s.values.map((v, i) => (v === null ? null : `${x(i).toFixed(1)},${y(v).toFixed(1)}`)).filter(Boolean);
