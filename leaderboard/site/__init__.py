@@ -2,13 +2,14 @@
 
 Three pages, working offline through any local web server (``--serve`` starts one):
 
-- ``index.html``: the leaderboard (grouped metrics with intervals, sortable,
-  reference rows apart, a chart per metric group);
+- ``index.html``: the leaderboard (one metric group at a time, chosen by tabs, with
+  intervals, sortable, a sticky method column, reference rows apart; a chart per metric
+  scaled to the ranked rows);
 - ``method.html?run=<run>``: one run's per-sentence scores, coefficient tracks
   against the ground truth, lip motion against the speech envelope, provenance;
 - ``play.html?subject=<s>&sentence=<q>&runs=<run>,...``: ground truth and the chosen
-  runs side by side on the speaker's rig (front and side views), in sync with the
-  sentence's audio.
+  runs side by side on the speaker's rig, a labelled column each (front and side
+  views), in sync with the sentence's audio.
 
 See docs/site.md.
 """

@@ -193,6 +193,7 @@ def test_leaderboard_page_rows_and_sorting(browser, served, results_dir):
                                   ".map(r => r.dataset.run)")
     assert runs == ["late", "still"] and len(refs) == 2
     assert sorted(runs + refs) == sorted(p.stem for p in results_dir.glob("*.json"))  # one row per stored run
+    browser.find_element("css selector", "#table-0 .tabs button[data-tab='vertex']").click()  # its metric group
     header = browser.find_element("css selector", "th[data-metric='lve_rig']")
     header.click()  # descending first
     assert browser.execute_script("return [...document.querySelectorAll('tbody.methods tr')]"
@@ -229,8 +230,8 @@ def test_playback_moves_the_mouth_in_sync_with_the_audio(browser, served, site):
     def canvas_at(seconds):
         return browser.execute_async_script(
             "const done = arguments[arguments.length - 1];"
-            "window.player.seek(arguments[0]).then(() => done("
-            "[window.player.frame, document.getElementById('player-canvas').toDataURL()]));", seconds)
+            "window.player.seek(arguments[0]).then(() => done([window.player.frame, "
+            "[...document.querySelectorAll('#players canvas')].map(c => c.toDataURL()).join()]));", seconds)
 
     jaw = gt["names"].index("jawOpen")
     opening = [f[jaw] for f in gt["coeffs"]]

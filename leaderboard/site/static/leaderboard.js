@@ -1,6 +1,7 @@
-// Leaderboard page: one grouped, sortable table per dataset, a chart per metric group, and
-// the probability of improvement between any two rows for a chosen metric.
-import { arrow, el, fetchJSON, fmt, intervalChart, makeSortable } from "./site.js";
+// Leaderboard page: one sortable table per dataset showing one metric group at a time (tabs;
+// the method column stays in view), the group's charts, and the probability of improvement
+// between any two rows for a chosen metric.
+import { arrow, el, fetchJSON, fmt, intervalChart, makeSortable, param, rowLabel } from "./site.js";
 
 const NOT_SETTLED = "\u2020";  // the tables' footnote mark
 
@@ -8,11 +9,11 @@ function isAvOffset(name) {
   return name.startsWith("av_offset_") || name.startsWith("av_lag_bias_");
 }
 
-function metricCell(row, name) {
+function metricCell(row, name, group) {
   const m = row.metrics[name];
-  if (!m || m.mean === null) return el("td", { "data-value": "" });
-  const cell = el("td", { "data-value": String(m.mean), class: (row.best || []).includes(name) ? "best" : "" },
-    fmt(m.mean));
+  if (!m || m.mean === null) return el("td", { "data-value": "", "data-group": group });
+  const cell = el("td", { "data-value": String(m.mean), "data-group": group,
+    class: (row.best || []).includes(name) ? "best" : "" }, fmt(m.mean));
   if (m.ci95) cell.append(" ", el("span", { class: "ci", text: `[${fmt(m.ci95[0])}, ${fmt(m.ci95[1])}]` }));
   if (m.seed_range) {
     cell.append(" ", el("span", { class: "seeds", title: "lowest and highest per-seed mean",
@@ -21,7 +22,7 @@ function metricCell(row, name) {
   return cell;
 }
 
-function rowElement(row, metrics) {
+function rowElement(row, metrics, groupOf) {
   const label = el("td", { class: "label", "data-value": row.label });
   label.append(el("a", { href: `method.html?run=${encodeURIComponent(row.run)}`, text: row.label }));
   if (row.settled === false) {
@@ -33,7 +34,7 @@ function rowElement(row, metrics) {
     label.append(el("span", { class: "ci", text: ` seeds ${row.seeds.join(",")}` }));
   }
   const tr = el("tr", { class: row.reference ? "reference" : "method", "data-run": row.run }, label);
-  for (const name of metrics) tr.append(metricCell(row, name));
+  for (const name of metrics) tr.append(metricCell(row, name, groupOf[name]));
   // real-time factor: wall seconds per second of audio (results without a latency record: "-")
   const rtf = row.latency ? row.latency.rtf : null;
   tr.append(el("td", { class: "rtf", "data-value": rtf === null || rtf === undefined ? "" : String(rtf),
@@ -117,7 +118,10 @@ function renderTable(table, index) {
   }
   const metrics = table.groups.flatMap((g) => g.metrics);
   const groupRow = el("tr", {}, el("th", { class: "label", rowspan: "2", text: "method" }));
-  for (const group of table.groups) groupRow.append(el("th", { colspan: String(group.metrics.length), text: group.name }));
+  const groupOf = Object.fromEntries(table.groups.flatMap((g) => g.metrics.map((name) => [name, g.name])));
+  for (const group of table.groups) {
+    groupRow.append(el("th", { colspan: String(group.metrics.length), "data-group": group.name, text: group.name }));
+  }
   groupRow.append(el("th", { rowspan: "2", class: "sortable rtf", "data-column": String(metrics.length + 1),
     title: "real-time factor: wall seconds of generation per second of audio (below 1: faster than the speech)",
     text: "RTF" }));
@@ -126,37 +130,54 @@ function renderTable(table, index) {
     const spec = table.metrics[name];
     let title = `${name}${spec.unit ? ` (${spec.unit})` : ""}`;
     if (isAvOffset(name) && table.notes.av_offset) title += `\n${table.notes.av_offset}`;
-    const th = el("th", { class: "sortable", "data-column": String(i + 1), "data-metric": name, title });
+    const th = el("th", { class: "sortable", "data-column": String(i + 1), "data-metric": name,
+      "data-group": groupOf[name], title });
     th.textContent = `${spec.label} ${arrow(spec.higher_is_better)}`;
     if (table.best_rule[name] === "intervals") th.classList.add("fallback");
     metricRow.append(th);
   });
   const methods = el("tbody", { class: "methods" });
-  table.methods.forEach((row) => methods.append(rowElement(row, metrics)));
+  table.methods.forEach((row) => methods.append(rowElement(row, metrics, groupOf)));
   const references = el("tbody", { class: "references" });
   references.append(el("tr", { class: "separator" },
     el("td", { colspan: String(metrics.length + 2), text: "reference and sanity rows (not ranked)" })));
-  table.references.forEach((row) => references.append(rowElement(row, metrics)));
+  table.references.forEach((row) => references.append(rowElement(row, metrics, groupOf)));
   const tableEl = el("table", { class: "leaderboard" }, el("thead", {}, groupRow, metricRow), methods, references);
   makeSortable(tableEl);
-  section.append(tableEl, ...notes(table));
+  // one metric group at a time: tabs above the table; the same tab picks the charts below
+  const tabs = el("div", { class: "tabs", role: "tablist" });
+  const show = (name) => {
+    section.querySelectorAll("[data-group]").forEach((node) => { node.hidden = node.dataset.group !== name; });
+    tabs.querySelectorAll("button").forEach((b) => b.setAttribute("aria-selected", String(b.dataset.tab === name)));
+    section.dataset.shownGroup = name;
+    const shown = (table.groups.find((g) => g.name === name) || { metrics: [] }).metrics.length;
+    section.querySelectorAll("tr.separator td").forEach((td) => { td.colSpan = shown + 2; });
+  };
+  for (const group of table.groups) {
+    tabs.append(el("button", { type: "button", role: "tab", "data-tab": group.name,
+      title: group.metrics.map((n) => table.metrics[n].label).join(", "),
+      text: `${group.name} (${group.metrics.length})`, onclick: () => show(group.name) }));
+  }
+  section.append(tabs, el("div", { class: "table-scroll" }, tableEl), ...notes(table));
 
   for (const group of table.groups) {
-    const charts = el("div", { class: "charts" });
+    const charts = el("div", { class: "charts", "data-group": group.name });
     for (const name of group.metrics) {
       const spec = table.metrics[name];
       const rows = [...table.methods, ...table.references].map((row) => {
         const m = row.metrics[name] || {};
-        return { label: row.label, reference: row.reference, mean: m.mean ?? null,
+        return { label: rowLabel(row), run: row.run, reference: row.reference, mean: m.mean ?? null,
           lo: m.ci95 ? m.ci95[0] : null, hi: m.ci95 ? m.ci95[1] : null };
       });
       if (!rows.some((r) => r.mean !== null)) continue;
       charts.append(el("div", { class: "chart", "data-metric": name },
         intervalChart(rows, { title: spec.label, unit: spec.unit, higherIsBetter: spec.higher_is_better })));
     }
-    section.append(el("h3", { text: group.name }), charts);
+    section.append(el("h3", { "data-group": group.name, text: `${group.name}: one chart per metric` }), charts);
   }
   section.append(improvementSection(table, index));
+  const wanted = table.groups.find((g) => g.name === param("group"));
+  show((wanted || table.groups[0]).name);
   return section;
 }
 

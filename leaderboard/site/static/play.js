@@ -1,17 +1,20 @@
 // Playback page: the ground truth and chosen runs side by side on the speaker's rig
-// (glTF morph targets), front and side views, driven by the audio element's clock.
+// (glTF morph targets), one labelled column per face with a front and a side view,
+// driven by the audio element's clock. One WebGL renderer draws every view and each
+// view is copied into its column's 2D canvas (so any number of columns works).
 import * as THREE from "three";
 import { GLTFLoader } from "../vendor/jsm/loaders/GLTFLoader.js";
 import { el, fetchJSON, param } from "./site.js";
 
 const FPS = 60;
-const canvas = document.getElementById("player-canvas");
+const VIEW = 400;  // px: each view (front, side) of a column is VIEW x VIEW
+const players = document.getElementById("players");
 const audio = document.getElementById("audio");
 const scrub = document.getElementById("scrub");
 const timeLabel = document.getElementById("time");
-const renderer = new THREE.WebGLRenderer({ canvas, antialias: true, preserveDrawingBuffer: true });
+const renderer = new THREE.WebGLRenderer({ antialias: true, preserveDrawingBuffer: true });
 renderer.setPixelRatio(1);
-renderer.setScissorTest(true);
+renderer.setSize(VIEW, VIEW, false);
 
 const leaderboard = await fetchJSON("data/leaderboard.json");
 const runs = leaderboard.tables.flatMap((t) => [...t.methods, ...t.references]).filter((r) => r.has_tracks);
@@ -55,19 +58,30 @@ let panels = [];
 let frames = 1;
 let rigNames = [];
 
+// Skin on the front faces; the back faces (the inside of the head, seen through the open
+// mouth, the eyes or the neck) a dark unlit red, so the mouth reads as an opaque cavity.
+const SKIN = new THREE.MeshStandardMaterial({ color: 0xd9a58c, roughness: 0.8, metalness: 0.0, side: THREE.FrontSide });
+const CAVITY = new THREE.MeshBasicMaterial({ color: 0x3b1414, side: THREE.BackSide });
+
 function makePanel(template, title, track) {
   const scene = new THREE.Scene();
   scene.background = new THREE.Color(0xf6f6f6);
   const mesh = template.clone();
-  mesh.material = new THREE.MeshStandardMaterial({ color: 0xd9a58c, roughness: 0.8, metalness: 0.0 });
-  scene.add(mesh);
+  mesh.material = SKIN;
+  const inside = template.clone();
+  inside.material = CAVITY;
+  inside.morphTargetInfluences = mesh.morphTargetInfluences;  // one set of weights moves both
+  scene.add(mesh, inside);
   scene.add(new THREE.HemisphereLight(0xffffff, 0x444444, 1.6));
   const light = new THREE.DirectionalLight(0xffffff, 1.8);
   light.position.set(0.3, 0.4, 1.0);
   scene.add(light);
   const dictionary = mesh.morphTargetDictionary || {};
   const columns = track.names.map((name) => dictionary[name]);
-  return { scene, mesh, title, track, columns };
+  const canvas = el("canvas", { class: "head", width: String(VIEW), height: String(2 * VIEW),
+    "aria-label": `${title}: front and side view` });
+  const figure = el("figure", { class: "head" }, el("figcaption", { text: title }), canvas);
+  return { scene, mesh, title, track, columns, figure, context: canvas.getContext("2d") };
 }
 
 function cameras(template, aspect) {
@@ -75,9 +89,10 @@ function cameras(template, aspect) {
   const box = template.geometry.boundingBox;
   const center = box.getCenter(new THREE.Vector3());
   const size = box.getSize(new THREE.Vector3());
-  // Frame the face: the lower two thirds of the head fill the view, the mouth near the centre.
-  center.y -= 0.12 * size.y;
-  const distance = 0.75 * size.y / (2 * Math.tan((25 / 2) * Math.PI / 180));
+  // Frame the head: it fills about 85 % of the view's height (the rigs' head spans about half
+  // their bounding box's height, whose lower part is the neck and shoulders).
+  center.y -= 0.058 * size.y;
+  const distance = 0.62 * size.y / (2 * Math.tan((25 / 2) * Math.PI / 180));
   const front = new THREE.PerspectiveCamera(25, aspect, distance / 100, distance * 10);
   front.position.set(center.x, center.y, center.z + distance);
   front.lookAt(center);
@@ -94,24 +109,15 @@ function currentFrame() {
 }
 
 function render(frame = currentFrame()) {
-  const width = canvas.width, height = canvas.height;
-  const cellWidth = Math.floor(width / Math.max(1, panels.length));
-  const cellHeight = Math.floor(height / 2);
-  renderer.setSize(width, height, false);
-  panels.forEach((panel, i) => {
+  panels.forEach((panel) => {
     const weights = panel.track.coeffs[Math.min(frame, panel.track.coeffs.length - 1)];
     panel.columns.forEach((target, c) => {
       if (target !== undefined) panel.mesh.morphTargetInfluences[target] = weights[c];
     });
-    views.front.aspect = views.side.aspect = cellWidth / cellHeight;
-    views.front.updateProjectionMatrix();
-    views.side.updateProjectionMatrix();
-    renderer.setViewport(i * cellWidth, cellHeight, cellWidth, cellHeight);
-    renderer.setScissor(i * cellWidth, cellHeight, cellWidth, cellHeight);
-    renderer.render(panel.scene, views.front);
-    renderer.setViewport(i * cellWidth, 0, cellWidth, cellHeight);
-    renderer.setScissor(i * cellWidth, 0, cellWidth, cellHeight);
-    renderer.render(panel.scene, views.side);
+    [views.front, views.side].forEach((camera, row) => {
+      renderer.render(panel.scene, camera);
+      panel.context.drawImage(renderer.domElement, 0, row * VIEW, VIEW, VIEW);
+    });
   });
   timeLabel.textContent = `${audio.currentTime.toFixed(2)} s — frame ${frame} — ${panels.map((p) => p.title).join(" | ")}`;
   if (audio.duration) scrub.value = String(Math.round(1000 * audio.currentTime / audio.duration));
@@ -143,6 +149,7 @@ async function load() {
     }
   }
   panels = newPanels;
+  players.replaceChildren(...panels.map((p) => p.figure));
   views = cameras(template, 1);
   audio.src = `data/audio/${subject}/${sentence}.wav`;
   await new Promise((resolve) => {
@@ -188,7 +195,7 @@ document.getElementById("samples").addEventListener("change", load);
 // Say on the page which runs cannot be played back and what playback needs.
 const silent = leaderboard.tables.flatMap((t) => [...t.methods, ...t.references]).filter((r) => !r.has_tracks);
 if (silent.length) {
-  document.getElementById("player-canvas").before(el("p", { class: "note", id: "playback-needs",
+  players.before(el("p", { class: "note", id: "playback-needs",
     text: `No 3D playback for ${silent.map((r) => r.label).join(", ")}: playback needs a run's generated tracks ` +
       "next to its result file and the BlendVOCA build it was scored on, on the machine that builds the site " +
       "(python -m leaderboard.site --results DIR --data BUILD --out SITE when the build is not at the path the " +
@@ -198,7 +205,7 @@ if (silent.length) {
 if (sentences.size) {
   await load();
 } else {
-  canvas.replaceWith(el("p", { class: "note", id: "no-playback",
+  players.replaceWith(el("p", { class: "note", id: "no-playback",
     text: "No run in this site stored tracks on a dataset available where the site was made (see the method pages)." }));
 }
 document.body.dataset.ready = "true";
