@@ -199,7 +199,7 @@ def create_app(folder, db_url: str | None = None, *, completion_url: str | None 
         done = sum((s.trial, s.question) in answered for s in counted)
         out = {"step": step, "progress": {"done": done, "total": len(counted)}}
         if step == "sound_check":
-            out["sound_check"] = {"media": "media/sound-check",
+            out["sound_check"] = {"media": "media/sound-check", "prompt": study.sound_check.prompt,
                                   "attempts_left": SOUND_CHECK_ATTEMPTS - participant.sound_check_attempts,
                                   "failed_before": participant.sound_check_attempts > 0}
         if screen is not None:
@@ -272,7 +272,7 @@ def create_app(folder, db_url: str | None = None, *, completion_url: str | None 
         participant = session(token)
         if study.sound_check is None or next_step(study, participant, set())[0] != "sound_check":
             raise Refused(409, "the sound check is not the current step")
-        passed = word.word.strip().casefold() == study.sound_check.answer.strip().casefold()
+        passed = study.sound_check.accepts(word.word)
         participant = store.record_sound_check(participant.id, passed, SOUND_CHECK_ATTEMPTS)
         return {"passed": passed, "attempts_left": SOUND_CHECK_ATTEMPTS - participant.sound_check_attempts,
                 "state": state(participant)}

@@ -98,10 +98,10 @@
     const sc = data.sound_check;
     trial = {
       type: jsPsychSurveyText,
-      preamble: "<h1>Sound check</h1><p>Turn your sound on, press Play and type the word you hear.</p>" +
-        (sc.failed_before ? '<p class="warning" id="sound-retry">That was not the word. Please play the clip again (' +
+      preamble: '<h1>Sound check</h1><p id="sound-prompt">' + esc(sc.prompt) + "</p>" +
+        (sc.failed_before ? '<p class="warning" id="sound-retry">That was not the answer. Please play the clip again (' +
           esc(sc.attempts_left) + " tries left).</p>" : "") + clipsHtml([sc.media], null),
-      questions: [{prompt: "The word you heard:", name: "word", required: true}],
+      questions: [{prompt: "Your answer:", name: "word", required: true}],
       button_label: "Continue",
       on_load: () => { wireClips(1, () => {}); ready("sound_check"); },
       on_finish: (d) => send("sound-check", {word: String(d.response.word || "")}),
