@@ -77,7 +77,7 @@ def add_arguments(parser) -> None:
                         help="sessions finished faster are excluded by the analysis (default 120, as CodeTalker)")
     parser.add_argument("--sound-check", default=None, metavar="WAV|ASSET",
                         help="a recording of a spoken word (a WAV, or an asset id of blendvoca/data_manifest.yaml); "
-                             "default: counted beeps")
+                             "default: a word spoken by espeak-ng, or counted beeps where it is not installed")
     parser.add_argument("--sound-check-answer", default=None, metavar="WORD", help="the word spoken in --sound-check")
     parser.add_argument("--sound-check-span", default=None, metavar="START,END",
                         help="seconds of --sound-check that hold the word (default: all of it)")
@@ -175,7 +175,7 @@ def run(args) -> int:
     elif args.sound_check_answer or args.sound_check_span:
         raise UserError("--sound-check-answer and --sound-check-span go with --sound-check WAV")
     else:
-        sound = stimuli.counted_beeps(rng(3))
+        sound = stimuli.spoken_word(rng(3))
 
     # --- the clips to render -------------------------------------------------------------
     wanted = args.samples if args.samples is not None else (1 if args.design == "ab" else 3)

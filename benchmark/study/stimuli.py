@@ -320,6 +320,47 @@ def counted_beeps(rng: np.random.Generator) -> SoundClip:
                      "generated: counted beeps (no recording with a known word was given)")
 
 
+#: Words the default sound check speaks: common, two syllables, spelled as heard, no homophones.
+SPOKEN_WORDS = ("apple", "garden", "yellow", "window", "rabbit", "pencil", "button", "candle",
+                "monkey", "basket", "planet", "kitten")
+
+#: The speech synthesiser of the default sound check (Debian package ``espeak-ng``).
+ESPEAK = "espeak-ng"
+
+
+def spoken_word(rng: np.random.Generator) -> SoundClip:
+    """The default sound check: one of :data:`SPOKEN_WORDS`, spoken by ``espeak-ng`` (American
+    English voice, 130 words per minute), with 0.5 s of silence around it; counted beeps
+    (:func:`counted_beeps`, the source saying why) where the synthesiser is not installed.
+
+    A synthesiser rather than a recording: the real recordings at hand come without their
+    transcripts (docs/study.md, "The sound check"), and a word the participant must type is the
+    check the papers' protocol asks for; a listener who cannot hear it cannot pass it."""
+    import shutil
+    import subprocess
+    import tempfile
+
+    from blendvoca.io.audio import load_audio
+
+    word = SPOKEN_WORDS[int(rng.integers(len(SPOKEN_WORDS)))]
+    if shutil.which(ESPEAK) is None:
+        clip = counted_beeps(rng)
+        return SoundClip(clip.audio, clip.answer, clip.accepted, clip.prompt,
+                         f"generated: counted beeps ({ESPEAK} is not installed for a spoken word: "
+                         f"apt-get install {ESPEAK})")
+    with tempfile.TemporaryDirectory(prefix="blendvoca-word-") as tmp:
+        wav = Path(tmp) / "word.wav"
+        done = subprocess.run([ESPEAK, "-v", "en-us", "-s", "130", "-w", str(wav), word],
+                              capture_output=True, text=True, check=False)
+        if done.returncode != 0 or not wav.is_file():
+            raise DataError(f"{ESPEAK} could not speak {word!r}: {done.stderr.strip() or done.returncode}")
+        audio = load_audio(wav, rate=RATE)
+    pad = np.zeros(int(0.5 * RATE), dtype=np.float32)
+    audio = np.concatenate([pad, 0.9 * audio / max(float(np.abs(audio).max()), 1e-9), pad]).astype(np.float32)
+    return SoundClip(audio, word, (), "Turn your sound on and play the clip. Type the word you hear.",
+                     f"generated: {ESPEAK} -v en-us speaking {word!r}")
+
+
 def recorded_word(source: str, answer: str, span: tuple[float, float] | None) -> SoundClip:
     """A spoken word: a WAV (or an asset id, resolved through ``BLENDVOCA_ASSETS``), cut to ``span`` seconds."""
     from blendvoca.io.audio import load_audio

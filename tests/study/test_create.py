@@ -258,17 +258,46 @@ def test_the_sound_check_holds_the_word_cut_from_the_recording(mos_study, spoken
     assert abs(len(audio) / 16000 - 0.5) < 1e-3 and np.abs(audio).min() < 0.01 and np.abs(audio).max() > 0.4
 
 
-def test_the_default_sound_check_is_a_count_of_beeps_the_answer_names(ab_study):
+def test_the_default_sound_check_speaks_the_word_its_answer_names(ab_study):
+    """The clip is the synthesiser speaking the answer: speaking the answer again gives the same
+    samples (espeak-ng is deterministic), and another word does not."""
+    import shutil
+
+    from benchmark.study.stimuli import ESPEAK, SPOKEN_WORDS, spoken_word
     from blendvoca.io.audio import load_audio
 
+    if shutil.which(ESPEAK) is None:
+        pytest.skip(f"{ESPEAK} is not installed (apt-get install {ESPEAK}); the default is counted beeps")
     check = _study(ab_study).sound_check
-    audio = load_audio(ab_study / check.path, rate=16000)
-    loud = np.convolve(np.abs(audio) > 0.1, np.ones(80), mode="same") > 0
+    assert check.answer in SPOKEN_WORDS and check.source.endswith(f"speaking {check.answer!r}")
+    stored = load_audio(ab_study / check.path, rate=16000)
+    voiced = np.flatnonzero(np.abs(stored) > 0.05)
+    assert 0.2 < (voiced[-1] - voiced[0]) / 16000 < 1.5  # a word, not silence and not a sentence
+    assert np.abs(stored[:7000]).max() < 1e-3 and np.abs(stored[-7000:]).max() < 1e-3  # silence around it
+    by_word = {}
+    for seed in range(40):
+        clip = spoken_word(np.random.default_rng(seed))
+        by_word.setdefault(clip.answer, clip.audio)
+    assert len(stored) == len(by_word[check.answer]) and np.allclose(stored, by_word[check.answer], atol=1e-3)
+    others = [audio for word, audio in by_word.items() if word != check.answer]
+    assert others and all(len(a) != len(stored) or not np.allclose(a, stored, atol=1e-3) for a in others)
+
+
+def test_without_the_synthesiser_the_sound_check_counts_beeps(monkeypatch):
+    import shutil
+
+    from benchmark.study import stimuli
+
+    monkeypatch.setattr(shutil, "which", lambda name: None)
+    check = stimuli.spoken_word(np.random.default_rng(0))
+    assert "apt-get install espeak-ng" in check.source
+    loud = np.convolve(np.abs(check.audio) > 0.1, np.ones(80), mode="same") > 0
     onsets = int(np.sum(np.diff(loud.astype(int)) == 1))
     assert check.answer == str(onsets)
-    from benchmark.study.stimuli import NUMBER_WORDS
+    from benchmark.study.design import SoundCheck
 
-    assert check.accepts(NUMBER_WORDS[onsets]) and check.accepts(f" {onsets} ")
+    sound = SoundCheck("s.wav", "0" * 64, check.answer, check.accepted)
+    assert sound.accepts(stimuli.NUMBER_WORDS[onsets]) and sound.accepts(f" {onsets} ")
 
 
 def test_a_recording_named_by_asset_id_is_resolved_through_the_assets():

@@ -79,7 +79,7 @@ def test_an_ab_study_from_stored_rows_to_its_table(tmp_path, driver, stored_rows
                                     sound_word=study.sound_check.answer, platform={"PROLIFIC_PID": "P1"})]
         driver.delete_all_cookies()
         runs.append(browser_participant(driver, url, participant(study, prefer_row="truth", attentive=False),
-                                        sound_word=study.sound_check.accepted[0], platform={"PROLIFIC_PID": "P2"}))
+                                        sound_word=study.sound_check.answer.upper() + ".", platform={"PROLIFIC_PID": "P2"}))
         driver.delete_all_cookies()
         runs.append(browser_participant(driver, url, participant(study, prefer_row="truth"), reload_after=2,
                                         sound_word=study.sound_check.answer, platform={"PROLIFIC_PID": "P3"}))
