@@ -5,7 +5,7 @@ and a figure; with ``--board DIR`` the board's metrics held against the particip
 Reads the answers exported to ``STUDY/export`` (exported first when missing) and writes
 ``STUDY/analysis/`` (analysis.json, tables.md, tables.tex, figure.png; each file whole or not
 at all); the tables are printed. The statistics: :mod:`benchmark.study.analysis`;
-the manual: docs/study-analyze.md.
+the manual: docs/study.md, "Analysing a study".
 """
 
 from __future__ import annotations

@@ -4,7 +4,7 @@ Checks the study first (its stimuli present and unchanged, sha256 against ``stud
 installed by ``npm ci --prefix benchmark/study/web``) and serves nothing if a check fails. Answers
 go to ``STUDY/answers.sqlite`` (SQLite, WAL mode) or to ``--db postgresql://USER@HOST:PORT/NAME``.
 Binds to 127.0.0.1 unless ``--host`` says otherwise; behind a reverse proxy keep 127.0.0.1 and
-let the proxy face the internet (docs/study-serve.md).
+let the proxy face the internet (docs/study.md, "Behind a reverse proxy").
 
 Participants open ``http://HOST:PORT/`` (with the platform's URL parameters: Prolific's
 ``PROLIFIC_PID``, ``STUDY_ID``, ``SESSION_ID``; MTurk's ``workerId``, ``hitId``, ``assignmentId``).
