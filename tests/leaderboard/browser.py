@@ -70,3 +70,11 @@ def open_page(driver, url: str, timeout: float = 60.0) -> list[dict]:
             raise AssertionError(f"{url} did not become ready in {timeout} s; console: {logs}")
         time.sleep(0.1)
     return [entry for entry in driver.get_log("browser") if entry["level"] == "SEVERE"]
+
+
+@pytest.fixture(scope="module")
+def browser():
+    """A headless Chromium driver shared by a test module (imported by the modules that use it)."""
+    driver = chromium_driver()
+    yield driver
+    driver.quit()

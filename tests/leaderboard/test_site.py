@@ -13,7 +13,7 @@ import pytest
 from leaderboard.site import SITE_MARKER, build_site, framed_page
 from leaderboard.site.serve import serve_site
 
-from .browser import chromium_driver, open_page, require_three_js
+from .browser import browser, open_page, require_three_js  # noqa: F401 - browser is a fixture
 
 COMMITTED_RESULTS = Path(__file__).resolve().parents[2] / "leaderboard" / "results"
 
@@ -170,13 +170,6 @@ def test_server_answers_byte_ranges(site):
             assert response.status == 200 and response.read() == wav.read_bytes()
     finally:
         server.shutdown()
-
-
-@pytest.fixture(scope="module")
-def browser():
-    driver = chromium_driver()
-    yield driver
-    driver.quit()
 
 
 @pytest.fixture(scope="module")

@@ -18,7 +18,7 @@ from benchmark.study.answers import read_answers
 from benchmark.study.design import read_study
 from benchmark.study.export import export_study
 
-from ..leaderboard.browser import chromium_driver
+from ..leaderboard.browser import browser  # noqa: F401 - fixture
 from .create_fixtures import make_study, write_stored_rows
 from .server_fixtures import browser_participant, jspsych_installed, postgres_cluster, serve_in_thread  # noqa: F401
 
@@ -49,13 +49,6 @@ def participant(study, *, prefer_row: str | None = None, attentive: bool = True,
 
 
 @pytest.fixture(scope="module")
-def driver():
-    driver = chromium_driver()
-    yield driver
-    driver.quit()
-
-
-@pytest.fixture(scope="module")
 def stored_rows(tmp_path_factory):
     return write_stored_rows(tmp_path_factory.mktemp("rows"), rows=("truth", "still", "sampler"))
 
@@ -67,7 +60,7 @@ def _analyze(folder, capsys):
 
 
 @pytest.mark.parametrize("database", ["sqlite", "postgresql"])
-def test_an_ab_study_from_stored_rows_to_its_table(tmp_path, driver, stored_rows, jspsych_installed, capsys,
+def test_an_ab_study_from_stored_rows_to_its_table(tmp_path, browser, stored_rows, jspsych_installed, capsys,
                                                    database):
     folder = make_study(tmp_path / "ab", design="ab", results=stored_rows, extra=QUICK)
     study = read_study(folder)
@@ -75,15 +68,15 @@ def test_an_ab_study_from_stored_rows_to_its_table(tmp_path, driver, stored_rows
     with contextlib.ExitStack() as stack:
         db_url = stack.enter_context(postgres_cluster()) if database == "postgresql" else None
         url = stack.enter_context(serve_in_thread(folder, db_url))
-        runs = [browser_participant(driver, url, participant(study, prefer_row="truth"),
+        runs = [browser_participant(browser, url, participant(study, prefer_row="truth"),
                                     sound_word=study.sound_check.answer, platform={"PROLIFIC_PID": "P1"})]
-        driver.delete_all_cookies()
-        runs.append(browser_participant(driver, url, participant(study, prefer_row="truth", attentive=False),
+        browser.delete_all_cookies()
+        runs.append(browser_participant(browser, url, participant(study, prefer_row="truth", attentive=False),
                                         sound_word=study.sound_check.answer.upper() + ".", platform={"PROLIFIC_PID": "P2"}))
-        driver.delete_all_cookies()
-        runs.append(browser_participant(driver, url, participant(study, prefer_row="truth"), reload_after=2,
+        browser.delete_all_cookies()
+        runs.append(browser_participant(browser, url, participant(study, prefer_row="truth"), reload_after=2,
                                         sound_word=study.sound_check.answer, platform={"PROLIFIC_PID": "P3"}))
-        driver.delete_all_cookies()
+        browser.delete_all_cookies()
         assert [r["reloaded"] for r in runs] == [False, False, True]
         export_study(folder, db_url)
     answers, participants = read_answers(folder / "export")
@@ -108,7 +101,7 @@ def test_an_ab_study_from_stored_rows_to_its_table(tmp_path, driver, stored_rows
     assert (folder / "analysis" / "figure.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
-def test_a_mos_study_of_a_samplers_three_samples(tmp_path, driver, stored_rows, jspsych_installed, capsys):
+def test_a_mos_study_of_a_samplers_three_samples(tmp_path, browser, stored_rows, jspsych_installed, capsys):
     folder = make_study(tmp_path / "mos", design="mos", results=stored_rows, extra=QUICK)
     study = read_study(folder)
     shown = [s for s in study.stimuli.values() if s.role == "item"]
@@ -121,9 +114,9 @@ def test_a_mos_study_of_a_samplers_three_samples(tmp_path, driver, stored_rows, 
 
     with serve_in_thread(folder) as url:
         for k in range(3):
-            browser_participant(driver, url, participant(study, score=by_sentence),
+            browser_participant(browser, url, participant(study, score=by_sentence),
                                 sound_word=study.sound_check.answer, platform={"PROLIFIC_PID": f"M{k}"})
-            driver.delete_all_cookies()
+            browser.delete_all_cookies()
     export_study(folder)
     out, record = _analyze(folder, capsys)
     assert record["exclusions"]["excluded"] == 0 and record["exclusions"]["kept"] == 3, out

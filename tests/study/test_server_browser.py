@@ -12,7 +12,7 @@ from benchmark.study.answers import read_answers
 from benchmark.study.export import export_study
 from benchmark.study.server.steps import question_screens
 
-from ..leaderboard.browser import chromium_driver
+from ..leaderboard.browser import browser  # noqa: F401 - fixture
 from .server_fixtures import (  # noqa: F401 - fixtures
     ab_study,
     browser_participant,
@@ -30,35 +30,28 @@ def prefer(*good_rows):
     return choose
 
 
-@pytest.fixture(scope="module")
-def driver():
-    driver = chromium_driver()
-    yield driver
-    driver.quit()
-
-
-def test_chromium_plays_h264_aac(driver, ab_study):
+def test_chromium_plays_h264_aac(browser, ab_study):
     folder, _ = ab_study
     with serve_in_thread(folder) as url:
-        driver.get(url + "/")
-        assert driver.execute_script(
+        browser.get(url + "/")
+        assert browser.execute_script(
             "return document.createElement('video').canPlayType('video/mp4; codecs=\"avc1.42E01E, mp4a.40.2\"')"
         ) == "probably"
 
 
-def test_participants_click_through_the_pages(driver, ab_study):
+def test_participants_click_through_the_pages(browser, ab_study):
     folder, study = ab_study
     with serve_in_thread(folder) as url:
         runs = []
         # 1: completes, preferring the better row and the ground truth
-        runs.append(browser_participant(driver, url, prefer("good", "gt"),
+        runs.append(browser_participant(browser, url, prefer("good", "gt"),
                                         platform={"PROLIFIC_PID": "P1", "STUDY_ID": "S", "SESSION_ID": "A"}))
-        driver.delete_all_cookies()
+        browser.delete_all_cookies()
         # 2: fails the attention check (picks the static face)
-        runs.append(browser_participant(driver, url, prefer("bad", "static"),
+        runs.append(browser_participant(browser, url, prefer("bad", "static"),
                                         platform={"PROLIFIC_PID": "P2", "STUDY_ID": "S", "SESSION_ID": "B"}))
         # 3: reloads after two answers and carries on where it stopped
-        runs.append(browser_participant(driver, url, prefer("good", "gt"), reload_after=2,
+        runs.append(browser_participant(browser, url, prefer("good", "gt"), reload_after=2,
                                         platform={"workerId": "W3", "hitId": "H", "assignmentId": "A3"}))
     assert [r["reloaded"] for r in runs] == [False, False, True]
     total = len([s for s in question_screens(study, 0) if not s.practice])
