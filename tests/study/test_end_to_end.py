@@ -2,9 +2,9 @@
 A/B study of two stored rows of the bundled default (lip sync and realism) and a MOS study of
 one sampler's 3 samples; the server serves each; scripted participants click through the real
 pages in Debian's headless Chromium (one fails an attention check, one reloads mid-study and
-resumes); ``export`` and ``analyze`` report the exclusions and the tables. The A/B study runs
-once more against PostgreSQL (a throwaway cluster; skipped with the install command where it is
-absent, failed in CI)."""
+resumes); ``export`` and ``analyze`` report the exclusions and the tables. Both run once more
+against PostgreSQL (a throwaway cluster; skipped with the install command where it is absent,
+failed in CI)."""
 
 from __future__ import annotations
 
@@ -101,7 +101,8 @@ def test_an_ab_study_from_stored_rows_to_its_table(tmp_path, browser, stored_row
     assert (folder / "analysis" / "figure.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
-def test_a_mos_study_of_a_samplers_three_samples(tmp_path, browser, stored_rows, jspsych_installed, capsys):
+@pytest.mark.parametrize("database", ["sqlite", "postgresql"])
+def test_a_mos_study_of_a_samplers_three_samples(tmp_path, browser, stored_rows, jspsych_installed, capsys, database):
     folder = make_study(tmp_path / "mos", design="mos", results=stored_rows, extra=QUICK)
     study = read_study(folder)
     shown = [s for s in study.stimuli.values() if s.role == "item"]
@@ -112,12 +113,14 @@ def test_a_mos_study_of_a_samplers_three_samples(tmp_path, browser, stored_rows,
     def by_sentence(stimulus):  # the first sentence rated 5, the second 3: a known truth the analysis gives back
         return "5" if stimulus.sentence == sentences[0] else "3"
 
-    with serve_in_thread(folder) as url:
+    with contextlib.ExitStack() as stack:
+        db_url = stack.enter_context(postgres_cluster()) if database == "postgresql" else None
+        url = stack.enter_context(serve_in_thread(folder, db_url))
         for k in range(3):
             browser_participant(browser, url, participant(study, score=by_sentence),
                                 sound_word=study.sound_check.answer, platform={"PROLIFIC_PID": f"M{k}"})
             browser.delete_all_cookies()
-    export_study(folder)
+        export_study(folder, db_url)
     out, record = _analyze(folder, capsys)
     assert record["exclusions"]["excluded"] == 0 and record["exclusions"]["kept"] == 3, out
     mos = record["mos"]
