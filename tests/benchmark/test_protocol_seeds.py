@@ -178,10 +178,24 @@ def test_the_half_budget_check_scores_two_metrics_and_changes_nothing(dataset, t
 
     EVALUATIONS.clear()
     path = _run(dataset, tmp_path / "a", seed=1, budget=Budget(max_steps=10))
-    assert EVALUATIONS == [("lve_rig", "fd"), None]  # the half-budget call, then the full evaluation
+    # the learning curve's calls (a quarter and half of the steps), then the full evaluation
+    assert EVALUATIONS == [("lve_rig", "fd"), ("lve_rig", "fd"), None]
     result = json.loads(path.read_text())
     convergence = result["convergence"]
     assert convergence["checked_at_step"] == 5 and convergence["total_steps"] == 10
+    # the curve: steps 2 and 5, with what the tables' paired resampling reads at each
+    curve = convergence["curve"]
+    assert [p["step"] for p in curve] == [2, 5]
+    assert convergence["sentences"] == [[r["subject"], r["sentence"]] for r in result["per_sentence"]]
+    for point in curve:
+        assert np.mean(point["per_sentence"]["lve_rig"]) == pytest.approx(point["metrics"]["lve_rig"])
+        assert len(point["replicates"]["fd"]) == 50 and "fd" not in point["per_sentence"]
+    assert curve[1]["metrics"] == {k: m["half_budget"] for k, m in convergence["metrics"].items()}
+    assert curve[0]["metrics"]["lve_rig"] > curve[1]["metrics"]["lve_rig"] > result["metrics"]["lve_rig"]["mean"]
+    # the checkpoint at step 5 is the model a 5-step run trains: the same per-sentence values
+    five = json.loads(_run(dataset, tmp_path / "five", seed=1, budget=Budget(max_steps=5)).read_text())
+    assert curve[1]["per_sentence"]["lve_rig"] == pytest.approx([r["lve_rig"] for r in five["per_sentence"]])
+    assert curve[1]["replicates"]["fd"] == pytest.approx(five["metrics"]["fd"]["replicates"])
     assert set(convergence["metrics"]) == {"lve_rig", "fd"}
     for name, m in convergence["metrics"].items():
         entry = result["metrics"][name]
