@@ -147,8 +147,9 @@ class Statement:
         if self.kind == "shared":
             return f"{label(self.row)}: {self.change_text(label)}"
         name = METRICS[self.metric].label if self.metric in METRICS else self.metric
-        return f"{label(self.row)}: at step {self.step} of {self.total_steps}, {name} {self.half_value:.3g} " \
-               f"(now {self.full_value:.3g}) {self.change_text(label)}"
+        shifted = "" if self.exact else " (resamples shifted by the move)"
+        return f"{label(self.row)}: at step {self.step} of {self.total_steps}{shifted}, {name} " \
+               f"{self.half_value:.3g} (now {self.full_value:.3g}) {self.change_text(label)}"
 
 
 # --- the half-budget row ------------------------------------------------------------------
