@@ -384,8 +384,8 @@ class BudgetNeed:
 
     def text(self) -> str:
         if self.verdict == "budget":
-            fit = "assuming a 1/steps trend (two points)" if self.assumed else f"trend a + b·steps^-{self.exponent:.2g}"
-            return f"about {self.multiple:.2g}x its budget ({fit}, tending to {self.limit:.3g})"
+            fit = "two points: a 1/steps trend assumed" if self.assumed else f"trend a + b·steps^-{self.exponent:.2g}"
+            return f"about {self.multiple:.3g}x its budget ({fit}; tending to {self.limit:.3g})"
         if self.verdict == "settled":
             return "settled from its half budget on, by its curve's trend"
         if self.verdict == "not monotone":
@@ -545,10 +545,11 @@ def settled_page(results_dir, command: str) -> str:
     (rows not settled) the budget its curve says it would need (:func:`needed_budget`)."""
     from .collect import load_results, tables_by_manifest
 
+    today = datetime.date.today().isoformat()
     lines = ["# Settled by ranking: the committed rows", "",
-             f"Made by `{command}` on {datetime.date.today().isoformat()} (2-core shared CPU machine; no "
-             "training: read from the committed result files). The rule: docs/leaderboard.md, \"Reading the "
-             "tables\"; docs/methods.md, \"Settled or not\".", "",
+             f"Made by `{command}` (no training: read from the result files). The rule: "
+             "[leaderboard.md](../leaderboard.md#reading-the-tables), \"Reading the tables\"; "
+             "[methods.md](../methods.md#settled-or-not-the-learning-curve), \"Settled or not\".", "",
              "A row is not settled on a metric when its half-budget values, put in place of its full-budget "
              "ones, would change a statement of the table (a resampled order against another ranked row, the "
              "bold, its side of a reference row). For such a row the budget it would need is read from its "
@@ -557,6 +558,7 @@ def settled_page(results_dir, command: str) -> str:
              "(`leaderboard.settled.needed_budget`).", ""]
     for table in tables_by_manifest(load_results(results_dir)):
         lines += [f"## Dataset `{table.recipe_id[:12]}`", "",
+                  f"Recorded {today} by `{command}` on the 2-core shared CPU machine, from the result files.", "",
                   "| Row | Metric | Curve (step: value) | Move / half-width | Statements that would change | "
                   "Budget it would need |", "|:---|:---|:---|:---|:---|:---|"]
         for index, row in enumerate(table.rows):

@@ -178,7 +178,7 @@ def test_needed_budget_recovers_the_power_law_of_a_synthetic_curve():
     assert need.exponent == pytest.approx(0.5, rel=1e-6) and need.multiple == pytest.approx(2 * 16384 / 1000, rel=1e-6)
     # two points: c = 1 assumed, and said so
     need = needed_budget([500, 1000], [2.8, 2.4], [2.1])
-    assert need.assumed and need.multiple == pytest.approx(8.0) and "assuming" in need.text()
+    assert need.assumed and need.multiple == pytest.approx(8.0) and "a 1/steps trend assumed" in need.text()
 
 
 def test_needed_budget_refuses_curves_it_cannot_extrapolate():
