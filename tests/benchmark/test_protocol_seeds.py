@@ -167,6 +167,13 @@ def test_one_result_over_the_seeds_each_seed_as_its_own_run(dataset, tmp_path):
     assert convergence["checked_at_step"] == 3 and convergence["total_steps"] == 6
     assert convergence["settled"] == all(p["convergence"]["settled"] for p in per_seed) and \
         convergence["settled"] == all(m["settled"] for m in convergence["metrics"].values())
+    # the row's learning curve: per step (1 and 3 of 6) the seed means; each seed's keeps its per-sentence values
+    assert [p["step"] for p in convergence["curve"]] == [1, 3] and "sentences" not in convergence
+    for i, point in enumerate(convergence["curve"]):
+        assert set(point) == {"step", "metrics"}
+        for name, value in point["metrics"].items():
+            assert value == pytest.approx(np.mean([p["convergence"]["curve"][i]["metrics"][name] for p in per_seed]))
+    assert all(len(p["convergence"]["curve"][1]["per_sentence"]["lve_rig"]) == len(rows) for p in per_seed)
     assert result["timings"]["convergence_s"] is not None and len(per_seed[0]["timings"]) == 5
     # the folder: the JSON and one tracks folder with a subfolder per seed, nothing staged left
     assert sorted(p.name for p in (tmp_path / "seeds").iterdir()) == [path.stem, path.name]
