@@ -121,8 +121,12 @@ def _metric_label(name: str) -> str:
 
 
 def not_settled_text(row: Row, label=str) -> str:
-    """``"<label>: <metric> <at half> → <at full> (half-width <w>) between steps <B/2> and <B>"``
-    for a row whose ``convergence.settled`` is false (for a row scoring another row's
+    """For a row not settled by ranking (:attr:`~leaderboard.collect.Row.statements`):
+    ``"<label>: at step <B/2> of <B>, <metric> <at half> (now <at full>) would <change>, ..."``
+    naming the statements of the table that would change. For a row the table could not
+    judge (no half-budget values of its own):
+    ``"<label>: <metric> <at half> → <at full> (half-width <w>) between steps <B/2> and <B>"``
+    when its ``convergence.settled`` is false (for a row scoring another row's
     training, ``convergence.shared_with``: which row's training it is). A metric whose
     seed mean stayed within its half-width failed on some seeds: those are named instead,
     ``"<metric> on seed <k> <at half> → <at full> (half-width <w>)"``."""

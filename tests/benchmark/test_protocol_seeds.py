@@ -430,6 +430,28 @@ def test_convergence_records_one_seed_and_several():
     assert combined_convergence([settled, None], {"lve_rig": entry}) is None
 
 
+def test_a_checkpoint_survives_the_reproduce_stages_json_record():
+    """leaderboard.executors.stages writes each checkpoint as JSON (dataclasses.asdict) and reads it back."""
+    import dataclasses
+    from types import SimpleNamespace
+
+    from benchmark.protocol.convergence import checked_convergence
+
+    points = [HalfBudget(1, 4, {"lve_rig": 3.0}, [["S", "a"], ["S", "b"]], {"lve_rig": [2.0, 4.0]}, {}),
+              HalfBudget(2, 4, {"lve_rig": 2.5, "fd": 9.0}, [["S", "a"], ["S", "b"]], {"lve_rig": [2.0, 3.0]},
+                         {"fd": [8.0, 10.0]})]
+    back = [HalfBudget(**json.loads(json.dumps(dataclasses.asdict(p)))) for p in points]
+    assert back == points
+    seen = SimpleNamespace(result=back[1], called=True, points=back)
+    record, reason = checked_convergence(seen, None, {"lve_rig": {"mean": 2.0, "ci95": [1.8, 2.2]},
+                                                      "fd": {"mean": 8.5, "ci95": [8.0, 9.0]}})
+    assert reason == "checked" and record["checked_at_step"] == 2 and record["sentences"] == [["S", "a"], ["S", "b"]]
+    assert record["curve"] == [{"step": 1, "metrics": {"lve_rig": 3.0}, "per_sentence": {"lve_rig": [2.0, 4.0]}},
+                               {"step": 2, "metrics": {"lve_rig": 2.5, "fd": 9.0},
+                                "per_sentence": {"lve_rig": [2.0, 3.0]}, "replicates": {"fd": [8.0, 10.0]}}]
+    assert record["metrics"]["lve_rig"]["half_budget"] == 2.5 and record["metrics"]["fd"]["settled"] is False
+
+
 @pytest.mark.slow  # two trained and fully scored runs with the VAE
 def test_cli_regression_over_two_seeds(fake_dataset_dir, assets_dir, tmp_path, monkeypatch, capsys):
     monkeypatch.setenv("BLENDVOCA_ASSETS", str(assets_dir))
