@@ -444,7 +444,7 @@ def test_a_checkpoint_survives_the_reproduce_stages_json_record():
     assert back == points
     seen = SimpleNamespace(result=back[1], called=True, points=back)
     record, reason = checked_convergence(seen, None, {"lve_rig": {"mean": 2.0, "ci95": [1.8, 2.2]},
-                                                      "fd": {"mean": 8.5, "ci95": [8.0, 9.0]}})
+                                                      "fd": {"mean": 8.5, "ci95": [8.2, 8.8]}})
     assert reason == "checked" and record["checked_at_step"] == 2 and record["sentences"] == [["S", "a"], ["S", "b"]]
     assert record["curve"] == [{"step": 1, "metrics": {"lve_rig": 3.0}, "per_sentence": {"lve_rig": [2.0, 4.0]}},
                                {"step": 2, "metrics": {"lve_rig": 2.5, "fd": 9.0},
