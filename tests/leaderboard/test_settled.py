@@ -233,3 +233,20 @@ def test_statements_are_stored_in_the_result_outside_its_digest(tmp_path):
     line = next(l for l in page.splitlines() if l.startswith("| a | LVE rig"))
     assert "375: 3, 750: 2.1, 1500: 1.5" in line and "would lose to b" in line and "x its budget (trend a + b·steps^-0.58" in line
     assert json.loads(paths[1].read_text()).get("convergence") is None
+
+
+def test_rows_with_nothing_to_resample_compare_the_value_with_the_other_rows_interval():
+    from tests.leaderboard.test_build import _result
+
+    convergence = {"checked_at_step": 5, "total_steps": 10, "settled": False,
+                   "metrics": {"fd": {"half_budget": 3.6, "full_budget": 2.0, "half_width": 0.1, "settled": False}}}
+    a = _result("a", "h", {"fd": (2.0, 0.1, False, "latent^2", (1.9, 2.1))})
+    a["convergence"] = convergence
+    b = _result("b", "h", {"fd": (3.0, 0.3, False, "latent^2", (2.5, 3.5))})
+    c = _result("c", "h", {"fd": (9.0, 0.3, False, "latent^2", (8.5, 9.5))})
+    statements = _row(_table([a, b, c]), "a").statements
+    # 2.0 is below b's interval [2.5, 3.5] (a beats b), 3.6 above it (a loses); c stays worse either way
+    order = next(s for s in statements if s.kind == "order")
+    assert (order.other, order.now, order.at_half, order.probability, order.exact) == ("b", 1, -1, None, False)
+    assert order.change_text() == "would lose to b (now beats it, by the 95 % intervals)"
+    assert [s.other for s in statements if s.kind == "order"] == ["b"]
