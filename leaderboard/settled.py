@@ -555,7 +555,10 @@ def settled_page(results_dir, command: str) -> str:
              "bold, its side of a reference row). For such a row the budget it would need is read from its "
              "learning curve, `v(s) = a + b s^-c` through its last three points (two points: c = 1 assumed): "
              "the budget whose half lies past the last statement threshold the curve still crosses "
-             "(`leaderboard.settled.needed_budget`).", ""]
+             "(`leaderboard.settled.needed_budget`). A threshold is a value of the row at which a statement would "
+             "change were its resamples to move with its mean: another row's mean, the shifts at which the paired "
+             "probability crosses 0.95 or 0.05 (else the other row's interval ends), a reference row's mean "
+             "(`leaderboard.settled.statement_thresholds`).", ""]
     for table in tables_by_manifest(load_results(results_dir)):
         lines += [f"## Dataset `{table.recipe_id[:12]}`", "",
                   f"Recorded {today} by `{command}` on the 2-core shared CPU machine, from the result files.", "",
