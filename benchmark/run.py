@@ -69,6 +69,9 @@ def _parser() -> argparse.ArgumentParser:
                    help="the VAE of the latent metrics (fd, wind, energy_latent): a checkpoint in the published "
                         "format; default the published one (asset said-vae). Needed for a dataset whose "
                         "coefficients are not the BlendVOCA 32 (docs/datasets.md)")
+    p.add_argument("--checkpoint-fractions", default=None, metavar="F1,F2,...",
+                   help="where in the step budget the learning curve scores lve_rig and fd (increasing, each in "
+                        "(0, 1]; default 0.25,0.5; docs/methods.md, \"Settled or not\")")
     p.add_argument("--overwrite", action="store_true",
                    help="replace a result of other settings stored under this run's file name (refused otherwise; "
                         "a run that is not plain is named with the digest of its settings, __c<digest>)")
@@ -144,7 +147,8 @@ def main(argv=None) -> int:
                    checkpoint=args.checkpoint, clip=args.clip, generate_time_limit=args.generate_time_limit,
                    sentence_batch=args.sentence_batch, vocaset=args.vocaset, syncnet=args.syncnet_weights,
                    sync_expert=args.sync_expert, results_dir=args.results, verify=args.verify,
-                   device=device, vae=args.vae, overwrite=args.overwrite)
+                   device=device, vae=args.vae, overwrite=args.overwrite,
+                   checkpoint_fractions=args.checkpoint_fractions)
     path = run(spec)
     if not args.quiet:
         _print_summary(path)

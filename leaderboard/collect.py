@@ -5,6 +5,10 @@ Columns are the metrics of the results, grouped and ordered by the metric regist
 as in the SAiD paper's Table 1); rows are the methods, and the reference rows (ground
 truth, corpus meshes, mean, static, random) apart, never ranked.
 
+Whether a trained row is settled is judged here too, as the statements are the table's
+(:mod:`leaderboard.settled`: its half-budget values put in place of its full-budget ones
+would change an order, the bold or its side of a reference row).
+
 Ordering statements come from resampling (:mod:`benchmark.metrics.bootstrap`): a
 method is marked best in a column only where it beats the runner-up in at least 95 %
 of paired resamples (:func:`best_mark`), and :func:`pairwise_probabilities` gives the
@@ -103,11 +107,20 @@ class Row:
     convergence: Convergence | None = None
     #: The result record (its per-sentence rows and replicates feed the resampling).
     result: Result | None = field(default=None, repr=False, compare=False)
+    #: The table's statements its half-budget values would change (:mod:`leaderboard.settled`,
+    #: filled when the table is built); None: not judged (no half-budget record of its own).
+    statements: list | None = field(default=None, compare=False)
 
     @property
     def settled(self) -> bool | None:
-        """``convergence.settled``: False marks the row "not settled"; None when not checked."""
-        return None if self.convergence is None else self.convergence.settled
+        """Settled by ranking: False when its half-budget values would change a statement of
+        the table (:attr:`statements`), True when none; for a row not judged, its record's
+        ``convergence.settled``; None when not checked."""
+        if self.convergence is None:
+            return None
+        if self.statements is not None:
+            return not self.statements
+        return self.convergence.settled
 
     def unsettled_metrics(self) -> list:
         """``[(metric, half_budget, full_budget, half_width)]`` of the checked metrics that moved
@@ -318,7 +331,7 @@ def tables_by_manifest(results: list[Result]) -> list[Table]:
         counts = sorted({r.dataset.num_sentences for r in group if r.dataset.num_sentences})
         known = ordered_metrics([n for n in columns if n in METRICS])
         other = sorted(n for n in columns if n not in METRICS)
-        tables.append(Table(
+        table = Table(
             manifest_hash=manifest_hash,
             split="/".join(splits),
             num_sentences=counts[0] if len(counts) == 1 else None,
@@ -328,7 +341,12 @@ def tables_by_manifest(results: list[Result]) -> list[Table]:
             name=" / ".join(sorted({r.dataset.display_name for r in group} - {""})),
             latent_out_of_domain=any(r.dataset.latent_out_of_domain or r.protocol.latent_out_of_domain
                                      for r in group),
-        ))
+        )
+        from .settled import changed_statements  # settled reads this module's orders
+
+        for row_label, statements in changed_statements(table).items():
+            next(r for r in table.rows if r.label == row_label).statements = statements
+        tables.append(table)
     return tables
 
 

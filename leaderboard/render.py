@@ -6,7 +6,8 @@ means for rows trained with several seeds), arrows give each metric's direction,
 reference rows sit under the methods and are never ranked, and a method is in bold
 only where it beats the runner-up in at least 95 % of the paired resamples
 (:func:`leaderboard.collect.best_mark`). Under each table: the columns whose bold
-mark fell back to the older interval rule, the rows that are not settled (†), and,
+mark fell back to the older interval rule, the rows that are not settled (†: the
+statements their half-budget values would change, :mod:`leaderboard.settled`), and,
 under the lip-sync table, how to read the AV offset against the ground truth.
 """
 
@@ -39,8 +40,9 @@ _RULE = ("Best method in **bold** only where it beats the runner-up in at least 
          "with several); reference rows are shown apart and never ranked; ↑ higher is better, ↓ lower is "
          "better; cells are mean [95 % bootstrap interval over sentences, and seeds where there are several] "
          "and, for rows trained with several seeds, seeds [lowest, highest] of the per-seed means; "
-         f"{NOT_SETTLED_MARK}: not settled (the row's value moved by more than its interval's half-width "
-         "between half and full training budget); RTF: real-time factor, wall seconds of generation per second "
+         f"{NOT_SETTLED_MARK}: not settled (the row's half-budget values, put in place of its full-budget ones, "
+         "would change a statement of the table: a resampled order against another row, the bold, or its side of "
+         "a reference row; the note under the table names them); RTF: real-time factor, wall seconds of generation per second "
          "of audio on the run's machine (below 1 is faster than the speech; - for results without a latency record).")
 
 
@@ -119,11 +121,17 @@ def _metric_label(name: str) -> str:
 
 
 def not_settled_text(row: Row, label=str) -> str:
-    """``"<label>: <metric> <at half> → <at full> (half-width <w>) between steps <B/2> and <B>"``
-    for a row whose ``convergence.settled`` is false (for a row scoring another row's
+    """For a row not settled by ranking (:attr:`~leaderboard.collect.Row.statements`):
+    ``"<label>: at step <B/2> of <B>, <metric> <at half> (now <at full>) would <change>, ..."``
+    naming the statements of the table that would change. For a row the table could not
+    judge (no half-budget values of its own):
+    ``"<label>: <metric> <at half> → <at full> (half-width <w>) between steps <B/2> and <B>"``
+    when its ``convergence.settled`` is false (for a row scoring another row's
     training, ``convergence.shared_with``: which row's training it is). A metric whose
     seed mean stayed within its half-width failed on some seeds: those are named instead,
     ``"<metric> on seed <k> <at half> → <at full> (half-width <w>)"``."""
+    if row.statements:  # settled by ranking (leaderboard.settled): the statements that would change
+        return _statements_text(row, label)
     conv = row.convergence or Convergence()
     if conv.shared_with:  # scored with another row's training: that training's verdict
         return f"{label(row.label)}: row {label(conv.shared_with)}'s training, not settled there"
@@ -144,6 +152,23 @@ def not_settled_text(row: Row, label=str) -> str:
     return f"{label(row.label)}: " + (", ".join(moved) + f" between {steps}" if moved else f"moved between {steps}")
 
 
+def _statements_text(row: Row, label=str) -> str:
+    """``"<label>: at step <B/2> of <B>, <metric> <at half> (now <at full>) would <change>, ..."``,
+    one clause per metric, from the row's :attr:`~leaderboard.collect.Row.statements`."""
+    first = row.statements[0]
+    if first.kind == "shared":
+        return first.text(label)
+    clauses, by_metric = [], {}
+    for statement in row.statements:
+        by_metric.setdefault(statement.metric, []).append(statement)
+    for metric, statements in by_metric.items():
+        s = statements[0]
+        clauses.append(f"{_metric_label(metric)} {s.half_value:.3g} (now {s.full_value:.3g}) "
+                       + ", ".join(x.change_text(label) for x in statements))
+    shifted = "" if all(s.exact for s in row.statements) else " (resamples shifted by the move)"
+    return f"{label(row.label)}: at step {first.step} of {first.total_steps}{shifted}, " + "; ".join(clauses)
+
+
 def _move_text(at_half: float, at_full: float, half_width: float | None) -> str:
     return f"{at_half:.3g} → {at_full:.3g}" + (f" (half-width {half_width:.3g})" if half_width is not None else "")
 
@@ -156,6 +181,12 @@ def group_notes(table: Table, columns: list, marks: list, label=str) -> list:
     if any(c.name.startswith(("av_offset_", "av_lag_bias_")) for c in columns):
         notes.append(AV_OFFSET_NOTE)
     unsettled = [row for row in table.rows + table.references if row.settled is False]
+    judged = [row for row in unsettled if row.statements]
+    if judged:
+        notes.append(f"{NOT_SETTLED_MARK} Not settled (its half-budget values in place of its full-budget ones would "
+                     "change these statements of the table): " + "; ".join(not_settled_text(row, label)
+                                                                            for row in judged) + ".")
+    unsettled = [row for row in unsettled if not row.statements]
     if unsettled:
         notes.append(f"{NOT_SETTLED_MARK} Not settled (moved by more than the interval's half-width between half and "
                      "full training budget): " + "; ".join(not_settled_text(row, label) for row in unsettled) + ".")

@@ -345,6 +345,10 @@ def reproduce(work, results_dir, tables_dir, *, only=None, force: bool = False, 
                     log_progress(f"archived {path}")
             values = run_tasks(tasks, executor=executor, address=address, max_retries=max_retries)
             paths = [Path(values[t.key]) for t in tasks if t.stage in ("single", "store")]
+            from leaderboard.settled import store_statements  # the table's verdict on each row, into its record
+
+            for path in store_statements(results_dir):
+                log_progress(f"stored the statements its half budget would change in {path}")
             for path in build_leaderboard(results_dir, tables_dir):
                 log_progress(f"wrote {path}")
     except LockHeld as exc:

@@ -1,18 +1,30 @@
-"""Settled or not: the half-budget check of a trained method.
+"""Settled or not: the learning curve of a trained method.
 
 A method that trains a known number of steps calls ``on_checkpoint(step)`` once it has
-done half of them (``Method.train``, docs/methods.md). The runner then generates the
-split as the method is at that point (the same sentences, samples and seeds as the
-full run) and scores two primary metrics only, :data:`CHECK_METRICS` (``lve_rig`` and
-``fd``); after training it scores everything. A metric is *not settled* when its
-full-budget value differs from its half-budget value by more than half the width of
-its full-budget ``ci95``: the training budget, not the method, may then decide its
-place. The result records::
+done each :data:`CURVE_FRACTIONS` of them (a quarter and half; ``Method.train``,
+docs/methods.md; ``benchmark.run --checkpoint-fractions``). At each call the runner
+generates the split as the method is at that point (the same sentences, samples and
+seeds as the full run) and scores two primary metrics only, :data:`CHECK_METRICS`
+(``lve_rig`` and ``fd``); after training it scores everything. The half-budget call
+(the checkpoint nearest half the steps) gives the record's per-metric move: a metric
+moved when its full-budget value differs from its half-budget value by more than half
+the width of its full-budget ``ci95`` (``settled`` below, kept as information). Whether
+the move matters is the table's judgement: :mod:`leaderboard.settled` puts the
+half-budget values in place of the full-budget ones and names the statements of the
+table that would change. For that the record keeps, per checkpoint, what the paired
+resampling reads: the per-sentence values of the sentence-level check metrics (in the
+order of ``sentences``) and the bootstrap replicates of the set-level ones::
 
     "convergence": {"checked_at_step", "total_steps",
                     "metrics": {"lve_rig": {"half_budget", "full_budget", "half_width", "settled"},
                                 "fd": {...}},
-                    "settled": bool}
+                    "settled": bool,
+                    "sentences": [[subject, sentence], ...],
+                    "curve": [{"step", "metrics": {"lve_rig": v, "fd": v},
+                               "per_sentence": {"lve_rig": [v per sentence]},
+                               "replicates": {"fd": [bootstrap replicates]}}, ...]}
+
+The full budget's point of the curve is the row's own metrics (``total_steps``).
 
 ``protocol.convergence_check`` says ``"checked"`` or why there was no check (and then
 there is no ``convergence``): :data:`NOT_CHECKED` lists the reasons.
@@ -46,11 +58,14 @@ from benchmark.runs import TrackWriter
 __all__ = [
     "CHECKED",
     "CHECK_METRICS",
+    "CURVE_FRACTIONS",
     "NOT_CHECKED",
     "HalfBudget",
     "HalfBudgetCheck",
     "combined_convergence",
     "convergence_record",
+    "checked_fractions",
+    "curve_record",
     "half_budget_check",
     "not_checked_reason",
     "shared_convergence",
@@ -60,6 +75,9 @@ __all__ = [
 #: The metrics scored at half the budget: the primary vertex error and the primary
 #: distribution distance.
 CHECK_METRICS = ("lve_rig", "fd")
+
+#: Where in the step budget the learning curve is scored (the full budget is the run itself).
+CURVE_FRACTIONS = (0.25, 0.5)
 
 #: ``protocol.convergence_check`` of a checked run.
 CHECKED = "checked"
@@ -110,16 +128,54 @@ class HalfBudget:
         The steps of the whole run (the method's word, else the budget's), None when unknown.
     values : dict
         ``{metric: value}`` of :data:`CHECK_METRICS` the evaluation gave.
+    sentences : list
+        ``[[subject, sentence], ...]``: the order of ``per_sentence``'s values.
+    per_sentence : dict
+        ``{metric: [value per sentence]}`` of the sentence-level check metrics (what the
+        paired resampling of the tables reads).
+    replicates : dict
+        ``{metric: [bootstrap replicates]}`` of the set-level check metrics.
     """
 
     step: int
     total_steps: int | None
     values: dict = field(default_factory=dict)
+    sentences: list = field(default_factory=list)
+    per_sentence: dict = field(default_factory=dict)
+    replicates: dict = field(default_factory=dict)
+
+
+def checked_fractions(fractions, option: str = "--checkpoint-fractions") -> tuple:
+    """``fractions`` as a tuple of floats when they are increasing and each in (0, 1] (1 is
+    the full budget, scored anyway); a string is read as ``"0.25,0.5"``.
+
+    Raises
+    ------
+    ValueError
+        Naming ``option`` and the value: not numbers, empty, not increasing, or outside (0, 1].
+    """
+    raw = fractions
+    if isinstance(fractions, str):
+        fractions = [part for part in fractions.split(",") if part.strip()]
+    try:
+        values = tuple(float(f) for f in fractions)
+    except (TypeError, ValueError):
+        raise ValueError(f"{option} {raw}: expected increasing fractions of the step budget in (0, 1], "
+                         "e.g. 0.25,0.5") from None
+    if not values:
+        raise ValueError(f"{option} {raw!r}: expected at least one fraction of the step budget in (0, 1]")
+    outside = [v for v in values if not (0.0 < v <= 1.0)]
+    if outside:
+        raise ValueError(f"{option} {raw}: expected fractions of the step budget in (0, 1], got {outside[0]:g}")
+    if any(b <= a for a, b in zip(values, values[1:])):
+        raise ValueError(f"{option} {raw}: expected increasing fractions (each larger than the one before)")
+    return values
 
 
 class HalfBudgetCheck:
-    """The runner's ``on_checkpoint``: at the first call, the split generated by the method
-    as it is and scored on :data:`CHECK_METRICS`; later calls are ignored.
+    """The runner's ``on_checkpoint``: at each call (each of ``fractions`` of the step
+    budget), the split generated by the method as it is and scored on :data:`CHECK_METRICS`;
+    :attr:`points` holds every call, :attr:`result` the one nearest half the budget.
 
     Parameters
     ----------
@@ -133,12 +189,26 @@ class HalfBudgetCheck:
         as in :func:`benchmark.protocol.scoring.score`, called with ``metrics=CHECK_METRICS``
         (it may compute more; only those are kept); default
         ``benchmark.evaluation.evaluate_split(..., metrics=CHECK_METRICS)``.
+    fractions : sequence of float, optional
+        Where the method calls (:func:`checked_fractions`); default ``spec.checkpoint_fractions``,
+        else :data:`CURVE_FRACTIONS`. A fraction of 1 is the full budget (scored anyway).
     """
 
-    def __init__(self, spec, inputs, *, evaluate=None):
+    def __init__(self, spec, inputs, *, evaluate=None, fractions=None):
         self.spec, self.inputs, self.evaluate = spec, inputs, evaluate
-        self.result: HalfBudget | None = None
+        if fractions is None:
+            fractions = getattr(spec, "checkpoint_fractions", None) or CURVE_FRACTIONS
+        #: The fractions handed to the method's training (those below 1).
+        self.fractions = tuple(f for f in checked_fractions(fractions) if f < 1.0)
+        self.points: list[HalfBudget] = []
         self.seconds = 0.0
+
+    @property
+    def result(self) -> HalfBudget | None:
+        """The call nearest half the budget (the record's half-budget values); None before any."""
+        if not self.points:
+            return None
+        return min(self.points, key=lambda p: (abs(2 * p.step - (p.total_steps or 2 * p.step)), -p.step))
 
     @property
     def called(self) -> bool:
@@ -146,18 +216,18 @@ class HalfBudgetCheck:
         return self.result is not None
 
     def __call__(self, method, step: int, total_steps=None) -> None:
-        if self.result is not None:
+        if any(p.step == int(step) for p in self.points):
             return
         start = time.perf_counter()
         try:
             with preserved_random_state():
-                values = self._measure(method)
+                measured = self._measure(method)
         finally:
             self.seconds += time.perf_counter() - start
         if total_steps is None:
             total_steps = self.spec.budget.max_steps
-        self.result = HalfBudget(step=int(step), total_steps=None if total_steps is None else int(total_steps),
-                                 values=values)
+        self.points.append(HalfBudget(step=int(step), total_steps=None if total_steps is None else int(total_steps),
+                                      **measured))
 
     def _measure(self, method) -> dict:
         spec, dataset = self.spec, self.inputs.dataset
@@ -182,7 +252,29 @@ class HalfBudgetCheck:
         finally:
             if writer is not None:
                 writer.discard()
-        return {name: float(scores[name]["mean"]) for name in CHECK_METRICS if name in scores}
+        return checkpoint_scores(scores)
+
+
+def checkpoint_scores(scores) -> dict:
+    """What a checkpoint keeps of an evaluation's ``scores`` (the fields of
+    :class:`HalfBudget` but its steps): each check metric's mean, the sentence-level ones'
+    per-sentence values (``scores.per_sentence`` rows, when the evaluation gives them) and
+    the set-level ones' bootstrap ``replicates``."""
+    values = {name: float(scores[name]["mean"]) for name in CHECK_METRICS if name in scores}
+    rows = [r for r in getattr(scores, "per_sentence", None) or () if "subject" in r and "sentence" in r]
+    sentences = [[str(r["subject"]), str(r["sentence"])] for r in rows]
+    per_sentence, replicates = {}, {}
+    for name in values:
+        column = [r.get(name) for r in rows]
+        if rows and all(isinstance(v, (int, float)) and not isinstance(v, bool) and np.isfinite(v) for v in column):
+            per_sentence[name] = [float(v) for v in column]
+        reps = scores[name].get("replicates") if isinstance(scores[name], dict) else None
+        if reps is not None and name not in per_sentence:
+            reps = np.asarray(reps, dtype=float).ravel()
+            if reps.size and np.all(np.isfinite(reps)):
+                replicates[name] = reps.tolist()
+    return {"values": values, "sentences": sentences if per_sentence else [], "per_sentence": per_sentence,
+            "replicates": replicates}
 
 
 def not_checked_reason(spec) -> str | None:
@@ -225,13 +317,37 @@ def _half_width(entry) -> float:
     return (float(ci[1]) - float(ci[0])) / 2.0
 
 
-def convergence_record(half: HalfBudget | None, metrics) -> dict | None:
-    """The ``convergence`` section of one run from its half-budget values and its
-    full-budget metric entries (``{"mean", "ci95", ...}``); None without a half-budget
-    call or when neither metric of :data:`CHECK_METRICS` was scored both times.
+def curve_record(points) -> dict:
+    """``{"sentences", "curve"}`` of a run's checkpoints (:class:`HalfBudget`, any order):
+    the curve's points by step, each ``{"step", "metrics"[, "per_sentence"][, "replicates"]}``;
+    per-sentence values are kept where they follow the first point's sentences. Empty
+    without points."""
+    points = sorted(points or (), key=lambda p: p.step)
+    if not points:
+        return {}
+    sentences = next((list(p.sentences) for p in points if p.per_sentence), [])
+    curve = []
+    for point in points:
+        entry = {"step": int(point.step), "metrics": {k: float(v) for k, v in point.values.items()}}
+        if point.per_sentence and [list(k) for k in point.sentences] == sentences:
+            entry["per_sentence"] = {k: list(v) for k, v in point.per_sentence.items()}
+        if point.replicates:
+            entry["replicates"] = {k: list(v) for k, v in point.replicates.items()}
+        curve.append(entry)
+    return {"sentences": [list(k) for k in sentences], "curve": curve} if sentences else {"curve": curve}
 
-    A metric is settled when ``|full - half| <= half_width``, ``half_width`` being half
-    the width of the full-budget ``ci95``; the run is settled when each checked metric is.
+
+def convergence_record(half: HalfBudget | None, metrics, points=None) -> dict | None:
+    """The ``convergence`` section of one run from its half-budget values, its
+    full-budget metric entries (``{"mean", "ci95", ...}``) and its learning curve
+    (``points``: every checkpoint's :class:`HalfBudget`, :func:`curve_record`); None
+    without a half-budget call or when neither metric of :data:`CHECK_METRICS` was scored
+    both times.
+
+    A metric is settled (moved within its interval) when ``|full - half| <= half_width``,
+    ``half_width`` being half the width of the full-budget ``ci95``; the run is when each
+    checked metric is. Whether a move changes what the table says is decided by the table
+    (:mod:`leaderboard.settled`).
     """
     if half is None:
         return None
@@ -246,7 +362,7 @@ def convergence_record(half: HalfBudget | None, metrics) -> dict | None:
     if not out:
         return None
     return {"checked_at_step": half.step, "total_steps": half.total_steps, "metrics": out,
-            "settled": all(m["settled"] for m in out.values())}
+            "settled": all(m["settled"] for m in out.values()), **curve_record(points or [half])}
 
 
 def checked_convergence(check: HalfBudgetCheck | None, reason: str | None, metrics) -> tuple[dict | None, str | None]:
@@ -265,7 +381,7 @@ def checked_convergence(check: HalfBudgetCheck | None, reason: str | None, metri
     """
     if check is None:
         return None, reason
-    record = convergence_record(check.result, metrics)
+    record = convergence_record(check.result, metrics, getattr(check, "points", None))
     if not check.called:
         return record, NOT_CHECKED["no_call"]
     return record, NOT_CHECKED["no_metrics"] if record is None else CHECKED
@@ -306,5 +422,22 @@ def combined_convergence(per_seed, metrics) -> dict | None:
                      "settled": bool(abs(full - half) <= width and all(r["metrics"][name]["settled"]
                                                                      for r in records))}
     # one budget for every seed: the first seed's steps stand for all
-    return {"checked_at_step": records[0]["checked_at_step"], "total_steps": records[0]["total_steps"],
-            "metrics": out, "settled": all(m["settled"] for m in out.values()) and all(r["settled"] for r in records)}
+    record = {"checked_at_step": records[0]["checked_at_step"], "total_steps": records[0]["total_steps"],
+              "metrics": out, "settled": all(m["settled"] for m in out.values()) and all(r["settled"] for r in records)}
+    curve = _mean_curve([r.get("curve") or () for r in records], names)
+    return {**record, "curve": curve} if curve else record
+
+
+def _mean_curve(curves, names) -> list:
+    """The seeds' learning curves as one: per step that every seed has, the seed means of
+    ``names`` (the per-sentence values and replicates stay in each seed's record)."""
+    steps = [{int(p["step"]): p["metrics"] for p in curve} for curve in curves]
+    if not steps or not all(steps):
+        return []
+    common = sorted(set.intersection(*(set(s) for s in steps)))
+    out = []
+    for step in common:
+        metrics = {n: float(np.mean([s[step][n] for s in steps])) for n in names if all(n in s[step] for s in steps)}
+        if metrics:
+            out.append({"step": step, "metrics": metrics})
+    return out

@@ -140,6 +140,10 @@ class RunSpec:
     name : str, optional
         The result's file name, for a caller that names its own results (the
         leaderboard's rows); None: :func:`benchmark.protocol.storing.result_name`.
+    checkpoint_fractions : sequence of float, optional
+        Where in the step budget the learning curve is scored (``--checkpoint-fractions``;
+        increasing, each in (0, 1], 1 being the full budget); None:
+        :data:`benchmark.protocol.convergence.CURVE_FRACTIONS` (a quarter and half).
     """
 
     method: str
@@ -163,8 +167,16 @@ class RunSpec:
     vae: object = None
     overwrite: bool = False
     name: str | None = None
+    checkpoint_fractions: tuple | None = None
 
     def __post_init__(self):
+        if self.checkpoint_fractions is not None:
+            from benchmark.protocol.convergence import checked_fractions  # convergence imports this module
+
+            try:
+                object.__setattr__(self, "checkpoint_fractions", checked_fractions(self.checkpoint_fractions))
+            except ValueError as exc:
+                raise UsageError(str(exc)) from None
         if not _is_count(self.samples):
             raise UsageError(f"--samples: expected an integer >= 1, got {self.samples!r}")
         limit = self.generate_time_limit

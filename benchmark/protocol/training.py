@@ -157,7 +157,8 @@ def prepared_method(name: str, config: dict, dataset, *, seed: int, budget: Budg
         ``checkpoint_hook(method, step, total_steps)``, handed to a method that is
         trained (not loaded) as the request's ``on_checkpoint(step, total_steps=None)``
         (``Method.train``). What the hook raises leaves ``train`` unchanged (not wrapped as
-        the method's failure).
+        the method's failure). Its ``fractions`` attribute, when it has one, is the
+        request's ``checkpoint_fractions`` (the learning curve's checkpoints).
     device : str, optional
         ``"cpu"``, ``"cuda"`` or ``"cuda:N"`` (:func:`blendvoca.cli.checked_device`): the
         request's ``device``, and the trained or loaded method is then moved there
@@ -217,7 +218,10 @@ def prepared_method(name: str, config: dict, dataset, *, seed: int, budget: Budg
                 raised.append(exc)
                 raise
 
-    request = TrainingRequest(seed=seed, budget=budget, device=device, on_checkpoint=on_checkpoint)
+    # the check says where it wants its calls (its fractions of the step budget)
+    fractions = getattr(checkpoint_hook, "fractions", (0.5,))
+    request = TrainingRequest(seed=seed, budget=budget, device=device, on_checkpoint=on_checkpoint,
+                              checkpoint_fractions=fractions)
     notes = []
     try:
         with plugin_call(f"method {name!r}: train", notes=notes), \

@@ -23,7 +23,11 @@ Schema (``schema_version`` 3)::
       "per_seed"?: [{"seed", "metrics": {metric: mean}, "per_sentence", "replicates", "convergence"?,
                      "tracks", "n_clipped", "timings"}],
       "convergence"?: {"settled", "checked_at_step", "total_steps", "shared_with"?,
-                       "metrics": {metric: {"half_budget", "full_budget", "half_width", "settled"}}},
+                       "metrics": {metric: {"half_budget", "full_budget", "half_width", "settled"}},
+                       "sentences"?: [[subject, sentence], ...],
+                       "curve"?: [{"step", "metrics": {metric: value}, "per_sentence"?: {metric: [...]},
+                                   "replicates"?: {metric: [...]}}],
+                       "statements"?: [the table's statements the half-budget values would change]},
       "tracks":   "<run>"   (stored tracks folder, relative to the JSON; benchmark.runs)
       "provenance": {"date", "git_revision", "git_dirty", "python", "platform",
                      "versions": {package: version}, "hardware": {...}},

@@ -55,7 +55,7 @@ from benchmark.results.parts import (
     truth,
 )
 
-__all__ = ["LATENCY_FIELDS", "METRIC_FIELDS", "SCHEMA_VERSION", "Convergence", "DatasetInfo", "Latency",
+__all__ = ["LATENCY_FIELDS", "METRIC_FIELDS", "SCHEMA_VERSION", "Convergence", "CurvePoint", "DatasetInfo", "Latency",
            "HumanPreference", "MethodInfo", "MetricCheck", "MetricEntry", "PreferenceEntry", "Protocol", "Provenance", "Result", "SeedRecord",
            "SETTINGS_PROTOCOL_KEYS", "replicates_array", "result_filename", "seed_replicates", "settings_digest"]
 
@@ -203,16 +203,47 @@ class MetricCheck(Part):
 
 
 @dataclass(frozen=True, kw_only=True)
-class Convergence(Part):
-    """``convergence``: whether the row's training had settled (the half-budget check).
-    The training helper's checkpoint fractions will add fields here."""
+class CurvePoint(Part):
+    """One checkpoint of ``convergence.curve``: the check metrics as the method was after ``step``."""
 
+    step: int = item(integer, required=True)
+    #: ``{metric: value}``.
+    metrics: dict = item(mapping_of(number, "an object of metric -> number"), required=True)
+    #: ``{metric: [value per sentence of convergence.sentences]}`` (sentence-level metrics).
+    per_sentence: dict | None = item(mapping_of(numbers, "an object of metric -> list"))
+    #: ``{metric: bootstrap replicates}`` (set-level metrics).
+    replicates: dict | None = item(mapping_of(numbers, "an object of metric -> list"))
+
+
+def _sentence_keys(value, where):
+    if not isinstance(value, list) or not all(isinstance(k, list) and len(k) == 2 and all(isinstance(x, str) for x in k)
+                                              for k in value):
+        raise Invalid("a list of [subject, sentence]", value)
+    return tuple(tuple(k) for k in value)
+
+
+@dataclass(frozen=True, kw_only=True)
+class Convergence(Part):
+    """``convergence``: the row's learning curve (:mod:`benchmark.protocol.convergence`) and
+    the move between half and full budget; the statements of the table that the
+    half-budget values would change (:mod:`leaderboard.settled`) once a table was built."""
+
+    #: Every check metric moved by at most its interval's half-width (information; the
+    #: tables' † is :mod:`leaderboard.settled`'s rule).
     settled: bool | None = item(truth)
     checked_at_step: int | None = item(integer)
     total_steps: int | None = item(integer)
     metrics: dict | None = item(mapping_of(part(MetricCheck), "an object of metric -> check"))
     #: The row whose training this row scores (its verdict).
     shared_with: str | None = item(anything)
+    #: The order of every curve point's ``per_sentence`` values.
+    sentences: tuple | None = item(_sentence_keys)
+    #: The learning curve's checkpoints before the full budget, by step.
+    curve: tuple | None = item(list_of(part(CurvePoint), "a list of objects"))
+    #: The table's statements the half-budget values would change (written by
+    #: ``python -m leaderboard.settled --store``; derived from the table, not measured:
+    #: outside :meth:`Result.record_digest`).
+    statements: tuple | None = item(list_of(string, "a list of strings"))
 
     def unsettled(self) -> list:
         """``[(metric, half_budget, full_budget, half_width)]`` of the checked metrics that failed."""
@@ -433,6 +464,8 @@ class Result(Part):
         ``per_seed``, ``convergence``) and its :meth:`settings`, as canonical JSON:
         what ``protocol.record_sha256`` holds for a file as the run wrote it."""
         record = self.to_json()
+        if isinstance(record.get("convergence"), dict):  # the table's verdict, not a measurement
+            record["convergence"] = {k: v for k, v in record["convergence"].items() if k != "statements"}
         return _canonical_digest({"settings": self.settings(),
                                   **{key: record.get(key) for key in ("metrics", "per_sentence", "per_seed",
                                                                        "convergence")}})

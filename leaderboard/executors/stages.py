@@ -230,9 +230,10 @@ def train_stage(spec, root):
         log_progress(f"{spec['row']}: training seed {seed}, {spec['max_steps']} steps ({spec['note']})")
         trained = train(run, inputs.dataset, check=check)
         half = dataclasses.asdict(check.result) if check is not None and check.called else None
+        curve = [dataclasses.asdict(p) for p in check.points] if check is not None else []  # the learning curve
         record = {"seed": seed, "training": spec["training"], "train_s": trained.train_s,
                   "convergence_s": trained.convergence_s, "checked": check is not None, "reason": reason,
-                  "half_budget": half, "host": socket.gethostname()}
+                  "half_budget": half, "curve": curve, "host": socket.gethostname()}
         _write_json(record_path, record)
         move_into_place(partial, final, replace=True)  # an earlier try finished after all (a lost node's): keep one
     finally:
@@ -304,7 +305,8 @@ def score_stage(spec, root, expert, record):
         raise
     owns, half = spec["owns_training"], record.get("half_budget")
     # the half-budget check as the training saw it (a row scoring another's training has none)
-    seen = (SimpleNamespace(result=None if half is None else HalfBudget(**half), called=half is not None)
+    seen = (SimpleNamespace(result=None if half is None else HalfBudget(**half), called=half is not None,
+                            points=[HalfBudget(**p) for p in record.get("curve") or ([half] if half else [])])
             if owns and record.get("checked") else None)
     convergence, reason = checked_convergence(seen, record.get("reason") if owns else NOT_CHECKED["loaded"],
                                               scored.metrics)

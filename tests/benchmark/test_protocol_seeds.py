@@ -167,6 +167,13 @@ def test_one_result_over_the_seeds_each_seed_as_its_own_run(dataset, tmp_path):
     assert convergence["checked_at_step"] == 3 and convergence["total_steps"] == 6
     assert convergence["settled"] == all(p["convergence"]["settled"] for p in per_seed) and \
         convergence["settled"] == all(m["settled"] for m in convergence["metrics"].values())
+    # the row's learning curve: per step (1 and 3 of 6) the seed means; each seed's keeps its per-sentence values
+    assert [p["step"] for p in convergence["curve"]] == [1, 3] and "sentences" not in convergence
+    for i, point in enumerate(convergence["curve"]):
+        assert set(point) == {"step", "metrics"}
+        for name, value in point["metrics"].items():
+            assert value == pytest.approx(np.mean([p["convergence"]["curve"][i]["metrics"][name] for p in per_seed]))
+    assert all(len(p["convergence"]["curve"][1]["per_sentence"]["lve_rig"]) == len(rows) for p in per_seed)
     assert result["timings"]["convergence_s"] is not None and len(per_seed[0]["timings"]) == 5
     # the folder: the JSON and one tracks folder with a subfolder per seed, nothing staged left
     assert sorted(p.name for p in (tmp_path / "seeds").iterdir()) == [path.stem, path.name]
@@ -178,10 +185,24 @@ def test_the_half_budget_check_scores_two_metrics_and_changes_nothing(dataset, t
 
     EVALUATIONS.clear()
     path = _run(dataset, tmp_path / "a", seed=1, budget=Budget(max_steps=10))
-    assert EVALUATIONS == [("lve_rig", "fd"), None]  # the half-budget call, then the full evaluation
+    # the learning curve's calls (a quarter and half of the steps), then the full evaluation
+    assert EVALUATIONS == [("lve_rig", "fd"), ("lve_rig", "fd"), None]
     result = json.loads(path.read_text())
     convergence = result["convergence"]
     assert convergence["checked_at_step"] == 5 and convergence["total_steps"] == 10
+    # the curve: steps 2 and 5, with what the tables' paired resampling reads at each
+    curve = convergence["curve"]
+    assert [p["step"] for p in curve] == [2, 5]
+    assert convergence["sentences"] == [[r["subject"], r["sentence"]] for r in result["per_sentence"]]
+    for point in curve:
+        assert np.mean(point["per_sentence"]["lve_rig"]) == pytest.approx(point["metrics"]["lve_rig"])
+        assert len(point["replicates"]["fd"]) == 50 and "fd" not in point["per_sentence"]
+    assert curve[1]["metrics"] == {k: m["half_budget"] for k, m in convergence["metrics"].items()}
+    assert curve[0]["metrics"]["lve_rig"] > curve[1]["metrics"]["lve_rig"] > result["metrics"]["lve_rig"]["mean"]
+    # the checkpoint at step 5 is the model a 5-step run trains: the same per-sentence values
+    five = json.loads(_run(dataset, tmp_path / "five", seed=1, budget=Budget(max_steps=5)).read_text())
+    assert curve[1]["per_sentence"]["lve_rig"] == pytest.approx([r["lve_rig"] for r in five["per_sentence"]])
+    assert curve[1]["replicates"]["fd"] == pytest.approx(five["metrics"]["fd"]["replicates"])
     assert set(convergence["metrics"]) == {"lve_rig", "fd"}
     for name, m in convergence["metrics"].items():
         entry = result["metrics"][name]
@@ -407,6 +428,28 @@ def test_convergence_records_one_seed_and_several():
     mixed = combined_convergence([settled, unsettled], {"lve_rig": {"mean": 2.0, "ci95": [0.0, 4.0]}})
     assert not mixed["settled"] and not mixed["metrics"]["lve_rig"]["settled"]  # one seed moved: not settled
     assert combined_convergence([settled, None], {"lve_rig": entry}) is None
+
+
+def test_a_checkpoint_survives_the_reproduce_stages_json_record():
+    """leaderboard.executors.stages writes each checkpoint as JSON (dataclasses.asdict) and reads it back."""
+    import dataclasses
+    from types import SimpleNamespace
+
+    from benchmark.protocol.convergence import checked_convergence
+
+    points = [HalfBudget(1, 4, {"lve_rig": 3.0}, [["S", "a"], ["S", "b"]], {"lve_rig": [2.0, 4.0]}, {}),
+              HalfBudget(2, 4, {"lve_rig": 2.5, "fd": 9.0}, [["S", "a"], ["S", "b"]], {"lve_rig": [2.0, 3.0]},
+                         {"fd": [8.0, 10.0]})]
+    back = [HalfBudget(**json.loads(json.dumps(dataclasses.asdict(p)))) for p in points]
+    assert back == points
+    seen = SimpleNamespace(result=back[1], called=True, points=back)
+    record, reason = checked_convergence(seen, None, {"lve_rig": {"mean": 2.0, "ci95": [1.8, 2.2]},
+                                                      "fd": {"mean": 8.5, "ci95": [8.2, 8.8]}})
+    assert reason == "checked" and record["checked_at_step"] == 2 and record["sentences"] == [["S", "a"], ["S", "b"]]
+    assert record["curve"] == [{"step": 1, "metrics": {"lve_rig": 3.0}, "per_sentence": {"lve_rig": [2.0, 4.0]}},
+                               {"step": 2, "metrics": {"lve_rig": 2.5, "fd": 9.0},
+                                "per_sentence": {"lve_rig": [2.0, 3.0]}, "replicates": {"fd": [8.0, 10.0]}}]
+    assert record["metrics"]["lve_rig"]["half_budget"] == 2.5 and record["metrics"]["fd"]["settled"] is False
 
 
 @pytest.mark.slow  # two trained and fully scored runs with the VAE

@@ -369,31 +369,39 @@ def test_old_files_fall_back_to_the_interval_rule_and_say_so():
 
 
 def test_not_settled_rows_are_marked_with_a_line_under_the_table():
+    # settled by ranking (leaderboard.settled; more cases in test_settled.py): moving's half-budget LVE rig
+    # (2.31) is worse than steady's (2.0) on every sentence, its full-budget one (1.5) better on every one
     base = np.linspace(1.0, 2.0, len(SENTENCES))
     convergence = {"checked_at_step": 750, "total_steps": 1500, "settled": False,
                    "metrics": {"lve_rig": {"half_budget": 2.31, "full_budget": 1.5, "half_width": 0.05,
                                            "settled": False},
                                "fd": {"half_budget": 3.0, "full_budget": 3.01, "half_width": 0.5, "settled": True}}}
     results = [_sentence_result("moving", base, convergence=convergence),
-               _sentence_result("steady", base + 1.0, convergence={**convergence, "settled": True, "metrics": {}})]
+               _sentence_result("steady", base + 0.5, convergence={**convergence, "settled": True, "metrics": {}})]
     md = rendered_tables(results)["leaderboard.md"]
     vertex = _section(md, "Vertex")
     assert f"| moving {NOT_SETTLED_MARK} | **" in vertex and "| steady | " in vertex
-    assert (f"{NOT_SETTLED_MARK} Not settled (moved by more than the interval's half-width between half and full "
-            "training budget): moving: LVE rig 2.31 → 1.5 (half-width 0.05) between steps 750 and 1500.") in vertex
+    assert (f"{NOT_SETTLED_MARK} Not settled (its half-budget values in place of its full-budget ones would change "
+            "these statements of the table): moving: at step 750 of 1500 (resamples shifted by the move), LVE rig "
+            "2.31 (now 1.5) would make steady bold (now moving is), would lose to steady (now beats it, P = 1.00).") \
+        in vertex
     tex = rendered_tables(results)["leaderboard.tex"]
-    assert r"moving $^\dagger$ & " in tex and r"LVE rig 2.31 $\to$ 1.5" in tex
+    assert r"moving $^\dagger$ & " in tex and r"LVE rig 2.31 (now 1.5) would make steady bold" in tex
     # rows without a convergence record (they do not train) carry no mark
     assert NOT_SETTLED_MARK not in _section(rendered_tables(results[1:])["leaderboard.md"], "Vertex")
+    # the same move that stays on the same side of every row changes no statement: no mark
+    results[1] = _sentence_result("steady", base + 1.0, convergence={**convergence, "settled": True, "metrics": {}})
+    assert NOT_SETTLED_MARK not in _section(rendered_tables(results)["leaderboard.md"], "Vertex")
 
 
-def test_a_metric_settled_on_the_seed_mean_names_the_seeds_that_moved():
+def test_a_row_alone_with_moving_seeds_changes_no_statement():
     base = np.linspace(1.0, 2.0, len(SENTENCES))
 
     def check(half, full, width, settled):
         return {"half_budget": half, "full_budget": full, "half_width": width, "settled": settled}
 
-    # the seed mean moves 3.10 -> 3.09 within 0.26, but seeds 1 and 2 moved by more than their own half-widths
+    # the seed mean moves 3.10 -> 3.09 within 0.26, but seeds 1 and 2 moved by more than their own half-widths:
+    # the record says so (information); with no other row in the table, no statement can change
     convergence = {"checked_at_step": 10000, "total_steps": 12000, "settled": False,
                    "metrics": {"lve_rig": check(3.10, 3.09, 0.26, False), "fd": check(3.2, 14.2, 8.3, False)}}
     per_seed = [{"seed": 0, "convergence": {"metrics": {"lve_rig": check(2.88, 2.84, 0.10, True)}}},
@@ -401,12 +409,10 @@ def test_a_metric_settled_on_the_seed_mean_names_the_seeds_that_moved():
                 {"seed": 2, "convergence": {"metrics": {"lve_rig": check(3.18, 3.46, 0.079, False)}}}]
     result = _sentence_result("seeded", base, convergence=convergence)
     result["per_seed"] = per_seed
-    md = rendered_tables([result])["leaderboard.md"]
-    assert ("seeded: LVE rig on seed 1 3.25 → 2.95 (half-width 0.086) and seed 2 3.18 → 3.46 (half-width 0.079), "
-            "FD 3.2 → 14.2 (half-width 8.3) between steps 10000 and 12000.") in md
-    # without per-seed records the seed mean's move is all there is to show
-    del result["per_seed"]
-    assert "seeded: LVE rig 3.1 → 3.09 (half-width 0.26), FD" in rendered_tables([result])["leaderboard.md"]
+    (table,) = tables_by_manifest([result])
+    assert table.rows[0].statements == [] and table.rows[0].settled is True
+    assert [s for s, *_ in table.rows[0].unsettled_seeds("lve_rig")] == [1, 2]
+    assert NOT_SETTLED_MARK not in _section(rendered_tables([result])["leaderboard.md"], "Vertex")
 
 
 def test_a_row_scoring_another_rows_training_carries_its_verdict_under_the_table():
@@ -414,7 +420,7 @@ def test_a_row_scoring_another_rows_training_carries_its_verdict_under_the_table
 
     base = np.linspace(1.0, 2.0, len(SENTENCES))
     owner = {"checked_at_step": 3750, "total_steps": 4500, "settled": False,
-             "metrics": {"fd": {"half_budget": 9.0, "full_budget": 3.0, "half_width": 0.5, "settled": False}}}
+             "metrics": {"lve_rig": {"half_budget": 3.0, "full_budget": 1.5, "half_width": 0.5, "settled": False}}}
     shared = shared_convergence(owner, "owner")
     assert shared == {"shared_with": "owner", "checked_at_step": 3750, "total_steps": 4500, "metrics": {},
                       "settled": False}
@@ -422,8 +428,9 @@ def test_a_row_scoring_another_rows_training_carries_its_verdict_under_the_table
     md = rendered_tables([_sentence_result("owner", base, convergence=owner),
                           _sentence_result("variant", base + 1.0, convergence=shared)])["leaderboard.md"]
     vertex = _section(md, "Vertex")
-    assert f"| variant {NOT_SETTLED_MARK} | " in vertex
-    assert "owner: FD 9 → 3 (half-width 0.5) between steps 3750 and 4500; variant: row owner's training, " \
+    assert f"| variant {NOT_SETTLED_MARK} | " in vertex and f"| owner {NOT_SETTLED_MARK} | " in vertex
+    assert "owner: at step 3750 of 4500 (resamples shifted by the move), LVE rig 3 (now 1.5) would make variant " \
+           "bold (now owner is), would lose to variant (now beats it, P = 1.00); variant: row owner's training, " \
            "not settled there." in vertex
 
 

@@ -292,7 +292,7 @@ def test_site_data_shows_seeds_settling_best_rules_and_improvement(tmp_path):
     (table,) = leaderboard_data(runs)["tables"]
     methods = {r["label"]: r for r in table["methods"]}
     two = methods["two-seeds"]
-    assert two["seeds"] == [0, 1] and two["settled"] is False and "LVE rig 2.5 → 2" in two["not_settled"]
+    assert two["seeds"] == [0, 1] and two["settled"] is False and "LVE rig 2.51 (now 2.01) would leave no row bold (now two-seeds is), would no longer beat one-seed" in two["not_settled"]
     assert two["metrics"]["lve_rig"]["seed_range"] == pytest.approx([2.0, 2.02])
     assert methods["one-seed"]["settled"] is None and methods["one-seed"]["metrics"]["lve_rig"]["seed_range"] is None
     assert two["best"] == ["lve_rig"] and table["best_rule"]["lve_rig"] == "resampling"
@@ -323,7 +323,7 @@ def test_leaderboard_page_shows_seed_ranges_settling_and_the_av_note(three_js, b
             "return [row.querySelector('.not-settled').textContent, row.querySelector('.not-settled').title,"
             " [...row.querySelectorAll('.seeds')].map(s => s.textContent),"
             " document.querySelector('tbody.methods tr[data-run=\"one-seed\"] .not-settled') === null];")
-        assert shown[0] == "\u2020" and "LVE rig 2.5 → 2" in shown[1] and shown[3]
+        assert shown[0] == "\u2020" and "LVE rig 2.51 (now 2.01) would leave no row bold (now two-seeds is), would no longer beat one-seed" in shown[1] and shown[3]
         assert shown[2] == ["seeds [2.00, 2.02]"]
         notes = browser.execute_script("return [...document.querySelectorAll('p.note')].map(p => p.className + ': ' "
                                        "+ p.textContent)")

@@ -164,3 +164,24 @@ def test_upgrade_rewrites_a_schema_2_file_with_its_numbers_unchanged(tmp_path, c
     old.write_text(json.dumps({**record, "schema_version": 1}))
     assert results_main(["upgrade", str(old)]) != 0
     assert "schema-1 result file" in capsys.readouterr().err and json.loads(old.read_text())["schema_version"] == 1
+
+
+def test_the_learning_curve_round_trips_and_its_statements_stay_outside_the_digest():
+    convergence = {"checked_at_step": 2, "total_steps": 4, "settled": False,
+                   "metrics": {"fd": {"half_budget": 2.0, "full_budget": 1.5, "half_width": 0.1, "settled": False}},
+                   "sentences": [["S1", "sentence01"], ["S1", "sentence02"]],
+                   "curve": [{"step": 1, "metrics": {"fd": 3.0, "lve_rig": 2.0},
+                              "per_sentence": {"lve_rig": [1.5, 2.5]}, "replicates": {"fd": [2.9, 3.1]}},
+                             {"step": 2, "metrics": {"fd": 2.0}}]}
+    r = _result(convergence=convergence)
+    assert r.to_json()["convergence"] == convergence
+    assert r.convergence.curve[0].per_sentence == {"lve_rig": [1.5, 2.5]} and r.convergence.sentences[1] == \
+        ("S1", "sentence02")
+    stated = _result(convergence={**convergence, "statements": ["m: would lose to n"]})
+    assert stated.record_digest() == r.record_digest()  # the table's verdict is not a measurement
+    edited = _result(convergence={**convergence, "curve": [{"step": 1, "metrics": {"fd": 3.5}}]})
+    assert edited.record_digest() != r.record_digest()  # the curve is
+    with pytest.raises(DataError, match=r"convergence\.curve\[0\]\.per_sentence\.lve_rig"):
+        _result(convergence={**convergence, "curve": [{"step": 1, "metrics": {}, "per_sentence": {"lve_rig": []}}]})
+    with pytest.raises(DataError, match=r"convergence\.sentences: expected a list of \[subject, sentence\]"):
+        _result(convergence={**convergence, "sentences": [["S1"]]})
