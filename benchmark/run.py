@@ -61,6 +61,9 @@ def _parser() -> argparse.ArgumentParser:
                         "recorded in the result)")
     p.add_argument("--sentence-batch", type=int, default=1, metavar="N",
                    help="sentences per generation call, batched by methods that can (SAiD); recorded in the result")
+    p.add_argument("--lookahead-probes", default=None, metavar="T1,T2,...",
+                   help="where the look-ahead probe cuts each probed sentence, seconds from its start (default: "
+                        "one cut per sentence after the declared look-ahead; benchmark.protocol.lookahead)")
     p.add_argument("--syncnet-weights", default=None, metavar="PATH",
                    help="SyncNet weights: adds the SyncNet AV offset/confidence (renders every sentence)")
     p.add_argument("--sync-expert", default=None, metavar="PATH",
@@ -84,6 +87,15 @@ def _parser() -> argparse.ArgumentParser:
     cli.add_device_option(p, default="cpu")
     cli.add_quiet_option(p)
     return p
+
+
+def _probe_times(text: str) -> tuple:
+    """``"0.5,1.2"`` -> ``(0.5, 1.2)`` (``--lookahead-probes``)."""
+    try:
+        return tuple(float(part) for part in str(text).split(","))
+    except ValueError:
+        raise cli.UserError(f"--lookahead-probes: expected comma-separated seconds such as 0.5,1.2, "
+                             f"got {text!r}") from None
 
 
 def _print_listing() -> None:
@@ -144,7 +156,8 @@ def main(argv=None) -> int:
                    checkpoint=args.checkpoint, clip=args.clip, generate_time_limit=args.generate_time_limit,
                    sentence_batch=args.sentence_batch, vocaset=args.vocaset, syncnet=args.syncnet_weights,
                    sync_expert=args.sync_expert, results_dir=args.results, verify=args.verify,
-                   device=device, vae=args.vae, overwrite=args.overwrite)
+                   device=device, vae=args.vae, overwrite=args.overwrite,
+                   lookahead_probes=None if args.lookahead_probes is None else _probe_times(args.lookahead_probes))
     path = run(spec)
     if not args.quiet:
         _print_summary(path)
