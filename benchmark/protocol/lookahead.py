@@ -21,8 +21,8 @@ audio encoder over the whole utterance). The probe measures it from the outputs:
 
 The measured look-ahead is the largest over the probes. By default each probed
 sentence is cut once, at a fraction of its length (:data:`PROBE_FRACTIONS`) but never
-before the declared look-ahead plus two frames, so that a method keeping its
-declaration never changes its first frame; ``--lookahead-probes`` names the cut times
+before the declared look-ahead plus two frames where the sentence is that long, so that
+a method keeping its declaration never changes its first frame; ``--lookahead-probes`` names the cut times
 instead (seconds into each probed sentence; one outside a sentence is refused,
 :func:`checked_probe_times`). A method exceeds its declaration when the measured
 look-ahead is more than one frame (:data:`FRAME_S`, the probe's resolution) beyond it.
@@ -91,15 +91,17 @@ def probe_cut_frames(num_frames: int, declared_s: float | None, index: int, time
     """The frames where the probe cuts a sentence of ``num_frames`` frames (its
     ``index``-th probed one): ``times`` (seconds) at their frame, else one cut at
     :data:`PROBE_FRACTIONS` ``[index]`` of its length, moved to at least the declared
-    look-ahead plus two frames and at most the sentence's last frame."""
+    look-ahead plus two frames where the sentence is that long (where it is not, the
+    declaration covers the whole sentence and the fraction stays)."""
     last = num_frames - 1
     if last < 1:
         return []
     if times is not None:
         return sorted({min(last, max(1, int(math.ceil(float(t) * FPS - 1e-9)))) for t in times})
     cut = int(round(PROBE_FRACTIONS[index % len(PROBE_FRACTIONS)] * num_frames))
-    if declared_s is not None:
-        cut = max(cut, int(math.ceil(float(declared_s) * FPS - 1e-9)) + 2)
+    after = None if declared_s is None else int(math.ceil(float(declared_s) * FPS - 1e-9)) + 2
+    if after is not None and after <= last:  # else the declaration covers the sentence: any cut is within it
+        cut = max(cut, after)
     return [min(last, max(1, cut))]
 
 

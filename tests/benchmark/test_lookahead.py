@@ -95,6 +95,13 @@ def test_a_method_normalising_by_the_whole_utterance_reads_all_of_it():
     assert exceeds_declaration(latency["measured_lookahead_s"], latency["lookahead_s"])
 
 
+def test_a_method_whose_declaration_covers_the_sentence_may_read_all_of_it():
+    latency = _latency(LooksAhead(ahead=0, declared=10.0, normalise=True))  # one 10 s chunk, 2 s sentences
+    assert latency["lookahead_probe"]["whole_utterance"]
+    assert latency["measured_lookahead_s"] == max(p["duration_s"] for p in latency["lookahead_probe"]["probes"])
+    assert not exceeds_declaration(latency["measured_lookahead_s"], latency["lookahead_s"])
+
+
 def test_a_sampling_method_is_probed_with_its_random_streams_fixed():
     latency = _latency(LooksAhead(ahead=3, declared=3 / FPS, stochastic=True))
     assert abs(latency["measured_lookahead_s"] - 3 / FPS) <= FRAME_S + 1e-9
@@ -126,7 +133,8 @@ def test_the_probe_costs_a_repeat_and_two_calls_per_cut_at_the_times_asked():
 def test_default_cuts_leave_the_declared_look_ahead_before_them():
     assert probe_cut_frames(300, None, 0) == [150]
     assert probe_cut_frames(300, 4.0, 0) == [242]      # after 4 s + two frames
-    assert probe_cut_frames(300, 10.0, 0) == [299]     # a sentence shorter than the declaration: its last frame
+    assert probe_cut_frames(300, 4.9, 0) == [296]      # just long enough
+    assert probe_cut_frames(300, 10.0, 0) == [150]     # a sentence the declaration covers: any cut is within it
     assert probe_cut_frames(300, None, 0, times=(0.5, 0.51)) == [30, 31]
 
 
