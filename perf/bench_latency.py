@@ -31,7 +31,8 @@ def main(argv=None) -> int:
     parser.add_argument("--max-steps", type=int, default=20, help="training steps per method (default 20)")
     parser.add_argument("--sentences", type=int, default=3, help="test sentences timed (default 3)")
     parser.add_argument("--chunk-frames", type=int, default=None,
-                        help="chunk length of the chunked methods (config chunk_frames; default theirs)")
+                        help="chunk length of the chunked methods, " + ", ".join(METHODS)
+                             + " (config chunk_frames; default theirs)")
     parser.add_argument("--chunk-overlap", type=int, default=None, help="their chunk_overlap (default theirs)")
     args = parser.parse_args(argv)
 
@@ -52,7 +53,7 @@ def main(argv=None) -> int:
         cls = get_method(name)
         chunked = {key: value for key, value in (("chunk_frames", args.chunk_frames),
                                                  ("chunk_overlap", args.chunk_overlap))
-                   if value is not None and hasattr(cls, "chunk_frames")}
+                   if value is not None and name in METHODS}
         method = cls(**chunked)
         method.train(dataset, TrainingRequest(seed=0, budget=Budget(max_steps=args.max_steps)))
         lat = measure_latency(method, dataset, split="test", seed=0, name=name, sentences=args.sentences)

@@ -39,7 +39,9 @@ function rowElement(row, metrics, groupOf) {
   const rtf = row.latency ? row.latency.rtf : null;
   tr.append(el("td", { class: "rtf", "data-value": rtf === null || rtf === undefined ? "" : String(rtf),
     title: row.latency ? `look-ahead ${row.latency.lookahead_s ?? "whole utterance"} s, first frame ` +
-      `${row.latency.first_frame_s ?? "-"} s, CPU ${row.latency.compute_per_audio_s ?? "-"} s per audio s` : "" },
+      `${row.latency.first_frame_s ?? "-"} s, CPU ${row.latency.compute_per_audio_s ?? "-"} s per audio s` +
+      (row.latency.measured_lookahead_s == null ? "" :
+        `, measured look-ahead ${row.latency.measured_lookahead_s} s`) : "" },
     rtf === null || rtf === undefined ? "-" : fmt(rtf)));
   return tr;
 }
