@@ -184,9 +184,10 @@ class RunSpec:
         object.__setattr__(self, "sentence_batch", int(self.sentence_batch))
         if self.lookahead_probes is not None:
             probes = self.lookahead_probes
+            # numbers here; inside every probed sentence: check_inputs, which knows their lengths
             if isinstance(probes, (str, bytes)) or not hasattr(probes, "__iter__") or not probes or not all(
-                    _is_seconds(t) and float(t) > 0 for t in probes):
-                raise UsageError(f"--lookahead-probes: expected times in seconds > 0 such as 0.5,1.2, got {probes!r}")
+                    isinstance(t, (int, float)) and not isinstance(t, bool) and math.isfinite(t) for t in probes):
+                raise UsageError(f"--lookahead-probes: expected times in seconds such as 0.5,1.2, got {probes!r}")
             object.__setattr__(self, "lookahead_probes", tuple(float(t) for t in probes))
         if self.vae is not None and not Path(self.vae).expanduser().is_file():
             raise UsageError(f"--vae {self.vae}: no such file (a VAE state dict, python -m benchmark.features.train)")

@@ -2,6 +2,7 @@
 that reads past its declaration caught and marked in the tables, a probe time outside the
 utterance refused before anything is stored."""
 
+import dataclasses
 import json
 
 import numpy as np
@@ -155,8 +156,12 @@ def test_a_run_with_a_probe_time_outside_the_utterance_stores_nothing(tmp_path):
     with pytest.raises(UsageError, match=r"--lookahead-probes .*outside the utterance D/sentence\d+, which is "):
         run(spec, evaluate=fake_evaluate, open_dataset=lambda root: dataset)
     assert not [p for p in tmp_path.iterdir() if not p.name.startswith(".")]
-    with pytest.raises(UsageError, match="--lookahead-probes: expected times"):
-        RunSpec("random", lookahead_probes=("soon",))
+    for bad in (("soon",), (), (float("inf"),), 0.5):
+        with pytest.raises(UsageError, match="--lookahead-probes: expected times"):
+            RunSpec("random", lookahead_probes=bad)
+    with pytest.raises(UsageError, match=r"--lookahead-probes -0.5: outside the utterance D/sentence01, which is "):
+        run(dataclasses.replace(spec, lookahead_probes=(-0.5,)), evaluate=fake_evaluate,
+            open_dataset=lambda root: dataset)
 
 
 def test_the_command_line_refuses_a_probe_time_outside_the_utterance_in_one_line(tmp_path, capsys):
