@@ -126,6 +126,22 @@ def _print_summary(path) -> None:
                           for name, m in convergence["metrics"].items())
         state = "settled" if convergence["settled"] else "NOT settled"
         print(f"  half budget (step {convergence['checked_at_step']}): {moved}: {state}", file=sys.stderr)
+    _print_lookahead(result.get("latency") or {})
+
+
+def _print_lookahead(latency: dict) -> None:
+    """The look-ahead the method declares and the one the probe measured (and whether it reads further)."""
+    if "measured_lookahead_s" not in latency:
+        return
+    declared, measured = latency.get("lookahead_s"), latency.get("measured_lookahead_s")
+    probe = latency.get("lookahead_probe") or {}
+    seen = (probe.get("note") or "not measured") if measured is None else (
+        f"measured {measured:.3g} s" + (" (the whole utterance)" if probe.get("whole_utterance") else ""))
+    said = "the whole utterance" if declared is None else f"{declared:.3g} s"
+    frame = probe.get("frame_s") or 0.0
+    beyond = declared is not None and measured is not None and measured > declared + frame + 1e-9
+    print(f"  look-ahead: declared {said}, {seen}" + (
+        ": READS FURTHER AHEAD THAN IT DECLARES (marked in the tables)" if beyond else ""), file=sys.stderr)
 
 
 @cli.command

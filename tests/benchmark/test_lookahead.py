@@ -226,3 +226,14 @@ def test_tables_mark_a_row_reading_past_its_declaration_with_a_note(tmp_path):
 
 def _parts(result: dict) -> dict:
     return {key: result[key] for key in ("method", "dataset", "protocol", "metrics", "timings", "provenance")}
+
+
+def test_the_run_summary_says_the_declared_and_measured_look_ahead(capsys):
+    from benchmark.run import _print_lookahead
+
+    _print_lookahead(_latency(LooksAhead(ahead=30, declared=0.1)))
+    _print_lookahead(_latency(LooksAhead(ahead=0, declared=None)))
+    _print_lookahead({"lookahead_s": 0.5, "rtf": 0.1})  # written before the probe: nothing to say
+    lines = capsys.readouterr().err.splitlines()
+    assert lines == ["  look-ahead: declared 0.1 s, measured 0.5 s: READS FURTHER AHEAD THAN IT DECLARES "
+                     "(marked in the tables)", "  look-ahead: declared the whole utterance, measured 0 s"]
