@@ -61,6 +61,9 @@ def _parser() -> argparse.ArgumentParser:
                         "recorded in the result)")
     p.add_argument("--sentence-batch", type=int, default=1, metavar="N",
                    help="sentences per generation call, batched by methods that can (SAiD); recorded in the result")
+    p.add_argument("--lookahead-probes", default=None, metavar="T1,T2,...",
+                   help="where the look-ahead probe cuts each probed sentence, seconds from its start (default: "
+                        "one cut per sentence after the declared look-ahead; benchmark.protocol.lookahead)")
     p.add_argument("--syncnet-weights", default=None, metavar="PATH",
                    help="SyncNet weights: adds the SyncNet AV offset/confidence (renders every sentence)")
     p.add_argument("--sync-expert", default=None, metavar="PATH",
@@ -87,6 +90,15 @@ def _parser() -> argparse.ArgumentParser:
     cli.add_device_option(p, default="cpu")
     cli.add_quiet_option(p)
     return p
+
+
+def _probe_times(text: str) -> tuple:
+    """``"0.5,1.2"`` -> ``(0.5, 1.2)`` (``--lookahead-probes``)."""
+    try:
+        return tuple(float(part) for part in str(text).split(","))
+    except ValueError:
+        raise cli.UserError(f"--lookahead-probes: expected comma-separated seconds such as 0.5,1.2, "
+                             f"got {text!r}") from None
 
 
 def _print_listing() -> None:
@@ -117,6 +129,22 @@ def _print_summary(path) -> None:
                           for name, m in convergence["metrics"].items())
         state = "settled" if convergence["settled"] else "NOT settled"
         print(f"  half budget (step {convergence['checked_at_step']}): {moved}: {state}", file=sys.stderr)
+    _print_lookahead(result.get("latency") or {})
+
+
+def _print_lookahead(latency: dict) -> None:
+    """The look-ahead the method declares and the one the probe measured (and whether it reads further)."""
+    if "measured_lookahead_s" not in latency:
+        return
+    declared, measured = latency.get("lookahead_s"), latency.get("measured_lookahead_s")
+    probe = latency.get("lookahead_probe") or {}
+    seen = (probe.get("note") or "not measured") if measured is None else (
+        f"measured {measured:.3g} s" + (" (the whole utterance)" if probe.get("whole_utterance") else ""))
+    said = "the whole utterance" if declared is None else f"{declared:.3g} s"
+    frame = probe.get("frame_s") or 0.0
+    beyond = declared is not None and measured is not None and measured > declared + frame + 1e-9
+    print(f"  look-ahead: declared {said}, {seen}" + (
+        ": READS FURTHER AHEAD THAN IT DECLARES (marked in the tables)" if beyond else ""), file=sys.stderr)
 
 
 @cli.command
@@ -148,7 +176,8 @@ def main(argv=None) -> int:
                    sentence_batch=args.sentence_batch, vocaset=args.vocaset, syncnet=args.syncnet_weights,
                    sync_expert=args.sync_expert, results_dir=args.results, verify=args.verify,
                    device=device, vae=args.vae, overwrite=args.overwrite,
-                   checkpoint_fractions=args.checkpoint_fractions)
+                   checkpoint_fractions=args.checkpoint_fractions,
+                   lookahead_probes=None if args.lookahead_probes is None else _probe_times(args.lookahead_probes))
     path = run(spec)
     if not args.quiet:
         _print_summary(path)

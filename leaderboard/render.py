@@ -216,12 +216,43 @@ def _caption(table: Table) -> str:
     return f"{named}dataset recipe {table.recipe_id[:12]} ({table.split} split{n})"
 
 
-def rtf_text(row: Row, decimals: int = 3) -> str:
+def rtf_text(row: Row, decimals: int = 3, mark: str | None = None) -> str:
     """The row's real-time factor (``latency.rtf`` of its result: wall seconds of generation per
-    second of audio) to ``decimals`` significant digits, or ``"-"`` for a result without a latency record."""
+    second of audio) to ``decimals`` significant digits, or ``"-"`` for a result without a latency record;
+    followed by ``mark`` (default :data:`LOOKAHEAD_MARK`) when the row reads further ahead than it declares."""
     latency = row.result.latency if row.result is not None else None
     rtf = None if latency is None else latency.rtf
-    return "-" if rtf is None else f"{float(rtf):.{decimals}g}"
+    text = "-" if rtf is None else f"{float(rtf):.{decimals}g}"
+    return f"{text} {LOOKAHEAD_MARK if mark is None else mark}" if _reads_ahead(row) else text
+
+
+#: Mark in the RTF cell of a row whose measured look-ahead exceeds its declared one by more than a frame.
+LOOKAHEAD_MARK = "‡"
+
+
+def _reads_ahead(row: Row) -> bool:
+    latency = row.result.latency if row.result is not None else None
+    return latency is not None and latency.exceeds_declaration()
+
+
+def lookahead_notes(table: Table, label=str) -> list:
+    """The line under a table naming the rows marked :data:`LOOKAHEAD_MARK`, with their
+    measured and declared look-ahead; empty when no row is marked."""
+    marked = [row for row in table.rows + table.references if _reads_ahead(row)]
+    if not marked:
+        return []
+
+    def measured(latency) -> str:
+        probe = latency.lookahead_probe
+        whole = probe is not None and probe.whole_utterance
+        return (f"the whole utterance ({latency.measured_lookahead_s:.3g} s)" if whole
+                else f"{latency.measured_lookahead_s:.3g} s")
+
+    rows = "; ".join(f"{label(row.label)}: measured {measured(row.result.latency)}, declared "
+                     f"{row.result.latency.lookahead_s:.3g} s" for row in marked)
+    return [f"{LOOKAHEAD_MARK} Reads further ahead than it declares: replacing the audio after a cut with silence "
+            "or noise changed output frames more than one frame earlier than its declared look-ahead allows (the "
+            f"look-ahead probe, docs/metrics.md): {rows}."]
 
 
 #: Short names of a study's questions in the "human preference" column.
@@ -305,7 +336,8 @@ def markdown_tables(tables: list[Table]) -> str:
                     lines.append(_md_row(f"*{md_text(row.label)}*", row, [col[i] for col in reference_cells],
                                          [False] * len(columns), study))
             lines.append("")
-            for note in group_notes(table, columns, marks, md_text) + ([HUMAN_PREFERENCE_NOTE] if study else []):
+            for note in (group_notes(table, columns, marks, md_text) + lookahead_notes(table, md_text)
+                         + ([HUMAN_PREFERENCE_NOTE] if study else [])):
                 lines += [note, ""]
     return "\n".join(lines)
 
@@ -321,7 +353,8 @@ def _tex_row(label: str, row: Row, cells, bold_flags, study: bool = False) -> st
         small = " ".join(part for part in ([f"${interval}$"] if interval else []) + (
             [f"seeds ${seeds}$"] if seeds else []))
         out.append(f"{mean} {{\\scriptsize {small}}}" if small else mean)
-    out += [str(row.samples), rtf_text(row)] + ([_latex_label(human_preference_text(row))] if study else [])
+    out += [str(row.samples), rtf_text(row, mark=r"$^\ddagger$")] + (
+        [_latex_label(human_preference_text(row))] if study else [])
     return " & ".join(out) + r" \\"
 
 
@@ -333,6 +366,7 @@ def _tex_notes(notes: list) -> list:
         text = "".join(_latex_escape(part) if i % 2 == 0 else f"\\texttt{{{_latex_escape(part)}}}"
                        for i, part in enumerate(parts))
         text = text.replace(NOT_SETTLED_MARK, r"$^\dagger$").replace("→", r"$\to$").replace("|", r"$|$")
+        text = text.replace(LOOKAHEAD_MARK, r"$^\ddagger$")
         out.append(f"\\par\\smallskip{{\\footnotesize {text}}}")
     return out
 
@@ -367,6 +401,7 @@ def latex_tables(tables: list[Table]) -> str:
                 f"\\begin{{tabular}}{{l{'r' * len(columns)}rr{'l' if study else ''}}}", r"\toprule",
                 " & ".join(header) + r" \\", r"\midrule", *body, r"\bottomrule", r"\end{tabular}}",
                 *_tex_notes(group_notes(table, columns, marks, lambda name: str(name).replace("`", "'"))
+                            + lookahead_notes(table, lambda name: str(name).replace("`", "'"))
                             + ([HUMAN_PREFERENCE_NOTE] if study else [])),
                 r"\end{table}", "",
             ]

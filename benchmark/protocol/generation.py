@@ -24,6 +24,7 @@ from benchmark.methods import (
 )
 from benchmark.protocol.isolation import plugin_call, warn_notes
 from benchmark.protocol.limits import GenerateLimit, TimeLimit, generate_limit
+from benchmark.protocol.lookahead import lookahead_probe
 from benchmark.protocol.verification import reverified
 from benchmark.results import LATENCY_FIELDS
 from blendvoca.errors import (
@@ -120,7 +121,8 @@ def generate(spec, dataset, trained, *, store=None) -> Generated:
     if vertex_method:
         vertices = store.stored_vertices() if store is not None else in_memory
     # after the scored tracks are made, so that the extra calls cannot change them
-    latency = measure_latency(trained.method, dataset, split=spec.split, seed=spec.seed, name=spec.method)
+    latency = measure_latency(trained.method, dataset, split=spec.split, seed=spec.seed, name=spec.method,
+                              probe_times=getattr(spec, "lookahead_probes", None))
     reverified(spec, dataset, when="while the method generated")  # a plug-in that wrote into the build: exit 4
     # a face that never moves is scored as it is; the result says so (benchmark.run's summary too)
     still = motionless_sentences(tracks)
@@ -153,7 +155,7 @@ def _check_results_kept(name: str, results_dir: Path, before: set, store, tracks
 
 
 def measure_latency(method, dataset, *, split: str = "test", seed: int = 0, name: str | None = None,
-                    sentences: int = LATENCY_SENTENCES) -> dict:
+                    sentences: int = LATENCY_SENTENCES, probe_times=None) -> dict:
     """How long a method makes a listener wait, measured on the first ``sentences`` of ``split``.
 
     One sample per sentence (the stream a player would show), with the seed the run gives
@@ -167,11 +169,16 @@ def measure_latency(method, dataset, *, split: str = "test", seed: int = 0, name
     audio, ``rtf`` the wall time per second of audio (the real-time factor: below 1 is
     faster than the speech), both over whole sentences. Figures depend on the machine
     (the result's ``provenance.hardware``); no reproducibility check compares them.
+    ``measured_lookahead_s`` is the look-ahead the method actually used, from the
+    causality probe on the same sentences (:mod:`benchmark.protocol.lookahead`; cut at
+    ``probe_times`` seconds, default one cut per sentence), ``lookahead_probe`` its
+    record (the probes, their cost in ``generate`` calls and seconds).
 
     Returns
     -------
     dict
-        ``{"lookahead_s", "first_frame_s", "compute_per_audio_s", "rtf"}``, seconds (None: not known).
+        ``{"lookahead_s", "first_frame_s", "compute_per_audio_s", "rtf", "measured_lookahead_s",
+        "lookahead_probe"}``, seconds (None: not known).
 
     Raises
     ------
@@ -184,6 +191,7 @@ def measure_latency(method, dataset, *, split: str = "test", seed: int = 0, name
     items = [(subject, sentence) for subject in dataset.split(split) for sentence in dataset.sentences(subject)]
     first_frame = wall = cpu = audio_s = 0.0
     measured = 0
+    probed, references, seeds = [], [], []
     for index, (subject, sentence) in enumerate(items[:max(1, int(sentences))]):
         audio, rate = dataset.audio(subject, sentence)
         if rate != AUDIO_RATE:
@@ -200,7 +208,7 @@ def measure_latency(method, dataset, *, split: str = "test", seed: int = 0, name
                     method.generate(prefix, samples=1, seed=sentence_seed(seed, index))
                     first_frame = time.perf_counter() - start
                 start, start_cpu = time.perf_counter(), time.process_time()
-                method.generate(utterance, samples=1, seed=sentence_seed(seed, index))
+                reference = method.generate(utterance, samples=1, seed=sentence_seed(seed, index))
                 wall += time.perf_counter() - start
                 cpu += time.process_time() - start_cpu
         except (UserError, DataError, OSError):
@@ -210,9 +218,35 @@ def measure_latency(method, dataset, *, split: str = "test", seed: int = 0, name
                               f"while timing it: {type(exc).__name__}: {exc}") from exc
         audio_s += utterance.duration
         measured += 1
+        probed.append(utterance)
+        references.append(reference)
+        seeds.append(sentence_seed(seed, index))
     values = {"lookahead_s": lookahead, "first_frame_s": first_frame,
               "compute_per_audio_s": cpu / audio_s if audio_s else None, "rtf": wall / audio_s if audio_s else None}
-    return {key: None if values[key] is None else round(float(values[key]), 4) for key in LATENCY_FIELDS}
+    record = {key: None if values[key] is None else round(float(values[key]), 4) for key in LATENCY_FIELDS}
+    return {**record, **_probed_lookahead(method, name, probed, references, seeds, lookahead, probe_times)}
+
+
+def _probed_lookahead(method, name: str, utterances, references, seeds, declared, times) -> dict:
+    """:func:`benchmark.protocol.lookahead.lookahead_probe` of ``method`` on the sentences
+    :func:`measure_latency` timed (their outputs the unchanged ones), with its cost in seconds."""
+    def one_sample(utterance, sentence_seed_):
+        try:
+            with progress_bars(False), plugin_call(f"method {name!r}: generate (look-ahead probe)"):
+                return method.generate(utterance, samples=1, seed=sentence_seed_)
+        except (UserError, DataError, OSError):
+            raise
+        except Exception as exc:
+            raise MethodError(f"method {name!r}, subject {utterance.subject!r}, sentence {utterance.sentence!r}: "
+                              f"generate failed in the look-ahead probe: {type(exc).__name__}: {exc}") from exc
+
+    start = time.perf_counter()
+    try:
+        probe = lookahead_probe(one_sample, utterances, references, seeds, declared_s=declared, times=times)
+    except MethodOutputError as exc:
+        raise MethodOutputError(f"method {name!r}: look-ahead probe: {exc}") from exc
+    probe["lookahead_probe"]["wall_s"] = round(time.perf_counter() - start, 3)
+    return probe
 
 
 def sentence_seed(seed: int, index: int) -> int:

@@ -144,6 +144,10 @@ class RunSpec:
         Where in the step budget the learning curve is scored (``--checkpoint-fractions``;
         increasing, each in (0, 1], 1 being the full budget); None:
         :data:`benchmark.protocol.convergence.CURVE_FRACTIONS` (a quarter and half).
+    lookahead_probes : sequence of float, optional
+        Where the look-ahead probe cuts each probed sentence, seconds from its start
+        (``--lookahead-probes``; :mod:`benchmark.protocol.lookahead`); None: its default
+        cuts. A time outside a probed sentence is refused by :func:`check_inputs`.
     """
 
     method: str
@@ -168,6 +172,7 @@ class RunSpec:
     overwrite: bool = False
     name: str | None = None
     checkpoint_fractions: tuple | None = None
+    lookahead_probes: tuple | None = None
 
     def __post_init__(self):
         if self.checkpoint_fractions is not None:
@@ -189,6 +194,13 @@ class RunSpec:
         object.__setattr__(self, "budget", self.budget or Budget())
         object.__setattr__(self, "samples", int(self.samples))
         object.__setattr__(self, "sentence_batch", int(self.sentence_batch))
+        if self.lookahead_probes is not None:
+            probes = self.lookahead_probes
+            # numbers here; inside every probed sentence: check_inputs, which knows their lengths
+            if isinstance(probes, (str, bytes)) or not hasattr(probes, "__iter__") or not probes or not all(
+                    isinstance(t, (int, float)) and not isinstance(t, bool) and math.isfinite(t) for t in probes):
+                raise UsageError(f"--lookahead-probes: expected times in seconds such as 0.5,1.2, got {probes!r}")
+            object.__setattr__(self, "lookahead_probes", tuple(float(t) for t in probes))
         if self.vae is not None and not Path(self.vae).expanduser().is_file():
             raise UsageError(f"--vae {self.vae}: no such file (a VAE state dict, python -m benchmark.features.train)")
         if self.device is not None:
@@ -353,6 +365,18 @@ def _check_seeded_training(spec: RunSpec, method) -> None:
                              "seed and saves each into <checkpoint>/seed<k> of an empty or new folder")
 
 
+def _check_probe_times(spec: RunSpec, dataset) -> None:
+    """UsageError unless every time of ``spec.lookahead_probes`` lies inside each sentence
+    the look-ahead probe cuts (the split's first ``LATENCY_SENTENCES``)."""
+    from benchmark.methods import FPS
+    from benchmark.protocol.generation import LATENCY_SENTENCES
+    from benchmark.protocol.lookahead import checked_probe_times
+
+    items = [(subject, sentence) for subject in dataset.split(spec.split) for sentence in dataset.sentences(subject)]
+    lengths = {key: len(dataset.coeffs(*key)) / FPS for key in items[:LATENCY_SENTENCES]}
+    checked_probe_times(spec.lookahead_probes, lengths)
+
+
 def check_inputs(spec: RunSpec, *, open_dataset=None, evaluation_assets: bool = True) -> Inputs:
     """Open the build and check everything a run can check before training: the results
     folder, the split, a vertex method's source meshes, the evaluation's assets and the
@@ -386,6 +410,8 @@ def check_inputs(spec: RunSpec, *, open_dataset=None, evaluation_assets: bool = 
         raise UsageError(f"--split: the dataset has no split {spec.split!r}") from None
     if not subjects:
         raise UsageError(f"--split {spec.split!r}: no subjects of that split in {data_root}")
+    if spec.lookahead_probes is not None:
+        _check_probe_times(spec, dataset)
     cls = get_method(spec.method)
     if (getattr(cls, "output", OUTPUT_COEFFICIENTS) == OUTPUT_VERTICES and hasattr(dataset, "corpus_root")
             and getattr(dataset, "vertex_space", "mesh") == "mesh"):  # "rig": the build's rigs give the vertices

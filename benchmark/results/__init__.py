@@ -32,7 +32,11 @@ Schema (``schema_version`` 3)::
       "provenance": {"date", "git_revision", "git_dirty", "python", "platform",
                      "versions": {package: version}, "hardware": {...}},
       "timings":  {"train_s", "load_s", "generate_s", "evaluate_s", "total_s"},
-      "latency"?: {"lookahead_s", "first_frame_s", "compute_per_audio_s", "rtf"},
+      "latency"?: {"lookahead_s", "first_frame_s", "compute_per_audio_s", "rtf", "measured_lookahead_s"?,
+                   "lookahead_probe"?: {"probes": [{"subject", "sentence", "duration_s", "cut_s",
+                                                    "changed_from_s", "lookahead_s", "whole_utterance"}],
+                                        "whole_utterance", "generate_calls", "wall_s", "tolerance",
+                                        "frame_s", "note"}},
       "human_preference"?: {"study", "reference", "design", "participants", "date",
                             "questions": {question: {"share", "ci95", "answers", "log_strength",
                                                      "strength_ci95", "mos", "mos_ci95"}}}
@@ -40,7 +44,8 @@ Schema (``schema_version`` 3)::
 
 Fields marked ``?`` are optional; a part keeps the fields it does not type as
 written. ``latency`` (:func:`benchmark.protocol.generation.measure_latency`; seconds,
-null where not known) and ``timings`` depend on the machine: they are not part of what
+null where not known; ``measured_lookahead_s``: the look-ahead the causality probe saw the
+method use, :mod:`benchmark.protocol.lookahead`) and ``timings`` depend on the machine: they are not part of what
 a rerun must reproduce (the metrics and per-sentence values). Nor is ``human_preference``,
 a perceptual study's verdict on the row (``python -m benchmark.study analyze --board DIR
 --store``; each question's share of answers preferring this row to the study's reference,
@@ -72,6 +77,7 @@ from benchmark.results.provenance import (
 )
 from benchmark.results.record import (
     LATENCY_FIELDS,
+    LOOKAHEAD_FIELDS,
     METRIC_FIELDS,
     SCHEMA_VERSION,
     Convergence,
@@ -92,7 +98,7 @@ from benchmark.results.record import (
 )
 
 __all__ = [
-    "LATENCY_FIELDS", "METRIC_FIELDS", "OUTPUT_FOLDERS", "SCHEMA_VERSION", "VERSIONED_PACKAGES", "Convergence",
+    "LATENCY_FIELDS", "LOOKAHEAD_FIELDS", "METRIC_FIELDS", "OUTPUT_FOLDERS", "SCHEMA_VERSION", "VERSIONED_PACKAGES", "Convergence",
     "DatasetInfo", "HumanPreference", "Latency", "MethodInfo", "MetricCheck", "MetricEntry", "PreferenceEntry",
     "Protocol", "Provenance", "Result",
     "SeedRecord", "build_result", "check", "current_provenance", "git_revision", "hardware_info",

@@ -9,7 +9,7 @@ from pathlib import Path
 
 from benchmark.results.parts import Located
 from benchmark.results.provenance import current_provenance
-from benchmark.results.record import LATENCY_FIELDS, SCHEMA_VERSION, Result
+from benchmark.results.record import LATENCY_FIELDS, LOOKAHEAD_FIELDS, SCHEMA_VERSION, Result
 from blendvoca.errors import DataError
 from blendvoca.io.atomic import atomic_write
 from blendvoca.io.json_file import read_json
@@ -123,7 +123,8 @@ def build_result(*, method: dict, dataset: dict, protocol: dict, metrics: dict, 
     per_sentence : list of dict, optional
         One ``{"subject", "sentence", metric: value, ...}`` row per scored sentence.
     latency : dict, optional
-        ``{"lookahead_s", "first_frame_s", "compute_per_audio_s", "rtf"}`` (seconds or None; rounded to 0.1 ms).
+        ``{"lookahead_s", "first_frame_s", "compute_per_audio_s", "rtf"}`` (seconds or None; rounded to 0.1 ms),
+        and the look-ahead probe's ``measured_lookahead_s`` and ``lookahead_probe`` where given.
     **parts
         Further top-level parts as JSON (``seeds``, ``per_seed``, ``convergence``).
 
@@ -151,6 +152,8 @@ def build_result(*, method: dict, dataset: dict, protocol: dict, metrics: dict, 
     if latency is not None:
         record["latency"] = {key: (None if latency.get(key) is None else round(float(latency[key]), 4))
                              for key in LATENCY_FIELDS}
+        # the look-ahead probe's (benchmark.protocol.lookahead), where it ran
+        record["latency"].update({key: latency[key] for key in LOOKAHEAD_FIELDS if key in latency})
     try:  # as JSON holds it (tuples as lists), as a file read back gives it
         record = json.loads(json.dumps(record))
     except (TypeError, ValueError) as exc:

@@ -55,8 +55,9 @@ from benchmark.results.parts import (
     truth,
 )
 
-__all__ = ["LATENCY_FIELDS", "METRIC_FIELDS", "SCHEMA_VERSION", "Convergence", "CurvePoint", "DatasetInfo", "Latency",
-           "HumanPreference", "MethodInfo", "MetricCheck", "MetricEntry", "PreferenceEntry", "Protocol", "Provenance", "Result", "SeedRecord",
+__all__ = ["LATENCY_FIELDS", "LOOKAHEAD_FIELDS", "METRIC_FIELDS", "SCHEMA_VERSION", "Convergence", "CurvePoint",
+           "DatasetInfo", "Latency", "LookaheadCut", "LookaheadProbe", "HumanPreference", "MethodInfo", "MetricCheck",
+           "MetricEntry", "PreferenceEntry", "Protocol", "Provenance", "Result", "SeedRecord",
            "SETTINGS_PROTOCOL_KEYS", "replicates_array", "result_filename", "seed_replicates", "settings_digest"]
 
 SCHEMA_VERSION = 3
@@ -64,6 +65,8 @@ SCHEMA_VERSION = 3
 METRIC_FIELDS = ("mean", "std", "higher_is_better", "unit")
 #: Fields of a result's optional ``latency`` section, seconds or null.
 LATENCY_FIELDS = ("lookahead_s", "first_frame_s", "compute_per_audio_s", "rtf")
+#: Fields the look-ahead probe adds to ``latency`` (absent in files written before it).
+LOOKAHEAD_FIELDS = ("measured_lookahead_s", "lookahead_probe")
 
 
 def _sentence_row(value, where):
@@ -268,6 +271,41 @@ class SeedRecord(Part):
 
 
 @dataclass(frozen=True, kw_only=True)
+class LookaheadCut(Part):
+    """One cut of the look-ahead probe (:mod:`benchmark.protocol.lookahead`)."""
+
+    subject: str | None = item(string)
+    sentence: str | None = item(string)
+    duration_s: float | None = item(seconds)
+    #: Where the audio was replaced (silence, then noise), seconds from the start.
+    cut_s: float | None = item(seconds)
+    #: The earliest output frame that changed, seconds (null: none did).
+    changed_from_s: float | None = item(optional(seconds), always=True)
+    #: ``cut_s - changed_from_s`` (0 when nothing changed; the utterance's length for ``whole_utterance``).
+    lookahead_s: float | None = item(seconds)
+    #: The first frame changed: the output depends on audio as far as the probe sees.
+    whole_utterance: bool | None = item(truth)
+
+
+@dataclass(frozen=True, kw_only=True)
+class LookaheadProbe(Part):
+    """``latency.lookahead_probe``: how ``measured_lookahead_s`` was measured."""
+
+    probes: tuple | None = item(list_of(part(LookaheadCut), "a list of objects"))
+    #: The measured look-ahead is the whole utterance (a probe's first frame changed).
+    whole_utterance: bool | None = item(truth)
+    #: One frame: the probe's resolution and the tolerance of :meth:`Latency.exceeds_declaration`.
+    frame_s: float | None = item(seconds)
+    #: Its cost: ``generate`` calls (one sample each) and their wall seconds.
+    generate_calls: int | None = item(integer)
+    wall_s: float | None = item(seconds)
+    #: What counted as a change (absolute, on the output's values).
+    tolerance: float | None = item(number)
+    #: Why nothing was measured (null when it was).
+    note: str | None = item(string)
+
+
+@dataclass(frozen=True, kw_only=True)
 class Latency(Part):
     """``latency`` (:func:`benchmark.protocol.generation.measure_latency`; seconds, null
     where not known): depends on the machine, like ``timings``."""
@@ -281,6 +319,18 @@ class Latency(Part):
     compute_per_audio_s: float | None = item(seconds, always=True)
     #: Real-time factor: wall seconds of generation per second of audio.
     rtf: float | None = item(seconds, always=True)
+    #: The look-ahead the method was seen to use (the causality probe); absent in files
+    #: written before it, null where it could not be measured.
+    measured_lookahead_s: float | None = item(seconds)
+    lookahead_probe: LookaheadProbe | None = item(part(LookaheadProbe))
+
+    def exceeds_declaration(self) -> bool:
+        """Whether ``measured_lookahead_s`` is more than one frame beyond ``lookahead_s``
+        (a method declaring none, i.e. the whole utterance, never is)."""
+        if self.measured_lookahead_s is None or self.lookahead_s is None:
+            return False
+        frame = (self.lookahead_probe.frame_s if self.lookahead_probe is not None else None) or 1.0 / 60
+        return self.measured_lookahead_s > self.lookahead_s + frame + 1e-9
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -250,8 +250,8 @@ def _seed_paths(spec, seed: int):
 def _seed_result(spec, inputs, run: SeedRun, *, label: str, reason: str | None) -> Result:
     """One seed's scores as a result file (what :func:`_seed_run` reads back): its
     metrics with the bootstrap replicates the seeds' combination needs, per-sentence
-    rows, half-budget verdict and timings; the evaluation's protocol record under
-    ``protocol.evaluation``."""
+    rows, half-budget verdict, timings and latency (the row's result stores the first
+    seed's); the evaluation's protocol record under ``protocol.evaluation``."""
     metrics = {}
     for name, entry in run.metrics.items():
         entry = {k: v for k, v in entry.items() if k != "replicates"}
@@ -264,7 +264,7 @@ def _seed_result(spec, inputs, run: SeedRun, *, label: str, reason: str | None) 
         protocol={"seed": run.seed, "samples": spec["samples"], "n_clipped": int(run.n_clipped),
                   "evaluation": dict(run.evaluation), "convergence_check": reason},
         metrics=metrics, timings=run.timings, per_sentence=run.per_sentence, convergence=run.convergence,
-        tracks=_seed_paths(spec, run.seed)[1].name)
+        tracks=_seed_paths(spec, run.seed)[1].name, latency=run.latency)
 
 
 def _seed_run(result: Result) -> SeedRun:
@@ -278,7 +278,8 @@ def _seed_run(result: Result) -> SeedRun:
         replicates={name: entry.replicates for name, entry in result.metrics.items() if entry.replicates is not None},
         convergence=record.get("convergence"), evaluation=dict(result.protocol.get("evaluation", {})),
         n_clipped=result.protocol.get("n_clipped", 0), num_subjects=result.dataset.num_subjects or 0,
-        num_sentences=result.dataset.num_sentences or 0, timings=dict(result.timings))
+        num_sentences=result.dataset.num_sentences or 0, timings=dict(result.timings),
+        latency=None if result.latency is None else result.latency.to_json())
 
 
 def score_stage(spec, root, expert, record):

@@ -156,7 +156,8 @@ def _row_data(row, run: SiteRun) -> dict:
         "not_settled": not_settled_text(row) if row.settled is False else None,
         "has_tracks": bool(run.tracks()) and run.dataset_root is not None,
         # the result's latency record (seconds), None for results written before it
-        "latency": ({key: _number(value) for key, value in latency.to_json().items()}
+        "latency": ({key: _number(value) for key, value in latency.to_json().items()
+                     if key != "lookahead_probe"}  # the probe's record: in the result file
                     if (latency := run.result.latency) is not None else None),
         "metrics": {
             name: {"mean": _number(mean), "std": _number(std),

@@ -10,7 +10,7 @@ import pytest
 from benchmark.methods import Budget, Method
 from benchmark.protocol import RunSpec, run
 from benchmark.protocol.generation import measure_latency
-from benchmark.results import LATENCY_FIELDS, build_result, check
+from benchmark.results import LATENCY_FIELDS, LOOKAHEAD_FIELDS, build_result, check
 from tests.methods.fakes import fake_evaluate, speech_dataset
 
 
@@ -39,10 +39,12 @@ def test_measure_latency_times_the_first_chunk_and_whole_sentences():
     dataset = speech_dataset(seed=1, sentences=2, seconds=1.0)
     method = ChunkedSleeper()
     latency = measure_latency(method, dataset, split="test", seed=0, sentences=2)
-    assert tuple(latency) == LATENCY_FIELDS and latency["lookahead_s"] == 0.5
+    assert tuple(latency) == LATENCY_FIELDS + LOOKAHEAD_FIELDS and latency["lookahead_s"] == 0.5
     # first: the first 0.5 s (30 frames, 8000 samples) alone; then the two whole sentences, one sample each
     assert method.calls[0][:3] == (30, 8000, 1)
-    assert [c[0] for c in method.calls[1:]] == [dataset.coeffs("D", s).shape[0] for s in dataset.sentences("D")]
+    assert [c[0] for c in method.calls[1:3]] == [dataset.coeffs("D", s).shape[0] for s in dataset.sentences("D")]
+    # then the look-ahead probe: the first sentence again, then two calls per cut (one cut per sentence)
+    assert len(method.calls) == 3 + latency["lookahead_probe"]["generate_calls"] == 3 + 1 + 2 * 2
     assert all(c[2] == 1 for c in method.calls)
     assert method.calls[0][3] == method.calls[1][3]  # the run's seed for the sentence
     assert 0.02 + 0.05 * 0.5 <= latency["first_frame_s"] < 0.02 + 0.05 * 1.2 + 0.5
@@ -67,8 +69,9 @@ def test_the_runner_stores_latency_and_reruns_compare_without_it(tmp_path):
                  evaluate=fake_evaluate, open_dataset=lambda root: dataset) for name in ("a", "b")]
     a, b = (json.loads(p.read_text()) for p in paths)
     for result in (a, b):
-        assert set(result["latency"]) == set(LATENCY_FIELDS)
+        assert set(result["latency"]) == set(LATENCY_FIELDS + LOOKAHEAD_FIELDS)
         assert result["latency"]["lookahead_s"] is None  # the random walk takes the utterance whole
+        assert result["latency"]["measured_lookahead_s"] == 0.0  # ... and listens to none of it
         assert result["latency"]["rtf"] >= 0 and result["latency"]["first_frame_s"] >= 0
     # what a rerun must reproduce is the same; the latency is the machine's and may differ
     assert a["metrics"] == b["metrics"] and a["per_sentence"] == b["per_sentence"]

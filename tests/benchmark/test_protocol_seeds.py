@@ -136,8 +136,10 @@ def test_one_result_over_the_seeds_each_seed_as_its_own_run(dataset, tmp_path):
     assert result["protocol"]["seed"] == 0 and result["protocol"]["fd_floor_probe"] == 1.5
     assert result["protocol"]["convergence_check"] == "checked"
     from benchmark.protocol.generation import LATENCY_FIELDS
+    from benchmark.results import LOOKAHEAD_FIELDS
 
-    assert set(result["latency"]) == set(LATENCY_FIELDS)  # measured like a single-seed run's (the first seed's)
+    # measured like a single-seed run's (the first seed's), the look-ahead probe included
+    assert set(result["latency"]) == set(LATENCY_FIELDS + LOOKAHEAD_FIELDS)
     per_seed = result["per_seed"]
     assert [p["seed"] for p in per_seed] == [0, 1, 2]
     for k, record in enumerate(per_seed):

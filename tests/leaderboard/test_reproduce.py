@@ -294,10 +294,17 @@ def test_seed_scores_pass_between_stages_as_result_json_and_combine_as_before(tm
         convergence = {"checked_at_step": 5, "total_steps": 10, "settled": True,
                        "metrics": {"fd": {"half_budget": 5.1, "full_budget": 5.0, "half_width": 0.2,
                                           "settled": True}}}
+        latency = {"lookahead_s": 0.5, "first_frame_s": 0.01, "compute_per_audio_s": 0.2, "rtf": 0.1 + seed,
+                   "measured_lookahead_s": 0.0333,
+                   "lookahead_probe": {"probes": [{"subject": "S1", "sentence": "sentence00", "duration_s": 3.0,
+                                                   "cut_s": 1.5, "changed_from_s": 1.4667, "lookahead_s": 0.0333,
+                                                   "whole_utterance": False}],
+                                       "whole_utterance": False, "generate_calls": 3, "wall_s": 0.1,
+                                       "tolerance": 1e-6, "frame_s": 0.016667, "note": None}}
         return SeedRun(seed=seed, metrics=metrics, per_sentence=rows,
                        replicates={"fd": fd, "lve_rig": rng.normal(mean, 0.1, 300), "wind": np.array([np.nan])},
                        convergence=convergence, evaluation={"fd_floor_probe": 1.5}, n_clipped=seed, num_subjects=1,
-                       num_sentences=6, timings={"train_s": 1.5, "load_s": None, "generate_s": 0.25})
+                       num_sentences=6, timings={"train_s": 1.5, "load_s": None, "generate_s": 0.25}, latency=latency)
 
     spec = {"work": str(tmp_path), "row": "said", "method": "said", "samples": 5}
     inputs = SimpleNamespace(dataset=SimpleNamespace(manifest_hash="h" * 64, recipe_id="r" * 64))
@@ -315,6 +322,7 @@ def test_seed_scores_pass_between_stages_as_result_json_and_combine_as_before(tm
         assert again.convergence == run.convergence and again.evaluation == run.evaluation
         assert (again.n_clipped, again.num_subjects, again.num_sentences) == (run.seed, 1, 6)
         assert again.metrics == run.metrics
+        assert again.latency == run.latency  # issue 54: the row's result stores the first seed's
         for name in ("fd", "lve_rig", "wind"):  # wind: replicates that are not finite are none
             a, b = again.seed_replicates(name), run.seed_replicates(name)
             assert (a is None and b is None) or np.array_equal(a, b)
@@ -335,3 +343,26 @@ def test_counts_below_their_least_are_refused_before_any_work(tmp_path, capsys, 
     err = capsys.readouterr().err
     assert info.value.code == 2 and f"{flag}: expected an integer >= {least}, got {value}" in err
     assert not (tmp_path / "w").exists()
+
+
+@pytest.mark.slow
+def test_a_trained_row_made_by_reproduce_stores_a_latency_record(tmp_path):
+    """Issue 54: the multi-seed rows ``leaderboard.reproduce`` made stored no ``latency`` (the
+    seeds' scores passed between stages without it), so their RTF cell was "-"."""
+    import json
+
+    from benchmark.protocol import default_data_root
+    from benchmark.results import LATENCY_FIELDS, LOOKAHEAD_FIELDS
+    from leaderboard.reproduce import reproduce
+
+    paths = reproduce(tmp_path / "work", tmp_path / "results", tmp_path / "tables", data=default_data_root(),
+                      only=["regression"], seeds=(0,), max_steps=5, expert_steps=5)
+    result = json.loads(paths[0].read_text())
+    assert result["seeds"] == [0]
+    latency = result["latency"]
+    assert set(latency) == set(LATENCY_FIELDS + LOOKAHEAD_FIELDS)
+    assert latency["rtf"] > 0 and latency["measured_lookahead_s"] is not None
+    assert latency["lookahead_probe"]["generate_calls"] == 1 + 2 * len(latency["lookahead_probe"]["probes"])
+    row = next(line for line in (tmp_path / "tables" / "leaderboard.md").read_text().splitlines()
+               if line.startswith("| regression"))
+    assert not row.endswith("| - |")  # the RTF column is filled

@@ -22,6 +22,13 @@ function metricCell(row, name, group) {
   return cell;
 }
 
+// the look-ahead probe saw the row read more than one frame (1/60 s) past its declared look-ahead
+// (leaderboard.render's ‡; a row declaring none, the whole utterance, never does)
+function readsAhead(latency) {
+  if (!latency || latency.lookahead_s == null || latency.measured_lookahead_s == null) return false;
+  return latency.measured_lookahead_s > latency.lookahead_s + 1 / 60 + 1e-9;
+}
+
 function rowElement(row, metrics, groupOf) {
   const label = el("td", { class: "label", "data-value": row.label });
   label.append(el("a", { href: `method.html?run=${encodeURIComponent(row.run)}`, text: row.label }));
@@ -39,8 +46,10 @@ function rowElement(row, metrics, groupOf) {
   const rtf = row.latency ? row.latency.rtf : null;
   tr.append(el("td", { class: "rtf", "data-value": rtf === null || rtf === undefined ? "" : String(rtf),
     title: row.latency ? `look-ahead ${row.latency.lookahead_s ?? "whole utterance"} s, first frame ` +
-      `${row.latency.first_frame_s ?? "-"} s, CPU ${row.latency.compute_per_audio_s ?? "-"} s per audio s` : "" },
-    rtf === null || rtf === undefined ? "-" : fmt(rtf)));
+      `${row.latency.first_frame_s ?? "-"} s, CPU ${row.latency.compute_per_audio_s ?? "-"} s per audio s` +
+      (row.latency.measured_lookahead_s == null ? "" :
+        `, measured look-ahead ${row.latency.measured_lookahead_s} s`) : "" },
+    (rtf === null || rtf === undefined ? "-" : fmt(rtf)) + (readsAhead(row.latency) ? " ‡" : "")));
   return tr;
 }
 
