@@ -57,6 +57,8 @@ SAMPLE_S = 0.05
 MARGIN = 1.25
 CONSTANT_GB = 0.5
 ROUND_GB = 0.25
+#: The plan's stages, in the order a row runs them.
+STAGES = ("data", "expert", "single", "train", "score", "store")
 #: The committed table of measured peaks (:func:`write_measured_memory`).
 MEASURED_MEMORY = Path(__file__).resolve().parents[1] / "measured-memory.json"
 
@@ -257,9 +259,22 @@ def write_measured_memory(records, path=None) -> Path:
                          for b, rows in sorted(builds.items())}}
     path.parent.mkdir(parents=True, exist_ok=True)
     with atomic_write(path, "w") as handle:
-        json.dump(record, handle, indent=1)
-        handle.write("\n")
+        handle.write(_table_text(record))
     return path
+
+
+def _table_text(record: dict) -> str:
+    """The table as JSON with one line per row and stage (diffs show what was remeasured)."""
+    lines = ["{", f' "about": {json.dumps(record["about"])},', ' "builds": {']
+    for b, (build, rows) in enumerate(record["builds"].items()):
+        lines.append(f"  {json.dumps(build)}: {{")
+        for r, (row, stages) in enumerate(rows.items()):
+            lines.append(f"   {json.dumps(row)}: {{")
+            lines += [f"    {json.dumps(stage)}: {json.dumps(entry)}" + ("," if s < len(stages) - 1 else "")
+                      for s, (stage, entry) in enumerate(stages.items())]
+            lines.append("   }" + ("," if r < len(rows) - 1 else ""))
+        lines.append("  }" + ("," if b < len(record["builds"]) - 1 else ""))
+    return "\n".join([*lines, " }", "}", ""])
 
 
 def memory_table(records) -> str:
@@ -273,8 +288,10 @@ def memory_table(records) -> str:
         peak, declared = rows.get(key, (0.0, 0.0))
         memory = (record.get("resources") or {}).get("memory_gb") or 0.0
         rows[key] = (max(peak, float(record["peak_rss_gb"])), max(declared, float(memory)))
+    order = {stage: i for i, stage in enumerate(STAGES)}
     lines = ["| row | stage | peak RSS (GiB) | declared (GiB) |", "|---|---|---:|---:|"]
-    lines += [f"| {row} | {stage} | {peak:.2f} | {declared:.2f} |" for (row, stage), (peak, declared) in rows.items()]
+    lines += [f"| {row} | {stage} | {peak:.2f} | {declared:.2f} |" for (row, stage), (peak, declared)
+              in sorted(rows.items(), key=lambda item: (item[0][0], order.get(item[0][1], len(order))))]
     return "\n".join(lines)
 
 
