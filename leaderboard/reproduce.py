@@ -90,6 +90,9 @@ class PlanEntry:
         What each of the row's tasks reserves (:class:`leaderboard.executors.Resources`);
         ``cpus`` is also the task's thread count, on either executor: 2, the cores the
         committed board was made with (its floats depend on it in the last digits).
+        ``memory_gb`` (GiB) is the default of a task whose peak was not measured on the
+        build: a measured one declares its peak with a margin
+        (:mod:`leaderboard.executors.memory`).
     """
 
     method: str
@@ -151,7 +154,7 @@ def memory_refusal(tasks, node_gb: float, *, memory: dict | None = None, build: 
     """The one-line reason a plan cannot run on a node of ``node_gb`` GiB: its first task
     declaring more memory than that (with the measured peak its declaration comes
     from); None when every task fits."""
-    from leaderboard.executors.memory import measured_memory, measured_peak_gb, oversized
+    from leaderboard.executors.memory import oversized
 
     over = oversized(tasks, node_gb)
     if not over:
