@@ -19,11 +19,12 @@ the process's own high-water mark (``VmHWM``, reset at the task's start through
 (``getrusage(RUSAGE_CHILDREN)``, when it rose during the task; Linux counts in a
 child's peak what its parent held when it forked, so it is not added to the parent's).
 A child that lives shorter than :data:`SAMPLE_S` is seen alone, not beside its parent.
-It is the process's
-whole resident memory, not what the task added to it: what Ray's memory monitor and
-the kernel's OOM killer count. A Ray worker runs one task at a time; the sequential
-executor's process carries what earlier tasks left (imported libraries, caches), so
-its peaks are at or above a fresh worker's.
+It is the process's whole resident memory, not what the task added to it: what Ray's
+memory monitor and the kernel's OOM killer count. So it depends a little on where the
+task ran: the sequential executor's process carries what earlier tasks left (imported
+libraries, caches), a Ray worker imports Ray and is reused for later tasks (one at a
+time); the same task measured on both differed by up to about 20 %, which the margin
+covers (docs/results/reproduce-memory-measurements.md).
 
 Units are GiB (2**30 bytes) throughout, as ``Resources.memory_gb``.
 """
