@@ -27,7 +27,11 @@ the build a few minutes on 2 cores. ``--archive DIR`` first moves the result fil
 already in ``--results`` (and their tracks) into ``DIR``, which the tables do not
 read. Wall times per stage are kept under ``<work>/stages/timings``;
 ``--timings`` prints them per row and stage (with ``--results``, also those of the
-result files there, which outlive the work folder).
+result files there, which outlive the work folder), and each task's peak memory (its
+process and children). ``--write-memory`` merges those peaks into
+``leaderboard/measured-memory.json``, from which the plan declares each task's memory
+(the peak x 1.25 + 0.5 GiB; unmeasured tasks: 2 GiB, the build 4 GiB); a plan with a
+task declaring more than the machine has is refused before anything runs.
 """
 
 from __future__ import annotations
@@ -42,6 +46,7 @@ from blendvoca.errors import UserError
 from blendvoca.runtime.locks import LockHeld, held_lock
 from blendvoca.runtime.progress import show_progress
 from leaderboard.executors import EXECUTORS, log_progress
+from leaderboard.executors.memory import declared_memory_gb, measured_memory, measured_peak_gb
 
 __all__ = ["CORPUS", "PLAN", "SEEDS", "PlanEntry", "archive_results", "main", "plan_tasks", "reproduce"]
 
@@ -85,6 +90,9 @@ class PlanEntry:
         What each of the row's tasks reserves (:class:`leaderboard.executors.Resources`);
         ``cpus`` is also the task's thread count, on either executor: 2, the cores the
         committed board was made with (its floats depend on it in the last digits).
+        ``memory_gb`` (GiB) is the default of a task whose peak was not measured on the
+        build: a measured one declares its peak with a margin
+        (:mod:`leaderboard.executors.memory`).
     """
 
     method: str
@@ -136,6 +144,30 @@ PLAN = (
 )
 
 
+def memory_build(data=None) -> str:
+    """The name the measured-memory table knows a build by: its folder's name (the
+    plan's own build: :data:`BUILD_NAME`)."""
+    return BUILD_NAME if data is None else Path(data).expanduser().resolve().name
+
+
+def memory_refusal(tasks, node_gb: float, *, memory: dict | None = None, build: str | None = None) -> str | None:
+    """The one-line reason a plan cannot run on a node of ``node_gb`` GiB: its first task
+    declaring more memory than that (with the measured peak its declaration comes
+    from); None when every task fits."""
+    from leaderboard.executors.memory import oversized
+
+    over = oversized(tasks, node_gb)
+    if not over:
+        return None
+    task = over[0]
+    peak = measured_peak_gb(measured_memory() if memory is None else memory, build or BUILD_NAME, task.row,
+                            task.stage)
+    why = "the plan's default" if peak is None else f"its measured peak {peak:.2f} GiB with the margin"
+    more = f" (and {len(over) - 1} more task(s))" if len(over) > 1 else ""
+    return (f"plan entry {task.key} needs {task.resources.memory_gb:g} GiB of memory ({why}), more than the "
+            f"{node_gb:.1f} GiB this machine has{more}; nothing was run")
+
+
 def _entries(only) -> list:
     from benchmark.methods import BUILTIN_METHODS
 
@@ -170,7 +202,8 @@ def _split_names(values) -> list | None:
 
 
 def plan_tasks(work, results_dir, *, only=None, data=None, seeds=SEEDS, max_steps=None,
-               expert_steps: int = EXPERT_STEPS, cpus_per_task: int | None = None, force: bool = False) -> list:
+               expert_steps: int = EXPERT_STEPS, cpus_per_task: int | None = None, force: bool = False,
+               memory: dict | None = None) -> list:
     """The plan as tasks (:class:`leaderboard.executors.Task`), in dependency order.
 
     Parameters
@@ -188,6 +221,11 @@ def plan_tasks(work, results_dir, *, only=None, data=None, seeds=SEEDS, max_step
         Training steps of the lip-sync expert.
     cpus_per_task : int, optional
         Every row's CPUs (and threads) instead of the plan's ``PlanEntry.cpus``.
+    memory : dict, optional
+        Measured peaks (:func:`leaderboard.executors.memory.measured_memory`; default:
+        the committed table). A task whose row and stage were measured on this build
+        declares :func:`~leaderboard.executors.memory.declared_memory_gb` of its peak,
+        the others the plan's default (``PlanEntry.memory_gb``).
 
     Every task's spec carries the progress switch as it is now (``"progress"``): each
     task runs with it, wherever it runs (:func:`leaderboard.executors.execute`).
@@ -208,13 +246,22 @@ def plan_tasks(work, results_dir, *, only=None, data=None, seeds=SEEDS, max_step
     seeds = [int(s) for s in seeds]
     base = {"work": str(Path(work).expanduser().resolve()), "results": str(Path(results_dir).expanduser().resolve()),
             "force": bool(force), "progress": show_progress()}
+    # the build the tasks run on names their measured peaks (recorded with each task's timing)
+    base["build"] = memory_build(data)
+    measured = measured_memory() if memory is None else memory
+
+    def declared(row, stage, default):
+        peak = measured_peak_gb(measured, base["build"], row, stage)
+        return default if peak is None else declared_memory_gb(peak)
+
     tasks = [
         Task("data", "data", stages.data_stage, {**base, "data": None if data is None else str(data),
                                                  "corpus": dict(CORPUS), "corpus_name": CORPUS_NAME,
                                                  "build_name": BUILD_NAME},
-             resources=Resources(cpus=2, memory_gb=4.0), outputs=(str(Path(base["work"]) / BUILD_NAME),)),
+             resources=Resources(cpus=2, memory_gb=declared(None, "data", 4.0)),
+             outputs=(str(Path(base["work"]) / BUILD_NAME),)),
         Task("expert", "expert", stages.expert_stage, {**base, "expert_steps": int(expert_steps)}, deps=("data",),
-             resources=Resources(cpus=1, memory_gb=2.0), outputs=("<cache>/sync-expert",)),
+             resources=Resources(cpus=1, memory_gb=declared(None, "expert", 2.0)), outputs=("<cache>/sync-expert",)),
     ]
 
     def row_spec(entry: PlanEntry, trained: bool) -> dict:
@@ -231,11 +278,13 @@ def plan_tasks(work, results_dir, *, only=None, data=None, seeds=SEEDS, max_step
         owners.setdefault(entry.shared_training or entry.row, entry)
     emitted = set()
     for entry in entries:
-        resources = Resources(cpus=int(cpus_per_task or entry.cpus), gpus=entry.gpus, memory_gb=entry.memory_gb)
+        def resources(row, stage, cpus=int(cpus_per_task or entry.cpus), gpus=entry.gpus, entry=entry):
+            return Resources(cpus=cpus, gpus=gpus, memory_gb=declared(row, stage, entry.memory_gb))
+
         if entry not in trained_rows:
             spec = row_spec(entry, False)
             tasks.append(Task(f"row/{entry.row}", "single", stages.single_stage, spec, deps=("data", "expert"),
-                              resources=resources, outputs=(base["results"],), row=entry.row))
+                              resources=resources(entry.row, "single"), outputs=(base["results"],), row=entry.row))
             continue
         spec = row_spec(entry, True)
         training = spec["training"]
@@ -247,11 +296,12 @@ def plan_tasks(work, results_dir, *, only=None, data=None, seeds=SEEDS, max_step
                 sharing = [row_spec(e, True) for e in trained_rows if (e.shared_training or e.row) == training]
                 tasks.append(Task(key, "train", stages.train_stage,
                                   {**row_spec(owner, True), "seed": seed, "rows": sharing}, deps=("data",),
-                                  resources=resources, row=owner.row, seed=seed,
+                                  resources=resources(owner.row, "train"), row=owner.row, seed=seed,
                                   outputs=(str(Path(base["work"]) / "trained" / training / f"seed{seed}"),)))
             tasks.append(Task(f"score/{entry.row}/seed{seed}", "score", stages.score_stage,
                               {**spec, "seed": seed, "owns_training": owner.row == entry.row},
-                              deps=("data", "expert", key), resources=resources, row=entry.row, seed=seed,
+                              deps=("data", "expert", key), resources=resources(entry.row, "score"),
+                              row=entry.row, seed=seed,
                               outputs=(str(Path(base["work"]) / "stages" / "rows" / entry.row),)))
         # a row scoring another row's training carries that row's half-budget verdict
         shares = owner.row != entry.row
@@ -259,7 +309,7 @@ def plan_tasks(work, results_dir, *, only=None, data=None, seeds=SEEDS, max_step
         tasks.append(Task(f"store/{entry.row}", "store", stages.store_stage,
                           {**spec, "training_owner": row_spec(owner, True) if shares else None},
                           deps=("data", "expert", *(f"score/{entry.row}/seed{s}" for s in seeds), *store_deps),
-                          resources=Resources(cpus=1, memory_gb=entry.memory_gb), row=entry.row,
+                          resources=resources(entry.row, "store", cpus=1, gpus=0.0), row=entry.row,
                           outputs=(base["results"],)))
     return tasks
 
@@ -336,6 +386,13 @@ def reproduce(work, results_dir, tables_dir, *, only=None, force: bool = False, 
     # an unknown --only row fails before the corpus and the build are made
     tasks = plan_tasks(work, results_dir, only=only, data=data, seeds=seeds, max_steps=max_steps,
                        expert_steps=expert_steps, cpus_per_task=cpus_per_task, force=force)
+    if executor == "sequential" or address is None:
+        # a task declaring more memory than this machine has would be killed (or wait forever on Ray)
+        from leaderboard.executors.memory import machine_memory_gb
+
+        refusal = memory_refusal(tasks, machine_memory_gb(), build=memory_build(data))
+        if refusal is not None:
+            raise UserError(refusal)
     work = Path(work).expanduser()
     work.mkdir(parents=True, exist_ok=True)
     try:
@@ -385,6 +442,10 @@ def main(argv=None) -> int:
     parser.add_argument("--timings", action="store_true",
                         help="print the wall time per row and stage recorded under --work (and, with "
                              "--results, in that folder's result files), and exit")
+    parser.add_argument("--write-memory", nargs="?", const="", default=None, metavar="PATH",
+                        help="merge the peak memory per row and stage recorded under --work into the table the "
+                             "plan declares its memory from (default: the committed "
+                             "leaderboard/measured-memory.json), and exit")
     cli.add_data_option(parser, help="score this BlendVOCA build instead of generating and building the "
                                      "12 x 40 corpus")
     cli.add_results_option(parser, help="result folder (the committed one: leaderboard/results)")
@@ -392,10 +453,24 @@ def main(argv=None) -> int:
     cli.add_budget_options(parser)
     cli.add_quiet_option(parser)
     args = parser.parse_args(argv)
+    if args.write_memory is not None:
+        from leaderboard.executors import timing_records
+        from leaderboard.executors.memory import write_measured_memory
+
+        records = [r for r in timing_records(args.work) if r.get("peak_rss_gb") is not None]
+        if not records:
+            raise UserError(f"--write-memory: expected stage timing records with a peak_rss_gb under "
+                            f"{Path(args.work) / 'stages' / 'timings'}, found none")
+        print(write_measured_memory(records, args.write_memory or None))
+        return cli.EXIT_OK
     if args.timings:
-        from leaderboard.executors import result_timing_table, timing_table
+        from leaderboard.executors import result_timing_table, timing_records, timing_table
+        from leaderboard.executors.memory import memory_table
 
         print(timing_table(args.work))
+        if any(r.get("peak_rss_gb") is not None for r in timing_records(args.work)):
+            print("\nPeak memory (RSS of the task's process and children, the highest over the seeds):\n")
+            print(memory_table(timing_records(args.work)))
         if args.results is not None:
             print(f"\nFrom the result files in {args.results}:\n")
             print(result_timing_table(args.results))

@@ -17,6 +17,7 @@ from blendvoca.io.atomic import atomic_write
 from blendvoca.io.json_file import read_json
 from blendvoca.runtime.progress import progress_bars
 from blendvoca.runtime.threads import limited_threads
+from leaderboard.executors.memory import PeakRSS
 
 __all__ = ["EXECUTORS", "Resources", "Task", "check_order", "execute", "log_progress", "record_timing",
            "result_timing_table", "run_sequential", "timing_records", "timing_table"]
@@ -82,13 +83,17 @@ class Task:
     seed: int | None = None
 
 
-def record_timing(work, task: Task, details: dict, wall_s: float) -> Path:
-    """Write ``<work>/stages/timings/<key>.json``: the stage's wall time and where it ran
-    (replaced atomically; a stage that did nothing writes none)."""
+def record_timing(work, task: Task, details: dict, wall_s: float, peak_rss_gb: float | None = None) -> Path:
+    """Write ``<work>/stages/timings/<key>.json``: the stage's wall time, its peak RSS
+    (GiB, its process and children: :class:`leaderboard.executors.memory.PeakRSS`), the
+    build it ran on (the spec's ``build``) and where it ran (replaced atomically; a
+    stage that did nothing writes none)."""
     path = Path(work) / "stages" / "timings" / (task.key.replace("/", "__") + ".json")
     path.parent.mkdir(parents=True, exist_ok=True)
     record = {"key": task.key, "stage": task.stage, "row": task.row, "seed": task.seed,
-              "wall_s": round(float(wall_s), 3), "host": socket.gethostname(), "pid": os.getpid(),
+              "wall_s": round(float(wall_s), 3),
+              "peak_rss_gb": None if peak_rss_gb is None else round(float(peak_rss_gb), 3),
+              "build": task.spec.get("build"), "host": socket.gethostname(), "pid": os.getpid(),
               "finished": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
               "resources": {"cpus": task.resources.cpus, "gpus": task.resources.gpus,
                             "memory_gb": task.resources.memory_gb},
@@ -101,7 +106,8 @@ def record_timing(work, task: Task, details: dict, wall_s: float) -> Path:
 def execute(task: Task, *values):
     """Run ``task`` with its dependencies' ``values`` (both executors call this), its
     threads limited to its CPUs and progress bars as its spec's ``progress`` says (the
-    switch of the process that planned it: a Ray worker does not inherit it).
+    switch of the process that planned it: a Ray worker does not inherit it); its wall
+    time and peak memory go to its timing record (:func:`record_timing`).
 
     Returns
     -------
@@ -114,10 +120,12 @@ def execute(task: Task, *values):
     import torch  # noqa: F401
 
     start = time.perf_counter()
-    with limited_threads(max(1, int(task.resources.cpus))), progress_bars(task.spec.get("progress", True)):
+    # the task's peak memory, its child processes' included: the plan's declarations come from it
+    with PeakRSS() as peak, limited_threads(max(1, int(task.resources.cpus))), \
+            progress_bars(task.spec.get("progress", True)):
         value, details = task.function(task.spec, *values)
     if details is not None and task.spec.get("work"):
-        record_timing(task.spec["work"], task, details, time.perf_counter() - start)
+        record_timing(task.spec["work"], task, details, time.perf_counter() - start, peak_rss_gb=peak.gb)
     return value
 
 

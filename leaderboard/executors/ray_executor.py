@@ -4,6 +4,10 @@ Each :class:`~leaderboard.executors.Task` becomes one Ray task that reserves the
 :class:`~leaderboard.executors.Resources` (``num_cpus``, ``num_gpus``, ``memory``) and
 takes its dependencies' values as object references, so Ray starts it once they are
 done and runs independent rows and seeds side by side on whatever nodes have room.
+Ray places a task only where its declared ``memory`` fits beside that of the node's
+running tasks, so the memory declared on a node never sums beyond the node's ``memory``
+resource; the plan's declarations come from measured peaks
+(:mod:`leaderboard.executors.memory`).
 
 A worker process that dies (killed, out of memory, its node lost) fails its task with
 a system error, which Ray retries up to ``max_retries`` times; the stage then starts
@@ -61,6 +65,13 @@ def _unplaceable(tasks, nodes) -> list:
     return out
 
 
+def _largest_node(nodes) -> str:
+    """The CPUs and memory of the live node with the most memory (``ray.nodes()``), in words."""
+    sizes = [n.get("Resources", {}) for n in nodes if n.get("Alive")] or [{}]
+    size = max(sizes, key=lambda s: (s.get("memory", 0), s.get("CPU", 0)))
+    return f"{size.get('CPU', 0):g} CPU, {size.get('GPU', 0):g} GPU, {size.get('memory', 0) / 2**30:.1f} GiB"
+
+
 def _cause(error):
     """The stage's own exception inside a Ray task error (itself when there is none)."""
     cause = getattr(error, "cause", None)
@@ -106,7 +117,7 @@ def run_ray(tasks, *, address: str | None = None, max_retries: int = 3, log=prin
         unplaceable = _unplaceable(tasks, ray.nodes())
         if unplaceable:
             message = (f"no node of the Ray cluster has the resources of {len(unplaceable)} task(s), e.g. "
-                       f"{unplaceable[0]}")
+                       f"{unplaceable[0]}; the largest node has {_largest_node(ray.nodes())}")
             if address is None and started_here:
                 raise UserError(f"--executor ray: {message}; lower --cpus-per-task or use a cluster (--address)")
             log(f"warning: {message}; they wait for a node that has them (an autoscaler's)")
