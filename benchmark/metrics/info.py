@@ -12,7 +12,7 @@ from dataclasses import dataclass
 __all__ = ["GROUPS", "MetricInfo", "declared"]
 
 #: Groups in table order.
-GROUPS = ("lip sync", "distribution", "vertex", "energy", "diversity")
+GROUPS = ("lip sync", "distribution", "dynamics", "vertex", "energy", "diversity")
 
 
 @dataclass(frozen=True)
