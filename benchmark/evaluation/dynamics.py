@@ -49,11 +49,12 @@ _BOOT = "bootstrap std over sentences"
 #: The family's metrics, in table order.
 METRICS = declared(
     *(MetricInfo(f"motion_ratio_{r}", f"Motion ratio {_LABELS[r]}", "x GT", None, "dynamics",
-                 _BOOT + "; 1 = the ground truth's level", level="set") for r in REGIONS),
+                 _BOOT + "; 1 = the ground truth's level", level="set", ideal=1.0) for r in REGIONS),
     *(MetricInfo(f"motion_closeness_{r}", f"Closeness {_LABELS[r]}", "", True, "dynamics",
-                 _BOOT + "; 1 - |ratio - 1|", level="set") for r in REGIONS),
+                 _BOOT + "; 1 - abs(ratio - 1)", level="set") for r in REGIONS),
     MetricInfo("silent_lip_ratio", "Silent-lip ratio", "x GT", None, "dynamics",
-               _BOOT + "; mouth motion in the audio's silences over the ground truth's", level="set"),
+               _BOOT + "; mouth motion in the audio's silences over the ground truth's", level="set",
+               ideal=1.0),
 )
 #: The ratio metrics and, for those with one, the closeness read from the same replicates.
 RATIOS = {**{f"motion_ratio_{r}": f"motion_closeness_{r}" for r in REGIONS}, "silent_lip_ratio": None}

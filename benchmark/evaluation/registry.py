@@ -78,7 +78,7 @@ for _family in FAMILIES:
         register_metric(_info)
 del _family, _info
 
-_BETTER = {True: "higher", False: "lower", None: "closer to 0"}
+_BETTER = {True: "higher", False: "lower"}
 
 
 def markdown_table() -> str:
@@ -87,6 +87,7 @@ def markdown_table() -> str:
              "|---|---|---|---|---|---|---|"]
     for name in ordered_metrics(list(METRICS)):
         m = METRICS[name]
-        lines.append(f"| `{m.name}` | {m.label} | {m.group} | {_BETTER[m.higher_is_better]} | "
+        better = _BETTER[m.higher_is_better] if m.higher_is_better is not None else f"closer to {m.ideal:g}"
+        lines.append(f"| `{m.name}` | {m.label} | {m.group} | {better} | "
                      f"{m.unit} | {m.spread} | {'yes' if m.min_samples >= 2 else 'no'} |")
     return "\n".join(lines) + "\n"
