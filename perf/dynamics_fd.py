@@ -63,7 +63,8 @@ def main(argv=None) -> int:
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--data", required=True, metavar="BUILD", help="a BlendVOCA build with a test split")
     p.add_argument("--references", action="store_true",
-                   help="also the reference rows (static, ground truth, oracle sample and mean where the build has them)")
+                   help="also the reference rows (static, ground truth, oracle sample and mean where the build "
+                        "has them)")
     args = p.parse_args(argv)
     from scipy.stats import spearmanr
 

@@ -280,7 +280,8 @@ def write_report(table: Mapping, out, *, title: str = "", meta: Mapping | None =
 
 
 def run_sanity(dataset, out, *, levels: str = "small", split: str = "test", kinds=None,
-               settings: EvaluationSettings = SANITY_SETTINGS, table=None, references: bool = True) -> tuple[dict, list]:
+               settings: EvaluationSettings = SANITY_SETTINGS, table=None,
+               references: bool = True) -> tuple[dict, list]:
     """Score, judge and write the report; returns ``(table, failures)``. With
     ``references``, the reference rows' claims too (:func:`reference_table`, written to
     ``out/sanity_references.json``; a failed claim is a failure ``(metric, "reference row
