@@ -14,7 +14,7 @@ For each region (:data:`benchmark.metrics.dynamics.REGIONS`):
 
 ``silent_lip_ratio``
     The jaw and lip RMS velocity inside the test audio's silences
-    (:func:`~benchmark.metrics.dynamics.silent_frames`) over the ground truth's in the
+    (:func:`utterance_silences`) over the ground truth's in the
     same frames: above 1 the mouth keeps moving where the speaker rests.
 
 Pooled, not per sentence: ``m`` is the RMS velocity over every frame of the split (and
@@ -37,11 +37,12 @@ import numpy as np
 
 from benchmark.evaluation.entries import replicates_and_interval
 from benchmark.metrics.bootstrap import BOOTSTRAP_RESAMPLES, bootstrap_indices
-from benchmark.metrics.dynamics import (REGIONS, closeness, energy_ratio, mouth_columns, ratio_replicates,
-                                        region_columns, silent_frames, silent_velocity_frames, squared_speed_sum)
+from benchmark.metrics.dynamics import (REGIONS, SILENCE_DB, closeness, energy_ratio, mouth_columns,
+                                        ratio_replicates, region_columns, silent_frames, silent_velocity_frames,
+                                        squared_speed_sum)
 from benchmark.metrics.info import MetricInfo, declared
 
-__all__ = ["METRICS", "RATIOS", "dynamics_metrics", "dynamics_sums"]
+__all__ = ["METRICS", "RATIOS", "dynamics_metrics", "dynamics_sums", "utterance_silences"]
 
 _LABELS = {"lips": "lips", "jaw": "jaw", "upper": "upper face"}
 _BOOT = "bootstrap std over sentences"
@@ -58,6 +59,16 @@ METRICS = declared(
 )
 #: The ratio metrics and, for those with one, the closeness read from the same replicates.
 RATIOS = {**{f"motion_ratio_{r}": f"motion_closeness_{r}" for r in REGIONS}, "silent_lip_ratio": None}
+
+
+def utterance_silences(samples, rate: int, num_frames: int, fps: float = 60.0) -> np.ndarray:
+    """``(num_frames,)`` bool: the frames in the utterance's silences
+    (:func:`~benchmark.metrics.dynamics.silent_frames` of its speech envelope, the 40 ms
+    log-energy that the geometric lip-sync estimator reads)."""
+    from benchmark.lipsync.envelope import speech_envelope
+
+    envelope = speech_envelope(samples, rate, fps, int(num_frames), floor_db=-(SILENCE_DB + 20.0))
+    return silent_frames(envelope, fps)
 
 
 def dynamics_sums(ground_truth, generated, names, audio=None) -> dict:
@@ -81,7 +92,7 @@ def dynamics_sums(ground_truth, generated, names, audio=None) -> dict:
             ref.append(squared_speed_sum(truth[:t], cols))
         if "silent_lip_ratio" in out:
             samples, rate = audio[key]
-            frames = silent_velocity_frames(silent_frames(samples, rate, len(truth))[:t])
+            frames = silent_velocity_frames(utterance_silences(samples, rate, len(truth))[:t])
             gen, ref = out["silent_lip_ratio"]
             gen.append(np.mean([squared_speed_sum(s[:t], mouth, frames) for s in tracks]))
             ref.append(squared_speed_sum(truth[:t], mouth, frames))

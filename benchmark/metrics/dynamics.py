@@ -129,26 +129,24 @@ def ratio_replicates(generated_sums, truth_sums, rows) -> np.ndarray:
         return np.where(r > 0, np.sqrt(g / np.where(r > 0, r, 1.0)), np.nan)
 
 
-def silent_frames(samples, rate: int, num_frames: int, fps: float = 60.0, *, threshold_db: float = SILENCE_DB,
+def silent_frames(envelope_db, fps: float = 60.0, *, threshold_db: float = SILENCE_DB,
                   min_duration: float = MIN_SILENCE_S) -> np.ndarray:
-    """``(num_frames,)`` bool: the motion frames inside the utterance's silences.
+    """``(T,)`` bool: the motion frames inside an utterance's silences, from its speech
+    envelope ``envelope_db`` (``(T,)``, dB per motion frame: the log RMS energy of a short
+    window around each frame, :func:`benchmark.lipsync.envelope.speech_envelope`).
 
-    A frame is silent when its speech envelope (:func:`benchmark.lipsync.envelope.speech_envelope`,
-    the log RMS energy of a 40 ms Hann window around it) is more than ``threshold_db``
-    below the utterance's loudest frame; runs of silent frames shorter than
-    ``min_duration`` seconds are dropped (a stop closure inside a word is not a rest).
-    The threshold is relative to the utterance, so a quiet recording is read like a
-    loud one; an utterance without any level difference (all zeros) has no silence.
+    A frame is silent when its envelope is more than ``threshold_db`` below the
+    utterance's loudest frame; runs of silent frames shorter than ``min_duration``
+    seconds are dropped (a stop closure inside a word is not a rest). The threshold is
+    relative to the utterance, so a quiet recording is read like a loud one; an
+    utterance without any level difference (all zeros) has no silence.
     """
-    from benchmark.lipsync.envelope import speech_envelope
-
-    x = np.asarray(samples, dtype=np.float64)
-    if x.ndim != 1 or x.size == 0:
-        raise UserError(f"silent_frames: expected mono audio samples (N,), got shape {x.shape}")
+    envelope = np.asarray(envelope_db, dtype=np.float64)
+    if envelope.ndim != 1 or envelope.size == 0 or not np.all(np.isfinite(envelope)):
+        raise UserError(f"silent_frames: expected a finite speech envelope (T,) in dB, got shape {envelope.shape}")
     if threshold_db <= 0 or min_duration < 0:
         raise UserError(f"silent_frames: expected threshold_db > 0 and min_duration >= 0, got {threshold_db}, "
                         f"{min_duration}")
-    envelope = speech_envelope(x, rate, fps, int(num_frames), floor_db=-(threshold_db + 20.0))
     quiet = envelope < envelope.max() - threshold_db
     shortest = int(np.ceil(min_duration * fps - 1e-9))
     edges = np.flatnonzero(np.diff(np.concatenate([[0], quiet.astype(np.int8), [0]])))

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from benchmark.evaluation import evaluate_split
-from benchmark.evaluation.dynamics import METRICS, dynamics_metrics
+from benchmark.evaluation.dynamics import METRICS, dynamics_metrics, utterance_silences
 from benchmark.metrics.dynamics import (closeness, energy_ratio, motion_energy, mouth_columns, region_columns,
                                         silent_frames, silent_velocity_frames, squared_speed_sum)
 from benchmark.testing import FakeBlendVOCA
@@ -114,7 +114,7 @@ def _utterance(spans, seconds=3.0, seed=0):
 def test_silences_of_a_synthetic_utterance_are_found_at_their_spans():
     spans = [(0.0, 0.4), (1.2, 1.5), (2.0, 2.1), (2.7, 3.0)]  # the 0.1 s gap is a closure, not a rest
     frames = int(3.0 * FPS)
-    silent = silent_frames(_utterance(spans), RATE, frames, FPS)
+    silent = utterance_silences(_utterance(spans), RATE, frames, FPS)
     centre = np.arange(frames) / FPS
     truth = np.zeros(frames, dtype=bool)
     for a, b in spans:
@@ -127,8 +127,16 @@ def test_silences_of_a_synthetic_utterance_are_found_at_their_spans():
     assert np.array_equal(silent[~near_edge], truth[~near_edge])
     assert silent[int(2.05 * FPS)] == np.False_  # 0.1 s: too short
     # a quieter recording of the same utterance: the threshold is relative to its loudest frame
-    assert np.array_equal(silent_frames(_utterance(spans) * 0.01, RATE, frames, FPS), silent)
-    assert not silent_frames(np.zeros(RATE, np.float32), RATE, 60, FPS).any()  # nothing louder: no silence
+    assert np.array_equal(utterance_silences(_utterance(spans) * 0.01, RATE, frames, FPS), silent)
+    assert not utterance_silences(np.zeros(RATE, np.float32), RATE, 60, FPS).any()  # nothing louder: no silence
+    # the rule on an envelope: 40 dB below the loudest frame, runs of at least 0.2 s (12 frames)
+    envelope = np.full(40, -10.0)
+    envelope[0:12] = -55.0   # 12 frames: a rest
+    envelope[20:31] = -70.0  # 11 frames: too short
+    envelope[35:40] = -45.0  # 5 frames, and only 35 dB down
+    assert np.flatnonzero(silent_frames(envelope, FPS)).tolist() == list(range(12))
+    assert silent_frames(envelope, FPS, min_duration=0.1)[20:31].all()
+    assert silent_frames(envelope, FPS, threshold_db=30, min_duration=0.05)[35:].all()
     assert np.array_equal(silent_velocity_frames([True, True, False, True, True, True]),
                           [True, False, False, True, True])
 
@@ -138,7 +146,7 @@ def test_the_silent_lip_ratio_reads_mouth_motion_in_the_silences_only():
     spans = [(0.0, 0.5), (1.5, 2.0)]
     frames = int(2.5 * FPS)
     audio = {("S", "a"): (_utterance(spans, 2.5), RATE)}
-    silent = silent_frames(audio[("S", "a")][0], RATE, frames, FPS)
+    silent = utterance_silences(audio[("S", "a")][0], RATE, frames, FPS)
     jaw, cheek = NAMES.index("jawOpen"), NAMES.index("cheekPuff")
     t = np.arange(frames)
     truth = np.zeros((frames, len(NAMES)))
