@@ -20,7 +20,7 @@ from benchmark.results import Convergence
 
 from .collect import Column, Row, Table, best_mark, column_decimals
 
-__all__ = ["AV_OFFSET_NOTE", "HUMAN_PREFERENCE_NOTE", "NOT_SETTLED_MARK", "group_notes", "has_study",
+__all__ = ["AV_OFFSET_NOTE", "DYNAMICS_NOTE", "HUMAN_PREFERENCE_NOTE", "NOT_SETTLED_MARK", "group_notes", "has_study",
            "human_preference_text", "latex_tables", "markdown_tables", "not_settled_text",
            "rtf_text"]
 
@@ -32,6 +32,12 @@ AV_OFFSET_NOTE = ("AV offset: on the synthetic corpus the ground truth carries a
                   "quality); `av_lag_bias_*` is the row's systematic lead (-) or lag (+) against the data "
                   "(its mean signed offset minus the ground truth's on the same sentences; 0 for the ground truth).")
 
+#: What the tables say under the dynamics columns (benchmark.evaluation.dynamics).
+DYNAMICS_NOTE = ("Dynamics: motion ratio = the row's RMS velocity of the region over the ground truth's on the same "
+                 "sentences (1 = the data's level; below 1 damped, above 1 livelier or noisy; not ranked); "
+                 "closeness = 1 - abs(ratio - 1) (THEval; 0 for a static face, below 0 for more than twice the "
+                 "data's motion); silent-lip ratio = jaw and lip motion in the audio's pauses over the ground "
+                 "truth's.")
 _ARROWS = {True: ("↑", r"$\uparrow$"), False: ("↓", r"$\downarrow$"), None: ("", "")}
 _LATEX_SPECIAL = {"\\": r"\textbackslash{}", "&": r"\&", "%": r"\%", "$": r"\$", "#": r"\#", "_": r"\_",
                   "{": r"\{", "}": r"\}", "~": r"\textasciitilde{}", "^": r"\textasciicircum{}"}
@@ -180,6 +186,8 @@ def group_notes(table: Table, columns: list, marks: list, label=str) -> list:
     notes = []
     if any(c.name.startswith(("av_offset_", "av_lag_bias_")) for c in columns):
         notes.append(AV_OFFSET_NOTE)
+    if any(c.group == "dynamics" for c in columns):
+        notes.append(DYNAMICS_NOTE)
     unsettled = [row for row in table.rows + table.references if row.settled is False]
     judged = [row for row in unsettled if row.statements]
     if judged:

@@ -11,8 +11,10 @@ The metrics come in families, each a module that computes them and declares thei
 metadata (:class:`benchmark.metrics.info.MetricInfo`, gathered by
 :mod:`benchmark.evaluation.registry`): :mod:`~benchmark.evaluation.latent` (FD, WInD,
 multimodality, latent energy), :mod:`~benchmark.evaluation.vertex` (vertex errors,
-energy and diversity in the two reference spaces) and
-:mod:`~benchmark.evaluation.lipsync` (AV offset, lag bias and confidence). Intervals:
+energy and diversity in the two reference spaces),
+:mod:`~benchmark.evaluation.lipsync` (AV offset, lag bias and confidence) and
+:mod:`~benchmark.evaluation.dynamics` (each region's motion against the ground
+truth's level, the mouth's in the silences). Intervals:
 :mod:`benchmark.metrics.bootstrap`. See docs/metrics.md for the definitions and the
 window protocol.
 """
@@ -24,6 +26,8 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from benchmark.evaluation.dynamics import METRICS as DYNAMICS_METRICS
+from benchmark.evaluation.dynamics import dynamics_metrics
 from benchmark.evaluation.entries import Scores, sentence_entries
 from benchmark.evaluation.latent import METRICS as LATENT_METRICS
 from benchmark.evaluation.latent import fd_floor_probe, latent_metrics, latent_results, resolve_extractor
@@ -162,7 +166,9 @@ def evaluate_split(generated, dataset, split: str = "test", settings: Evaluation
         (``_rig``, ``_mesh``) ``lve``, ``lve_squared``, ``mve``, ``fdd``, ``energy``
         and ``apd``/``upd``/``lpd``/``mpd`` (S >= 2); ``av_offset_*``,
         ``av_offset_signed_*``, ``av_lag_bias_*`` and ``av_confidence_*`` of the
-        geometric estimator and the SyncNet and expert ones when given. Set-level
+        geometric estimator and the SyncNet and expert ones when given;
+        ``motion_ratio_*``, ``motion_closeness_*`` (lips, jaw, upper face) and
+        ``silent_lip_ratio``. Set-level
         metrics carry their bootstrap ``replicates`` (paired across rows scored on the
         same split with the same seed). ``Scores.per_sentence`` rows,
         ``Scores.replicates`` (every metric's bootstrap replicates) and
@@ -223,6 +229,13 @@ def evaluate_split(generated, dataset, split: str = "test", settings: Evaluation
         audio = {k: dataset.audio(*k) for k in generated}
         values.update(lipsync_values(generated, rigs, audio, names, syncnet=syncnet, sync_expert=sync_expert,
                                      workers=settings.workers, ground_truth=ground_truth))
+    if want(*DYNAMICS_METRICS):
+        silent = want("silent_lip_ratio") and hasattr(dataset, "audio")
+        audio = {k: dataset.audio(*k) for k in generated} if silent else None
+        found, found_replicates = dynamics_metrics(ground_truth, generated, names, audio, seed=settings.seed,
+                                                   resamples=settings.resamples, wanted=wanted)
+        results.update(found)
+        replicates.update(found_replicates)
     entries, rows, sentence_replicates = sentence_entries(values, METRICS, seed=settings.seed,
                                                           resamples=settings.resamples)
     results.update(entries)

@@ -3,11 +3,13 @@ which direction is better, which group it belongs to and what its spread means.
 
 Each metric family declares its metrics beside their computation (``METRICS`` of
 :mod:`~benchmark.evaluation.lipsync`, :mod:`~benchmark.evaluation.vertex`,
-:mod:`~benchmark.evaluation.latent`); this module gathers them into :data:`METRICS`. The evaluation builds every result entry from here,
+:mod:`~benchmark.evaluation.latent`, :mod:`~benchmark.evaluation.dynamics`); this module gathers them into :data:`METRICS`. The evaluation builds every result entry from here,
 the result files carry ``label`` and ``group``, the leaderboard orders and groups its
 columns by it, and docs/metrics.md's table is checked against it. Groups and their
 order follow the SAiD paper's Table 1: lip sync (AV offset, AV confidence), then the
-distribution metrics (multimodality, FD, WInD), then the vertex errors, the energy
+distribution metrics (multimodality, FD, WInD), then the dynamics (each region's motion
+against the ground truth's level: beside FD it says whether a distant row moves too
+little or too much), then the vertex errors, the energy
 score and the diversity measures. Every vertex metric comes in two reference spaces
 (:data:`SPACES`: ``lve_mesh`` against the source meshes, ``lve_rig`` against the rig
 reconstruction of the ground-truth coefficients), so coefficient and vertex rows are
@@ -16,7 +18,7 @@ read on one scale.
 
 from __future__ import annotations
 
-from benchmark.evaluation import latent, lipsync, vertex
+from benchmark.evaluation import dynamics, latent, lipsync, vertex
 from benchmark.evaluation.lipsync import ESTIMATORS
 from benchmark.evaluation.vertex import SPACES
 from benchmark.metrics.info import GROUPS, MetricInfo
@@ -36,7 +38,7 @@ __all__ = [
 ]
 
 #: The metric families, in registration order (within a group, table order follows it).
-FAMILIES = (lipsync, vertex, latent)
+FAMILIES = (lipsync, vertex, latent, dynamics)
 
 #: name -> MetricInfo, in table order within each group.
 METRICS: dict[str, MetricInfo] = {}
@@ -76,7 +78,7 @@ for _family in FAMILIES:
         register_metric(_info)
 del _family, _info
 
-_BETTER = {True: "higher", False: "lower", None: "closer to 0"}
+_BETTER = {True: "higher", False: "lower"}
 
 
 def markdown_table() -> str:
@@ -85,6 +87,7 @@ def markdown_table() -> str:
              "|---|---|---|---|---|---|---|"]
     for name in ordered_metrics(list(METRICS)):
         m = METRICS[name]
-        lines.append(f"| `{m.name}` | {m.label} | {m.group} | {_BETTER[m.higher_is_better]} | "
+        better = _BETTER[m.higher_is_better] if m.higher_is_better is not None else f"closer to {m.ideal:g}"
+        lines.append(f"| `{m.name}` | {m.label} | {m.group} | {better} | "
                      f"{m.unit} | {m.spread} | {'yes' if m.min_samples >= 2 else 'no'} |")
     return "\n".join(lines) + "\n"

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 __all__ = ["GROUPS", "MetricInfo", "declared"]
 
 #: Groups in table order.
-GROUPS = ("lip sync", "distribution", "vertex", "energy", "diversity")
+GROUPS = ("lip sync", "distribution", "dynamics", "vertex", "energy", "diversity")
 
 
 @dataclass(frozen=True)
@@ -39,6 +39,9 @@ class MetricInfo:
         ``"sentence"``: a value per sentence, averaged (per-sentence rows, bootstrap
         of the mean); ``"set"``: one value for the generated set (bootstrap over
         its sentences).
+    ideal : float
+        The best value of a metric without a better direction (``higher_is_better``
+        None): 0 for an offset or a lag bias, 1 for a ratio to the ground truth's level.
     """
 
     name: str
@@ -49,6 +52,7 @@ class MetricInfo:
     spread: str
     min_samples: int = 1
     level: str = "sentence"
+    ideal: float = 0.0
 
     def __post_init__(self):
         if self.group not in GROUPS:

@@ -10,7 +10,10 @@ against its declaration (``benchmark/sanity/expectations.py``: rises, falls, mus
 react, equals the level, or no claim, each with its reason). Writes
 ``DIR/sanity.json`` (``{metric: {disturbance: {levels, values, rho, expected, ok,
 ...}}}``), ``DIR/sanity.png`` (the metric x disturbance grid) and
-``DIR/sanity_meta.json`` (how it was run). Exit status 4 when a metric breaks its
+``DIR/sanity_meta.json`` (how it was run). The reference rows (a static face, the ground
+truth, and a one-to-many build's oracle samples and their mean) are judged against
+their claims (``REFERENCE_CLAIMS``: the dynamics closeness is 0 for a static face, 1 for
+the ground truth, ...) into ``DIR/sanity_references.json``. Exit status 4 when a metric breaks its
 declaration (after writing the files), 2 for a build without a test split or a bad flag.
 """
 
@@ -67,9 +70,13 @@ def main(argv=None) -> int:
     print(f"sanity: {counts['held']} declarations held, {counts['failed']} failed, "
           f"{counts['no claim']} pairs without a claim, {counts['not scored']} declared but not scored")
     for metric, kind, entry in failed:
-        print(f"FAILED {metric} under {kind}: declared {entry['expected']}; {entry['why']}; "
-              f"values {[round(v, 4) for v in entry['values']]} at levels {entry['levels']}")
+        if "values" in entry:
+            print(f"FAILED {metric} under {kind}: declared {entry['expected']}; {entry['why']}; "
+                  f"values {[round(v, 4) for v in entry['values']]} at levels {entry['levels']}")
+        else:  # a reference row's claim
+            print(f"FAILED {metric} on the {kind}: declared {entry['expected']} {entry['target']:g}; {entry['why']}")
     print(out / "sanity.json")
+    print(out / "sanity_references.json")
     print(out / "sanity.png")
     if failed:
         raise CheckFailed(f"{len(failed)} metric declaration(s) broken: "

@@ -26,6 +26,14 @@ kept and reported, never failed (the expert and SyncNet rows without their model
 and the names of a protocol not yet in place). ``known_limitation`` marks a
 declaration that states what a metric does where a sensible claim fails and cannot
 be fixed in the metric (docs/metrics.md, "Metric sanity", says why).
+
+A second table, :data:`REFERENCE_CLAIMS`, declares what a metric scores on the
+reference rows (:data:`REFERENCE_ROWS`: a static face, the ground truth itself and,
+on a one-to-many synthetic build, its oracle samples and their mean), judged by
+:func:`reference_verdict`: ``equals`` (the mean is the target within a tolerance),
+``interval contains`` (the 95 % interval contains the target), ``within interval of``
+(the mean is at most the interval's width from the target) and ``below`` (the whole
+interval is below the target).
 """
 
 from __future__ import annotations
@@ -37,7 +45,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.stats import rankdata
 
-__all__ = ["EXPECTATIONS", "KINDS", "RHO_MIN", "Expectation", "declared", "spearman", "verdict"]
+__all__ = ["EXPECTATIONS", "KINDS", "REFERENCE_CLAIMS", "REFERENCE_KINDS", "REFERENCE_ROWS", "RHO_MIN", "Expectation",
+           "ReferenceClaim", "declared", "reference_verdict", "spearman", "verdict"]
 
 #: Declaration kinds.
 KINDS = ("rises", "falls", "must not react", "equals level", "any")
@@ -269,6 +278,45 @@ def _table() -> dict:
     add("energy_mesh", "noisy_samples", "any",
         "the rig reconstruction of the truth is itself about 0.6 mm from the meshes; a proper score rightly "
         "rewards sample spread up to that error, and penalises more: it first falls, then rises")
+    # ---- dynamics: each region's motion against the truth's level (benchmark.evaluation.dynamics)
+    for region in ("lips", "jaw", "upper"):
+        ratio, close = f"motion_ratio_{region}", f"motion_closeness_{region}"
+        add(ratio, "damping", "falls", "every coefficient scaled by 1 - level: the ratio is 1 - level exactly")
+        add(close, ("damping", "smoothing"), "falls", "the motion falls below the truth's level")
+        add(ratio, "smoothing", "falls", "a low-pass filter removes the fast part of the velocity")
+        add(ratio, ("noise", "noisy_samples"), "rises",
+            "i.i.d. noise adds frame-to-frame velocity the truth does not have")
+        add(close, ("noise", "noisy_samples"), "falls",
+            "the noisy motion rises above the truth's level (closeness is not clipped at 0: it keeps falling)")
+        for m in (ratio, close):
+            add(m, ("time_shift", "time_advance", "constant_offset"), "must not react",
+                "the same motion at another time or lifted by a constant has the same velocity (only the k held "
+                "edge frames, or frames clipped at 1, differ)", tolerance=0.01)
+            add(m, "sentence_swap", "any",
+                "other sentences' tracks keep the set's level roughly; whether a swap moves it up or down "
+                "depends on which sentences are swapped, so no claim")
+        if region == "upper":
+            for m in (ratio, close):
+                add(m, "mouth_damping", "must not react",
+                    "mouth damping scales the jaw and mouth shapes only; the upper-face coefficients are untouched",
+                    tolerance=1e-9)
+        else:
+            add(ratio, "mouth_damping", "falls", "the jaw and mouth shapes are scaled by 1 - level")
+            add(close, "mouth_damping", "falls", "the jaw and mouth shapes are scaled by 1 - level")
+    add("silent_lip_ratio", ("damping", "mouth_damping"), "falls",
+        "the mouth's motion in the pauses is scaled with the rest of its motion")
+    add("silent_lip_ratio", ("noise", "noisy_samples"), "rises",
+        "noise moves the mouth where the speaker rests")
+    add("silent_lip_ratio", ("time_shift", "time_advance"), "rises",
+        "motion moved in time against the audio lands in the pauses: a lag or lead shows as a mouth that moves "
+        "in the silences")
+    add("silent_lip_ratio", "sentence_swap", "rises",
+        "another sentence's motion is not silent where this audio is")
+    add("silent_lip_ratio", "constant_offset", "must not react",
+        "a constant does not move the mouth (frames clipped at 1 aside)", tolerance=0.01)
+    add("silent_lip_ratio", "smoothing", "any",
+        "a low-pass filter lowers the velocity in the pauses and also spreads speech motion into their edges; "
+        "which wins depends on the pauses' lengths, so no claim")
     table = {}
     for row in rows:
         key = (row.metric, row.disturbance)
@@ -280,6 +328,96 @@ def _table() -> dict:
 
 #: ``(metric, disturbance) -> Expectation``: every declaration of the suite.
 EXPECTATIONS = _table()
+
+#: The reference rows of :data:`REFERENCE_CLAIMS`, in report order.
+REFERENCE_ROWS = ("static", "ground_truth", "oracle_sample", "oracle_mean")
+#: Reference claim kinds.
+REFERENCE_KINDS = ("equals", "interval contains", "within interval of", "below")
+
+
+@dataclass(frozen=True)
+class ReferenceClaim:
+    """What ``metric`` scores on the reference row ``row``, and why."""
+
+    metric: str
+    row: str
+    expected: str
+    target: float
+    reason: str
+    tolerance: float = 0.0
+
+    def __post_init__(self):
+        if self.expected not in REFERENCE_KINDS:
+            raise ValueError(f"ReferenceClaim {self.metric}/{self.row}: unknown kind {self.expected!r}; expected one "
+                             f"of {REFERENCE_KINDS}")
+        if self.row not in REFERENCE_ROWS:
+            raise ValueError(f"ReferenceClaim {self.metric}/{self.row}: unknown row; expected one of {REFERENCE_ROWS}")
+        if not self.reason:
+            raise ValueError(f"ReferenceClaim {self.metric}/{self.row}: a claim needs a reason")
+
+
+def reference_verdict(claim: ReferenceClaim, entry) -> dict:
+    """The entry of one (metric, reference row): ``mean``, ``ci95``, what was claimed and
+    whether it held (``why`` when it did not). ``entry`` is the metric's result entry."""
+    mean = float(entry["mean"])
+    lo, hi = (float(v) for v in entry["ci95"])
+    out = {"mean": mean, "ci95": [lo, hi], "expected": claim.expected, "target": float(claim.target),
+           "ok": True, "reason": claim.reason}
+    why = None
+    if not all(math.isfinite(v) for v in (mean, lo, hi)):
+        why = "a value is not finite"
+    elif claim.expected == "equals":
+        out["tolerance"] = float(claim.tolerance)
+        if abs(mean - claim.target) > claim.tolerance:
+            why = f"{mean:.6g}, declared {claim.target:g} +- {claim.tolerance:g}"
+    elif claim.expected == "interval contains":
+        if not lo <= claim.target <= hi:
+            why = f"interval [{lo:.4g}, {hi:.4g}] does not contain {claim.target:g}"
+    elif claim.expected == "within interval of":
+        if abs(mean - claim.target) > hi - lo:
+            why = f"{mean:.4g} is {abs(mean - claim.target):.4g} from {claim.target:g}, more than its interval's " \
+                  f"width {hi - lo:.4g}"
+    elif claim.expected == "below":
+        if not hi < claim.target:
+            why = f"interval [{lo:.4g}, {hi:.4g}] is not below {claim.target:g}"
+    if why is not None:
+        out["ok"] = False
+        out["why"] = why
+    return out
+
+
+def _reference_claims() -> dict:
+    claims = []
+    static = "a face that never moves has no motion: ratio 0, closeness 0 exactly"
+    truth = "the ground truth against itself: ratio 1, closeness 1 exactly"
+    sample = ("the oracle samples are draws from the same conditional distribution as the ground truth: their "
+              "level is the truth's up to the sampling error that the interval measures")
+    mean = ("the mean of the oracle samples averages away the motion the audio does not determine: damped by "
+            "design, so its level is below the truth's")
+    for region in ("lips", "jaw", "upper"):
+        ratio, close = f"motion_ratio_{region}", f"motion_closeness_{region}"
+        claims += [ReferenceClaim(ratio, "static", "equals", 0.0, static),
+                   ReferenceClaim(close, "static", "equals", 0.0, static),
+                   ReferenceClaim(ratio, "ground_truth", "equals", 1.0, truth),
+                   ReferenceClaim(close, "ground_truth", "equals", 1.0, truth),
+                   ReferenceClaim(ratio, "oracle_sample", "interval contains", 1.0, sample),
+                   ReferenceClaim(close, "oracle_sample", "within interval of", 1.0, sample),
+                   ReferenceClaim(ratio, "oracle_mean", "below", 1.0, mean),
+                   ReferenceClaim(close, "oracle_mean", "below", 1.0, mean)]
+    claims += [ReferenceClaim("silent_lip_ratio", "static", "equals", 0.0, static),
+               ReferenceClaim("silent_lip_ratio", "ground_truth", "equals", 1.0, truth),
+               ReferenceClaim("silent_lip_ratio", "oracle_sample", "interval contains", 1.0, sample)]
+    table = {}
+    for claim in claims:
+        key = (claim.metric, claim.row)
+        if key in table:
+            raise ValueError(f"REFERENCE_CLAIMS: {key} declared twice")
+        table[key] = claim
+    return table
+
+
+#: ``(metric, reference row) -> ReferenceClaim``.
+REFERENCE_CLAIMS = _reference_claims()
 
 _NO_CLAIM = "no claim declared for this pair"
 

@@ -22,17 +22,23 @@ import numpy as np
 from benchmark.evaluation import EvaluationSettings, evaluate_split
 from benchmark.evaluation.registry import ordered_metrics
 from benchmark.sanity.disturbances import DISTURBANCES, disturb
-from benchmark.sanity.expectations import EXPECTATIONS, declared, verdict
+from benchmark.sanity.expectations import EXPECTATIONS, REFERENCE_CLAIMS, REFERENCE_ROWS, declared, \
+    reference_verdict, verdict
 from blendvoca.errors import UserError
 from blendvoca.runtime.progress import bar, progress_bars
 
-__all__ = ["SANITY_SETTINGS", "failures", "ground_truth", "plot_table", "run_sanity", "sanity_scores", "sanity_table",
-           "status_counts", "write_report"]
+__all__ = ["REFERENCE_SETTINGS", "SANITY_SETTINGS", "failures", "ground_truth", "plot_table", "reference_table",
+           "reference_tracks", "run_sanity", "sanity_scores", "sanity_table", "status_counts", "write_report"]
 
 #: The evaluation settings of the sanity run: the suite compares means across levels,
 #: so the bootstrap intervals get a handful of resamples and WInD two seeded fits (the same
 #: seeds at every level: the fit noise is common to all levels).
 SANITY_SETTINGS = EvaluationSettings(wind_repeats=2, resamples=10, fd_resamples=5, wind_resamples=1, workers=2)
+
+
+#: The reference rows' claims read intervals ("the oracle sample's interval contains 1"):
+#: the run's 1000 bootstrap resamples (only the claimed metrics are scored; they are cheap).
+REFERENCE_SETTINGS = SANITY_SETTINGS.replace(resamples=1000)
 
 
 def _evaluate(generated, dataset, split, settings):
@@ -92,6 +98,55 @@ def sanity_scores(dataset, *, levels: str = "small", split: str = "test", kinds=
                 undisturbed = values
         out.setdefault(kind, []).append((level, values))
     return out
+
+
+def reference_tracks(dataset, split: str = "test") -> dict:
+    """``{row: {key: (S, T, K)}}`` of the reference rows (:data:`~benchmark.sanity.expectations.REFERENCE_ROWS`):
+    ``static`` (zeros: the neutral face), ``ground_truth`` and, where every sentence of the
+    split has fitted oracle samples (a one-to-many synthetic build), ``oracle_sample``
+    (all K of them as K samples) and ``oracle_mean`` (their mean), cut to the truth's length."""
+    truth = ground_truth(dataset, split)
+    rows = {"static": {k: np.zeros((1, *v.shape)) for k, v in truth.items()},
+            "ground_truth": {k: v[None] for k, v in truth.items()}}
+    has = getattr(dataset, "has_oracle", None)
+    if has is not None and all(has(*k) for k in truth):
+        oracle = {}
+        for k, v in truth.items():
+            samples = np.asarray(dataset.oracle_coeffs(*k), dtype=np.float64)
+            t = min(samples.shape[1], len(v))
+            oracle[k] = samples[:, :t]
+        rows["oracle_sample"] = oracle
+        rows["oracle_mean"] = {k: v.mean(axis=0, keepdims=True) for k, v in oracle.items()}
+    return rows
+
+
+def reference_table(dataset, split: str = "test", *, settings: EvaluationSettings = REFERENCE_SETTINGS,
+                    claims=None) -> dict:
+    """``{metric: {row: entry}}``: each claim of ``claims`` (default
+    :data:`~benchmark.sanity.expectations.REFERENCE_CLAIMS`) judged on its reference row
+    (:func:`~benchmark.sanity.expectations.reference_verdict` entries plus ``status``:
+    ``held``, ``failed`` or ``not scored``, the last for a row the build does not have, such
+    as the oracle rows of a build without oracle samples, or a metric the evaluation did not return)."""
+    claims = REFERENCE_CLAIMS if claims is None else claims
+    tracks = reference_tracks(dataset, split)
+    metrics = sorted({c.metric for c in claims.values()})
+    scored = {}
+    for row in REFERENCE_ROWS:
+        if row in tracks and any(c.row == row for c in claims.values()):
+            with warnings.catch_warnings(), progress_bars(False):
+                warnings.simplefilter("ignore")
+                scored[row] = evaluate_split(tracks[row], dataset, split, settings, metrics=metrics)
+    out = {}
+    for (metric, row), claim in claims.items():
+        entry = scored.get(row, {}).get(metric)
+        if entry is None:
+            judged = {"mean": None, "ci95": None, "expected": claim.expected, "target": claim.target, "ok": True,
+                      "reason": claim.reason, "status": "not scored"}
+        else:
+            judged = reference_verdict(claim, entry)
+            judged["status"] = "held" if judged["ok"] else "failed"
+        out.setdefault(metric, {})[row] = judged
+    return {m: out[m] for m in ordered_metrics(list(out))}
 
 
 def sanity_table(scores: Mapping, table=None) -> dict:
@@ -225,12 +280,20 @@ def write_report(table: Mapping, out, *, title: str = "", meta: Mapping | None =
 
 
 def run_sanity(dataset, out, *, levels: str = "small", split: str = "test", kinds=None,
-               settings: EvaluationSettings = SANITY_SETTINGS, table=None) -> tuple[dict, list]:
-    """Score, judge and write the report; returns ``(table, failures)``."""
+               settings: EvaluationSettings = SANITY_SETTINGS, table=None,
+               references: bool = True) -> tuple[dict, list]:
+    """Score, judge and write the report; returns ``(table, failures)``. With
+    ``references``, the reference rows' claims too (:func:`reference_table`, written to
+    ``out/sanity_references.json``; a failed claim is a failure ``(metric, "reference row
+    <row>", entry)``)."""
     start = time.perf_counter()
     scores = sanity_scores(dataset, levels=levels, split=split, kinds=kinds, settings=settings)
     result = sanity_table(scores, table)
     failed = failures(result)
+    reference = reference_table(dataset, split) if references else None
+    if reference is not None:
+        failed += [(m, f"reference row {r}", e) for m, rows in reference.items() for r, e in rows.items()
+                   if not e["ok"]]
     seconds = time.perf_counter() - start
     counts = status_counts(result)
     root = getattr(dataset, "root", None)
@@ -241,5 +304,10 @@ def run_sanity(dataset, out, *, levels: str = "small", split: str = "test", kind
             "counts": counts, "failed": [f"{m} / {d}" for m, d, _e in failed]}
     if meta["manifest_hash"] is not None:
         meta["manifest_hash"] = str(meta["manifest_hash"])
+    if reference is not None:
+        meta["references"] = {s: sum(e["status"] == s for rows in reference.values() for e in rows.values())
+                              for s in ("held", "failed", "not scored")}
     write_report(result, out, title=title, meta=meta)
+    if reference is not None:
+        (Path(out) / "sanity_references.json").write_text(json.dumps(_json_safe(reference), indent=1) + "\n")
     return result, failed

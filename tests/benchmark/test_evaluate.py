@@ -30,13 +30,15 @@ def test_ground_truth_scores_perfectly(dataset, vae):
     for name, entry in res.items():
         assert KEYS <= set(entry) <= KEYS | {"windows", "sample_std", "replicates"}
         assert entry["ci95"][0] <= entry["mean"] <= entry["ci95"][1]
-        assert ("replicates" in entry) == (name in ("fd", "wind"))
+        assert ("replicates" in entry) == (name in ("fd", "wind") or entry["group"] == "dynamics")
     assert res["lve_rig"]["n"] == len(res.per_sentence) == sum(len(dataset.sentences(s)) for s in dataset.split("test"))
     assert all(row["lve_rig"] == 0 for row in res.per_sentence)
     # generated windows are the ground-truth windows plus 2 extra starts per sentence
     assert res["fd"]["mean"] < 0.5
     for name in ("lve_rig", "mve_rig", "fdd_rig", "energy_rig", "av_lag_bias_geometric"):
         assert res[name]["mean"] == 0, name
+    for name in ("motion_ratio_lips", "motion_closeness_lips", "motion_ratio_jaw", "motion_closeness_upper"):
+        assert res[name]["mean"] == 1, name
     assert not any(name.endswith("_mesh") for name in res)
     assert res["energy_latent"]["mean"] < 0.5
     assert res["lve_rig"]["higher_is_better"] is False and res["lve_rig"]["unit"] == "mm"

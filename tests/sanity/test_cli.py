@@ -35,6 +35,15 @@ def test_bundled_default_passes_every_declaration(tmp_path, assets_dir, capsys):
         assert np.allclose(shift["values"], shift["levels"], atol=0.5) and shift["values"][0] == 0
     damped = table["av_confidence_geometric"]["damping"]
     assert damped["rho"] == pytest.approx(-1.0) and damped["values"][-1] < 0.5 * damped["values"][0]
+    # issue 54: damping scales every dynamics ratio by 1 - level, and the reference rows' claims hold
+    ratio = table["motion_ratio_lips"]["damping"]
+    assert np.allclose(ratio["values"], [1 - level for level in ratio["levels"]], rtol=1e-9)
+    references = json.loads((tmp_path / "sanity_references.json").read_text())
+    for region in ("lips", "jaw", "upper"):
+        closeness = references[f"motion_closeness_{region}"]
+        assert closeness["static"]["mean"] == 0 and closeness["ground_truth"]["mean"] == 1
+        assert closeness["oracle_sample"]["status"] == "not scored"  # the bundled default has no oracle samples
+    assert meta["references"]["failed"] == 0 and meta["references"]["held"] >= 14
 
 
 def test_a_broken_declaration_exits_4_after_writing(tmp_path, built_dataset, monkeypatch, capsys):
@@ -52,6 +61,23 @@ def test_a_broken_declaration_exits_4_after_writing(tmp_path, built_dataset, mon
     entry = table[name]["damping"]
     assert entry["ok"] is False and entry["expected"] == "falls" and entry["rho"] == pytest.approx(1.0)
     assert (tmp_path / "out" / "sanity.png").is_file()
+
+
+def test_a_broken_reference_claim_exits_4_after_writing(tmp_path, built_dataset, monkeypatch, capsys):
+    """A deliberately wrong claim (the ground truth's lip closeness is 0) fails the run."""
+    from benchmark.sanity.expectations import REFERENCE_CLAIMS, ReferenceClaim
+
+    wrong = ReferenceClaim("motion_closeness_lips", "ground_truth", "equals", 0.0, "deliberately wrong (test)")
+    monkeypatch.setitem(REFERENCE_CLAIMS, ("motion_closeness_lips", "ground_truth"), wrong)
+    rc = main(["--data", str(built_dataset), "--out", str(tmp_path / "out"), "--disturbances", "constant_offset",
+               "--quiet"])
+    captured = capsys.readouterr()
+    assert rc == 4
+    assert "FAILED motion_closeness_lips on the reference row ground_truth" in captured.out
+    references = json.loads((tmp_path / "out" / "sanity_references.json").read_text())
+    entry = references["motion_closeness_lips"]["ground_truth"]
+    assert entry["status"] == "failed" and entry["mean"] == 1.0 and "declared 0" in entry["why"]
+    assert references["motion_closeness_lips"]["static"]["status"] == "held"
 
 
 @pytest.mark.parametrize("splits", [{"train": ["A"]}, {"train": ["A"], "test": []}])

@@ -115,3 +115,55 @@ def test_sanity_table_statuses():
                                              "expected": "rises", "ok": True, "reason": "r",
                                              "status": "not scored"}
     assert [(m, d) for m, d, _e in failures(result)] == [("lve_rig", "damping")]
+
+
+def test_reference_claims_and_their_verdicts():
+    from benchmark.evaluation.registry import metric_info
+    from benchmark.sanity.expectations import REFERENCE_CLAIMS, ReferenceClaim, reference_verdict
+
+    for (metric, row), claim in REFERENCE_CLAIMS.items():
+        metric_info(metric)  # every claimed name is a registered metric
+        assert claim.metric == metric and claim.row == row and claim.reason
+    # the acceptance of issue 54: closeness static 0, ground truth 1, oracle-sample near 1, oracle-mean below
+    for region in ("lips", "jaw", "upper"):
+        name = f"motion_closeness_{region}"
+        assert (REFERENCE_CLAIMS[(name, "static")].expected, REFERENCE_CLAIMS[(name, "static")].target) == ("equals", 0)
+        assert REFERENCE_CLAIMS[(name, "ground_truth")].target == 1 and REFERENCE_CLAIMS[(name, "ground_truth")] \
+            .tolerance == 0
+        assert REFERENCE_CLAIMS[(name, "oracle_sample")].expected == "within interval of"
+        assert REFERENCE_CLAIMS[(name, "oracle_mean")].expected == "below"
+
+    def judged(kind, mean, ci, target=1.0, tolerance=0.0):
+        claim = ReferenceClaim("m", "ground_truth", kind, target, "because", tolerance)
+        return reference_verdict(claim, {"mean": mean, "ci95": ci})["ok"]
+
+    assert judged("equals", 1.0, [1.0, 1.0]) and not judged("equals", 0.999, [0.99, 1.0])
+    assert judged("equals", 0.999, [0.99, 1.0], tolerance=0.01)
+    assert judged("interval contains", 1.05, [0.97, 1.12]) and not judged("interval contains", 1.2, [1.1, 1.3])
+    assert judged("within interval of", 0.95, [0.9, 0.99]) and not judged("within interval of", 0.8, [0.78, 0.83])
+    assert judged("below", 0.7, [0.6, 0.8]) and not judged("below", 0.95, [0.9, 1.01])
+    assert not judged("equals", float("nan"), [0, 1])
+    with pytest.raises(ValueError, match="unknown row"):
+        ReferenceClaim("m", "mean-ish", "equals", 1.0, "r")
+    with pytest.raises(ValueError, match="unknown kind"):
+        ReferenceClaim("m", "static", "about", 1.0, "r")
+
+
+def test_reference_table_scores_static_zero_and_the_truth_one():
+    import warnings
+
+    from benchmark.sanity.report import reference_table
+    from benchmark.testing import FakeBlendVOCA
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        table = reference_table(FakeBlendVOCA(seed=2, test=2, sentences=3))
+    for region in ("lips", "jaw", "upper"):
+        for name in (f"motion_ratio_{region}", f"motion_closeness_{region}"):
+            assert table[name]["static"]["status"] == "held" and table[name]["static"]["mean"] == 0.0
+            assert table[name]["ground_truth"]["status"] == "held" and table[name]["ground_truth"]["mean"] == 1.0
+            # the fake build has no oracle samples: those claims are kept, not scored
+            assert table[name]["oracle_sample"]["status"] == "not scored"
+    # its noise-burst 'speech' pauses between syllables: the silent-lip ratio is judged too
+    assert table["silent_lip_ratio"]["static"]["mean"] == 0.0 and table["silent_lip_ratio"]["ground_truth"]["mean"] == 1
+    assert all(row["static"]["status"] == "held" for row in table.values())
