@@ -155,6 +155,27 @@ def _default_window(neutral: np.ndarray, deltas: np.ndarray) -> tuple[float, flo
     return (centre[0] - extent / 2, centre[0] + extent / 2, centre[1] - extent / 2, centre[1] + extent / 2)
 
 
+#: Lengths a scale bar may take, in millimetres (times powers of ten).
+_BAR_STEPS = (1.0, 2.0, 5.0)
+
+
+def scale_bar_mm(window_mm: float, *, fraction: float = 0.3) -> float:
+    """The longest round length (1, 2 or 5 times a power of ten, millimetres) at most
+    ``fraction`` of a tile's width of ``window_mm`` millimetres."""
+    if not window_mm > 0:
+        raise ValueError(f"scale_bar_mm: expected a positive window width, got {window_mm}")
+    target = fraction * window_mm
+    exponent = np.floor(np.log10(target))
+    return float(max(step * 10.0**exponent for step in _BAR_STEPS if step * 10.0**exponent <= target * (1 + 1e-9)))
+
+
+def scale_bar_pixels(window, tile: int, mm_per_unit: float) -> tuple[float, int]:
+    """The scale bar of a ``tile``-pixel tile of ``window`` (mesh units): ``(length in mm, length in pixels)``."""
+    width_mm = (window[1] - window[0]) * mm_per_unit
+    bar_mm = scale_bar_mm(width_mm)
+    return bar_mm, int(round(bar_mm / width_mm * tile))
+
+
 def contact_sheet(
     neutral: np.ndarray,
     deltas: np.ndarray,
@@ -165,8 +186,10 @@ def contact_sheet(
     tile: int = 200,
     highlight: bool = True,
     window: tuple[float, float, float, float] | None = None,
+    mm_per_unit: float | None = 1000.0,
 ) -> np.ndarray:
-    """Render the neutral and every blendshape from the front (+z towards the viewer, +y up).
+    """Render the neutral and every blendshape from the front (+z towards the viewer, +y up),
+    with a millimetre scale bar under the neutral.
 
     Parameters
     ----------
@@ -186,6 +209,11 @@ def contact_sheet(
         Region of the x-y plane drawn; default: a square around the vertices that
         move by more than 5 % of the rig's largest displacement (the face), or the
         whole mesh when nothing moves.
+    mm_per_unit : float or None
+        Millimetres per mesh unit: 1000 for metres (BlendVOCA's rigs, FLAME, the ARKit
+        reference; DESIGN.md), 1 for a mesh in millimetres; None draws no scale bar.
+        The bar (black, 3 px high, bottom left of the neutral's tile) is
+        :func:`scale_bar_mm` long, labelled in mm; every tile has the same scale.
 
     Returns
     -------
@@ -219,10 +247,19 @@ def contact_sheet(
         r, c = divmod(k, columns)
         y = r * (tile + strip) + strip
         sheet[y : y + tile, c * tile : (c + 1) * tile] = rasterise_front(X, F, colours, window, (tile, tile))
+    bar_label = None
+    if mm_per_unit is not None:
+        bar_mm, pixels = scale_bar_pixels(window, tile, mm_per_unit)
+        row, col = strip + tile - 8, 6  # the neutral's tile, bottom left
+        sheet[row - 3 : row, col : col + pixels] = 0.0
+        bar_label = (col, row - 5, f"{bar_mm:g} mm")
     H, W = sheet.shape[:2]
     fig = Figure(figsize=(W / 100, H / 100), dpi=100)
     canvas = FigureCanvasAgg(fig)
     fig.figimage(sheet, 0, 0)
+    if bar_label is not None:
+        x, y, text = bar_label
+        fig.text(x / W, 1 - y / H, text, ha="left", va="bottom", fontsize=7)
     for k, title in enumerate(titles):
         r, c = divmod(k, columns)
         fig.text((c + 0.5) * tile / W, 1 - (r * (tile + strip) + 2) / H, title, ha="center", va="top", fontsize=8)
