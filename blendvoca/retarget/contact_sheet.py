@@ -143,7 +143,7 @@ def shaded_face_colours(
     return np.clip(colour * shade[:, None], 0.0, 1.0)[faces]
 
 
-def _default_window(neutral: np.ndarray, deltas: np.ndarray) -> tuple[float, float, float, float]:
+def face_window(neutral: np.ndarray, deltas: np.ndarray) -> tuple[float, float, float, float]:
     """A square around the moving vertices (or the whole mesh), 15 % margin."""
     mag = np.linalg.norm(deltas, axis=2).max(axis=0) if len(deltas) else np.zeros(len(neutral))
     moving = mag > 0.05 * mag.max() if mag.max() > 0 else np.ones(len(neutral), dtype=bool)
@@ -236,7 +236,7 @@ def contact_sheet(
         raise ValueError(f"contact_sheet: expected columns >= 1 and tile >= 16, got {columns} and {tile}")
     titles = ["Neutral", *names]
     if window is None:
-        window = _default_window(N, D)
+        window = face_window(N, D)
     strip = 16
     rows = int(np.ceil(len(titles) / columns))
     sheet = np.ones((rows * (tile + strip), columns * tile, 3))
