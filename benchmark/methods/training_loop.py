@@ -25,7 +25,20 @@ from blendvoca.runtime.threads import limited_threads
 
 from .request import checkpoint_steps
 
-__all__ = ["LoopResult", "StepLoop", "ema_decay_at", "kept_state", "optimiser_step", "paused_training"]
+__all__ = ["LoopResult", "StepLoop", "ema_decay_at", "kept_state", "loss_histories", "optimiser_step",
+           "paused_training"]
+
+#: Every finished :meth:`StepLoop.run` of this process, oldest first: ``(desc, step_offset,
+#: LoopResult)`` (the per-step training losses and the validations). Read with :func:`loss_histories`.
+_HISTORIES: list = []
+
+
+def loss_histories(since: int = 0) -> list:
+    """The training loops finished in this process from the ``since``-th on, oldest first:
+    ``(desc, step_offset, LoopResult)``. ``benchmark.run`` notes ``len(loss_histories())``
+    before a run and draws the loss curves of the loops after it (its per-run figure);
+    the one place the losses of every trainer on :class:`StepLoop` are kept."""
+    return list(_HISTORIES[since:])
 
 
 def ema_decay_at(step: int, max_decay: float) -> float:
@@ -233,6 +246,7 @@ class StepLoop:
                 self.model.load_state_dict(kept)
             self.model.eval()
         result.steps, result.seconds = self.step, self.elapsed()
+        _HISTORIES.append((self.desc, self.step_offset, result))
         return result
 
     def _validated(self) -> None:
