@@ -112,6 +112,29 @@ def tracks_against_figure(path, panels, *, below=None) -> None:
     _save_figure(fig, path)
 
 
+def coefficient_strip_figure(path, coeffs, names, *, title: str, fps: float = 60.0) -> None:
+    """``path`` (PNG): a coefficient track ``(T, K)`` as an image, one row per blendshape
+    (labelled with its name) and one column per frame, on a time axis in seconds, the values
+    0..1 on a colour bar, titled ``title`` (the method and the input). Its width grows with
+    the duration (1.6 in per second, 6 to 18 in)."""
+    coeffs = np.asarray(coeffs, dtype=np.float64)
+    if coeffs.ndim != 2 or coeffs.shape[1] != len(names):
+        raise ValueError(f"coefficient_strip_figure: expected ({len(names)} names) (T, {len(names)}) "
+                         f"coefficients, got shape {coeffs.shape}")
+    plt = _pyplot()
+    seconds = coeffs.shape[0] / fps
+    fig, ax = plt.subplots(figsize=(min(18.0, max(6.0, 1.5 + 1.6 * seconds)), 1.3 + 0.13 * len(names)))
+    image = ax.imshow(coeffs.T, aspect="auto", interpolation="nearest", cmap="magma", vmin=0.0, vmax=1.0,
+                      extent=(0.0, seconds, len(names) - 0.5, -0.5))
+    ax.set_yticks(np.arange(len(names)))
+    ax.set_yticklabels(names, fontsize=6)
+    ax.set_xlabel(f"time (s), {fps:g} frames per second")
+    ax.set_title(title, fontsize=9)
+    fig.colorbar(image, ax=ax, fraction=0.03, pad=0.01).set_label("coefficient")
+    fig.tight_layout()
+    _save_figure(fig, path)
+
+
 def _tracks_figure(path, out, items, names):
     shapes = [s for s in TRACK_SHAPES if s in names]
     tracks_against_figure(path, [(f"{subject} {sentence}", read_coeffs(out, subject, sentence, names=shapes)[0],
