@@ -49,10 +49,11 @@ def _loss_panel(histories):
             window = max(1, len(loss) // 100)
             if window > 1:
                 smooth = np.convolve(loss, np.ones(window) / window, mode="valid")
-                ax.plot(steps[window - 1:], smooth, lw=1.3, color=line.get_color(), label=f"{name}: training")
+                ax.plot(steps[window - 1:], smooth, lw=1.3, color=line.get_color(),
+                        label=f"{name} (mean of {window} steps)")
             else:
                 line.set_alpha(1.0)
-                line.set_label(f"{name}: training")
+                line.set_label(f"{name} (per step)")
             if result.val:
                 val = np.asarray(result.val, dtype=np.float64)
                 ax.plot(offset + val[:, 0], val[:, 1], "o", ms=3.5, color=line.get_color(), mfc="white",

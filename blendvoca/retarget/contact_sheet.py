@@ -68,17 +68,18 @@ def rasterise_front(
     tri, colours, area = tri[keep], colours[keep], area[keep]
     lo = np.floor(tri[:, :, :2].min(axis=1)).astype(np.int64)
     hi = np.ceil(tri[:, :, :2].max(axis=1)).astype(np.int64)
-    span = np.maximum(hi - lo + 1, 1).max(axis=1)
+    span = np.maximum(hi - lo + 1, 1)  # (T, 2): the bounding box's width and height
     best_depth = np.full(H * W, -np.inf)
     image = np.full((H * W, 3), background, dtype=np.float64)
-    # group triangles by the size of their bounding box so each group tests a
-    # small fixed grid of candidate pixels
-    group = np.ceil(np.log2(span)).astype(np.int64)
+    # group triangles by the width and height of their bounding box (rounded up to
+    # powers of two) so each group tests a small fixed grid of candidate pixels
+    bits = np.ceil(np.log2(span)).astype(np.int64)
+    group = bits[:, 0] * 64 + bits[:, 1]
     for g in np.unique(group):
         sel = np.flatnonzero(group == g)
-        n = 1 << int(g)
-        oy, ox = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
-        for chunk in np.array_split(sel, max(1, len(sel) * n * n // 2_000_000 + 1)):
+        nx, ny = 1 << int(g // 64), 1 << int(g % 64)
+        oy, ox = np.meshgrid(np.arange(ny), np.arange(nx), indexing="ij")
+        for chunk in np.array_split(sel, max(1, len(sel) * nx * ny // 2_000_000 + 1)):
             t = tri[chunk]
             px = lo[chunk, 0][:, None] + ox.ravel()[None]  # (T, n*n)
             py = lo[chunk, 1][:, None] + oy.ravel()[None]
@@ -252,7 +253,7 @@ def contact_sheet(
         bar_mm, pixels = scale_bar_pixels(window, tile, mm_per_unit)
         row, col = strip + tile - 8, 6  # the neutral's tile, bottom left
         sheet[row - 3 : row, col : col + pixels] = 0.0
-        bar_label = (col, row - 5, f"{bar_mm:g} mm")
+        bar_label = (col, row - 6, f"{bar_mm:g} mm")
     H, W = sheet.shape[:2]
     fig = Figure(figsize=(W / 100, H / 100), dpi=100)
     canvas = FigureCanvasAgg(fig)
