@@ -32,7 +32,7 @@ import sys
 from pathlib import Path
 
 from benchmark.methods import Budget, method_listing, method_schema
-from benchmark.methods.training_loop import loss_histories
+from benchmark.methods.training_loop import loops_finished, loss_histories
 from benchmark.protocol import DEFAULT_GENERATE_LIMIT, RunSpec, parse_seeds, run
 from benchmark.run_figure import write_run_figure
 from blendvoca import cli
@@ -150,7 +150,7 @@ def main(argv=None) -> int:
                    sentence_batch=args.sentence_batch, vocaset=args.vocaset, syncnet=args.syncnet_weights,
                    sync_expert=args.sync_expert, results_dir=args.results, verify=args.verify,
                    device=device, vae=args.vae, overwrite=args.overwrite)
-    trained_before = len(loss_histories())
+    trained_before = loops_finished()
     path = run(spec)
     histories = loss_histories(trained_before)
     try:

@@ -17,7 +17,7 @@ TRACK_SHAPES = ("jawOpen", "mouthClose", "mouthFunnel", "mouthPucker")
 RIG_SHEET_SHAPES = ("jawOpen", "mouthFunnel", "mouthSmileLeft", "eyeBlinkLeft", "browInnerUp",
                     "mouthPucker", "mouthClose", "mouthLowerDownLeft")
 RIG_SHEET_COUNT = 5
-#: Tile height of the rig contact sheet, pixels (small: the sheet costs a fraction of a second).
+#: Tile height of the rig contact sheet, pixels (small: its renders are most of the report's pictures' cost).
 RIG_TILE = 100
 
 
@@ -167,7 +167,7 @@ def rig_sheet_figure(path, rigs: dict, shapes=RIG_SHEET_SHAPES, *, tile: int = R
     for r, subject in enumerate(subjects):
         rig = rigs[subject]
         deltas, window = windows[subject]
-        # only the faces with a corner in the window (about half the head: the sheet's cost)
+        # only the faces with a corner in the window (the back of the head and the neck drop out)
         x0, x1, y0, y1 = window
         within = ((rig.neutral[:, 0] >= x0) & (rig.neutral[:, 0] <= x1) & (rig.neutral[:, 1] >= y0)
                   & (rig.neutral[:, 1] <= y1))

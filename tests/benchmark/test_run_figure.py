@@ -7,7 +7,7 @@ import pytest
 
 import blendvoca.builder.report as report
 from benchmark.methods import Method, register, unregister
-from benchmark.methods.training_loop import StepLoop, loss_histories
+from benchmark.methods.training_loop import StepLoop, loops_finished, loss_histories
 from benchmark.protocol import RunSpec, run
 from benchmark.run_figure import FIGURE_SENTENCES, FIGURE_SHAPES, figure_path, write_run_figure
 from benchmark.runs import read_run
@@ -59,7 +59,7 @@ def _captured_figure(monkeypatch):
 
 def test_the_figure_draws_the_stored_tracks_the_truth_and_the_losses(tmp_path, monkeypatch):
     dataset = speech_dataset(seed=2, sentences=2, seconds=1.0)
-    mark = len(loss_histories())
+    mark = loops_finished()
     path = run(RunSpec("test-loop-stepper", data_root="unused", samples=1, budget=None, results_dir=tmp_path),
                evaluate=fake_evaluate, open_dataset=lambda root: dataset)
     histories = loss_histories(mark)
@@ -159,3 +159,16 @@ def test_a_vertex_method_is_drawn_through_its_rig_space_coefficients(tmp_path, m
     for j, shape in enumerate(FIGURE_SHAPES):  # the stored rig-space fit its rig metrics score
         np.testing.assert_allclose(lines[j].get_ydata(), fitted[:, names.index(shape)], atol=1e-6)
         assert lines[3 + j].get_label() == f"{shape} (ground truth)"
+
+
+def test_the_loop_keeps_the_latest_losses_only():
+    from benchmark.methods.training_loop import HISTORY_LIMIT
+
+    mark = loops_finished()
+    for k in range(HISTORY_LIMIT + 3):
+        StepLoop(max_steps=2, desc=f"loop{k}").run(lambda loop, k=k: float(k + loop.step))
+    assert loops_finished() == mark + HISTORY_LIMIT + 3
+    kept = loss_histories(mark)
+    assert [desc for desc, _, _ in kept] == [f"loop{k}" for k in range(3, HISTORY_LIMIT + 3)]
+    assert kept[-1][2].train_loss == [HISTORY_LIMIT + 2.0, HISTORY_LIMIT + 3.0]
+    assert loss_histories(loops_finished()) == []
