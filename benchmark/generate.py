@@ -3,7 +3,7 @@
 ::
 
     python -m benchmark.generate --method NAME [--checkpoint DIR] --audio WAV \\
-        [--style S] [--samples N] [--seed K] --out FILE
+        [--style S] [--samples N] [--seed K] --out FILE [--image PNG]
 
 The same flags for every method (``python -m benchmark.run --list`` names them):
 
@@ -24,6 +24,9 @@ The same flags for every method (``python -m benchmark.run --list`` names them):
   vertex method writes ``.npy`` (``(S, T, V, 3)`` float32 metres, as
   ``python -m baselines.cdface`` does). ``python -m blendvoca.export`` turns a CSV into
   Live Link, ARKit or A2F JSON, glTF or USD.
+- ``--image PNG`` (coefficient methods) also draws each sample as a labelled image: a
+  row per blendshape name, time in seconds, the method and the audio file in the title,
+  the values on a colour bar.
 
 What is refused, as one ``error:`` line and exit status 2 with nothing written: an
 unknown method, a method that looks its output up in the corpus (``ground-truth``,
@@ -58,6 +61,7 @@ from benchmark.methods import (
 from benchmark.protocol.spec import default_data_root, open_data
 from benchmark.protocol.training import make_method, prepared_method
 from blendvoca import cli
+from blendvoca.builder.report import coefficient_strip_figure
 from blendvoca.errors import DataError, MethodError, UserError
 from blendvoca.io.atomic import atomic_write
 from blendvoca.io.audio import load_audio
@@ -204,9 +208,22 @@ def _write(out: Path, animation: np.ndarray, kind: str) -> list[Path]:
     return list(files)
 
 
+def _write_images(image, animation: np.ndarray, *, method: str, audio: Path) -> list[Path]:
+    """The coefficient samples of ``animation`` (S, T, 32) as labelled images
+    (:func:`blendvoca.builder.report.coefficient_strip_figure`): ``image`` for one sample,
+    ``<stem>-<k>.png`` for several."""
+    paths = output_paths(image, animation.shape[0])
+    for k, (path, track) in enumerate(zip(paths, animation)):
+        path.parent.mkdir(parents=True, exist_ok=True)
+        sample = f", sample {k} of {len(paths)}" if len(paths) > 1 else ""
+        coefficient_strip_figure(path, track, COEFFICIENT_NAMES, title=f"{method}: {audio.name}{sample}", fps=FPS)
+    return paths
+
+
 def generate_file(method: str, audio, out, *, checkpoint=None, style: str | None = None, samples: int = 1,
-                  seed: int = 0, config=None, data=None, device=None) -> list[Path]:
-    """Animate the WAV ``audio`` with the registered ``method`` and write ``out`` (format by suffix).
+                  seed: int = 0, config=None, data=None, device=None, image=None) -> list[Path]:
+    """Animate the WAV ``audio`` with the registered ``method`` and write ``out`` (format by suffix),
+    and with ``image`` (a ``.png`` path; coefficient methods) the coefficients as a labelled image.
 
     Paths are ``str`` or ``os.PathLike``. Everything is checked, the method loaded and the
     animation generated and checked before the first byte is written.
@@ -226,6 +243,14 @@ def generate_file(method: str, audio, out, *, checkpoint=None, style: str | None
         The method failed or broke the contract; nothing written.
     """
     cls = _checked_request(method, out, samples)
+    kind = getattr(cls, "output", "coefficients")
+    if image is not None:
+        if kind == OUTPUT_VERTICES:
+            raise UserError(f"--image {os.fspath(image)}: method {method!r} outputs vertices; the image draws "
+                            "coefficients (python -m benchmark.render draws vertices); leave --image out")
+        if Path(os.fspath(image)).suffix.lower() != ".png":
+            raise UserError(f"--image {os.fspath(image)}: expected a .png file, got the suffix "
+                            f"{Path(os.fspath(image)).suffix or '(none)'!r}")
     audio_path = Path(os.fspath(audio)).expanduser()
     if not audio_path.is_file():
         raise UserError(f"--audio {audio_path}: no such file; expected a WAV recording")
@@ -233,7 +258,10 @@ def generate_file(method: str, audio, out, *, checkpoint=None, style: str | None
     trained = ready_method(method, checkpoint=checkpoint, config=config, data=data, device=device)
     animation = generated_animation(trained, samples_16k, name=method, style=style, samples=samples, seed=seed,
                                     sentence=audio_path.stem)
-    return _write(Path(os.fspath(out)), animation, getattr(cls, "output", "coefficients"))
+    written = _write(Path(os.fspath(out)), animation, kind)
+    if image is not None:
+        written += _write_images(Path(os.fspath(image)), animation, method=method, audio=audio_path)
+    return written
 
 
 @cli.command
@@ -251,6 +279,9 @@ def main(argv=None) -> int:
     p.add_argument("--seed", type=int, default=0, metavar="K", help="sampling seed (default 0)")
     p.add_argument("--out", required=True, metavar="FILE",
                    help="coefficients: .csv (N > 1: FILE-0.csv ...) or .npy (S, T, 32); vertices: .npy (S, T, V, 3)")
+    p.add_argument("--image", default=None, metavar="PNG",
+                   help="also draw the coefficients as a labelled image (a row per blendshape, time in seconds, "
+                        "the method and audio in its title; N > 1: PNG-0.png ...); coefficient methods")
     cli.add_data_option(p)
     cli.add_config_options(p)
     cli.add_device_option(p, default="cpu")
@@ -261,7 +292,8 @@ def main(argv=None) -> int:
     config = cli.parse_config(args.config, preset=args.preset, schema=schema, method=args.method)
     device = cli.checked_device(args.device)
     paths = generate_file(args.method, args.audio, args.out, checkpoint=args.checkpoint, style=args.style,
-                          samples=args.samples, seed=args.seed, config=config, data=args.data, device=device)
+                          samples=args.samples, seed=args.seed, config=config, data=args.data, device=device,
+                          image=args.image)
     for path in paths:
         print(path)
     return cli.EXIT_OK

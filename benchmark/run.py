@@ -1,5 +1,7 @@
 """``python -m benchmark.run``: train or load a method, generate on the test split,
-score every metric and write one result JSON with its provenance.
+score every metric and write one result JSON with its provenance, and beside it a figure
+``<result>.png`` (key coefficient tracks of the first test sentences against the ground
+truth, and the training loss curve of a trained method: :mod:`benchmark.run_figure`).
 
 Before anything runs, the files of every split (coefficient tracks, audio, rigs) are
 checked against the digests of the build's ``manifest.json``, and again after the method
@@ -30,8 +32,11 @@ import sys
 from pathlib import Path
 
 from benchmark.methods import Budget, method_listing, method_schema
+from benchmark.methods.training_loop import loops_finished, loss_histories
 from benchmark.protocol import DEFAULT_GENERATE_LIMIT, RunSpec, parse_seeds, run
+from benchmark.run_figure import write_run_figure
 from blendvoca import cli
+from blendvoca.errors import DataError, UserError
 
 __all__ = ["main"]
 
@@ -178,9 +183,18 @@ def main(argv=None) -> int:
                    device=device, vae=args.vae, overwrite=args.overwrite,
                    checkpoint_fractions=args.checkpoint_fractions,
                    lookahead_probes=None if args.lookahead_probes is None else _probe_times(args.lookahead_probes))
+    trained_before = loops_finished()
     path = run(spec)
+    histories = loss_histories(trained_before)
+    try:
+        figure = write_run_figure(path, histories=histories)
+        figure = (f"figure: {figure} (key coefficient tracks against the ground truth"
+                  f"{', the training loss' if histories else ''})")
+    except (DataError, UserError, OSError, KeyError, ValueError) as exc:  # the result stands without it
+        figure = f"note: no figure of the run: {exc}"
     if not args.quiet:
         _print_summary(path)
+    print(figure, file=sys.stderr)
     print(path)
     return cli.EXIT_OK
 

@@ -186,6 +186,7 @@ ROOMS = (
       "benchmark.render", "benchmark.lipsync", "benchmark.evaluation"),
      ("blendvoca", "benchmark.methods")),
     (("benchmark.protocol",), ABOVE),
+    (("benchmark.run_figure",), ABOVE),  # the figure beside each result, drawn after the protocol stored it
     (("benchmark.run", "benchmark.generate", "benchmark.rescore", "benchmark.sanity", "benchmark.testing",
       "benchmark.study"), ABOVE),
     (("blendvoca.live",), ABOVE),  # live output: its --method animates through benchmark.generate

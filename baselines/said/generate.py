@@ -28,7 +28,9 @@ The authors' published ``SAiD.pth`` is detected by its keys (``--official`` insi
 on it) and samples as their inference script does (DDIM 1000, gamma 2 unless
 ``--steps``/``--guidance``), with ``--eta``, ``--guidance-rescale``, ``--strength``
 (editing from ``--reference``), ``--intermediates DIR`` (the chain's states as
-CSV + PNG, ``1`` = the last) and ``--image PNG`` (the coefficients as an image).
+CSV + PNG, ``1`` = the last) and ``--image PNG`` (the coefficients as a labelled image:
+a row per blendshape name, time in seconds, the method and the audio in its title, a
+colour bar).
 """
 
 from __future__ import annotations
@@ -46,6 +48,7 @@ from baselines.said.official import is_official_state, model_from_state
 from baselines.said.official_pipeline import OfficialSAiD
 from baselines.said.pipeline import SAiD
 from blendvoca import cli
+from blendvoca.builder.report import coefficient_strip_figure
 from blendvoca.errors import DataError, UserError
 from blendvoca.export import FORMATS, NEEDS_RIG, export_track, load_rig
 from blendvoca.io.audio import load_audio
@@ -193,8 +196,10 @@ def generate_files(
         tracks, states = tracks
         write_intermediates(intermediates_dir, states, said.names)
     if image_path is not None:
-        for path, track in zip(output_paths(image_path, samples), tracks):
-            write_coefficient_image(path, track)
+        for k, (path, track) in enumerate(zip(output_paths(image_path, samples), tracks)):
+            sample = f", sample {k} of {samples}" if samples > 1 else ""
+            coefficient_strip_figure(path, track, said.names,
+                                     title=f"SAiD: {Path(os.fspath(audio_path)).name}{sample}")
     paths = output_paths(out_path, samples)
     for path, track in zip(paths, tracks):
         path.parent.mkdir(parents=True, exist_ok=True)
@@ -246,7 +251,7 @@ def main(argv=None) -> int:
     p.add_argument("--guidance-rescale", type=float, default=None, help="guidance rescale in [0, 1] (authors' weights)")
     p.add_argument("--strength", type=float, default=1.0, help="editing strength in (0, 1] with --reference (authors' weights)")
     p.add_argument("--intermediates", default=None, metavar="DIR", help="write the chain's states here (authors' weights)")
-    p.add_argument("--image", default=None, metavar="PNG", help="also write the coefficients as a grayscale image")
+    p.add_argument("--image", default=None, metavar="PNG", help="also write the coefficients as a labelled image (blendshapes x time, colour bar)")
     cli.add_device_option(p, default="cpu")
     cli.add_quiet_option(p)
     args = p.parse_args(argv)

@@ -10,6 +10,7 @@ at the ``checkpoint_fractions`` of the step budget, docs/methods.md, "Settled or
 
 from __future__ import annotations
 
+import collections
 import contextlib
 import copy
 import math
@@ -25,7 +26,30 @@ from blendvoca.runtime.threads import limited_threads
 
 from .request import checkpoint_steps
 
-__all__ = ["LoopResult", "StepLoop", "ema_decay_at", "kept_state", "optimiser_step", "paused_training"]
+__all__ = ["LoopResult", "StepLoop", "ema_decay_at", "kept_state", "loops_finished", "loss_histories",
+           "optimiser_step", "paused_training"]
+
+#: How many finished loops :func:`loss_histories` keeps (a process that trains many runs, such as
+#: the leaderboard's reproduce, does not keep every run's losses).
+HISTORY_LIMIT = 32
+#: The latest finished :meth:`StepLoop.run` of this process, oldest first: ``(number, desc,
+#: step_offset, LoopResult)`` (the per-step training losses and the validations).
+_HISTORIES: collections.deque = collections.deque(maxlen=HISTORY_LIMIT)
+_FINISHED = [0]
+
+
+def loops_finished() -> int:
+    """How many :meth:`StepLoop.run` calls have finished in this process."""
+    return _FINISHED[0]
+
+
+def loss_histories(since: int = 0) -> list:
+    """The training loops finished in this process since :func:`loops_finished` was ``since``
+    (the latest `HISTORY_LIMIT` of them), oldest first: ``(desc, step_offset, LoopResult)``.
+    ``benchmark.run`` notes ``loops_finished()`` before a run and draws the loss curves of
+    the loops after it (its per-run figure): the one place the losses of every trainer on
+    :class:`StepLoop` are kept."""
+    return [(desc, offset, result) for number, desc, offset, result in _HISTORIES if number >= since]
 
 
 def ema_decay_at(step: int, max_decay: float) -> float:
@@ -233,6 +257,8 @@ class StepLoop:
                 self.model.load_state_dict(kept)
             self.model.eval()
         result.steps, result.seconds = self.step, self.elapsed()
+        _HISTORIES.append((_FINISHED[0], self.desc, self.step_offset, result))
+        _FINISHED[0] += 1
         return result
 
     def _validated(self) -> None:

@@ -197,11 +197,8 @@ _COLOURS = {"held": "#d8f0d0", "failed": "#f7c8c4", "no claim": "#eeeeee", "limi
 _MARKS = {"rises": "\u2191", "falls": "\u2193", "must not react": "\u2248", "equals level": "=k", "any": "\u00b7"}
 
 
-def plot_table(table: Mapping, path, *, title: str = "") -> Path:
-    """The metric x disturbance grid as a PNG: one cell per pair, the values over the
-    levels as a line (scaled to the cell; the range is printed), the declaration
-    (arrow), Spearman rho and the verdict as the cell colour (green held, red failed,
-    amber a known limitation as declared, grey no claim)."""
+def table_figure(table: Mapping, *, title: str = ""):
+    """The metric x disturbance grid as a matplotlib figure (see :func:`plot_table`)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -244,17 +241,39 @@ def plot_table(table: Mapping, path, *, title: str = "") -> Path:
             ax.text(x0 + 0.96 * cw, y0 + 0.2 * ch, f"\u03c1 {rho}", fontsize=5.5, ha="right", va="center")
             ax.text(x0 + 0.5 * cw, y0 + 0.95 * ch, f"{lo:.3g}..{hi:.3g}", fontsize=4.5, ha="center",
                     va="bottom", color="#555555")
-    legend = ("\u2191 rises  \u2193 falls  \u2248 must not react  =k equals the level  \u00b7 no claim   |   "
+    legend = ("\u2191 rises  \u2193 falls  \u2248 must not react  =k equals the level  \u00b7 no claim\n"
               "green held, red failed, amber known limitation (as declared), grey no claim; "
               "line: the metric's mean over the levels (scaled per cell; range below)")
     fig.text(0.01, 0.005, legend, fontsize=6.5, ha="left", va="bottom")
     if title:
         fig.suptitle(title, fontsize=9)
     fig.subplots_adjust(left=2.0 / fig_w, right=0.99, top=1 - 0.75 / fig_h, bottom=0.35 / fig_h)
+    return fig
+
+
+def plot_table(table: Mapping, path, *, title: str = "") -> Path:
+    """The metric x disturbance grid as a PNG: one cell per pair, the values over the
+    levels as a line (scaled to the cell; the range is printed), the declaration
+    (arrow), Spearman rho and the verdict as the cell colour (green held, red failed,
+    amber a known limitation as declared, grey no claim). The image is cropped or grown
+    to its content (``bbox_inches="tight"``): the title, the row labels and the legend
+    are never clipped, however long."""
+    import matplotlib.pyplot as plt
+
+    fig = table_figure(table, title=title)
     path = Path(path)
-    fig.savefig(path)
+    fig.savefig(path, bbox_inches="tight", pad_inches=0.1)
     plt.close(fig)
     return path
+
+
+def build_label(dataset) -> str:
+    """A short name of the build for titles: its folder's name and the manifest hash's first 8
+    characters (not the absolute path: the figure is shared and the path says nothing to others)."""
+    root = getattr(dataset, "root", None)
+    digest = getattr(dataset, "manifest_hash", None)
+    name = "build" if root is None else Path(str(root)).name
+    return name if digest is None else f"{name} ({str(digest)[:8]})"
 
 
 def _json_safe(x):
@@ -297,7 +316,7 @@ def run_sanity(dataset, out, *, levels: str = "small", split: str = "test", kind
     seconds = time.perf_counter() - start
     counts = status_counts(result)
     root = getattr(dataset, "root", None)
-    title = (f"metric sanity: {root} ({split} split, levels {levels}) - {counts['held']} held, "
+    title = (f"metric sanity: {build_label(dataset)} ({split} split, levels {levels}) - {counts['held']} held, "
              f"{counts['failed']} failed, {counts['no claim']} without a claim, {counts['not scored']} not scored")
     meta = {"data": None if root is None else str(root), "manifest_hash": getattr(dataset, "manifest_hash", None),
             "split": split, "levels": levels, "evaluation": _settings_record(settings), "seconds": round(seconds, 1),

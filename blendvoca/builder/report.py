@@ -6,12 +6,19 @@ from pathlib import Path
 
 import numpy as np
 
-from blendvoca.format.items import read_coeffs, read_oracle_coeffs
+from blendvoca.format.items import read_coeffs, read_oracle_coeffs, read_rig
 from blendvoca.format.layout import REPORT_DIR, report_dir
 from blendvoca.io.atomic import atomic_write
 
 #: Shapes plotted against the lip aperture, when present.
 TRACK_SHAPES = ("jawOpen", "mouthClose", "mouthFunnel", "mouthPucker")
+#: Shapes of the rig contact sheet (at weight 1, beside the neutral): the first `RIG_SHEET_COUNT`
+#: every speaker's rig has (the 32 speech shapes have no eyes or brows: then mouth shapes).
+RIG_SHEET_SHAPES = ("jawOpen", "mouthFunnel", "mouthSmileLeft", "eyeBlinkLeft", "browInnerUp",
+                    "mouthPucker", "mouthClose", "mouthLowerDownLeft")
+RIG_SHEET_COUNT = 5
+#: Tile height of the rig contact sheet, pixels (small: its renders are most of the report's pictures' cost).
+RIG_TILE = 100
 
 
 def coeffs_std(tracks) -> np.ndarray:
@@ -67,12 +74,18 @@ def _usage_figure(path, names, usage, activity):
     _save_figure(fig, path)
 
 
-def tracks_against_figure(path, panels) -> None:
-    """``path`` (PNG): one panel per ``(title, coeffs (T, K), shapes, signal (T,), signal label, unit)``
+def tracks_against_figure(path, panels, *, below=None) -> None:
+    """``path`` (PNG): one panel per ``(title, coeffs (T, K), shapes, signal, signal label, unit)``
     of ``panels``: the shapes' tracks (left axis) and a signal of the same frames (right axis, dashed),
-    on one 60 fps time axis."""
+    on one 60 fps time axis.
+
+    With ``unit`` None the signal is ``(T, len(shapes))`` reference tracks of the same shapes
+    (e.g. the ground truth): each drawn dashed in its shape's colour on the coefficient axis,
+    labelled ``"<shape> (<signal label>)"``. ``below``, a callable ``draw(ax)``, draws one more
+    panel under the tracks on its own x axis (``benchmark.run``'s training loss curve)."""
     plt = _pyplot()
-    fig, axes = plt.subplots(len(panels), 1, figsize=(10, 2.6 * len(panels)), squeeze=False)
+    rows = len(panels) + (below is not None)
+    fig, axes = plt.subplots(rows, 1, figsize=(10, 2.6 * rows), squeeze=False)
     for ax, (title, coeffs, shapes, signal, label, unit) in zip(axes[:, 0], panels):
         t = np.arange(coeffs.shape[0]) / 60.0
         for j, shape in enumerate(shapes):
@@ -80,12 +93,44 @@ def tracks_against_figure(path, panels) -> None:
         ax.set_ylim(-0.02, 1.02)
         ax.set_ylabel("coefficient")
         ax.set_title(title, fontsize=9)
-        ax2 = ax.twinx()
-        ax2.plot(t, signal, color="black", ls="--", lw=1.0, label=label)
-        ax2.set_ylabel(f"{label} ({unit})")
-        lines = ax.get_lines() + ax2.get_lines()
+        if unit is None:
+            reference = np.asarray(signal)
+            tr = np.arange(reference.shape[0]) / 60.0
+            for j, (shape, line) in enumerate(zip(shapes, list(ax.get_lines()))):
+                ax.plot(tr, reference[:, j], ls="--", lw=1.0, color=line.get_color(), label=f"{shape} ({label})")
+            lines = ax.get_lines()
+        else:
+            ax2 = ax.twinx()
+            ax2.plot(t, signal, color="black", ls="--", lw=1.0, label=label)
+            ax2.set_ylabel(f"{label} ({unit})")
+            lines = ax.get_lines() + ax2.get_lines()
         ax.legend(lines, [ln.get_label() for ln in lines], fontsize=7, loc="upper right", ncol=3)
-    axes[-1, 0].set_xlabel("time (s)")
+    axes[len(panels) - 1, 0].set_xlabel("time (s)")
+    if below is not None:
+        below(axes[-1, 0])
+    fig.tight_layout()
+    _save_figure(fig, path)
+
+
+def coefficient_strip_figure(path, coeffs, names, *, title: str, fps: float = 60.0) -> None:
+    """``path`` (PNG): a coefficient track ``(T, K)`` as an image, one row per blendshape
+    (labelled with its name) and one column per frame, on a time axis in seconds, the values
+    0..1 on a colour bar, titled ``title`` (the method and the input). Its width grows with
+    the duration (1.6 in per second, 6 to 18 in)."""
+    coeffs = np.asarray(coeffs, dtype=np.float64)
+    if coeffs.ndim != 2 or coeffs.shape[1] != len(names):
+        raise ValueError(f"coefficient_strip_figure: expected ({len(names)} names) (T, {len(names)}) "
+                         f"coefficients, got shape {coeffs.shape}")
+    plt = _pyplot()
+    seconds = coeffs.shape[0] / fps
+    fig, ax = plt.subplots(figsize=(min(18.0, max(6.0, 1.5 + 1.6 * seconds)), 1.3 + 0.13 * len(names)))
+    image = ax.imshow(coeffs.T, aspect="auto", interpolation="nearest", cmap="magma_r", vmin=0.0, vmax=1.0,
+                      extent=(0.0, seconds, len(names) - 0.5, -0.5))
+    ax.set_yticks(np.arange(len(names)))
+    ax.set_yticklabels(names, fontsize=6)
+    ax.set_xlabel(f"time (s), {fps:g} frames per second")
+    ax.set_title(title, fontsize=9)
+    fig.colorbar(image, ax=ax, fraction=0.03, pad=0.01).set_label("coefficient")
     fig.tight_layout()
     _save_figure(fig, path)
 
@@ -95,6 +140,148 @@ def _tracks_figure(path, out, items, names):
     tracks_against_figure(path, [(f"{subject} {sentence}", read_coeffs(out, subject, sentence, names=shapes)[0],
                                   shapes, rec["stats"]["lip_aperture_mm"], "lip aperture", "mm")
                                  for (subject, sentence), rec in items])
+
+
+def rig_sheet_figure(path, rigs: dict, shapes=RIG_SHEET_SHAPES, *, tile: int = RIG_TILE) -> list[str]:
+    """``path`` (PNG): one row per speaker of ``rigs`` (``{subject: Rig}``): the neutral and
+    each of ``shapes`` the rig has at weight 1, from the front, drawn by the retarget contact
+    sheet's rasteriser (faces tinted by how far the shape moves them), with the speaker's name
+    and a millimetre scale bar (metres in the rig, DESIGN.md) in the first tile. Returns the
+    shapes drawn."""
+    from blendvoca.retarget.contact_sheet import face_window, rasterise_front, scale_bar_pixels, shaded_face_colours
+
+    subjects = sorted(rigs)
+    drawn = [s for s in shapes if all(s in rigs[subject].names for subject in subjects)][:RIG_SHEET_COUNT]
+    titles = ["neutral", *drawn]
+    label_w, strip = 90, 16
+    sheet = np.ones((strip + len(subjects) * tile, label_w + len(titles) * tile, 3))
+    bars = []
+    windows = {}
+    for subject in subjects:
+        rig = rigs[subject]
+        deltas = np.stack([rig.deltas[rig.names.index(s)] for s in drawn]) if drawn else rig.deltas[:0]
+        windows[subject] = deltas, face_window(rig.neutral, deltas)
+    # one bar length for every row (the narrowest window's), drawn to each row's own scale
+    narrowest = min((w for _, w in windows.values()), key=lambda w: w[1] - w[0])
+    bar_mm = scale_bar_pixels(narrowest, tile, 1000.0)[0]
+    for r, subject in enumerate(subjects):
+        rig = rigs[subject]
+        deltas, window = windows[subject]
+        # only the faces with a corner in the window (the back of the head and the neck drop out)
+        x0, x1, y0, y1 = window
+        within = ((rig.neutral[:, 0] >= x0) & (rig.neutral[:, 0] <= x1) & (rig.neutral[:, 1] >= y0)
+                  & (rig.neutral[:, 1] <= y1))
+        faces = rig.faces[within[rig.faces].any(axis=1)]
+        for c in range(len(titles)):
+            delta = np.zeros_like(rig.neutral) if c == 0 else deltas[c - 1]
+            X = rig.neutral + delta
+            colours = shaded_face_colours(X, faces, np.linalg.norm(delta, axis=1) if c else None)
+            y, x = strip + r * tile, label_w + c * tile
+            sheet[y: y + tile, x: x + tile] = rasterise_front(X, faces, colours, window, (tile, tile))
+        pixels = int(round(bar_mm / ((window[1] - window[0]) * 1000.0) * tile))
+        y = strip + (r + 1) * tile - 6
+        sheet[y - 3: y, label_w + 4: label_w + 4 + pixels] = 0.0
+        bars.append((label_w + 4, y - 6, f"{bar_mm:g} mm"))
+    labels = [((label_w + (c + 0.5) * tile), 2, title, "mt", 11) for c, title in enumerate(titles)]
+    labels += [(4, strip + (r + 0.5) * tile, subject, "lm", 11) for r, subject in enumerate(subjects)]
+    labels += [(x, y, text, "ls", 9) for x, y, text in bars]
+    _save_labelled_image(path, sheet, labels)
+    return drawn
+
+
+def _save_labelled_image(path, image, labels) -> None:
+    """Write ``image`` ((H, W, 3) floats in [0, 1]) as a PNG with ``labels`` ``(x, y, text, anchor,
+    size in px)`` drawn in black (Pillow, matplotlib's DejaVu Sans): a picture made of pixels
+    needs no figure, and its PNG costs a fraction of ``savefig``'s."""
+    from matplotlib import font_manager
+    from PIL import Image, ImageDraw, ImageFont
+
+    picture = Image.fromarray(np.round(255 * np.clip(image, 0.0, 1.0)).astype(np.uint8))
+    draw = ImageDraw.Draw(picture)
+    fonts = {}
+    for x, y, text, anchor, size in labels:
+        if size not in fonts:
+            fonts[size] = ImageFont.truetype(font_manager.findfont("DejaVu Sans"), size)
+        draw.text((x, y), text, fill=(0, 0, 0), font=fonts[size], anchor=anchor)
+    with atomic_write(path, "wb") as f:
+        picture.save(f, format="PNG")
+
+
+def worst_sentence(records: dict):
+    """The ``(subject, sentence)`` of ``records`` with the largest ``max_error_mm`` (the report's
+    "max error mm" column; ties: the first in sorted order), or None when no record has one."""
+    scored = [(key, rec["stats"]["max_error_mm"]) for key, rec in sorted(records.items())
+              if "max_error_mm" in rec.get("stats", {})]
+    if not scored:
+        return None
+    return max(scored, key=lambda item: item[1])[0]
+
+
+def _aligned(frames, fitted, index):
+    """``frames`` rigidly aligned (rotation + translation per frame, Kabsch on ``index``) to ``fitted``."""
+    A, B = frames[:, index], fitted[:, index]
+    ca, cb = A.mean(axis=1, keepdims=True), B.mean(axis=1, keepdims=True)
+    U, _S, Vt = np.linalg.svd(np.einsum("tvi,tvj->tij", A - ca, B - cb))
+    d = np.sign(np.linalg.det(U @ Vt))
+    U[:, :, 2] *= d[:, None]
+    R = U @ Vt
+    return np.einsum("tvi,tij->tvj", frames - ca, R) + cb
+
+
+def fit_errors(rig, coeffs, frames, head_index, *, posed: bool = False) -> np.ndarray:
+    """Per-frame, per-vertex distance (metres) between the rig driven by ``coeffs (T, K)`` and
+    the input ``frames (T, V, 3)``, on the fitted vertices ``head_index`` (others: 0). Posed
+    frames are first aligned rigidly to the fitted meshes on those vertices. Returns ``(T, V)``."""
+    coeffs = np.asarray(coeffs, dtype=np.float64)
+    frames = np.asarray(frames, dtype=np.float64)[: len(coeffs)]
+    fitted = rig.neutral[None] + np.einsum("tk,kvc->tvc", coeffs[: len(frames)], rig.deltas)
+    if posed:
+        frames = _aligned(frames, fitted, head_index)
+    errors = np.zeros(frames.shape[:2])
+    errors[:, head_index] = np.linalg.norm(frames[:, head_index] - fitted[:, head_index], axis=2)
+    return errors
+
+
+def worst_fit_figure(path, rig, coeffs, frames, head_index, *, title: str, posed: bool = False) -> dict:
+    """``path`` (PNG): the per-vertex fit error (mm) at the sentence's worst frame (largest
+    vertex error), colour-mapped on the fitted mesh (shaded; vertices not fitted in grey) with
+    a colour bar in mm. Returns ``{"frame", "max_error_mm", "rmse_mm"}`` of that frame."""
+    import matplotlib
+
+    from blendvoca.retarget.contact_sheet import face_window, rasterise_front, scale_bar_pixels, shaded_face_colours
+
+    errors = fit_errors(rig, coeffs, frames, head_index, posed=posed) * 1000.0
+    frame = int(np.argmax(errors.max(axis=1)))
+    err = errors[frame]
+    X = rig.neutral + np.einsum("k,kvc->vc", np.asarray(coeffs[frame], dtype=np.float64), rig.deltas)
+    vmax = float(err.max()) or 1.0
+    cmap = matplotlib.colormaps["inferno"]
+    colour = np.full((len(X), 3), 0.8)
+    colour[head_index] = cmap(0.15 + 0.85 * err[head_index] / vmax)[:, :3]
+    shade = shaded_face_colours(X, rig.faces)[..., 0] / 0.80  # the Lambert term (grey 0.8 lit)
+    colours = np.clip(colour[rig.faces] * shade[..., None], 0.0, 1.0)
+    size = 260
+    head = np.zeros(len(X), dtype=bool)
+    head[head_index] = True
+    window = face_window(X[head], np.zeros((0, int(head.sum()), 3)))
+    image = rasterise_front(X, rig.faces, colours, window, (size, size))
+    bar_mm, pixels = scale_bar_pixels(window, size, 1000.0)
+    image[size - 9: size - 6, 6: 6 + pixels] = 0.0
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(4.6, 3.6))
+    ax.imshow(image, interpolation="nearest")
+    ax.text(6, size - 12, f"{bar_mm:g} mm", fontsize=6.5, va="bottom")
+    ax.set_axis_off()
+    rmse = float(np.sqrt(np.mean(err[head_index] ** 2)))
+    ax.set_title(f"{title}, frame {frame} ({frame / 60.0:.2f} s)\nmax {err.max():.2f} mm, RMSE {rmse:.2f} mm",
+                 fontsize=8)
+    shown = matplotlib.colors.ListedColormap(cmap(np.linspace(0.15, 1.0, 256)))  # the colours drawn: 0 -> 0.15
+    mappable = matplotlib.cm.ScalarMappable(norm=matplotlib.colors.Normalize(0.0, vmax), cmap=shown)
+    bar = fig.colorbar(mappable, ax=ax, fraction=0.05, pad=0.03)
+    bar.set_label("fit error (mm)")
+    fig.tight_layout()
+    _save_figure(fig, path)
+    return {"frame": frame, "max_error_mm": float(err.max()), "rmse_mm": rmse}
 
 
 def measured_share(out, splits: dict, items, names, *, count: int, declared: dict) -> dict:
@@ -278,7 +465,7 @@ def _aggregate(records):
 #: manifest (they change from run to run while the data outputs stay byte-identical).
 TIMINGS = f"{REPORT_DIR}/timings.md"
 #: The report's files in ``report/`` (the manifest lists them; the data's identity leaves them out).
-REPORT_FILES = ("README.md", "usage.png", "tracks.png")
+REPORT_FILES = ("README.md", "usage.png", "tracks.png", "rigs.png", "worst_fit.png")
 
 
 def timings_markdown(stages: dict, *, workers: int) -> str:
@@ -320,9 +507,12 @@ def write_timings(out, stages: dict, *, workers: int) -> Path:
 
 
 def write_report(out, records: dict, names, failures, params, *, num_tracks: int = 3, warnings=(),
-                 share=None) -> Path:
-    """Write ``<out>/report/README.md`` with ``usage.png`` and ``tracks.png``; return its path."""
-    readme, usage_png, tracks_png = REPORT_FILES
+                 share=None, corpus=None) -> Path:
+    """Write ``<out>/report/README.md`` with ``usage.png``, ``tracks.png``, ``rigs.png`` (the rig
+    contact sheet of every speaker with a fitted sentence) and, given the ``corpus`` with its
+    meshes, ``worst_fit.png`` (the error heat map of the sentence with the largest vertex error);
+    return its path."""
+    readme, usage_png, tracks_png, rigs_png, worst_png = REPORT_FILES
     folder = report_dir(out)
     folder.mkdir(parents=True, exist_ok=True)
     figures = []
@@ -333,6 +523,20 @@ def write_report(out, records: dict, names, failures, params, *, num_tracks: int
         chosen = sorted(records.items())[:: max(1, len(records) // num_tracks)][:num_tracks]
         _tracks_figure(folder / tracks_png, out, chosen, list(names))
         figures.append(("Coefficient tracks against the lip aperture of the input meshes", tracks_png))
+        rigs = {subject: read_rig(out, subject) for subject in sorted({s for s, _ in records})}
+        drawn = rig_sheet_figure(folder / rigs_png, rigs)
+        figures.append((f"Speaker rigs: neutral, {', '.join(drawn)} at weight 1 (faces tinted by how far "
+                        "the shape moves them)", rigs_png))
+        worst = worst_sentence(records)
+        if worst is not None and corpus is not None and hasattr(corpus, "frames"):
+            subject, sentence = worst
+            rig = rigs[subject]
+            coeffs, _ = read_coeffs(out, subject, sentence, names=rig.names)
+            shown = worst_fit_figure(folder / worst_png, rig, coeffs, corpus.frames(subject, sentence),
+                                     np.asarray(corpus.head_index()), title=f"{subject} {sentence}",
+                                     posed=bool(getattr(corpus, "posed", False)))
+            figures.append((f"Fit error of the worst sentence ({subject} {sentence}, largest max error; "
+                            f"its worst frame, {shown['frame']})", worst_png))
     text = report_markdown(records, names, failures, params, figures=figures, warnings=warnings, share=share)
     path = folder / readme
     with atomic_write(path, "w", encoding="utf-8") as f:

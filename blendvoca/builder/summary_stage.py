@@ -92,7 +92,7 @@ def write_summary_files(out, corpus, vocaset, subjects, params, summary, *, repo
             measured = measured_share(out, corpus.splits, sorted(oracle_records), names or (),
                                       count=share["oracle_samples"], declared=share)
         write_report(out, records, names or (), summary.failures, params, warnings=summary.warnings,
-                     share=measured)
+                     share=measured, corpus=corpus)
         report_s = time.perf_counter() - clock
     files += [rel for rel in SUMMARY_OUTPUTS if (out / rel).is_file()]
     manifest = write_manifest(out, files=files, vocaset=vocaset, corpus=corpus, params=params, records=records,

@@ -68,17 +68,18 @@ def rasterise_front(
     tri, colours, area = tri[keep], colours[keep], area[keep]
     lo = np.floor(tri[:, :, :2].min(axis=1)).astype(np.int64)
     hi = np.ceil(tri[:, :, :2].max(axis=1)).astype(np.int64)
-    span = np.maximum(hi - lo + 1, 1).max(axis=1)
+    span = np.maximum(hi - lo + 1, 1)  # (T, 2): the bounding box's width and height
     best_depth = np.full(H * W, -np.inf)
     image = np.full((H * W, 3), background, dtype=np.float64)
-    # group triangles by the size of their bounding box so each group tests a
-    # small fixed grid of candidate pixels
-    group = np.ceil(np.log2(span)).astype(np.int64)
+    # group triangles by the width and height of their bounding box (rounded up to
+    # powers of two) so each group tests a small fixed grid of candidate pixels
+    bits = np.ceil(np.log2(span)).astype(np.int64)
+    group = bits[:, 0] * 64 + bits[:, 1]
     for g in np.unique(group):
         sel = np.flatnonzero(group == g)
-        n = 1 << int(g)
-        oy, ox = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
-        for chunk in np.array_split(sel, max(1, len(sel) * n * n // 2_000_000 + 1)):
+        nx, ny = 1 << int(g // 64), 1 << int(g % 64)
+        oy, ox = np.meshgrid(np.arange(ny), np.arange(nx), indexing="ij")
+        for chunk in np.array_split(sel, max(1, len(sel) * nx * ny // 2_000_000 + 1)):
             t = tri[chunk]
             px = lo[chunk, 0][:, None] + ox.ravel()[None]  # (T, n*n)
             py = lo[chunk, 1][:, None] + oy.ravel()[None]
@@ -143,7 +144,7 @@ def shaded_face_colours(
     return np.clip(colour * shade[:, None], 0.0, 1.0)[faces]
 
 
-def _default_window(neutral: np.ndarray, deltas: np.ndarray) -> tuple[float, float, float, float]:
+def face_window(neutral: np.ndarray, deltas: np.ndarray) -> tuple[float, float, float, float]:
     """A square around the moving vertices (or the whole mesh), 15 % margin."""
     mag = np.linalg.norm(deltas, axis=2).max(axis=0) if len(deltas) else np.zeros(len(neutral))
     moving = mag > 0.05 * mag.max() if mag.max() > 0 else np.ones(len(neutral), dtype=bool)
@@ -153,6 +154,27 @@ def _default_window(neutral: np.ndarray, deltas: np.ndarray) -> tuple[float, flo
     extent = (hi - lo).max() * 1.3
     centre = (hi + lo) / 2
     return (centre[0] - extent / 2, centre[0] + extent / 2, centre[1] - extent / 2, centre[1] + extent / 2)
+
+
+#: Lengths a scale bar may take, in millimetres (times powers of ten).
+_BAR_STEPS = (1.0, 2.0, 5.0)
+
+
+def scale_bar_mm(window_mm: float, *, fraction: float = 0.3) -> float:
+    """The longest round length (1, 2 or 5 times a power of ten, millimetres) at most
+    ``fraction`` of a tile's width of ``window_mm`` millimetres."""
+    if not window_mm > 0:
+        raise ValueError(f"scale_bar_mm: expected a positive window width, got {window_mm}")
+    target = fraction * window_mm
+    exponent = np.floor(np.log10(target))
+    return float(max(step * 10.0**exponent for step in _BAR_STEPS if step * 10.0**exponent <= target * (1 + 1e-9)))
+
+
+def scale_bar_pixels(window, tile: int, mm_per_unit: float) -> tuple[float, int]:
+    """The scale bar of a ``tile``-pixel tile of ``window`` (mesh units): ``(length in mm, length in pixels)``."""
+    width_mm = (window[1] - window[0]) * mm_per_unit
+    bar_mm = scale_bar_mm(width_mm)
+    return bar_mm, int(round(bar_mm / width_mm * tile))
 
 
 def contact_sheet(
@@ -165,8 +187,10 @@ def contact_sheet(
     tile: int = 200,
     highlight: bool = True,
     window: tuple[float, float, float, float] | None = None,
+    mm_per_unit: float | None = 1000.0,
 ) -> np.ndarray:
-    """Render the neutral and every blendshape from the front (+z towards the viewer, +y up).
+    """Render the neutral and every blendshape from the front (+z towards the viewer, +y up),
+    with a millimetre scale bar under the neutral.
 
     Parameters
     ----------
@@ -186,6 +210,11 @@ def contact_sheet(
         Region of the x-y plane drawn; default: a square around the vertices that
         move by more than 5 % of the rig's largest displacement (the face), or the
         whole mesh when nothing moves.
+    mm_per_unit : float or None
+        Millimetres per mesh unit: 1000 for metres (BlendVOCA's rigs, FLAME, the ARKit
+        reference; DESIGN.md), 1 for a mesh in millimetres; None draws no scale bar.
+        The bar (black, 3 px high, bottom left of the neutral's tile) is
+        :func:`scale_bar_mm` long, labelled in mm; every tile has the same scale.
 
     Returns
     -------
@@ -208,7 +237,7 @@ def contact_sheet(
         raise ValueError(f"contact_sheet: expected columns >= 1 and tile >= 16, got {columns} and {tile}")
     titles = ["Neutral", *names]
     if window is None:
-        window = _default_window(N, D)
+        window = face_window(N, D)
     strip = 16
     rows = int(np.ceil(len(titles) / columns))
     sheet = np.ones((rows * (tile + strip), columns * tile, 3))
@@ -219,10 +248,19 @@ def contact_sheet(
         r, c = divmod(k, columns)
         y = r * (tile + strip) + strip
         sheet[y : y + tile, c * tile : (c + 1) * tile] = rasterise_front(X, F, colours, window, (tile, tile))
+    bar_label = None
+    if mm_per_unit is not None:
+        bar_mm, pixels = scale_bar_pixels(window, tile, mm_per_unit)
+        row, col = strip + tile - 8, 6  # the neutral's tile, bottom left
+        sheet[row - 3 : row, col : col + pixels] = 0.0
+        bar_label = (col, row - 6, f"{bar_mm:g} mm")
     H, W = sheet.shape[:2]
     fig = Figure(figsize=(W / 100, H / 100), dpi=100)
     canvas = FigureCanvasAgg(fig)
     fig.figimage(sheet, 0, 0)
+    if bar_label is not None:
+        x, y, text = bar_label
+        fig.text(x / W, 1 - y / H, text, ha="left", va="bottom", fontsize=7)
     for k, title in enumerate(titles):
         r, c = divmod(k, columns)
         fig.text((c + 0.5) * tile / W, 1 - (r * (tile + strip) + 2) / H, title, ha="center", va="top", fontsize=8)

@@ -120,7 +120,9 @@ def test_cli_reports_misbehaviour_without_traceback(dataset, tmp_path, monkeypat
     tracks = sorted(p.relative_to(tmp_path / "r" / result["tracks"]).as_posix()
                     for p in (tmp_path / "r" / result["tracks"]).rglob("*.csv"))
     assert tracks == [f"{s}/sentence{q:02d}-{k}.csv" for s in ("D", "E") for q in (1, 2) for k in (0, 1)]
-    assert sorted(p.name for p in (tmp_path / "r").iterdir()) == [result["tracks"], path.name]
+    # beside them the run's figure (benchmark.run_figure)
+    assert sorted(p.name for p in (tmp_path / "r").iterdir()) == sorted([result["tracks"], path.name,
+                                                                        path.with_suffix(".png").name])
 
 
 def test_result_file_contents(dataset, tmp_path):

@@ -51,7 +51,13 @@ def test_generate_cli_with_official_weights(weights, wav, tmp_path):
     assert 0 <= coeffs.min() and coeffs.max() <= 1
     from PIL import Image
 
-    assert np.array_equal(np.asarray(Image.open(tmp_path / "o.png")), coefficient_image(coeffs.astype(np.float32)))
+    # --image: the labelled figure (a row per blendshape name, time axis, title, colour bar), not the raw strip
+    picture = np.asarray(Image.open(tmp_path / "o.png"))
+    assert picture.shape[1] > picture.shape[0] > 300 and picture.shape[:2] != coefficient_image(coeffs).shape
+    # --intermediates keep the raw strip beside their CSVs: row k = blendshape k, column t = frame t
+    last, _ = read_coeffs_csv(tmp_path / "interm" / "1.csv")
+    assert np.array_equal(np.asarray(Image.open(tmp_path / "interm" / "1.png")),
+                          coefficient_image(last.astype(np.float32)))
     assert sorted(p.name for p in (tmp_path / "interm").iterdir()) == ["1.csv", "1.png", "2.csv", "2.png", "3.csv", "3.png", "4.csv", "4.png"]
     # editing: strength 0.5 from a reference, the mask keeps the first 10 frames
     ref = np.full_like(coeffs, 0.25)
