@@ -12,20 +12,20 @@ from pathlib import Path
 from blendvoca import cli
 from blendvoca.io.atomic import atomic_write
 
-from .collect import load_results, tables_by_manifest
+from .collect import DEFAULT_RESULTS_DIR, load_results
 from .docs_rows import refresh_page
 from .render import latex_tables, markdown_tables
+from .settled import tables_with_statements
 
 __all__ = ["DEFAULT_OUT_DIR", "DEFAULT_RESULTS_DIR", "build_leaderboard", "main", "rendered_tables"]
 
-DEFAULT_RESULTS_DIR = Path(__file__).resolve().parent / "results"
 DEFAULT_OUT_DIR = Path(__file__).resolve().parent / "tables"
 
 
 def rendered_tables(results: list) -> dict[str, str]:
     """``{"leaderboard.md": text, "leaderboard.tex": text}`` for a list of
     :class:`benchmark.results.Result`."""
-    tables = tables_by_manifest(results)
+    tables = tables_with_statements(results)
     return {"leaderboard.md": markdown_tables(tables), "leaderboard.tex": latex_tables(tables)}
 
 

@@ -45,6 +45,7 @@ from blendvoca.errors import DataError, UserError
 
 __all__ = [
     "BEST_PROBABILITY",
+    "DEFAULT_RESULTS_DIR",
     "MIN_PAIRED_SENTENCES",
     "unpaired_reason",
     "ORDER_RESAMPLES",
@@ -63,6 +64,9 @@ __all__ = [
     "result_files",
     "tables_by_manifest",
 ]
+
+#: The committed result files (the default of the commands that read them).
+DEFAULT_RESULTS_DIR = Path(__file__).resolve().parent / "results"
 
 #: A method is marked best only where it beats the runner-up in at least this fraction of the resamples.
 BEST_PROBABILITY = 0.95
@@ -342,10 +346,6 @@ def tables_by_manifest(results: list[Result]) -> list[Table]:
             latent_out_of_domain=any(r.dataset.latent_out_of_domain or r.protocol.latent_out_of_domain
                                      for r in group),
         )
-        from .settled import changed_statements  # settled reads this module's orders
-
-        for row_label, statements in changed_statements(table).items():
-            next(r for r in table.rows if r.label == row_label).statements = statements
         tables.append(table)
     return tables
 

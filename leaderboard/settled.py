@@ -47,10 +47,10 @@ from benchmark.evaluation.registry import METRICS
 from benchmark.metrics.bootstrap import probability_of_improvement
 from blendvoca import cli
 
-from .collect import BEST_PROBABILITY, Row, best_mark, pair_replicates
+from .collect import BEST_PROBABILITY, Row, best_mark, pair_replicates, tables_by_manifest
 
 __all__ = ["BudgetNeed", "Statement", "changed_statements", "half_budget_row", "main", "needed_budget",
-           "order_verdict", "settled_page", "statement_thresholds", "store_statements"]
+           "order_verdict", "settled_page", "statement_thresholds", "store_statements", "tables_with_statements"]
 
 #: The verdict words of an order: the row beats the other, loses to it, or neither is decided.
 _VERDICTS = {1: ("beat", "beats"), -1: ("lose to", "loses to"), 0: ("tie with", "ties with")}
@@ -331,6 +331,17 @@ def row_statements(table, index: int, column) -> list:
     return out
 
 
+def tables_with_statements(results: list) -> list:
+    """The tables of ``results`` (:func:`leaderboard.collect.tables_by_manifest`), each ranked
+    row's ``statements`` filled by :func:`changed_statements`: what the tables, the site and
+    ``--store`` read the settled mark from."""
+    tables = tables_by_manifest(results)
+    for table in tables:
+        for row_label, statements in changed_statements(table).items():
+            next(r for r in table.rows if r.label == row_label).statements = statements
+    return tables
+
+
 def changed_statements(table) -> dict:
     """``{row label: [Statement]}`` for every ranked row of ``table`` that has a half-budget
     record (an empty list: settled by ranking), in the table's column order. A row that
@@ -518,13 +529,13 @@ def store_statements(results_dir) -> list:
         The files rewritten (a file whose statements are already those is left as it is).
     """
     from benchmark.results import check, write
-    from .collect import load_results, result_files, tables_by_manifest
+    from .collect import load_results, result_files
 
     results_dir = Path(results_dir)
     paths = result_files(results_dir)
     results = load_results(results_dir)
     written = []
-    for table in tables_by_manifest(results):
+    for table in tables_with_statements(results):
         for row in table.rows:
             if row.statements is None or row.source is None:
                 continue
@@ -543,7 +554,7 @@ def settled_page(results_dir, command: str) -> str:
     """``docs/results/settled-by-ranking.md``: per ranked row with a half-budget record and
     per check metric, its curve, move and half-width, the statements that would change, and
     (rows not settled) the budget its curve says it would need (:func:`needed_budget`)."""
-    from .collect import load_results, tables_by_manifest
+    from .collect import load_results
 
     today = datetime.date.today().isoformat()
     lines = ["# Settled by ranking: the committed rows", "",
@@ -559,7 +570,7 @@ def settled_page(results_dir, command: str) -> str:
              "change were its resamples to move with its mean: another row's mean, the shifts at which the paired "
              "probability crosses 0.95 or 0.05 (else the other row's interval ends), a reference row's mean "
              "(`leaderboard.settled.statement_thresholds`).", ""]
-    for table in tables_by_manifest(load_results(results_dir)):
+    for table in tables_with_statements(load_results(results_dir)):
         lines += [f"## Dataset `{table.recipe_id[:12]}`", "",
                   f"Recorded {today} by `{command}` on the 2-core shared CPU machine, from the result files.", "",
                   "| Row | Metric | Curve (step: value) | Move / half-width | Statements that would change | "
@@ -597,7 +608,7 @@ def settled_page(results_dir, command: str) -> str:
 def main(argv=None) -> int:
     from blendvoca.io.atomic import atomic_write
 
-    from .build import DEFAULT_RESULTS_DIR
+    from .collect import DEFAULT_RESULTS_DIR
 
     parser = cli.parser("leaderboard.settled", __doc__.split("\n\n")[0])
     cli.add_results_option(parser, default=str(DEFAULT_RESULTS_DIR),

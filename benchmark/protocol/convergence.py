@@ -52,7 +52,7 @@ from benchmark.methods.request import CONTRACT, train_contract
 from benchmark.methods.contract import COEFFICIENT_NAMES, OUTPUT_COEFFICIENTS, OUTPUT_VERTICES
 from benchmark.protocol.generation import Generated, generated_tracks
 from benchmark.protocol.limits import generate_limit
-from benchmark.protocol.spec import trains_nothing
+from benchmark.protocol.spec import checked_fractions, trains_nothing
 from benchmark.runs import TrackWriter
 
 __all__ = [
@@ -64,7 +64,6 @@ __all__ = [
     "HalfBudgetCheck",
     "combined_convergence",
     "convergence_record",
-    "checked_fractions",
     "curve_record",
     "half_budget_check",
     "not_checked_reason",
@@ -143,33 +142,6 @@ class HalfBudget:
     sentences: list = field(default_factory=list)
     per_sentence: dict = field(default_factory=dict)
     replicates: dict = field(default_factory=dict)
-
-
-def checked_fractions(fractions, option: str = "--checkpoint-fractions") -> tuple:
-    """``fractions`` as a tuple of floats when they are increasing and each in (0, 1] (1 is
-    the full budget, scored anyway); a string is read as ``"0.25,0.5"``.
-
-    Raises
-    ------
-    ValueError
-        Naming ``option`` and the value: not numbers, empty, not increasing, or outside (0, 1].
-    """
-    raw = fractions
-    if isinstance(fractions, str):
-        fractions = [part for part in fractions.split(",") if part.strip()]
-    try:
-        values = tuple(float(f) for f in fractions)
-    except (TypeError, ValueError):
-        raise ValueError(f"{option} {raw}: expected increasing fractions of the step budget in (0, 1], "
-                         "e.g. 0.25,0.5") from None
-    if not values:
-        raise ValueError(f"{option} {raw!r}: expected at least one fraction of the step budget in (0, 1]")
-    outside = [v for v in values if not (0.0 < v <= 1.0)]
-    if outside:
-        raise ValueError(f"{option} {raw}: expected fractions of the step budget in (0, 1], got {outside[0]:g}")
-    if any(b <= a for a, b in zip(values, values[1:])):
-        raise ValueError(f"{option} {raw}: expected increasing fractions (each larger than the one before)")
-    return values
 
 
 class HalfBudgetCheck:

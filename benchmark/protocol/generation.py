@@ -25,6 +25,7 @@ from benchmark.methods import (
 from benchmark.protocol.isolation import plugin_call, warn_notes
 from benchmark.protocol.limits import GenerateLimit, TimeLimit, generate_limit
 from benchmark.protocol.lookahead import lookahead_probe
+from benchmark.protocol.spec import LATENCY_SENTENCES
 from benchmark.protocol.verification import reverified
 from benchmark.results import LATENCY_FIELDS
 from blendvoca.errors import (
@@ -38,11 +39,9 @@ from blendvoca.errors import (
 )
 from blendvoca.runtime.progress import bar, progress_bars
 
-__all__ = ["LATENCY_FIELDS", "LATENCY_SENTENCES", "Generated", "generate", "generated_tracks", "measure_latency",
+__all__ = ["LATENCY_FIELDS", "Generated", "generate", "generated_tracks", "measure_latency",
            "motionless_sentences", "sentence_seed"]
 
-#: Sentences of the split (its first ones) the latency is measured on.
-LATENCY_SENTENCES = 3
 
 
 @dataclass(frozen=True)

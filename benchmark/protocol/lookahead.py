@@ -24,7 +24,7 @@ sentence is cut once, at a fraction of its length (:data:`PROBE_FRACTIONS`) but 
 before the declared look-ahead plus two frames where the sentence is that long, so that
 a method keeping its declaration never changes its first frame; ``--lookahead-probes`` names the cut times
 instead (seconds into each probed sentence; one outside a sentence is refused,
-:func:`checked_probe_times`). A method exceeds its declaration when the measured
+:func:`benchmark.protocol.spec.checked_probe_times`). A method exceeds its declaration when the measured
 look-ahead is more than one frame (:data:`FRAME_S`, the probe's resolution) beyond it.
 
 Cost: two ``generate`` calls per cut (one sample each) and one repeat of an unchanged
@@ -41,10 +41,9 @@ import math
 import numpy as np
 
 from benchmark.methods import AUDIO_RATE, FPS
-from benchmark.protocol.spec import UsageError
 from blendvoca.errors import MethodOutputError
 
-__all__ = ["FLOAT_TOLERANCE", "FRAME_S", "NOISE_SEED", "PROBE_FRACTIONS", "checked_probe_times",
+__all__ = ["FLOAT_TOLERANCE", "FRAME_S", "NOISE_SEED", "PROBE_FRACTIONS",
            "earliest_changed_frame", "exceeds_declaration", "lookahead_probe", "probe_cut_frames"]
 
 #: Relative tolerance of "the output changed": just above float32 noise on the output's scale.
@@ -59,32 +58,6 @@ FRAME_S = 1.0 / FPS
 #: Two identical calls that differ by more than this share of the output's scale: the
 #: method does not reproduce with a fixed seed and the probe cannot measure it.
 UNREPRODUCIBLE = 1e-3
-
-
-def checked_probe_times(times, utterances: dict, *, option: str = "--lookahead-probes") -> tuple:
-    """``times`` (seconds into each probed sentence) checked against the sentences
-    ``utterances`` (``{(subject, sentence): seconds long}``).
-
-    Raises
-    ------
-    UsageError
-        A time that is not a finite number, or not inside every probed sentence (after its
-        first frame, before its last one): the message names ``option``, the value and the
-        sentence's length.
-    """
-    out = []
-    for value in times:
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(float(value)):
-            raise UsageError(f"{option}: expected times in seconds such as 0.5,1.2, got {value!r}")
-        for (subject, sentence), seconds in utterances.items():
-            if not FRAME_S <= float(value) <= seconds - FRAME_S:
-                raise UsageError(f"{option} {value:g}: outside the utterance {subject}/{sentence}, which is "
-                                 f"{seconds:.3f} s long (expected a time in [{FRAME_S:.3f}, "
-                                 f"{seconds - FRAME_S:.3f}] s)")
-        out.append(float(value))
-    if not out:
-        raise UsageError(f"{option}: expected at least one time in seconds, got none")
-    return tuple(out)
 
 
 def probe_cut_frames(num_frames: int, declared_s: float | None, index: int, times=None) -> list:
@@ -170,7 +143,7 @@ def lookahead_probe(generate, utterances, references, seeds, *, declared_s: floa
     declared_s : float or None
         The method's declared look-ahead (None: the whole utterance).
     times : sequence of float, optional
-        Cut times in seconds (:func:`checked_probe_times`); None: the default cuts.
+        Cut times in seconds (:func:`benchmark.protocol.spec.checked_probe_times`); None: the default cuts.
 
     Returns
     -------

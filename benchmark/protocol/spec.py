@@ -22,10 +22,13 @@ from blendvoca.errors import DataError, UserError
 from blendvoca.format import manifest_path
 
 __all__ = [
+    "LATENCY_SENTENCES",
     "Inputs",
     "RunSpec",
     "UsageError",
     "check_inputs",
+    "checked_fractions",
+    "checked_probe_times",
     "with_default_sync_expert",
     "check_results_dir",
     "checked_seeds",
@@ -176,8 +179,6 @@ class RunSpec:
 
     def __post_init__(self):
         if self.checkpoint_fractions is not None:
-            from benchmark.protocol.convergence import checked_fractions  # convergence imports this module
-
             try:
                 object.__setattr__(self, "checkpoint_fractions", checked_fractions(self.checkpoint_fractions))
             except ValueError as exc:
@@ -365,12 +366,69 @@ def _check_seeded_training(spec: RunSpec, method) -> None:
                              "seed and saves each into <checkpoint>/seed<k> of an empty or new folder")
 
 
+#: Sentences of the split (its first ones) the latency and the look-ahead probe are measured on.
+LATENCY_SENTENCES = 3
+
+
+def checked_fractions(fractions, option: str = "--checkpoint-fractions") -> tuple:
+    """``fractions`` as a tuple of floats when they are increasing and each in (0, 1] (1 is
+    the full budget, scored anyway); a string is read as ``"0.25,0.5"``.
+
+    Raises
+    ------
+    ValueError
+        Naming ``option`` and the value: not numbers, empty, not increasing, or outside (0, 1].
+    """
+    raw = fractions
+    if isinstance(fractions, str):
+        fractions = [part for part in fractions.split(",") if part.strip()]
+    try:
+        values = tuple(float(f) for f in fractions)
+    except (TypeError, ValueError):
+        raise ValueError(f"{option} {raw}: expected increasing fractions of the step budget in (0, 1], "
+                         "e.g. 0.25,0.5") from None
+    if not values:
+        raise ValueError(f"{option} {raw!r}: expected at least one fraction of the step budget in (0, 1]")
+    outside = [v for v in values if not (0.0 < v <= 1.0)]
+    if outside:
+        raise ValueError(f"{option} {raw}: expected fractions of the step budget in (0, 1], got {outside[0]:g}")
+    if any(b <= a for a, b in zip(values, values[1:])):
+        raise ValueError(f"{option} {raw}: expected increasing fractions (each larger than the one before)")
+    return values
+
+
+def checked_probe_times(times, utterances: dict, *, option: str = "--lookahead-probes") -> tuple:
+    """``times`` (seconds into each probed sentence) checked against the sentences
+    ``utterances`` (``{(subject, sentence): seconds long}``).
+
+    Raises
+    ------
+    UsageError
+        A time that is not a finite number, or not inside every probed sentence (after its
+        first frame, before its last one): the message names ``option``, the value and the
+        sentence's length.
+    """
+    from benchmark.methods import FPS
+
+    out = []
+    for value in times:
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(float(value)):
+            raise UsageError(f"{option}: expected times in seconds such as 0.5,1.2, got {value!r}")
+        for (subject, sentence), seconds in utterances.items():
+            if not (1.0 / FPS) <= float(value) <= seconds - (1.0 / FPS):
+                raise UsageError(f"{option} {value:g}: outside the utterance {subject}/{sentence}, which is "
+                                 f"{seconds:.3f} s long (expected a time in [{(1.0 / FPS):.3f}, "
+                                 f"{seconds - (1.0 / FPS):.3f}] s)")
+        out.append(float(value))
+    if not out:
+        raise UsageError(f"{option}: expected at least one time in seconds, got none")
+    return tuple(out)
+
+
 def _check_probe_times(spec: RunSpec, dataset) -> None:
     """UsageError unless every time of ``spec.lookahead_probes`` lies inside each sentence
     the look-ahead probe cuts (the split's first ``LATENCY_SENTENCES``)."""
     from benchmark.methods import FPS
-    from benchmark.protocol.generation import LATENCY_SENTENCES
-    from benchmark.protocol.lookahead import checked_probe_times
 
     items = [(subject, sentence) for subject in dataset.split(spec.split) for sentence in dataset.sentences(subject)]
     lengths = {key: len(dataset.coeffs(*key)) / FPS for key in items[:LATENCY_SENTENCES]}

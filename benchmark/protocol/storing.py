@@ -355,6 +355,6 @@ def write_run(result: Result, results_dir, filename: str | None = None, *, write
             if writer is not None:
                 writer.commit()
             return write(path, result)
-    except LockHeld as exc:
+    except LockHeld:
         raise UserError(f"--results {results_dir}: another process has held the folder's lock for "
                         f"{RESULT_LOCK_WAIT_S:g} s while {filename} was to be written; nothing was written") from None

@@ -44,6 +44,7 @@ from leaderboard.collect import (
     tables_by_manifest,
 )
 from leaderboard.render import AV_OFFSET_NOTE, not_settled_text
+from leaderboard.settled import tables_with_statements
 
 
 __all__ = ["SiteRun", "load_site_runs", "with_dataset", "write_site_data"]
@@ -182,7 +183,7 @@ def leaderboard_data(runs) -> dict:
     of ``improvement.runs``: the methods, then the reference rows)."""
 
     tables = []
-    for table in tables_by_manifest([run.result for run in runs]):
+    for table in tables_with_statements([run.result for run in runs]):
         methods = [_row_data(row, runs[row.source]) for row in table.rows]
         references = [_row_data(row, runs[row.source]) for row in table.references]
         for row in methods:

@@ -11,7 +11,8 @@ import pytest
 from benchmark.methods import AUDIO_RATE, FPS, Budget, Method
 from benchmark.protocol import RunSpec, UsageError, run
 from benchmark.protocol.generation import measure_latency
-from benchmark.protocol.lookahead import FRAME_S, checked_probe_times, exceeds_declaration, probe_cut_frames
+from benchmark.protocol.lookahead import FRAME_S, exceeds_declaration, probe_cut_frames
+from benchmark.protocol.spec import checked_probe_times
 from benchmark.results import build_result, check
 from tests.methods.fakes import fake_evaluate, speech_dataset
 

@@ -3,7 +3,7 @@ from pathlib import Path
 import pytest
 
 from benchmark.results import build_result, check, write
-from leaderboard import build, collect
+from leaderboard import build
 from leaderboard.build import (
     DEFAULT_OUT_DIR,
     DEFAULT_RESULTS_DIR,
@@ -21,7 +21,10 @@ def _typed(results):
 
 
 def tables_by_manifest(results):
-    return collect.tables_by_manifest(_typed(results))
+    """The tables as leaderboard.build makes them (each row's settled statements filled)."""
+    from leaderboard.settled import tables_with_statements
+
+    return tables_with_statements(_typed(results))
 
 
 def rendered_tables(results):

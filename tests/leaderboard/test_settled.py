@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pytest
 
-from benchmark.protocol.convergence import checked_fractions
+from benchmark.protocol.spec import checked_fractions
 from benchmark.results import check, read
 from leaderboard.collect import pair_replicates
 from leaderboard.render import NOT_SETTLED_MARK
