@@ -7,6 +7,8 @@ import numpy as np
 import pytest
 
 from benchmark.metrics.frechet import (
+    GroupMoments,
+    feature_statistics,
     frechet_distance,
     frechet_distance_from_stats,
     frechet_distance_infinity,
@@ -80,3 +82,17 @@ def test_bad_options_are_refused(options, message):
     with pytest.raises(ValueError, match=message.replace("(", r"\(").replace(")", r"\)").replace("[", r"\[")
                        .replace("]", r"\]")):
         frechet_extrapolation(x, x + 1, **options)
+
+
+def test_group_moments_give_the_statistics_of_the_groups_rows():
+    rng = np.random.default_rng(4)
+    x, groups = rng.normal(size=(60, 5)), rng.integers(0, 6, 60)
+    moments = GroupMoments(x, groups)
+    picked = [1, 3, 4]
+    mu, sigma = feature_statistics(x[np.isin(groups, picked)])
+    got_mu, got_sigma = moments.statistics(picked)
+    np.testing.assert_allclose(got_mu, mu, atol=1e-12)
+    np.testing.assert_allclose(got_sigma, sigma, atol=1e-12)
+    sub = moments.subset(picked)
+    assert sub.rows(sub.labels) == moments.rows(picked) == int(np.isin(groups, picked).sum())
+    np.testing.assert_allclose(sub.statistics(sub.labels)[1], sigma, atol=1e-12)
