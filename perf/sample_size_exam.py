@@ -43,7 +43,12 @@ from benchmark.data import open_blendvoca  # noqa: E402
 from benchmark.evaluation import EvaluationSettings, evaluate_split  # noqa: E402
 from benchmark.evaluation.latent import WIND_RESAMPLE_WINDOWS, _encoded, _latent_energy, resolve_extractor  # noqa: E402
 from benchmark.evaluation.sample_size import LEVEL, ordering_probability, smallest_reliable_size  # noqa: E402
-from benchmark.metrics.frechet import GroupMoments, frechet_distance_from_stats, frechet_extrapolation  # noqa: E402
+from benchmark.metrics.frechet import (  # noqa: E402
+    EXTRAPOLATION_DRAWS,
+    GroupMoments,
+    frechet_distance_from_stats,
+    frechet_extrapolation,
+)
 from benchmark.metrics.windows import cut_windows  # noqa: E402
 from benchmark.metrics.wind import gmm_components, wind_from_gmms  # noqa: E402
 from blendvoca.runtime.progress import progress_bars  # noqa: E402
@@ -133,9 +138,11 @@ def split_draws(total: int, sizes, subsets: int, seed: int) -> dict:
             for n in sizes}
 
 
-def exam(scored: dict, sizes, *, subsets: int, wind_subsets: int, seed: int) -> dict:
+def exam(scored: dict, sizes, *, subsets: int, wind_subsets: int, seed: int,
+         fd_inf_draws: int = EXTRAPOLATION_DRAWS, metrics=None) -> dict:
     """Per size and metric: each row's values on the random splits, the ordering
-    probability and the mean values; per metric the smallest reliable size."""
+    probability and the mean values; per metric the smallest reliable size (``metrics``:
+    only these; default all)."""
     total = len(scored["keys"])
     real = GroupMoments(scored["real"], scored["real_owner"])
     fake = {row: GroupMoments(scored["fake"][row], scored["fake_owner"][row]) for row in ROWS}
@@ -143,17 +150,21 @@ def exam(scored: dict, sizes, *, subsets: int, wind_subsets: int, seed: int) -> 
     sentence_metrics = [m for m in scored["sentence"]["oracle-sample"] if m in scored["sentence"]["oracle-mean"]]
     results = {"sizes": {}, "smallest": {}}
     for n, splits in draws.items():
-        values = {m: {row: [] for row in ROWS} for m in ("fd", "fd_inf", "wind", *sentence_metrics)}
+        values = {m: {row: [] for row in ROWS} for m in ("fd", "fd_inf", "wind", *sentence_metrics)
+                  if metrics is None or m in metrics}
         started = time.perf_counter()
         for d, chosen in enumerate(splits):
             for row in ROWS:
-                values["fd"][row].append(frechet_distance_from_stats(*fake[row].statistics(chosen),
-                                                                     *real.statistics(chosen)))
-                values["fd_inf"][row].append(frechet_extrapolation(fake[row].subset(chosen), real.subset(chosen),
-                                                                   seed=seed + d).value)
+                if "fd" in values:
+                    values["fd"][row].append(frechet_distance_from_stats(*fake[row].statistics(chosen),
+                                                                         *real.statistics(chosen)))
+                if "fd_inf" in values:
+                    values["fd_inf"][row].append(frechet_extrapolation(
+                        fake[row].subset(chosen), real.subset(chosen), draws=fd_inf_draws, seed=seed + d).value)
                 for m in sentence_metrics:
-                    values[m][row].append(float(scored["sentence"][row][m][chosen].mean()))
-                if d < wind_subsets:
+                    if m in values:
+                        values[m][row].append(float(scored["sentence"][row][m][chosen].mean()))
+                if "wind" in values and d < wind_subsets:
                     if row == ROWS[0]:
                         y = scored["real"][np.isin(scored["real_owner"], chosen)]
                         real_gmm = gmm_components(y, min(WIND_COMPONENTS, len(y)), seed=seed)
@@ -175,7 +186,7 @@ def exam(scored: dict, sizes, *, subsets: int, wind_subsets: int, seed: int) -> 
         print(f"size {n}: {len(splits)} splits in {entry['seconds']:.1f} s", file=sys.stderr, flush=True)
     # a probability needs several splits: the whole test split (one draw) is reported, not decided on
     drawn = [n for n in sizes if results["sizes"][n]["splits"] > 1]
-    for metric in results["sizes"][sizes[0]]["metrics"]:
+    for metric in values:
         probabilities = {n: results["sizes"][n]["metrics"][metric]["probability"] for n in drawn}
         results["smallest"][metric] = smallest_reliable_size(probabilities, LEVEL) if drawn else None
     return results
@@ -216,21 +227,30 @@ def main(argv=None) -> int:
                         help="test-split sizes n in sentences, comma-separated (default 4,8,16,24,32,40,80)")
     parser.add_argument("--subsets", type=int, default=200, help="random splits per size")
     parser.add_argument("--wind-subsets", type=int, default=20, help="of which scored with WInD")
+    parser.add_argument("--fd-inf-draws", type=int, default=EXTRAPOLATION_DRAWS,
+                        help=f"subsets per size of each FD_inf extrapolation (default {EXTRAPOLATION_DRAWS})")
+    parser.add_argument("--metrics", help=f"only these, comma-separated (default all: {', '.join(EXPECTED)})")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--cache", type=Path, help="keep the features and per-sentence values here")
     parser.add_argument("--out", type=Path, help="write the figures as JSON here")
     args = parser.parse_args(argv)
-    if args.subsets < 1 or args.wind_subsets < 0:
-        parser.error(f"--subsets must be >= 1 and --wind-subsets >= 0, got {args.subsets} and {args.wind_subsets}")
+    if args.subsets < 1 or args.wind_subsets < 0 or args.fd_inf_draws < 1:
+        parser.error(f"--subsets and --fd-inf-draws must be >= 1 and --wind-subsets >= 0, got {args.subsets}, "
+                     f"{args.fd_inf_draws} and {args.wind_subsets}")
+    metrics = None if args.metrics is None else [m.strip() for m in args.metrics.split(",") if m.strip()]
+    if metrics is not None and (not metrics or set(metrics) - set(EXPECTED)):
+        parser.error(f"--metrics: expected names among {', '.join(EXPECTED)}, got {args.metrics!r}")
     scored = scored_split(args.data, args.split, args.samples, args.seed, args.cache)
     total = len(scored["keys"])
     sizes = sorted({min(n, total) for n in args.sizes})
-    results = exam(scored, sizes, subsets=args.subsets, wind_subsets=args.wind_subsets, seed=args.seed)
+    results = exam(scored, sizes, subsets=args.subsets, wind_subsets=args.wind_subsets, seed=args.seed,
+                   fd_inf_draws=args.fd_inf_draws, metrics=metrics)
     table = markdown(results, sizes, total)
     print(table)
     if args.out:
         figures = {"data": str(args.data), "split": args.split, "samples": args.samples, "sentences": total,
-                   "subsets": args.subsets, "wind_subsets": args.wind_subsets, "seed": args.seed,
+                   "subsets": args.subsets, "wind_subsets": args.wind_subsets, "fd_inf_draws": args.fd_inf_draws,
+                   "seed": args.seed,
                    "scoring_seconds": scored["seconds"], "level": LEVEL, **results, "table": table}
         args.out.write_text(json.dumps(figures, indent=1) + "\n")
     return 0

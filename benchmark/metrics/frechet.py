@@ -3,6 +3,11 @@
 The value is the squared 2-Wasserstein distance between the two Gaussians,
 ``|mu1 - mu2|^2 + tr(S1 + S2 - 2 (S1^1/2 S2 S1^1/2)^1/2)``, the quantity pytorch-fid
 and the published BlendVOCA evaluation report (no square root taken).
+
+The plug-in estimate is biased upwards at finite sample size; :func:`frechet_extrapolation`
+extrapolates it to infinite sample size over subsets (``FD_inf``, Chong and Forsyth,
+CVPR 2020), with :class:`GroupMoments` for drawing whole groups (a sentence's windows)
+in closed form.
 """
 
 from __future__ import annotations
