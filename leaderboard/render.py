@@ -16,16 +16,22 @@ from __future__ import annotations
 import re
 
 from benchmark.evaluation.registry import METRICS
+from benchmark.evaluation.sample_size import LEVEL, SOURCE, below_minimum, min_test_sentences
 from benchmark.results import Convergence
 
 from .collect import Column, Row, Table, best_mark, column_decimals
 
-__all__ = ["AV_OFFSET_NOTE", "DYNAMICS_NOTE", "HUMAN_PREFERENCE_NOTE", "NOT_SETTLED_MARK", "group_notes", "has_study",
+__all__ = ["AV_OFFSET_NOTE", "DYNAMICS_NOTE", "HUMAN_PREFERENCE_NOTE", "NOT_SETTLED_MARK", "SMALL_SPLIT_MARK",
+           "group_notes", "has_study", "small_split_columns",
            "human_preference_text", "latex_tables", "markdown_tables", "not_settled_text",
            "rtf_text"]
 
 #: Mark after the label of a row whose training had not settled (``convergence.settled`` false).
 NOT_SETTLED_MARK = "†"
+#: Mark after the header of a metric whose test split has fewer sentences than the metric
+#: needs to order the oracle rows (benchmark.evaluation.sample_size).
+SMALL_SPLIT_MARK = "§"
+_TEX_SMALL_SPLIT = r"$^\S$"
 #: What the tables say beside the AV offset columns.
 AV_OFFSET_NOTE = ("AV offset: on the synthetic corpus the ground truth carries a random per-sentence lag "
                   "(uniform over -2..2 frames), so methods can beat it on `av_offset_*` (mean |offset|, sync "
@@ -179,11 +185,42 @@ def _move_text(at_half: float, at_full: float, half_width: float | None) -> str:
     return f"{at_half:.3g} → {at_full:.3g}" + (f" (half-width {half_width:.3g})" if half_width is not None else "")
 
 
+def _split_sentences(table: Table, column: Column) -> int | None:
+    """Test sentences behind ``column``: the smallest split of the rows that have the metric
+    (the table's count where the results do not say)."""
+    counts = [r.result.dataset.num_sentences for r in table.rows + table.references
+              if column.name in r.metrics and r.result is not None and r.result.dataset.num_sentences]
+    return min(counts) if counts else table.num_sentences
+
+
+def small_split_columns(table: Table, columns: list) -> list:
+    """``[(column, sentences, needed)]`` of the columns whose test split has fewer sentences
+    than the metric needs (:data:`benchmark.evaluation.sample_size.MIN_TEST_SENTENCES`)."""
+    out = []
+    for column in columns:
+        sentences = _split_sentences(table, column)
+        if below_minimum(column.name, sentences):
+            out.append((column, sentences, min_test_sentences(column.name)))
+    return out
+
+
+def _small_split_note(small: list, label=str) -> str:
+    parts = [f"{label(column.label)} needs {needed} (this split has {sentences})"
+             for column, sentences, needed in small]
+    return (f"{SMALL_SPLIT_MARK} Test split below the metric's size: the order of the oracle rows (conditional draws "
+            f"before their mean) holds with {100 * LEVEL:.0f} % probability from a size the oracle exam measured "
+            f"({SOURCE}); " + "; ".join(parts) + ". Read these columns' orders with care.")
+
+
 def group_notes(table: Table, columns: list, marks: list, label=str) -> list:
     """Plain-text lines under a group's table: the AV offset reading (lip-sync columns), the
+    columns whose test split is below the metric's size (:data:`SMALL_SPLIT_MARK`), the
     rows not settled, and the columns whose best mark used the older interval rule; names
     from the result files through ``label`` (:func:`md_text` for Markdown)."""
     notes = []
+    small = small_split_columns(table, columns)
+    if small:
+        notes.append(_small_split_note(small, label))
     if any(c.name.startswith(("av_offset_", "av_lag_bias_")) for c in columns):
         notes.append(AV_OFFSET_NOTE)
     if any(c.group == "dynamics" for c in columns):
@@ -328,8 +365,10 @@ def markdown_tables(tables: list[Table]) -> str:
             lines += [OUT_OF_DOMAIN_NOTE, ""]
         for group, columns in table.groups:
             method_cells, reference_cells, bold, marks = _group_cells(table, columns)
+            small = {c.name for c, _, _ in small_split_columns(table, columns)}
             header = ["Method"] + [f"{md_text(c.label)}{f' ({md_text(c.unit)})' if c.unit else ''} "
                                    f"{_ARROWS[c.higher_is_better][0]}"
+                                   f"{f' {SMALL_SPLIT_MARK}' if c.name in small else ''}"
                                    .rstrip() for c in columns] + ["S", "RTF"]
             study = has_study(table)
             header += ["Human pref."] if study else []
@@ -373,8 +412,9 @@ def _tex_notes(notes: list) -> list:
         parts = note.split("`")  # `code` -> \texttt{code}
         text = "".join(_latex_escape(part) if i % 2 == 0 else f"\\texttt{{{_latex_escape(part)}}}"
                        for i, part in enumerate(parts))
-        text = text.replace(NOT_SETTLED_MARK, r"$^\dagger$").replace("→", r"$\to$").replace("|", r"$|$")
+        text = text.replace(NOT_SETTLED_MARK, r"$^\dagger$").replace(SMALL_SPLIT_MARK, _TEX_SMALL_SPLIT)
         text = text.replace(LOOKAHEAD_MARK, r"$^\ddagger$")
+        text = text.replace("→", r"$\to$").replace("|", r"$|$")
         out.append(f"\\par\\smallskip{{\\footnotesize {text}}}")
     return out
 
@@ -387,9 +427,11 @@ def latex_tables(tables: list[Table]) -> str:
     for table in tables:
         for group, columns in table.groups:
             method_cells, reference_cells, bold, marks = _group_cells(table, columns)
+            small = {c.name for c, _, _ in small_split_columns(table, columns)}
             header = ["Method"] + [
                 f"{_latex_label(c.label)}{' (' + _latex_unit(c.unit) + ')' if c.unit else ''} "
-                f"{_ARROWS[c.higher_is_better][1]}".rstrip() for c in columns] + ["$S$", "RTF"]
+                f"{_ARROWS[c.higher_is_better][1]}{_TEX_SMALL_SPLIT if c.name in small else ''}".rstrip()
+                for c in columns] + ["$S$", "RTF"]
             study = has_study(table)
             header += ["Human pref."] if study else []
             body = [_tex_row(_latex_label(row.label), row, [col[i] for col in method_cells], [i in b for b in bold],

@@ -68,6 +68,20 @@ def noisy(tracks: dict, *, std: float, samples: int, seed: int) -> dict:
     return out
 
 
+def oracle_rows(dataset, split: str, *, samples: int, noise: float | None, seed: int) -> dict:
+    """The exam's rows on ``split``: ``{"oracle-sample": S draws, "oracle-mean": its mean[,
+    "oracle-mean+noise": the mean plus i.i.d. noise of std ``noise``, S times]}``, each
+    ``{(subject, sentence): (S, T, C)}``."""
+    rows = {}
+    for method, count in ((OracleSampleMethod(split=split), samples), (OracleMeanMethod(split=split), 1)):
+        method.train(dataset, TrainingRequest(seed=seed, budget=Budget()))
+        with progress_bars(False):
+            rows[method.name], _ = generated_tracks(method, dataset, split=split, samples=count, seed=seed)
+    if noise is not None:
+        rows["oracle-mean+noise"] = noisy(rows["oracle-mean"], std=noise, samples=samples, seed=seed)
+    return rows
+
+
 def explained(tracks: dict, dataset) -> float:
     """``1 - SS(truth - track) / SS(truth - its mean)`` over the scored sentences (sample 0)."""
     truth = np.concatenate([dataset.coeffs(*key) for key in sorted(tracks)])
@@ -88,14 +102,7 @@ def main(argv=None) -> int:
     dataset = open_blendvoca(args.data)
     if not dataset.has_oracle():
         parser.error(f"{args.data}: the build has no oracle tracks (generate the corpus with --oracle-samples K)")
-    rows = {}
-    for method, samples in ((OracleSampleMethod(split=args.split), args.samples),
-                            (OracleMeanMethod(split=args.split), 1)):
-        method.train(dataset, TrainingRequest(seed=args.seed, budget=Budget()))
-        with progress_bars(False):
-            rows[method.name], _ = generated_tracks(method, dataset, split=args.split, samples=samples,
-                                                    seed=args.seed)
-    rows["oracle-mean+noise"] = noisy(rows["oracle-mean"], std=args.noise, samples=args.samples, seed=args.seed)
+    rows = oracle_rows(dataset, args.split, samples=args.samples, noise=args.noise, seed=args.seed)
 
     wanted = tuple(EXPECTED) + REPORTED
     scores, seconds = {}, {}
