@@ -145,6 +145,8 @@ class Table:
     name: str = ""
     #: Latent metrics computed with a VAE trained on another dataset (a result's ``latent_out_of_domain``).
     latent_out_of_domain: bool = False
+    #: The sha256 of the VAE given to the runs (``protocol.vae``) that scored the latent metrics; "": the published one.
+    vae: str = ""
 
     @property
     def recipe_id(self) -> str:
@@ -384,6 +386,7 @@ def tables_by_manifest(results: list[Result]) -> list[Table]:
             name=" / ".join(sorted({r.dataset.display_name for r in group} - {""})),
             latent_out_of_domain=any(r.dataset.latent_out_of_domain or r.protocol.latent_out_of_domain
                                      for r in group),
+            vae=" / ".join(sorted({str((r.protocol.get("vae") or {}).get("sha256") or "") for r in group} - {""})),
         ))
     return tables
 

@@ -11,7 +11,10 @@ the weights (decay 0.99, ramped up as ``(1 + step) / (10 + step)`` early on) tha
 is what gets saved.
 
 ``python -m benchmark.features.train --data DIR --out vae.pth [--max-steps N]``
-(``--max-seconds S`` stops earlier, keeping the schedules of the step count).
+(``--max-seconds S`` stops earlier, keeping the schedules of the step count) trains on
+the build's training split and writes beside ``vae.pth`` its card ``vae.pth.json``
+(:mod:`benchmark.features.card`: the coefficient names it was trained on), which
+``benchmark.run --vae`` checks against the build it scores.
 """
 
 from __future__ import annotations
