@@ -289,8 +289,11 @@ def check_latent_models(results: list, paths: list) -> None:
         vae = result.protocol.get("vae")
         digest = (vae.get("sha256") if isinstance(vae, dict) else None) or PUBLISHED_VAE
         found.setdefault(result.key, {}).setdefault(digest, []).append(str(path))
-    problems = ["dataset {}: {}".format(key[:12], "; ".join(f"{vae[:12] if vae != PUBLISHED_VAE else vae}: "
-                                                            f"{', '.join(files)}" for vae, files in sorted(vaes.items())))
+    def named(vae: str) -> str:
+        return vae if vae == PUBLISHED_VAE else vae[:12]
+
+    problems = ["dataset {}: {}".format(key[:12], "; ".join(f"{named(vae)}: {', '.join(files)}"
+                                                            for vae, files in sorted(vaes.items())))
                 for key, vaes in sorted(found.items()) if len(vaes) > 1]
     if problems:
         raise DataError("results whose latent metrics were scored by different VAEs cannot share a table (rescore "

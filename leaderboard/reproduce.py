@@ -171,6 +171,9 @@ class CorpusPlan:
         build's training split with this many steps (``benchmark.features.train``).
     extra_methods : bool
         Add a row (:data:`DEFAULT_STEPS`) for each built-in method the plan does not name.
+    assets : str or None
+        ``"module:NAME"`` of the ``data_manifest.yaml`` ids the adapter builds from (a
+        mapping or sequence of ids; imported only when checked); None: none.
     """
 
     name: str
@@ -182,14 +185,16 @@ class CorpusPlan:
     generator: dict | None = None
     vae_steps: int | None = None
     extra_methods: bool = False
+    assets: str | None = None
 
     def asset_ids(self) -> tuple:
         """The ``data_manifest.yaml`` ids of the files its build reads (none for a generated corpus)."""
-        if self.generator is not None:
+        if self.assets is None:
             return ()
-        from blendvoca.datasets.facegood import ASSET_IDS  # the only adapter corpus with a board so far
+        import importlib
 
-        return tuple(ASSET_IDS) if self.dataset == "facegood" else ()
+        module, name = self.assets.split(":")
+        return tuple(getattr(importlib.import_module(module), name))  # the adapter: imported only now
 
 
 #: The synthetic board (the committed leaderboard).
@@ -229,7 +234,7 @@ FACEGOOD_PLAN = (
 FACEGOOD_VAE_STEPS = 3000
 #: The real board: FACEGOOD's seven takes, split by take (train 2_01-2_04, val 2_05, test 3_15, 3_16).
 FACEGOOD = CorpusPlan("facegood", "FACEGOOD", "facegood", FACEGOOD_PLAN, "facegood-build",
-                      vae_steps=FACEGOOD_VAE_STEPS)
+                      vae_steps=FACEGOOD_VAE_STEPS, assets="blendvoca.datasets.facegood:ASSET_IDS")
 #: ``--corpus NAME`` -> its plan.
 CORPORA = {plan.name: plan for plan in (SYNTHETIC, FACEGOOD)}
 

@@ -6,8 +6,9 @@ not the synthetic board's:
 
 * ``data`` (:func:`capture_data_stage`): the build under ``<work>/<build_name>`` and a
   VAE trained on its training split, ``<work>/vae/<build_name>.pth`` with its card
-  (:mod:`benchmark.features.card`), each made when missing (resumable); or a given
-  ``--vae``, checked against the build's coefficient names;
+  (:mod:`benchmark.features.card`), each made when missing (resumable; the VAE also
+  when its card records another step budget); or a given ``--vae``, checked against
+  the build's coefficient names;
 * ``expert`` (:func:`capture_models_stage`): the project's real-speech lip-sync expert
   (:data:`benchmark.lipsync.default_expert.REAL_SPEECH_EXPERT`), after checking that the
   result files already in ``--results`` on this build were scored by the same corpus,
@@ -83,7 +84,8 @@ def capture_data_stage(spec):
     vae = Path(spec["vae"])
     if spec["vae_steps"] is None:  # the user's VAE: it must read this build's coefficients
         check_vae_fits(vae, dataset.names, data=root)
-    elif not (vae.is_file() and read_vae_card(vae) is not None):
+    elif not (vae.is_file() and (read_vae_card(vae) or {}).get("steps") == int(spec["vae_steps"])):
+        # missing, or trained with another budget (--vae-steps): trained now
         from benchmark.features.train import train_vae_on_build  # torch: loaded only to train
 
         log_progress(f"training the VAE of the latent metrics on {root}'s training split, {spec['vae_steps']} steps")
