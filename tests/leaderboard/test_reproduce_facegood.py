@@ -190,6 +190,13 @@ def test_the_real_board_builds_from_the_asset_files_and_scores_two_rows(tmp_path
     table = (tmp_path / "t" / "leaderboard.md").read_text()
     assert f"## FACEGOOD: dataset `{truth.dataset.recipe_id[:12]}`" in table
     assert "out of domain" not in table and f"scored by the VAE of sha256 {content_digest(vae)[:12]}" in table
+    # the site gets the FACEGOOD section, the runs' pages and the test takes' rigs
+    from leaderboard.site.data import load_site_runs, write_site_data
+
+    counts = write_site_data(load_site_runs(tmp_path / "r"), tmp_path / "site")
+    board = json.loads((tmp_path / "site" / "leaderboard.json").read_text())
+    assert [(t["name"], t["manifest_hash"]) for t in board["tables"]] == [("FACEGOOD", truth.dataset.recipe_id)]
+    assert counts["runs"] == 2 and counts["sentences"] == 20 and counts["rigs"] >= 1
     # resumable: a second run keeps the build, the VAE and both rows
     stamps = {p: p.stat().st_mtime_ns for p in [*paths, vae]}
     capsys.readouterr()
