@@ -7,7 +7,7 @@ not the synthetic board's:
 * ``data`` (:func:`capture_data_stage`): the build under ``<work>/<build_name>`` and a
   VAE trained on its training split, ``<work>/vae/<build_name>.pth`` with its card
   (:mod:`benchmark.features.card`), each made when missing (resumable; the VAE also
-  when its card records another step budget); or a given ``--vae``, checked against
+  when its card records another step budget or build); or a given ``--vae``, checked against
   the build's coefficient names;
 * ``expert`` (:func:`capture_models_stage`): the project's real-speech lip-sync expert
   (:data:`benchmark.lipsync.default_expert.REAL_SPEECH_EXPERT`), after checking that the
@@ -84,8 +84,8 @@ def capture_data_stage(spec):
     vae = Path(spec["vae"])
     if spec["vae_steps"] is None:  # the user's VAE: it must read this build's coefficients
         check_vae_fits(vae, dataset.names, data=root)
-    elif not (vae.is_file() and (read_vae_card(vae) or {}).get("steps") == int(spec["vae_steps"])):
-        # missing, or trained with another budget (--vae-steps): trained now
+    elif not (vae.is_file() and _trained_as_planned(read_vae_card(vae), dataset, int(spec["vae_steps"]))):
+        # missing, or trained with another budget (--vae-steps) or on another build (--data): trained now
         from benchmark.features.train import train_vae_on_build  # torch: loaded only to train
 
         log_progress(f"training the VAE of the latent metrics on {root}'s training split, {spec['vae_steps']} steps")
@@ -96,6 +96,16 @@ def capture_data_stage(spec):
     else:  # trained by an earlier run: on this build's shapes (a build made again may differ)
         check_vae_fits(vae, dataset.names, data=root)
     return str(root), (details or None)
+
+
+def _trained_as_planned(card, dataset, steps: int) -> bool:
+    """Whether a VAE's card says it was trained on ``dataset`` (its recipe) with ``steps`` steps."""
+    from benchmark.protocol.storing import dataset_identity
+
+    if card is None:
+        return False
+    trained_on = (card.get("data") or {}).get("recipe_id")
+    return card.get("steps") == steps and trained_on == dataset_identity(dataset)["recipe_id"]
 
 
 def built_capture(root: Path, dataset: str, title: str, *, workers: int = 2) -> Path:

@@ -203,3 +203,16 @@ def test_the_real_board_builds_from_the_asset_files_and_scores_two_rows(tmp_path
     assert _main(tmp_path, "--corpus", "facegood", "--only", "ground-truth,mean", "--vae-steps", "20") == 0
     assert {p: p.stat().st_mtime_ns for p in stamps} == stamps
     assert "exists, kept" in capsys.readouterr().err
+
+
+def test_a_vae_in_the_work_folder_is_kept_only_for_its_own_build_and_budget():
+    from types import SimpleNamespace
+
+    from leaderboard.executors.capture_stages import _trained_as_planned
+
+    build = SimpleNamespace(manifest_hash="m" * 64, recipe_id="f" * 64)
+    card = {"names": ["jawOpen"], "data": {"recipe_id": "f" * 64, "dataset": "facegood"}, "steps": 3000, "seed": 0}
+    assert _trained_as_planned(card, build, 3000)
+    assert not _trained_as_planned(card, build, 20)  # --vae-steps 20: another budget
+    assert not _trained_as_planned({**card, "data": {"recipe_id": "g" * 64}}, build, 3000)  # another build
+    assert not _trained_as_planned(None, build, 3000)  # no card: not the board's
