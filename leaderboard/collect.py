@@ -34,6 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
+from benchmark.evaluation.latent import METRICS as LATENT_METRICS
 from benchmark.evaluation.registry import METRICS, ordered_metrics
 from benchmark.metrics.bootstrap import (
     probability_of_improvement,
@@ -54,6 +55,8 @@ __all__ = [
     "Row",
     "Table",
     "best_mark",
+    "check_corpora",
+    "check_latent_models",
     "check_records",
     "check_scoring_models",
     "column_decimals",
@@ -159,6 +162,8 @@ class Table:
     name: str = ""
     #: Latent metrics computed with a VAE trained on another dataset (a result's ``latent_out_of_domain``).
     latent_out_of_domain: bool = False
+    #: The sha256 of the VAE given to the runs (``protocol.vae``) that scored the latent metrics; "": the published one.
+    vae: str = ""
 
     @property
     def recipe_id(self) -> str:
@@ -195,6 +200,7 @@ def load_results(results_dir) -> list[Result]:
     paths = result_files(results_dir)
     results = [read(path) for path in paths]
     check_records(results, paths)
+    check_corpora(results, paths)
     check_scoring_models(results, paths)
     return results
 
@@ -274,6 +280,61 @@ def check_scoring_models(results: list, paths: list) -> None:
         raise DataError("results scored by different lip-sync models cannot share a table (rescore the rows of "
                         "the other checkpoint with one model, or keep them in another --results folder): "
                         + " | ".join(problems))
+    check_latent_models(results, paths)
+
+
+#: What a result without ``protocol.vae`` scored its latent metrics with.
+PUBLISHED_VAE = "the published VAE (said-vae)"
+
+
+def check_latent_models(results: list, paths: list) -> None:
+    """Refuse results on one dataset (one table) whose latent metrics (FD, WInD, ...) were
+    scored by different VAEs (``protocol.vae``'s sha256; none: :data:`PUBLISHED_VAE`):
+    each VAE has its own latent space, so their numbers are not comparable. Results
+    without latent metrics are not read.
+
+    Raises
+    ------
+    DataError
+        Naming, for each VAE of a table, the files scored with it.
+    """
+    latent = set(LATENT_METRICS)
+    found: dict = {}  # {dataset key: {vae: [files]}}
+    for result, path in zip(results, paths):
+        if not latent & set(result.metrics):
+            continue
+        vae = result.protocol.get("vae")
+        digest = (vae.get("sha256") if isinstance(vae, dict) else None) or PUBLISHED_VAE
+        found.setdefault(result.key, {}).setdefault(digest, []).append(str(path))
+    def named(vae: str) -> str:
+        return vae if vae == PUBLISHED_VAE else vae[:12]
+
+    problems = ["dataset {}: {}".format(key[:12], "; ".join(f"{named(vae)}: {', '.join(files)}"
+                                                            for vae, files in sorted(vaes.items())))
+                for key, vaes in sorted(found.items()) if len(vaes) > 1]
+    if problems:
+        raise DataError("results whose latent metrics were scored by different VAEs cannot share a table (rescore "
+                        "them with one --vae, or keep them in another --results folder): " + " | ".join(problems))
+
+
+def check_corpora(results: list, paths: list) -> None:
+    """Refuse results on one dataset identity (one table) that name different corpora
+    (``dataset.name``; none: VOCASET's layout): a table holds the rows of one corpus.
+
+    Raises
+    ------
+    DataError
+        Naming, for each corpus, the files that name it.
+    """
+    found: dict = {}
+    for result, path in zip(results, paths):
+        found.setdefault(result.key, {}).setdefault(result.dataset.name or "vocaset", []).append(str(path))
+    problems = ["dataset {}: {}".format(key[:12], "; ".join(f"{name}: {', '.join(files)}"
+                                                            for name, files in sorted(corpora.items())))
+                for key, corpora in sorted(found.items()) if len(corpora) > 1]
+    if problems:
+        raise DataError("results of different corpora cannot share a table (their dataset identities clash: "
+                        "rebuild one corpus, or keep its results in another --results folder): " + " | ".join(problems))
 
 
 def _column(name: str, entry: MetricEntry) -> Column:
@@ -345,6 +406,7 @@ def tables_by_manifest(results: list[Result]) -> list[Table]:
             name=" / ".join(sorted({r.dataset.display_name for r in group} - {""})),
             latent_out_of_domain=any(r.dataset.latent_out_of_domain or r.protocol.latent_out_of_domain
                                      for r in group),
+            vae=" / ".join(sorted({str((r.protocol.get("vae") or {}).get("sha256") or "") for r in group} - {""})),
         )
         tables.append(table)
     return tables

@@ -255,6 +255,13 @@ OUT_OF_DOMAIN_NOTE = ("Latent metrics (FD, WInD, multimodality, latent energy) u
                       "VAE on it).")
 
 
+def vae_note(table: Table) -> str:
+    """The line under a table whose latent metrics a VAE given to the runs scored (``--vae``;
+    e.g. the real board's, trained on the corpus's training split): which one, by digest."""
+    return (f"Latent metrics (FD, WInD, multimodality, latent energy) scored by the VAE of sha256 "
+            f"{md_text(table.vae[:12])} (each result's `protocol.vae`), not the published one.")
+
+
 def _caption(table: Table) -> str:
     n = f", {table.num_sentences} sentences" if table.num_sentences else ""
     named = f"{table.name}, " if table.name else ""
@@ -363,6 +370,8 @@ def markdown_tables(tables: list[Table]) -> str:
                   f"{table.split} split" + (f", {table.num_sentences} sentences." if table.num_sentences else "."), ""]
         if table.latent_out_of_domain:
             lines += [OUT_OF_DOMAIN_NOTE, ""]
+        if table.vae:
+            lines += [vae_note(table), ""]
         for group, columns in table.groups:
             method_cells, reference_cells, bold, marks = _group_cells(table, columns)
             small = {c.name for c, _, _ in small_split_columns(table, columns)}

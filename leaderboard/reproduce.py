@@ -10,6 +10,12 @@ tables::
     python -m leaderboard.reproduce --work ~/blendvoca-12x40 \\
         --results leaderboard/results --tables leaderboard/tables
 
+``--corpus facegood`` makes the real board instead (:data:`FACEGOOD`): the FACEGOOD
+captures built from their asset files (``data_manifest.yaml``, through the asset
+resolver), a VAE trained on the build's training split for the latent metrics, the
+project's real-speech lip-sync expert, and the rows of :data:`FACEGOOD_PLAN`. Each
+corpus is data (:class:`CorpusPlan`, :data:`CORPORA`); its rows go into its own table.
+
 The plan is a set of tasks (:mod:`leaderboard.executors`): the corpus and its build
 (``--data BUILD`` scores an existing build instead), the learned lip-sync expert, and
 per row and seed the training (rows of one method that differ only in sampling,
@@ -38,17 +44,18 @@ from __future__ import annotations
 
 import shutil
 import sys
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from blendvoca import cli
-from blendvoca.errors import UserError
+from blendvoca.errors import DataError, UserError
 from blendvoca.runtime.locks import LockHeld, held_lock
 from blendvoca.runtime.progress import show_progress
 from leaderboard.executors import EXECUTORS, log_progress
 from leaderboard.executors.memory import declared_memory_gb, measured_memory, measured_peak_gb
 
-__all__ = ["CORPUS", "PLAN", "SEEDS", "PlanEntry", "archive_results", "main", "plan_tasks", "reproduce"]
+__all__ = ["CORPORA", "CORPUS", "FACEGOOD", "FACEGOOD_PLAN", "PLAN", "SEEDS", "SYNTHETIC", "CorpusPlan", "PlanEntry",
+           "archive_results", "main", "plan_tasks", "reproduce"]
 
 #: The synthetic corpus of the committed leaderboard: the one-to-many corpus, whose
 #: oracle draws give the oracle rows.
@@ -144,10 +151,10 @@ PLAN = (
 )
 
 
-def memory_build(data=None) -> str:
+def memory_build(data=None, build_name: str = BUILD_NAME) -> str:
     """The name the measured-memory table knows a build by: its folder's name (the
-    plan's own build: :data:`BUILD_NAME`)."""
-    return BUILD_NAME if data is None else Path(data).expanduser().resolve().name
+    plan's own build: ``build_name``, the corpus's :attr:`CorpusPlan.build_name`)."""
+    return build_name if data is None else Path(data).expanduser().resolve().name
 
 
 def memory_refusal(tasks, node_gb: float, *, memory: dict | None = None, build: str | None = None) -> str | None:
@@ -168,13 +175,117 @@ def memory_refusal(tasks, node_gb: float, *, memory: dict | None = None, build: 
             f"{node_gb:.1f} GiB this machine has{more}; nothing was run")
 
 
-def _entries(only) -> list:
+@dataclass(frozen=True)
+class CorpusPlan:
+    """One board's corpus, as data: where its build comes from, what scores its latent and
+    lip-sync columns, and its rows.
+
+    Attributes
+    ----------
+    name : str
+        ``--corpus NAME``.
+    title : str
+        The corpus in messages and docs.
+    dataset : str
+        The corpus name its builds record (``BlendVOCADataset.dataset_name``; ``"vocaset"``:
+        the VOCASET layout, which the synthetic corpus has): ``--data`` must be such a build.
+    plan : tuple of PlanEntry
+        The rows, in scoring order; each row's ``max_steps`` is its budget on this corpus.
+    build_name : str
+        The build's folder under ``--work``.
+    source_name : str or None
+        The generated corpus's folder under ``--work`` (the synthetic corpus); None: the
+        build is made by the dataset adapter ``dataset`` from its asset files.
+    generator : dict or None
+        ``blendvoca.synthetic.generate_corpus`` arguments of a generated corpus.
+    vae_steps : int or None
+        None: the latent metrics use the published VAE; else a VAE is trained on the
+        build's training split with this many steps (``benchmark.features.train``).
+    extra_methods : bool
+        Add a row (:data:`DEFAULT_STEPS`) for each built-in method the plan does not name.
+    assets : str or None
+        ``"module:NAME"`` of the ``data_manifest.yaml`` ids the adapter builds from (a
+        mapping or sequence of ids; imported only when checked); None: none.
+    """
+
+    name: str
+    title: str
+    dataset: str
+    plan: tuple
+    build_name: str
+    source_name: str | None = None
+    generator: dict | None = None
+    vae_steps: int | None = None
+    extra_methods: bool = False
+    assets: str | None = None
+
+    def asset_ids(self) -> tuple:
+        """The ``data_manifest.yaml`` ids of the files its build reads (none for a generated corpus)."""
+        if self.assets is None:
+            return ()
+        import importlib
+
+        module, name = self.assets.split(":")
+        return tuple(getattr(importlib.import_module(module), name))  # the adapter: imported only now
+
+
+#: The synthetic board (the committed leaderboard).
+SYNTHETIC = CorpusPlan("synthetic", "the synthetic one-to-many corpus (12 x 40)", "vocaset", PLAN, BUILD_NAME,
+                       source_name=CORPUS_NAME, generator=CORPUS, extra_methods=True)
+
+
+def _on_facegood(row: str, **changes) -> PlanEntry:
+    """The synthetic board's row ``row`` (its budget, resources and sampling) with ``changes``."""
+    return replace(next(e for e in PLAN if e.row == row), **changes)
+
+
+#: Styles of FaceFormer and CodeTalker on FACEGOOD: one per training take (one speaker, 4 takes).
+FACEGOOD_STYLES = 4
+#: The real board's rows: the reference rows a capture has (no oracle draws, no source
+#: meshes) and every trainable method, each with the synthetic board's budget per row
+#: (the real board's own budgets are chosen later by the settled-by-ranking rule, here).
+FACEGOOD_PLAN = (
+    _on_facegood("ground-truth", note="upper reference: the build's own tracks (FACEGOOD's controls on ARKit shapes)"),
+    _on_facegood("mean"),
+    _on_facegood("static"),
+    _on_facegood("random"),
+    _on_facegood("regression"),
+    _on_facegood("said"),
+    _on_facegood("faceformer", samples=FACEGOOD_STYLES,
+                 note="FaceFormer cpu-demo (log-mel front end, width 64) on the ARKit reference rig's vertices, "
+                      f"1500 steps of one sentence, {FACEGOOD_STYLES} samples = the {FACEGOOD_STYLES} training takes' "
+                      "styles"),
+    _on_facegood("codetalker", samples=FACEGOOD_STYLES,
+                 note="CodeTalker cpu-demo (VQ-VAE 64 = 4 x 16, 128 codes) on the ARKit reference rig's vertices, "
+                      f"800 + 1200 steps (stage 1 + 2), {FACEGOOD_STYLES} samples = the {FACEGOOD_STYLES} training "
+                      "takes' styles"),
+    _on_facegood("cdface"),
+    _on_facegood("cdface-lips"),
+)
+#: Training steps of the real board's VAE (docs/datasets.md's recipe for a corpus's own VAE).
+FACEGOOD_VAE_STEPS = 3000
+#: The real board: FACEGOOD's seven takes, split by take (train 2_01-2_04, val 2_05, test 3_15, 3_16).
+FACEGOOD = CorpusPlan("facegood", "FACEGOOD", "facegood", FACEGOOD_PLAN, "facegood-build",
+                      vae_steps=FACEGOOD_VAE_STEPS, assets="blendvoca.datasets.facegood:ASSET_IDS")
+#: ``--corpus NAME`` -> its plan.
+CORPORA = {plan.name: plan for plan in (SYNTHETIC, FACEGOOD)}
+
+
+def _corpus(name) -> CorpusPlan:
+    if isinstance(name, CorpusPlan):
+        return name
+    if name not in CORPORA:
+        raise UserError(f"--corpus {name!r}: expected one of {list(CORPORA)}")
+    return CORPORA[name]
+
+
+def _entries(only, corpus: CorpusPlan = SYNTHETIC) -> list:
     from benchmark.methods import BUILTIN_METHODS
 
-    planned = {e.method for e in PLAN} | {"mesh-adapter"}
+    planned = {e.method for e in corpus.plan} | {"mesh-adapter"}
     extra = [PlanEntry(name, max_steps=DEFAULT_STEPS, note=f"default config, {DEFAULT_STEPS} steps")
-             for name in sorted(BUILTIN_METHODS) if name not in planned]
-    entries = list(PLAN) + extra
+             for name in sorted(BUILTIN_METHODS) if name not in planned] if corpus.extra_methods else []
+    entries = list(corpus.plan) + extra
     if only:
         known = {e.row for e in entries} | {e.method for e in entries}
         unknown = sorted(set(only) - known)
@@ -203,7 +314,7 @@ def _split_names(values) -> list | None:
 
 def plan_tasks(work, results_dir, *, only=None, data=None, seeds=SEEDS, max_steps=None,
                expert_steps: int = EXPERT_STEPS, cpus_per_task: int | None = None, force: bool = False,
-               memory: dict | None = None) -> list:
+               memory: dict | None = None, corpus="synthetic", vae=None, vae_steps: int | None = None) -> list:
     """The plan as tasks (:class:`leaderboard.executors.Task`), in dependency order.
 
     Parameters
@@ -213,6 +324,13 @@ def plan_tasks(work, results_dir, *, only=None, data=None, seeds=SEEDS, max_step
         Row or method names (a method selects each of its rows).
     data : path-like, optional
         Score this build; None generates and builds the plan's corpus under ``work``.
+    corpus : str or CorpusPlan
+        The board (:data:`CORPORA`): ``"synthetic"`` (the committed board) or ``"facegood"``.
+    vae : path-like, optional
+        The VAE of the latent metrics instead of the corpus's (the published one, or the
+        one trained on the build); checked against the build's coefficient names.
+    vae_steps : int, optional
+        Training steps of the corpus's VAE instead of the plan's (``CorpusPlan.vae_steps``).
     seeds : sequence of int
         Training seeds of the trained rows.
     max_steps : int, optional
@@ -242,39 +360,51 @@ def plan_tasks(work, results_dir, *, only=None, data=None, seeds=SEEDS, max_step
     if int(expert_steps) < 1:  # 0 or fewer steps would train until a budget that never comes
         raise UserError(f"expert_steps: expected an integer >= 1, got {expert_steps}")
 
-    entries = _entries(only)
+    corpus = _corpus(corpus)
+    if vae_steps is not None and int(vae_steps) < 1:
+        raise UserError(f"vae_steps: expected an integer >= 1, got {vae_steps}")
+    entries = _entries(only, corpus)
     seeds = [int(s) for s in seeds]
     base = {"work": str(Path(work).expanduser().resolve()), "results": str(Path(results_dir).expanduser().resolve()),
             "force": bool(force), "progress": show_progress()}
     # the build the tasks run on names their measured peaks (recorded with each task's timing)
-    base["build"] = memory_build(data)
+    base["build"] = memory_build(data, corpus.build_name)
     measured = measured_memory() if memory is None else memory
 
     def declared(row, stage, default):
         peak = measured_peak_gb(measured, base["build"], row, stage)
         return default if peak is None else declared_memory_gb(peak)
 
-    tasks = [
-        Task("data", "data", stages.data_stage, {**base, "data": None if data is None else str(data),
-                                                 "corpus": dict(CORPUS), "corpus_name": CORPUS_NAME,
-                                                 "build_name": BUILD_NAME},
-             resources=Resources(cpus=2, memory_gb=declared(None, "data", 4.0)),
-             outputs=(str(Path(base["work"]) / BUILD_NAME),)),
-        Task("expert", "expert", stages.expert_stage, {**base, "expert_steps": int(expert_steps)}, deps=("data",),
-             resources=Resources(cpus=1, memory_gb=declared(None, "expert", 2.0)), outputs=("<cache>/sync-expert",)),
-    ]
+    corpus_name = corpus.source_name or corpus.name
+    if corpus.generator is not None:  # a generated corpus: the synthetic board's stages, as they always were
+        tasks = [
+            Task("data", "data", stages.data_stage, {**base, "data": None if data is None else str(data),
+                                                     "corpus": dict(corpus.generator), "corpus_name": corpus_name,
+                                                     "build_name": corpus.build_name},
+                 resources=Resources(cpus=2, memory_gb=declared(None, "data", 4.0)),
+                 outputs=(str(Path(base["work"]) / corpus.build_name),)),
+            Task("expert", "expert", stages.expert_stage, {**base, "expert_steps": int(expert_steps)}, deps=("data",),
+                 resources=Resources(cpus=1, memory_gb=declared(None, "expert", 2.0)),
+                 outputs=("<cache>/sync-expert",)),
+        ]
+        vae_path = None if vae is None else str(Path(vae).expanduser().resolve())
+    else:
+        from leaderboard.executors import capture_stages
+
+        tasks, vae_path = capture_stages.corpus_tasks(corpus, base, data=data, vae=vae, vae_steps=vae_steps)
 
     def row_spec(entry: PlanEntry, trained: bool) -> dict:
         steps = entry.max_steps
         if max_steps is not None:
             steps = int(max_steps) if steps is None else min(int(steps), int(max_steps))
-        return {**base, "row": entry.row, "method": entry.method, "config": dict(entry.config),
-                "samples": entry.samples, "max_steps": steps, "note": entry.note, "corpus_name": CORPUS_NAME,
+        spec = {**base, "row": entry.row, "method": entry.method, "config": dict(entry.config),
+                "samples": entry.samples, "max_steps": steps, "note": entry.note, "corpus_name": corpus_name,
                 "seeds": list(seeds) if trained else None, "training": entry.shared_training or entry.row}
+        return spec if vae_path is None else {**spec, "vae": vae_path}
 
     trained_rows = [e for e in entries if _trains(e)]
     owners = {}
-    for entry in list(PLAN) + [e for e in entries if e not in PLAN]:
+    for entry in list(corpus.plan) + [e for e in entries if e not in corpus.plan]:
         owners.setdefault(entry.shared_training or entry.row, entry)
     emitted = set()
     for entry in entries:
@@ -311,6 +441,8 @@ def plan_tasks(work, results_dir, *, only=None, data=None, seeds=SEEDS, max_step
                           deps=("data", "expert", *(f"score/{entry.row}/seed{s}" for s in seeds), *store_deps),
                           resources=resources(entry.row, "store", cpus=1, gpus=0.0), row=entry.row,
                           outputs=(base["results"],)))
+    if corpus.generator is None:  # the check of the table the rows join needs their result names
+        tasks[1] = replace(tasks[1], spec={**tasks[1].spec, "rows": [row_spec(e, _trains(e)) for e in entries]})
     return tasks
 
 
@@ -347,10 +479,41 @@ def archive_results(results_dir, archive) -> list:
     return [archive / p.name for p in moves if p.suffix == ".json"]
 
 
+def _check_corpus_inputs(corpus: CorpusPlan, data, vae) -> None:
+    """UserError, before anything runs, when the board cannot be made as asked: ``data``
+    a build of another corpus (its rows would go into that corpus's table), the corpus's
+    asset files missing (named, with where to put them), or ``vae`` not a file."""
+    if vae is not None and not Path(vae).expanduser().is_file():
+        raise UserError(f"--vae {vae}: no such file (a VAE state dict, python -m benchmark.features.train)")
+    if data is not None:
+        from benchmark.data import open_blendvoca
+
+        try:
+            found = getattr(open_blendvoca(Path(data).expanduser()), "dataset_name", "vocaset")
+        except (UserError, DataError, FileNotFoundError) as exc:
+            raise UserError(f"--data {data}: {exc}") from None
+        if found != corpus.dataset:
+            raise UserError(f"--data {data}: a build of the {found} corpus, but --corpus {corpus.name} plans rows of "
+                            f"{corpus.title} (builds recording the corpus {corpus.dataset!r}); give a build of that "
+                            "corpus, or the --corpus of this build")
+        return
+    from leaderboard.executors.capture_stages import missing_assets
+
+    missing = missing_assets(corpus.asset_ids())
+    if missing:
+        from blendvoca.assets import entry
+
+        mirrors = sorted({str(Path(entry(i)["mirror"]).parent) for i in missing})
+        raise UserError(f"--corpus {corpus.name}: its files are not found: asset ids {', '.join(missing)} "
+                        f"(data_manifest.yaml); put them under a folder named in BLENDVOCA_ASSETS (as "
+                        f"{', '.join(mirrors)}/<file>, e.g. BLENDVOCA_ASSETS=shared/assets:shared/realdata), or fetch "
+                        f"them: python -m blendvoca.assets fetch {' '.join(missing)}; or give --data BUILD")
+
+
 def reproduce(work, results_dir, tables_dir, *, only=None, force: bool = False, executor: str = "sequential",
               address: str | None = None, data=None, seeds=SEEDS, max_steps: int | None = None,
               expert_steps: int = EXPERT_STEPS, cpus_per_task: int | None = None, max_retries: int = 3,
-              archive=None) -> list:
+              archive=None, corpus="synthetic", vae=None, vae_steps: int | None = None) -> list:
     """Build the dataset, score the plan's rows into ``results_dir`` and render ``tables_dir``.
 
     Parameters
@@ -368,6 +531,9 @@ def reproduce(work, results_dir, tables_dir, *, only=None, force: bool = False, 
         Ray's reruns of a task whose worker died.
     archive : path-like, optional
         First move the result files already in ``results_dir`` there (:func:`archive_results`).
+    corpus, vae, vae_steps
+        As :func:`plan_tasks`. A corpus built from asset files needs them in place (or
+        ``data``), and ``data`` must be a build of the corpus: checked before anything runs.
 
     Returns
     -------
@@ -383,14 +549,17 @@ def reproduce(work, results_dir, tables_dir, *, only=None, force: bool = False, 
         raise UserError("--address: only with --executor ray")
     if data is not None and not Path(data).expanduser().is_dir():
         raise UserError(f"--data {data}: no such folder")
+    corpus = _corpus(corpus)
+    _check_corpus_inputs(corpus, data, vae)
     # an unknown --only row fails before the corpus and the build are made
     tasks = plan_tasks(work, results_dir, only=only, data=data, seeds=seeds, max_steps=max_steps,
-                       expert_steps=expert_steps, cpus_per_task=cpus_per_task, force=force)
+                       expert_steps=expert_steps, cpus_per_task=cpus_per_task, force=force, corpus=corpus,
+                       vae=vae, vae_steps=vae_steps)
     if executor == "sequential" or address is None:
         # a task declaring more memory than this machine has would be killed (or wait forever on Ray)
         from leaderboard.executors.memory import machine_memory_gb
 
-        refusal = memory_refusal(tasks, machine_memory_gb(), build=memory_build(data))
+        refusal = memory_refusal(tasks, machine_memory_gb(), build=memory_build(data, corpus.build_name))
         if refusal is not None:
             raise UserError(refusal)
     work = Path(work).expanduser()
@@ -439,6 +608,15 @@ def main(argv=None) -> int:
     parser.add_argument("--archive", default=None, metavar="DIR",
                         help="first move the result files in --results (and their tracks) into DIR, "
                              "which the tables do not read")
+    parser.add_argument("--corpus", choices=tuple(CORPORA), default="synthetic",
+                        help="the board: synthetic (the generated 12 x 40 one-to-many corpus, the committed board) or "
+                             "facegood (the FACEGOOD captures from their asset files, a VAE trained on the build, "
+                             "the real-speech lip-sync expert; docs/leaderboard.md)")
+    parser.add_argument("--vae", default=None, metavar="PATH",
+                        help="the VAE of the latent metrics instead of the corpus's (synthetic: the published one; "
+                             "facegood: one trained on the build's training split); checked against the build")
+    parser.add_argument("--vae-steps", type=int, default=None, metavar="N",
+                        help=f"training steps of a captured corpus's VAE (default {FACEGOOD_VAE_STEPS})")
     parser.add_argument("--timings", action="store_true",
                         help="print the wall time per row and stage recorded under --work (and, with "
                              "--results, in that folder's result files), and exit")
@@ -446,8 +624,8 @@ def main(argv=None) -> int:
                         help="merge the peak memory per row and stage recorded under --work into the table the "
                              "plan declares its memory from (default: the committed "
                              "leaderboard/measured-memory.json), and exit")
-    cli.add_data_option(parser, help="score this BlendVOCA build instead of generating and building the "
-                                     "12 x 40 corpus")
+    cli.add_data_option(parser, help="score this BlendVOCA build (of the --corpus) instead of generating and "
+                                     "building the 12 x 40 corpus or building the captures")
     cli.add_results_option(parser, help="result folder (the committed one: leaderboard/results)")
     # a step budget caps every row's own (quick runs; recorded in the results): the board has no time budgets
     cli.add_budget_options(parser)
@@ -482,7 +660,7 @@ def main(argv=None) -> int:
     if max_seconds is not None:
         parser.error("--budget/--max-seconds: the board's budgets are steps (deterministic); give --max-steps N")
     for flag, value, least in (("--cpus-per-task", args.cpus_per_task, 1), ("--expert-steps", args.expert_steps, 1),
-                               ("--max-retries", args.max_retries, 0)):
+                               ("--max-retries", args.max_retries, 0), ("--vae-steps", args.vae_steps, 1)):
         if value is not None and value < least:
             parser.error(f"{flag}: expected an integer >= {least}, got {value}")
     cli.require_address_space("leaderboard.reproduce")
@@ -491,7 +669,8 @@ def main(argv=None) -> int:
     for path in reproduce(args.work, args.results, args.tables, only=_split_names(args.only), force=args.force,
                           executor=args.executor, address=args.address, data=args.data,
                           seeds=parse_seeds(args.seeds), max_steps=max_steps, expert_steps=args.expert_steps,
-                          cpus_per_task=args.cpus_per_task, max_retries=args.max_retries, archive=args.archive):
+                          cpus_per_task=args.cpus_per_task, max_retries=args.max_retries, archive=args.archive,
+                          corpus=args.corpus, vae=args.vae, vae_steps=args.vae_steps):
         print(path)
     return cli.EXIT_OK
 

@@ -11,7 +11,10 @@ the weights (decay 0.99, ramped up as ``(1 + step) / (10 + step)`` early on) tha
 is what gets saved.
 
 ``python -m benchmark.features.train --data DIR --out vae.pth [--max-steps N]``
-(``--max-seconds S`` stops earlier, keeping the schedules of the step count).
+(``--max-seconds S`` stops earlier, keeping the schedules of the step count) trains on
+the build's training split and writes beside ``vae.pth`` its card ``vae.pth.json``
+(:mod:`benchmark.features.card`: the coefficient names it was trained on), which
+``benchmark.run --vae`` checks against the build it scores.
 """
 
 from __future__ import annotations
@@ -166,6 +169,45 @@ def train_vae(
     return ema.eval()
 
 
+def train_vae_on_build(data, out, *, steps: int = DEFAULT_STEPS, max_seconds: float | None = None, coeffs_std=None,
+                       batch_size: int = 8, lr: float = 1e-4, seed: int = 0):
+    """Train a VAE on the training split of the build ``data`` and save it to ``out``
+    (atomically), with its card ``out.json`` (:mod:`benchmark.features.card`: the
+    build's coefficient names, recipe and the training's steps and seed), which
+    ``benchmark.run --vae`` checks against the build it scores.
+
+    Parameters
+    ----------
+    data, out : path-like
+    steps, max_seconds, batch_size, lr, seed
+        As :func:`train_vae`.
+    coeffs_std : path-like, optional
+        ``coeffs_std.csv`` weighting the reconstruction; default BlendVOCA's (asset ``coeffs-std``).
+
+    Returns
+    -------
+    CoeffsVAE
+    """
+    from benchmark.data import open_blendvoca
+    from benchmark.features.card import write_vae_card
+    from blendvoca.io.coeffs import read_coeffs_csv
+
+    dataset = open_blendvoca(data)
+    tracks = [dataset.coeffs(s, n) for s in dataset.split("train") for n in dataset.sentences(s)]
+    if coeffs_std is None:
+        from blendvoca.assets import resolve
+
+        coeffs_std = resolve("coeffs-std")
+    std, _ = read_coeffs_csv(coeffs_std, names=dataset.names)
+    model = train_vae(tracks, std[0], steps=steps, max_seconds=max_seconds, batch_size=batch_size, lr=lr, seed=seed)
+    # the card first: a VAE file is only ever found beside the card of its own training
+    recipe = getattr(dataset, "recipe_id", None) or getattr(dataset, "manifest_hash", None) or ""
+    write_vae_card(out, dataset.names, recipe_id=recipe,
+                   dataset=getattr(dataset, "dataset_name", "vocaset"), steps=steps, seed=seed)
+    write_torch_file(out, model.state_dict())  # atomic: an interrupted save leaves no partial file
+    return model
+
+
 @cli.command
 def main(argv: Sequence[str] | None = None) -> int:
     parser = cli.parser("benchmark.features.train", __doc__)
@@ -182,21 +224,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.batch_size < 1:
         raise UserError(f"--batch-size: expected >= 1, got {args.batch_size}")
 
-    from benchmark.data import open_blendvoca
-    from blendvoca.io.coeffs import read_coeffs_csv
-
-    dataset = open_blendvoca(args.data)
-    tracks = [dataset.coeffs(s, n) for s in dataset.split("train") for n in dataset.sentences(s)]
-    if args.coeffs_std is None:
-        from blendvoca.assets import resolve
-
-        std_path = resolve("coeffs-std")
-    else:
-        std_path = args.coeffs_std
-    std, _ = read_coeffs_csv(std_path, names=dataset.names)
-    model = train_vae(tracks, std[0], steps=steps, max_seconds=seconds, batch_size=args.batch_size, lr=args.lr,
-                      seed=args.seed)
-    write_torch_file(args.out, model.state_dict())  # atomic: an interrupted save leaves no partial file
+    train_vae_on_build(args.data, args.out, steps=steps, max_seconds=seconds, coeffs_std=args.coeffs_std,
+                       batch_size=args.batch_size, lr=args.lr, seed=args.seed)
     print(f"saved {args.out}")
     return cli.EXIT_OK
 

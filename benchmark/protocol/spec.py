@@ -479,6 +479,13 @@ def check_inputs(spec: RunSpec, *, open_dataset=None, evaluation_assets: bool = 
             raise UsageError(str(exc)) from None
     if evaluation_assets:
         _check_evaluation_assets(spec.syncnet, spec.sync_expert)
+    if spec.vae is not None and getattr(dataset, "names", None):
+        from benchmark.features.card import check_vae_fits  # torch: loaded only for a given VAE
+
+        try:  # another shape set's latent features measure nothing
+            check_vae_fits(spec.vae, dataset.names, data=data_root)
+        except (UserError, DataError) as exc:
+            raise UsageError(str(exc)) from None
     try:
         method = make_method(spec.method, spec.config)
     except MethodError as exc:

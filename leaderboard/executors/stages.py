@@ -193,7 +193,7 @@ def _run_spec(spec, root, *, seed, checkpoint, expert=None, seeds=None, stores: 
     name, config = _method_and_config(spec)
     return RunSpec(method=name, config=config, data_root=root, samples=spec["samples"], seed=int(seed),
                    seeds=seeds, budget=Budget(max_steps=spec["max_steps"]), checkpoint=checkpoint,
-                   sync_expert=expert, results_dir=spec["results"],
+                   sync_expert=expert, results_dir=spec["results"], vae=spec.get("vae"),
                    vocaset=_source_corpus(spec, root), name=row_result_path(spec, root).name if stores else None,
                    overwrite=bool(spec.get("force")))
 

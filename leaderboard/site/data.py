@@ -37,6 +37,7 @@ from blendvoca.runtime.progress import bar
 from leaderboard.collect import (
     MIN_PAIRED_SENTENCES,
     best_mark,
+    check_corpora,
     check_records,
     check_scoring_models,
     pairwise_probabilities,
@@ -121,6 +122,7 @@ def load_site_runs(results_dir) -> list[SiteRun]:
     if not runs:
         raise UserError(f"leaderboard.site: {results_dir} holds no result *.json files")
     check_records([run.result for run in runs], paths)
+    check_corpora([run.result for run in runs], paths)
     check_scoring_models([run.result for run in runs], paths)
     return runs
 
