@@ -287,6 +287,19 @@ def check_scoring_models(results: list, paths: list) -> None:
 PUBLISHED_VAE = "the published VAE (said-vae)"
 
 
+def _table_clashes(results: list, paths: list, label, shown=str) -> list:
+    """``["dataset <key>: <label>: <files>; <label>: <files>", ...]`` for every table (one
+    dataset key) whose results carry more than one ``label(result)`` (None: not read)."""
+    found: dict = {}  # {dataset key: {label: [files]}}
+    for result, path in zip(results, paths):
+        value = label(result)
+        if value is not None:
+            found.setdefault(result.key, {}).setdefault(value, []).append(str(path))
+    return ["dataset {}: {}".format(key[:12], "; ".join(f"{shown(value)}: {', '.join(files)}"
+                                                        for value, files in sorted(labels.items())))
+            for key, labels in sorted(found.items()) if len(labels) > 1]
+
+
 def check_latent_models(results: list, paths: list) -> None:
     """Refuse results on one dataset (one table) whose latent metrics (FD, WInD, ...) were
     scored by different VAEs (``protocol.vae``'s sha256; none: :data:`PUBLISHED_VAE`):
@@ -299,19 +312,14 @@ def check_latent_models(results: list, paths: list) -> None:
         Naming, for each VAE of a table, the files scored with it.
     """
     latent = set(LATENT_METRICS)
-    found: dict = {}  # {dataset key: {vae: [files]}}
-    for result, path in zip(results, paths):
-        if not latent & set(result.metrics):
-            continue
-        vae = result.protocol.get("vae")
-        digest = (vae.get("sha256") if isinstance(vae, dict) else None) or PUBLISHED_VAE
-        found.setdefault(result.key, {}).setdefault(digest, []).append(str(path))
-    def named(vae: str) -> str:
-        return vae if vae == PUBLISHED_VAE else vae[:12]
 
-    problems = ["dataset {}: {}".format(key[:12], "; ".join(f"{named(vae)}: {', '.join(files)}"
-                                                            for vae, files in sorted(vaes.items())))
-                for key, vaes in sorted(found.items()) if len(vaes) > 1]
+    def vae_of(result):
+        if not latent & set(result.metrics):
+            return None
+        vae = result.protocol.get("vae")
+        return (vae.get("sha256") if isinstance(vae, dict) else None) or PUBLISHED_VAE
+
+    problems = _table_clashes(results, paths, vae_of, lambda vae: vae if vae == PUBLISHED_VAE else vae[:12])
     if problems:
         raise DataError("results whose latent metrics were scored by different VAEs cannot share a table (rescore "
                         "them with one --vae, or keep them in another --results folder): " + " | ".join(problems))
@@ -326,12 +334,7 @@ def check_corpora(results: list, paths: list) -> None:
     DataError
         Naming, for each corpus, the files that name it.
     """
-    found: dict = {}
-    for result, path in zip(results, paths):
-        found.setdefault(result.key, {}).setdefault(result.dataset.name or "vocaset", []).append(str(path))
-    problems = ["dataset {}: {}".format(key[:12], "; ".join(f"{name}: {', '.join(files)}"
-                                                            for name, files in sorted(corpora.items())))
-                for key, corpora in sorted(found.items()) if len(corpora) > 1]
+    problems = _table_clashes(results, paths, lambda result: result.dataset.name or "vocaset")
     if problems:
         raise DataError("results of different corpora cannot share a table (their dataset identities clash: "
                         "rebuild one corpus, or keep its results in another --results folder): " + " | ".join(problems))

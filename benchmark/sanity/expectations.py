@@ -317,14 +317,18 @@ def _table() -> dict:
     add("silent_lip_ratio", "smoothing", "any",
         "a low-pass filter lowers the velocity in the pauses and also spreads speech motion into their edges; "
         "which wins depends on the pauses' lengths, so no claim")
-    table = {}
-    for row in rows:
-        key = (row.metric, row.disturbance)
-        if key in table:
-            raise ValueError(f"EXPECTATIONS: {key} declared twice")
-        table[key] = row
-    return table
+    return _keyed(rows, lambda row: (row.metric, row.disturbance), "EXPECTATIONS")
 
+
+
+def _keyed(items, key, name: str) -> dict:
+    """``{key(item): item}``; ValueError naming ``name`` when a key is declared twice."""
+    table = {}
+    for item in items:
+        if key(item) in table:
+            raise ValueError(f"{name}: {key(item)} declared twice")
+        table[key(item)] = item
+    return table
 
 #: ``(metric, disturbance) -> Expectation``: every declaration of the suite.
 EXPECTATIONS = _table()
@@ -407,13 +411,7 @@ def _reference_claims() -> dict:
     claims += [ReferenceClaim("silent_lip_ratio", "static", "equals", 0.0, static),
                ReferenceClaim("silent_lip_ratio", "ground_truth", "equals", 1.0, truth),
                ReferenceClaim("silent_lip_ratio", "oracle_sample", "interval contains", 1.0, sample)]
-    table = {}
-    for claim in claims:
-        key = (claim.metric, claim.row)
-        if key in table:
-            raise ValueError(f"REFERENCE_CLAIMS: {key} declared twice")
-        table[key] = claim
-    return table
+    return _keyed(claims, lambda claim: (claim.metric, claim.row), "REFERENCE_CLAIMS")
 
 
 #: ``(metric, reference row) -> ReferenceClaim``.
