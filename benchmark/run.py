@@ -32,9 +32,7 @@ import sys
 from pathlib import Path
 
 from benchmark.methods import Budget, method_listing, method_schema
-from benchmark.methods.training_loop import loops_finished, loss_histories
 from benchmark.protocol import DEFAULT_GENERATE_LIMIT, RunSpec, parse_seeds, run
-from benchmark.run_figure import write_run_figure
 from blendvoca import cli
 from blendvoca.errors import DataError, UserError
 
@@ -183,6 +181,10 @@ def main(argv=None) -> int:
                    device=device, vae=args.vae, overwrite=args.overwrite,
                    checkpoint_fractions=args.checkpoint_fractions,
                    lookahead_probes=None if args.lookahead_probes is None else _probe_times(args.lookahead_probes))
+    # torch (the training loop) only now: below the address space it needs, the check above said so
+    from benchmark.methods.training_loop import loops_finished, loss_histories
+    from benchmark.run_figure import write_run_figure
+
     trained_before = loops_finished()
     path = run(spec)
     histories = loss_histories(trained_before)
