@@ -200,6 +200,7 @@ def load_run(folder, *, clients: int, seconds: float, sound_word: str, kill_at: 
         events["kill"] = time.time()
         server["process"].kill()  # SIGKILL: no shutdown, no flush
         server["process"].wait()
+        events["dead"] = time.time()  # what is acknowledged from now on, the restarted server acknowledged
         server["process"] = start_server(folder, port, db_url)
         events["restarted"] = time.time()
 
@@ -239,9 +240,11 @@ def load_run(folder, *, clients: int, seconds: float, sound_word: str, kill_at: 
             acks_by_token.setdefault(token, []).append(moment)
         interrupted = {t for t, moments in acks_by_token.items()
                        if min(moments) < kill and result.finished_tokens.get(t, float("inf")) > kill}
-        # resumed: answered again after the restart, or found its last answer stored and finished
-        resumed = {t for t in interrupted if max(acks_by_token[t]) > events["restarted"]
-                   or result.finished_tokens.get(t, 0) > events["restarted"]}
+        # resumed: answered again once the killed server was gone (only the restarted one can have
+        # acknowledged it; not from when start_server saw it answer, which a quick participant may
+        # have used to finish), or found its last answer stored and finished
+        resumed = {t for t in interrupted if max(acks_by_token[t]) > events["dead"]
+                   or result.finished_tokens.get(t, 0) > events["dead"]}
         figures.update(killed_after_s=kill_at, restart_s=events["restarted"] - kill,
                        interrupted=len(interrupted), resumed=len(resumed),
                        acknowledged_before_kill=sum(m < kill for ms in acks_by_token.values() for m in ms))
