@@ -31,16 +31,14 @@ def main(argv=None) -> int:
 
     from benchmark.study.design import read_study
     from tests.leaderboard.browser import chromium_driver
-    from tests.study.server_fixtures import serve_in_thread
+    from tests.study.server_fixtures import page_step, serve_in_thread
 
     study = read_study(args.study)
     driver = chromium_driver()
     driver.set_window_size(args.width, args.height)
 
     def step():
-        return driver.execute_script(
-            "const m = document.querySelector('main[data-step]'); if (m) return m.dataset.step;"
-            "return document.body && document.body.dataset.ready === 'true' ? document.body.dataset.step : null;")
+        return page_step(driver)
 
     def wait_for(name, seconds=30):
         deadline = time.monotonic() + seconds

@@ -231,6 +231,15 @@ def api_participant(client, path: str, choose, base: str = "", stop_after: int |
     return acknowledged
 
 
+def page_step(driver) -> str | None:
+    """The step the study page in ``driver`` shows once it is ready (``consent``,
+    ``instructions``, ``sound_check``, ``question``, ``done``); None while it loads."""
+    return driver.execute_script(
+        "const m = document.querySelector('main[data-step]');"
+        "if (m) return m.dataset.step;"
+        "return document.body && document.body.dataset.ready === 'true' ? document.body.dataset.step : null;")
+
+
 def browser_participant(driver, url: str, choose, *, reload_after: int | None = None,
                         sound_word: str = SOUND_WORD, platform: dict | None = None,
                         timeout: float = 60.0) -> dict:
@@ -255,10 +264,7 @@ def browser_participant(driver, url: str, choose, *, reload_after: int | None = 
             time.sleep(0.05)
 
     def step():
-        return driver.execute_script(
-            "const m = document.querySelector('main[data-step]');"
-            "if (m) return m.dataset.step;"
-            "return document.body && document.body.dataset.ready === 'true' ? document.body.dataset.step : null;")
+        return page_step(driver)
 
     def clicked_to_next_page(element):
         driver.execute_script("window.__studyOldPage = true")
