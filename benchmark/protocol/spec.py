@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from benchmark.data import open_blendvoca
-from benchmark.methods import OUTPUT_COEFFICIENTS, OUTPUT_VERTICES, Budget, Method, MethodError, get_method
+from benchmark.methods import FPS, OUTPUT_COEFFICIENTS, OUTPUT_VERTICES, Budget, Method, MethodError, get_method
 from benchmark.protocol.limits import GenerateLimit
 from benchmark.protocol.training import make_method
 from benchmark.protocol.verification import held_ground_truth, verified_inputs
@@ -408,17 +408,16 @@ def checked_probe_times(times, utterances: dict, *, option: str = "--lookahead-p
         first frame, before its last one): the message names ``option``, the value and the
         sentence's length.
     """
-    from benchmark.methods import FPS
-
+    frame_s = 1.0 / FPS  # a cut needs a frame before it and one after it
     out = []
     for value in times:
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(float(value)):
             raise UsageError(f"{option}: expected times in seconds such as 0.5,1.2, got {value!r}")
         for (subject, sentence), seconds in utterances.items():
-            if not (1.0 / FPS) <= float(value) <= seconds - (1.0 / FPS):
+            if not frame_s <= float(value) <= seconds - frame_s:
                 raise UsageError(f"{option} {value:g}: outside the utterance {subject}/{sentence}, which is "
-                                 f"{seconds:.3f} s long (expected a time in [{(1.0 / FPS):.3f}, "
-                                 f"{seconds - (1.0 / FPS):.3f}] s)")
+                                 f"{seconds:.3f} s long (expected a time in [{frame_s:.3f}, "
+                                 f"{seconds - frame_s:.3f}] s)")
         out.append(float(value))
     if not out:
         raise UsageError(f"{option}: expected at least one time in seconds, got none")
@@ -428,8 +427,6 @@ def checked_probe_times(times, utterances: dict, *, option: str = "--lookahead-p
 def _check_probe_times(spec: RunSpec, dataset) -> None:
     """UsageError unless every time of ``spec.lookahead_probes`` lies inside each sentence
     the look-ahead probe cuts (the split's first ``LATENCY_SENTENCES``)."""
-    from benchmark.methods import FPS
-
     items = [(subject, sentence) for subject in dataset.split(spec.split) for sentence in dataset.sentences(subject)]
     lengths = {key: len(dataset.coeffs(*key)) / FPS for key in items[:LATENCY_SENTENCES]}
     checked_probe_times(spec.lookahead_probes, lengths)
