@@ -169,7 +169,9 @@ def test_the_command_line_refuses_a_probe_time_outside_the_utterance_in_one_line
     from benchmark.protocol import default_data_root
     from benchmark.run import main
 
-    code = main(["--method", "mean", "--data", str(default_data_root()), "--results", str(tmp_path),
+    data = default_data_root()  # builds the bundled default on a fresh machine, with progress on stderr
+    capsys.readouterr()
+    code = main(["--method", "mean", "--data", str(data), "--results", str(tmp_path),
                  "--lookahead-probes", "0.5,999", "--quiet"])
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and len(err) == 1
