@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import re
 
+from benchmark.evaluation.latent import METRICS as LATENT_METRICS
 from benchmark.evaluation.registry import METRICS
 from benchmark.evaluation.sample_size import LEVEL, SOURCE, below_minimum, min_test_sentences
 from benchmark.results import Convergence
@@ -262,6 +263,14 @@ def vae_note(table: Table) -> str:
             f"{md_text(table.vae[:12])} (each result's `protocol.vae`), not the published one.")
 
 
+def _latent_notes(table: Table, group: str) -> list:
+    """The notes on which VAE scored the latent metrics, for the groups that show them."""
+    if not any(c.name in LATENT_METRICS for c in dict(table.groups).get(group, [])):
+        return []
+    return ([OUT_OF_DOMAIN_NOTE] if table.latent_out_of_domain else []) + (
+        [vae_note(table).replace("`", "'")] if table.vae else [])
+
+
 def _caption(table: Table) -> str:
     n = f", {table.num_sentences} sentences" if table.num_sentences else ""
     named = f"{table.name}, " if table.name else ""
@@ -454,7 +463,8 @@ def latex_tables(tables: list[Table]) -> str:
                 r"\begin{table}[t]", r"\centering",
                 f"\\caption{{BlendVOCA benchmark, {_latex_escape(group)} metrics, {_latex_escape(_caption(table))}. "
                 "Mean [95\\,\\% bootstrap interval]; seeds [lowest, highest per-seed mean] for rows trained with "
-                "several seeds; bold: best, beats the runner-up in at least 95\\,\\% of the paired resamples.}",
+                "several seeds; bold: best, beats the runner-up in at least 95\\,\\% of the paired resamples."
+                + "".join(f" {_latex_escape(note)}" for note in _latent_notes(table, group)) + "}",
                 f"\\label{{tab:blendvoca-{table.recipe_id[:12]}-{slug}}}",
                 r"\resizebox{\linewidth}{!}{%",
                 f"\\begin{{tabular}}{{l{'r' * len(columns)}rr{'l' if study else ''}}}", r"\toprule",

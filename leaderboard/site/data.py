@@ -207,6 +207,7 @@ def leaderboard_data(runs) -> dict:
             "manifest_hash": table.manifest_hash,
             "name": table.name,
             "latent_out_of_domain": bool(table.latent_out_of_domain),
+            "vae": table.vae,
             "split": table.split,
             "num_sentences": table.num_sentences,
             "metrics": {column.name: _column_spec(column) for column in table.columns},

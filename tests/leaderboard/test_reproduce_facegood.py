@@ -113,6 +113,17 @@ def test_the_table_build_refuses_a_table_of_rows_scored_by_different_vaes_or_cor
     tables = tables_by_manifest(load_results(folder))
     assert [(t.name, [r.label for r in t.rows]) for t in tables] == [("FACEGOOD", ["alpha", "beta"]), ("", ["alpha"])]
     assert [t.vae for t in tables] == ["a" * 64, ""]  # the FACEGOOD table names its VAE; the other is the published
+    # ... in the Markdown, under the LaTeX tables that show latent metrics, and on the site
+    from leaderboard.build import rendered_tables
+    from leaderboard.site.data import leaderboard_data
+
+    rendered = rendered_tables(load_results(folder))
+    assert rendered["leaderboard.md"].count(f"scored by the VAE of sha256 {'a' * 12}") == 1
+    captions = [line for line in rendered["leaderboard.tex"].splitlines() if line.startswith(r"\caption")]
+    named = [c for c in captions if f"VAE of sha256 {'a' * 12}" in c]
+    assert named and all("FACEGOOD" in c and "Lip" not in c.split(" metrics,")[0] for c in named)
+    assert not [c for c in captions if "Lip" in c.split(" metrics,")[0] and "VAE" in c]  # no latent column there
+    assert [t["vae"] for t in leaderboard_data(load_site_runs(folder))["tables"]] == ["a" * 64, ""]
     # a row of the FACEGOOD table scored by the published VAE: its FD is of another latent space
     other = _stored(folder, "gamma", recipe="f" * 64, name="facegood")
     for load in (load_results, load_site_runs):

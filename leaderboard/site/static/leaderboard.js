@@ -125,6 +125,11 @@ function renderTable(table, index) {
     section.append(el("p", { class: "note", text: "The latent metrics (FD, WInD, multimodality, energy_latent) " +
       "use the published VAE, trained on BlendVOCA: out of domain on this dataset (docs/datasets.md)." }));
   }
+  if (table.vae) {
+    section.append(el("p", { class: "note vae", text: "The latent metrics (FD, WInD, multimodality, energy_latent) " +
+      `are scored by the VAE of sha256 ${table.vae.slice(0, 12)} (each result's protocol.vae), trained on this ` +
+      "dataset's training split, not the published one." }));
+  }
   const metrics = table.groups.flatMap((g) => g.metrics);
   const groupRow = el("tr", {}, el("th", { class: "label", rowspan: "2", text: "method" }));
   const groupOf = Object.fromEntries(table.groups.flatMap((g) => g.metrics.map((name) => [name, g.name])));
