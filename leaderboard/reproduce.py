@@ -201,6 +201,9 @@ class CorpusPlan:
     vae_steps : int or None
         None: the latent metrics use the published VAE; else a VAE is trained on the
         build's training split with this many steps (``benchmark.features.train``).
+    vae_init : str or None
+        Where that training starts: None from random weights, ``"published"`` from the
+        published VAE (fine-tuned: from random weights FACEGOOD's decoder dies, docs/datasets.md).
     extra_methods : bool
         Add a row (:data:`DEFAULT_STEPS`) for each built-in method the plan does not name.
     assets : str or None
@@ -216,6 +219,7 @@ class CorpusPlan:
     source_name: str | None = None
     generator: dict | None = None
     vae_steps: int | None = None
+    vae_init: str | None = None
     extra_methods: bool = False
     assets: str | None = None
 
@@ -266,7 +270,8 @@ FACEGOOD_PLAN = (
 FACEGOOD_VAE_STEPS = 3000
 #: The real board: FACEGOOD's seven takes, split by take (train 2_01-2_04, val 2_05, test 3_15, 3_16).
 FACEGOOD = CorpusPlan("facegood", "FACEGOOD", "facegood", FACEGOOD_PLAN, "facegood-build",
-                      vae_steps=FACEGOOD_VAE_STEPS, assets="blendvoca.datasets.facegood:ASSET_IDS")
+                      vae_steps=FACEGOOD_VAE_STEPS, vae_init="published",
+                      assets="blendvoca.datasets.facegood:ASSET_IDS")
 #: ``--corpus NAME`` -> its plan.
 CORPORA = {plan.name: plan for plan in (SYNTHETIC, FACEGOOD)}
 

@@ -6,7 +6,8 @@ the shape of its first convolution, but not which shapes they are. The trainer
 ``vae.pth.json``::
 
     {"names": [the coefficient names, in column order], "data": {"recipe_id", "dataset"},
-     "steps": N, "seed": k}
+     "steps": N, "seed": k, "init": "published" (fine-tuned from it; absent: random weights),
+     "reconstruction_r2": the share of the validation split's variance it gives back}
 
 so that a VAE trained on one shape set is refused on a build of another
 (:func:`check_vae_fits`): its latent features of other columns would be numbers of
@@ -36,11 +37,20 @@ def vae_card_path(path) -> Path:
     return path.with_name(path.name + ".json")
 
 
-def write_vae_card(path, names, *, recipe_id: str, dataset: str, steps: int, seed: int) -> Path:
-    """Write the card of the VAE at ``path`` (atomically); returns the card's path."""
+def write_vae_card(path, names, *, recipe_id: str, dataset: str, steps: int, seed: int, beta: float = 1.0,
+                   init: str | None = None, reconstruction_r2: float | None = None) -> Path:
+    """Write the card of the VAE at ``path`` (atomically); returns the card's path. ``beta``
+    and ``init`` (the starting weights, None: random) are recorded when they are not the
+    defaults, the held-out reconstruction R^2 when given."""
     card = vae_card_path(path)
     record = {"names": [str(n) for n in names], "data": {"recipe_id": str(recipe_id), "dataset": str(dataset)},
               "steps": int(steps), "seed": int(seed)}
+    if beta != 1.0:
+        record["beta"] = float(beta)
+    if init is not None:
+        record["init"] = str(init)
+    if reconstruction_r2 is not None:
+        record["reconstruction_r2"] = round(float(reconstruction_r2), 4)
     with atomic_write(card, "w") as handle:
         json.dump(record, handle, indent=1)
     return card

@@ -21,12 +21,14 @@ from __future__ import annotations
 
 import copy
 import sys
+import warnings
 from collections.abc import Sequence
 
 import numpy as np
 import torch
 
-from benchmark.features.vae import CoeffsVAE
+from benchmark.features.quality import MIN_RECONSTRUCTION_R2, held_out_windows, reconstruction_r2
+from benchmark.features.vae import CoeffsVAE, load_published_vae, load_vae_state
 from benchmark.methods.training_loop import StepLoop, ema_decay_at, optimiser_step
 from benchmark.metrics.windows import WINDOW
 from blendvoca import cli
@@ -115,6 +117,7 @@ def train_vae(
     warmup_fraction: float = 0.1,
     n_cycles: int = 10,
     seed: int = 0,
+    init: CoeffsVAE | None = None,
 ) -> CoeffsVAE:
     """Train a VAE on random windows of coefficient tracks.
 
@@ -129,6 +132,8 @@ def train_vae(
         Stop after this much training time even before ``steps`` (the EMA so far is returned).
     batch_size, lr, beta, weight_vel, ema_decay, warmup_fraction, n_cycles, seed
         See the module docstring.
+    init : CoeffsVAE, optional
+        Start from these weights (copied; e.g. the published VAE, :func:`initial_vae`).
 
     Returns
     -------
@@ -143,7 +148,10 @@ def train_vae(
         raise DataError("train_vae: coeffs_std must be positive")
     torch.manual_seed(seed)
     rng = np.random.default_rng(seed)
-    model = CoeffsVAE(channels=len(coeffs_std))
+    model = CoeffsVAE(channels=len(coeffs_std)) if init is None else copy.deepcopy(init)
+    if model.channels != len(coeffs_std):
+        raise DataError(f"train_vae: the initial VAE reads {model.channels} coefficients, the tracks have "
+                        f"{len(coeffs_std)}")
     ema = copy.deepcopy(model)
     optimizer = torch.optim.AdamW(model.parameters(), lr=lr)
     warmup = int(warmup_fraction * steps)
@@ -169,18 +177,46 @@ def train_vae(
     return ema.eval()
 
 
+#: ``init`` naming the published VAE (asset ``said-vae``) as the starting weights.
+INIT_PUBLISHED = "published"
+
+
+def initial_vae(init: str, channels: int) -> CoeffsVAE:
+    """The starting weights ``init`` names: :data:`INIT_PUBLISHED` or a VAE state dict's path;
+    UserError for a file that is not there or reads another number of coefficients."""
+    from pathlib import Path
+
+    if init == INIT_PUBLISHED:
+        model = load_published_vae()
+    else:
+        path = Path(init).expanduser()
+        if not path.is_file():
+            raise UserError(f"--init {init}: expected 'published' or a VAE state dict (.pth), no such file")
+        model = load_vae_state(torch.load(path, map_location="cpu", weights_only=True))
+    if model.channels != channels:
+        raise UserError(f"--init {init}: a VAE of {model.channels} coefficients, the build has {channels}")
+    return model.train()
+
+
 def train_vae_on_build(data, out, *, steps: int = DEFAULT_STEPS, max_seconds: float | None = None, coeffs_std=None,
-                       batch_size: int = 8, lr: float = 1e-4, seed: int = 0):
+                       batch_size: int = 8, lr: float = 1e-4, beta: float = 1.0, init: str | None = None,
+                       seed: int = 0):
     """Train a VAE on the training split of the build ``data`` and save it to ``out``
     (atomically), with its card ``out.json`` (:mod:`benchmark.features.card`: the
-    build's coefficient names, recipe and the training's steps and seed), which
-    ``benchmark.run --vae`` checks against the build it scores.
+    build's coefficient names, recipe, the training's steps, KL weight, start and seed,
+    and its reconstruction R^2 on the validation split, :mod:`benchmark.features.quality`),
+    which ``benchmark.run --vae`` checks against the build it scores. A VAE whose R^2 is
+    below :data:`~benchmark.features.quality.MIN_RECONSTRUCTION_R2` is saved with a
+    warning: its latent carries too little of the motion for the latent metrics.
 
     Parameters
     ----------
     data, out : path-like
-    steps, max_seconds, batch_size, lr, seed
+    steps, max_seconds, batch_size, lr, beta, seed
         As :func:`train_vae`.
+    init : str, optional
+        ``"published"``: fine-tune the published VAE (asset ``said-vae``) instead of
+        training from random weights, :data:`INIT_PUBLISHED`; or the path of a VAE state dict.
     coeffs_std : path-like, optional
         ``coeffs_std.csv`` weighting the reconstruction; default BlendVOCA's (asset ``coeffs-std``).
 
@@ -199,11 +235,24 @@ def train_vae_on_build(data, out, *, steps: int = DEFAULT_STEPS, max_seconds: fl
 
         coeffs_std = resolve("coeffs-std")
     std, _ = read_coeffs_csv(coeffs_std, names=dataset.names)
-    model = train_vae(tracks, std[0], steps=steps, max_seconds=max_seconds, batch_size=batch_size, lr=lr, seed=seed)
+    start = None if init is None else initial_vae(init, len(dataset.names))
+    model = train_vae(tracks, std[0], steps=steps, max_seconds=max_seconds, batch_size=batch_size, lr=lr, beta=beta,
+                      seed=seed, init=start)
+    try:  # the held-out check reads the validation split; a build without one gets none
+        held_out = [dataset.coeffs(s, n) for s in dataset.split("val") for n in dataset.sentences(s)]
+    except ValueError:
+        held_out = []
+    r2 = reconstruction_r2(model, held_out_windows(held_out), std[0]) if held_out else None
+    if r2 is not None and r2 < MIN_RECONSTRUCTION_R2:
+        warnings.warn(f"train_vae_on_build: the VAE for {data} gives back {r2:.2f} of the validation split's variance "
+                      f"(below {MIN_RECONSTRUCTION_R2}): its latent carries little of the motion, and latent distances "
+                      "in it may rank nothing (from random weights on a small corpus the decoder's ReLU output head "
+                      "can die: start from the published VAE, --init published)", stacklevel=2)
     # the card first: a VAE file is only ever found beside the card of its own training
     recipe = getattr(dataset, "recipe_id", None) or getattr(dataset, "manifest_hash", None) or ""
     write_vae_card(out, dataset.names, recipe_id=recipe,
-                   dataset=getattr(dataset, "dataset_name", "vocaset"), steps=steps, seed=seed)
+                   dataset=getattr(dataset, "dataset_name", "vocaset"), steps=steps, seed=seed, beta=beta,
+                   init=init, reconstruction_r2=r2)
     write_torch_file(out, model.state_dict())  # atomic: an interrupted save leaves no partial file
     return model
 
@@ -215,6 +264,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--batch-size", type=int, default=8)
     parser.add_argument("--lr", type=float, default=1e-4)
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--beta", type=float, default=1.0,
+                        help="the KL term's weight at the top of each annealing cycle (default 1, the paper's)")
+    parser.add_argument("--init", default=None, metavar="published|PATH",
+                        help="start from these weights instead of random ones: 'published' fine-tunes the published "
+                             "VAE (what a small corpus needs: docs/datasets.md), or a VAE state dict")
     parser.add_argument("--coeffs-std", default=None, help="coeffs_std.csv (default: the asset coeffs-std)")
     cli.add_data_option(parser, required=True, help="BlendVOCA build (or SAiD-layout folder)")
     cli.add_budget_options(parser, default_steps=DEFAULT_STEPS)
@@ -223,9 +277,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     steps = DEFAULT_STEPS if steps is None else steps
     if args.batch_size < 1:
         raise UserError(f"--batch-size: expected >= 1, got {args.batch_size}")
+    if not args.beta > 0:
+        raise UserError(f"--beta: expected a KL weight > 0, got {args.beta}")
 
     train_vae_on_build(args.data, args.out, steps=steps, max_seconds=seconds, coeffs_std=args.coeffs_std,
-                       batch_size=args.batch_size, lr=args.lr, seed=args.seed)
+                       batch_size=args.batch_size, lr=args.lr, beta=args.beta, init=args.init, seed=args.seed)
     print(f"saved {args.out}")
     return cli.EXIT_OK
 

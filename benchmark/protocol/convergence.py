@@ -214,11 +214,12 @@ class HalfBudgetCheck:
                                          time_limit=generate_limit(spec.generate_time_limit),
                                          sentence_batch=spec.sentence_batch)
             extra = {} if writer is None else {"vertices": writer.stored_vertices()}
-            if self.evaluate is None:
-                from benchmark.evaluation import EvaluationSettings, evaluate_split
+            if self.evaluate is None:  # the run's own VAE scores the curve's FD, as it scores the row's
+                from benchmark.evaluation import evaluate_split
+                from benchmark.protocol.scoring import run_settings
 
                 scores = evaluate_split(Generated(tracks, vertices=extra.get("vertices")), dataset, spec.split,
-                                        EvaluationSettings(), metrics=CHECK_METRICS)
+                                        run_settings(spec, lipsync=False), metrics=CHECK_METRICS)
             else:
                 scores = self.evaluate(tracks, dataset, split=spec.split, metrics=CHECK_METRICS, **extra)
         finally:

@@ -111,12 +111,13 @@ def score(spec, dataset, generated, *, evaluate=None) -> Scored:
     return Scored(metrics=metrics, per_sentence=_per_sentence_rows(metrics, generated.tracks), seconds=seconds)
 
 
-def run_settings(spec) -> EvaluationSettings:
+def run_settings(spec, *, lipsync: bool = True) -> EvaluationSettings:
     """The evaluation settings of the run ``spec``: the protocol's, with its lip-sync models
     (loaded: a file that holds none is a UserError) and its VAE (``spec.vae``, a VAE
-    trained on this dataset by ``benchmark.features.train``) where it names them."""
+    trained on this dataset by ``benchmark.features.train``) where it names them.
+    ``lipsync=False``: without the lip-sync models (the learning curve's check metrics)."""
     models = {}
-    if spec.evaluates_lipsync_models:
+    if lipsync and spec.evaluates_lipsync_models:
         models["syncnet"], models["sync_expert"] = loaded_lipsync_models(spec.syncnet, spec.sync_expert)
     if getattr(spec, "vae", None) is not None:
         models["extractor"] = str(spec.vae)

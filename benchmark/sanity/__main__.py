@@ -1,4 +1,4 @@
-"""``python -m benchmark.sanity --data BUILD --out DIR [--levels small|full] [--quiet]``:
+"""``python -m benchmark.sanity --data BUILD --out DIR [--levels small|full] [--vae PATH] [--quiet]``:
 check that every metric reacts to what it claims to measure.
 
 The ground-truth coefficient tracks of the build's test split are disturbed at five or
@@ -13,7 +13,9 @@ react, equals the level, or no claim, each with its reason). Writes
 ``DIR/sanity_meta.json`` (how it was run). The reference rows (a static face, the ground
 truth, and a one-to-many build's oracle samples and their mean) are judged against
 their claims (``REFERENCE_CLAIMS``: the dynamics closeness is 0 for a static face, 1 for
-the ground truth, ...) into ``DIR/sanity_references.json``. Exit status 4 when a metric breaks its
+the ground truth, ...) into ``DIR/sanity_references.json``. ``--vae PATH`` scores the latent
+metrics with a corpus's own VAE (its card checked against the build), the check a VAE
+trained for a board should pass before the board is scored with it. Exit status 4 when a metric breaks its
 declaration (after writing the files), 2 for a build without a test split or a bad flag.
 """
 
@@ -45,6 +47,9 @@ def main(argv=None) -> int:
     p.add_argument("--split", default="test", help="split whose ground truth is disturbed (default test)")
     p.add_argument("--sync-expert", default=None, metavar="PATH",
                    help="also judge the learned sync expert's AV offset and confidence (benchmark.lipsync)")
+    p.add_argument("--vae", default=None, metavar="PATH",
+                   help="score the latent metrics with this VAE (python -m benchmark.features.train) instead of the "
+                        "published one: does a corpus's own VAE rank what it claims to?")
     cli.add_data_option(p)
     cli.add_quiet_option(p)
     args = p.parse_args(argv)
@@ -64,6 +69,13 @@ def main(argv=None) -> int:
         if not Path(args.sync_expert).expanduser().is_file():
             raise UserError(f"--sync-expert {args.sync_expert}: no such file")
         settings = settings.replace(sync_expert=str(Path(args.sync_expert).expanduser()))
+    if args.vae is not None:
+        from benchmark.features.card import check_vae_fits  # torch: loaded only for a given VAE
+
+        if not Path(args.vae).expanduser().is_file():
+            raise UserError(f"--vae {args.vae}: no such file (a VAE state dict, python -m benchmark.features.train)")
+        check_vae_fits(Path(args.vae).expanduser(), dataset.names, data=data)
+        settings = settings.replace(extractor=str(Path(args.vae).expanduser().resolve()))
     out = check_results_dir(Path(args.out).expanduser())
     table, failed = run_sanity(dataset, out, levels=args.levels, split=args.split, kinds=kinds, settings=settings)
     counts = status_counts(table)

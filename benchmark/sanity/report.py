@@ -51,9 +51,11 @@ def _evaluate(generated, dataset, split, settings):
 
 
 def _settings_record(settings) -> dict:
-    """What the report records of ``settings``: :meth:`EvaluationSettings.to_dict` and the sync expert's path."""
+    """What the report records of ``settings``: :meth:`EvaluationSettings.to_dict`, the sync
+    expert's path and the VAE's (``--vae``; none recorded: the published one)."""
     expert = {} if settings.sync_expert is None else {"sync_expert": str(settings.sync_expert)}
-    return {**settings.to_dict(), **expert}
+    vae = {"vae": str(settings.extractor)} if isinstance(settings.extractor, str) else {}
+    return {**settings.to_dict(), **expert, **vae}
 
 
 def ground_truth(dataset, split: str = "test") -> dict:
@@ -309,7 +311,8 @@ def run_sanity(dataset, out, *, levels: str = "small", split: str = "test", kind
     scores = sanity_scores(dataset, levels=levels, split=split, kinds=kinds, settings=settings)
     result = sanity_table(scores, table)
     failed = failures(result)
-    reference = reference_table(dataset, split) if references else None
+    reference = (reference_table(dataset, split, settings=REFERENCE_SETTINGS.replace(extractor=settings.extractor))
+                 if references else None)  # the same VAE as the disturbances (benchmark.sanity --vae)
     if reference is not None:
         failed += [(m, f"reference row {r}", e) for m, rows in reference.items() for r, e in rows.items()
                    if not e["ok"]]

@@ -42,7 +42,8 @@ def corpus_tasks(corpus, base: dict, *, data=None, vae=None, vae_steps=None) -> 
     path = Path(vae).expanduser().resolve() if given else vae_path(base["work"], corpus.build_name)
     steps = None if given else int(vae_steps if vae_steps is not None else corpus.vae_steps)
     data_spec = {**base, "data": None if data is None else str(data), "dataset": corpus.dataset,
-                 "title": corpus.title, "build_name": corpus.build_name, "vae": str(path), "vae_steps": steps}
+                 "title": corpus.title, "build_name": corpus.build_name, "vae": str(path), "vae_steps": steps,
+                 "vae_init": corpus.vae_init}
     build = str(Path(base["work"]) / corpus.build_name) if data is None else str(data)
     tasks = [
         Task("data", "data", capture_data_stage, data_spec, resources=Resources(cpus=2, memory_gb=4.0),
@@ -84,28 +85,33 @@ def capture_data_stage(spec):
     vae = Path(spec["vae"])
     if spec["vae_steps"] is None:  # the user's VAE: it must read this build's coefficients
         check_vae_fits(vae, dataset.names, data=root)
-    elif not (vae.is_file() and _trained_as_planned(read_vae_card(vae), dataset, int(spec["vae_steps"]))):
-        # missing, or trained with another budget (--vae-steps) or on another build (--data): trained now
+    elif not (vae.is_file() and _trained_as_planned(read_vae_card(vae), dataset, int(spec["vae_steps"]),
+                                                    spec.get("vae_init"))):
+        # missing, or trained with another budget (--vae-steps), start or on another build (--data): trained now
         from benchmark.features.train import train_vae_on_build  # torch: loaded only to train
 
-        log_progress(f"training the VAE of the latent metrics on {root}'s training split, {spec['vae_steps']} steps")
+        start = f", from the {spec['vae_init']} VAE" if spec.get("vae_init") else ""
+        log_progress(f"training the VAE of the latent metrics on {root}'s training split, {spec['vae_steps']} "
+                     f"steps{start}")
         vae.parent.mkdir(parents=True, exist_ok=True)
         begun = time.perf_counter()
-        train_vae_on_build(root, vae, steps=int(spec["vae_steps"]), seed=0)
+        train_vae_on_build(root, vae, steps=int(spec["vae_steps"]), init=spec.get("vae_init"), seed=0)
         details["vae_s"] = time.perf_counter() - begun
     else:  # trained by an earlier run: on this build's shapes (a build made again may differ)
         check_vae_fits(vae, dataset.names, data=root)
     return str(root), (details or None)
 
 
-def _trained_as_planned(card, dataset, steps: int) -> bool:
-    """Whether a VAE's card says it was trained on ``dataset`` (its recipe) with ``steps`` steps."""
+def _trained_as_planned(card, dataset, steps: int, init=None) -> bool:
+    """Whether a VAE's card says it was trained on ``dataset`` (its recipe) with ``steps``
+    steps from the starting weights ``init`` (None: random)."""
     from benchmark.protocol.storing import dataset_identity
 
     if card is None:
         return False
     trained_on = (card.get("data") or {}).get("recipe_id")
-    return card.get("steps") == steps and trained_on == dataset_identity(dataset)["recipe_id"]
+    return (card.get("steps") == steps and card.get("init") == init
+            and trained_on == dataset_identity(dataset)["recipe_id"])
 
 
 def built_capture(root: Path, dataset: str, title: str, *, workers: int = 2) -> Path:
