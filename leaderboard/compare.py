@@ -181,6 +181,8 @@ def main(argv=None) -> int:
         a, b = tables
     else:
         raise UserError(f"--sections: the results hold {len(tables)} section(s); name the two to compare")
+    if args.names and not args.sections:
+        raise UserError("--names: name the sections too (--sections A,B), so that each name goes to its board")
     names = tuple(n.strip() for n in args.names.split(",")) if args.names else (a.name or "first", b.name or "second")
     if len(names) != 2:
         raise UserError(f"--names {args.names}: expected two names A,B")

@@ -18,8 +18,9 @@ ROOT = Path(__file__).resolve().parents[2]
 COMMITTED = ROOT / "leaderboard" / "results"
 
 
-def _committed(name_part: str) -> Path:
-    (path,) = [p for p in COMMITTED.glob("*.json") if p.name.startswith(name_part)]
+def _committed(name_part: str, recipe: str = "54a623f25316") -> Path:
+    """The committed result file of the row ``name_part`` on the board of ``recipe`` (default: the synthetic one)."""
+    (path,) = [p for p in COMMITTED.glob("*.json") if p.name.startswith(name_part) and f"__{recipe}__" in p.name]
     return path
 
 

@@ -52,7 +52,10 @@ def test_the_command_writes_the_page_and_refuses_unknown_sections_in_one_line(tm
     for k, record in enumerate(_boards()):
         (results / f"r{k}.json").write_text(json.dumps(record))
     page = tmp_path / "page.md"
-    assert main(["--results", str(results), "--page", str(page), "--names", "synthetic,real"]) == 0
+    assert main(["--results", str(results), "--page", str(page), "--names", "synthetic,real"]) == 2  # which is which?
+    assert "--names: name the sections too" in capsys.readouterr().err
+    assert main(["--results", str(results), "--page", str(page), "--sections", f"{A},{B}",
+                 "--names", "synthetic,real"]) == 0
     text = page.read_text()
     assert "| LVE" in text and "| a, b, c, mean | b, a, mean, c | 0.33 | 2 | 1 |" in text
     assert "Recorded " in text and "## The decided disagreements" in text
