@@ -10,8 +10,9 @@ of each cycle); AdamW, constant learning rate after a linear warm-up over the fi
 the weights (decay 0.99, ramped up as ``(1 + step) / (10 + step)`` early on) that
 is what gets saved.
 
-``python -m benchmark.features.train --data DIR --out vae.pth [--max-steps N]``
-(``--max-seconds S`` stops earlier, keeping the schedules of the step count) trains on
+``python -m benchmark.features.train --data DIR --out vae.pth [--max-steps N] [--init published] [--beta B]``
+(``--max-seconds S`` stops earlier, keeping the schedules of the step count; ``--init
+published`` starts from the published VAE, what a small corpus needs) trains on
 the build's training split and writes beside ``vae.pth`` its card ``vae.pth.json``
 (:mod:`benchmark.features.card`: the coefficient names it was trained on), which
 ``benchmark.run --vae`` checks against the build it scores.
