@@ -16,6 +16,7 @@ either way. ``--page`` writes the comparison as a Markdown page (docs/results/).
 from __future__ import annotations
 
 import datetime
+import math
 import shlex
 import sys
 from dataclasses import dataclass
@@ -118,7 +119,7 @@ def compared_metrics(a: Table, b: Table) -> list[MetricComparison]:
                     flips.append(PairFlip(rows_a[i].label, rows_a[j].label, probs_a[i][j], probs_b[i][j]))
         order = lambda rows, means: tuple(r.label for _, r in sorted(zip(means, rows), key=lambda t: t[0]))
         out.append(MetricComparison(column.name, column.label, order(rows_a, means_a), order(rows_b, means_b),
-                                    None if tau != tau else float(tau), tuple(flips)))
+                                    None if math.isnan(tau) else float(tau), tuple(flips)))
     return out
 
 

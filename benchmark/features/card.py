@@ -91,9 +91,9 @@ def vae_channels(path) -> int:
 
 
 def check_vae_fits(path: str | PathLike, names, *, flag: str = "--vae", data=None) -> None:
-    """UserError unless the VAE at ``path`` reads the coefficients ``names`` (a build's
-    ``dataset.names``): the same count, and where it has a card, the same names in the
-    same order.
+    """UserError unless the VAE at ``path`` is a file that reads the coefficients ``names``
+    (a build's ``dataset.names``): the same count, and where it has a card, the same names
+    in the same order.
 
     Parameters
     ----------
@@ -104,6 +104,8 @@ def check_vae_fits(path: str | PathLike, names, *, flag: str = "--vae", data=Non
     data : path-like, optional
         The build, for the message's training command.
     """
+    if not Path(path).expanduser().is_file():
+        raise UserError(f"{flag} {path}: no such file (a VAE state dict, python -m benchmark.features.train)")
     names = [str(n) for n in names]
     train = (f"; train one on this build: python -m benchmark.features.train --data {data} --out VAE.pth"
              if data is not None else "; train one on the build (python -m benchmark.features.train)")

@@ -24,6 +24,7 @@ import copy
 import sys
 import warnings
 from collections.abc import Sequence
+from pathlib import Path
 
 import numpy as np
 import torch
@@ -185,8 +186,6 @@ INIT_PUBLISHED = "published"
 def initial_vae(init: str, channels: int) -> CoeffsVAE:
     """The starting weights ``init`` names: :data:`INIT_PUBLISHED` or a VAE state dict's path;
     UserError for a file that is not there or reads another number of coefficients."""
-    from pathlib import Path
-
     if init == INIT_PUBLISHED:
         model = load_published_vae()
     else:

@@ -72,10 +72,9 @@ def main(argv=None) -> int:
     if args.vae is not None:
         from benchmark.features.card import check_vae_fits  # torch: loaded only for a given VAE
 
-        if not Path(args.vae).expanduser().is_file():
-            raise UserError(f"--vae {args.vae}: no such file (a VAE state dict, python -m benchmark.features.train)")
-        check_vae_fits(Path(args.vae).expanduser(), dataset.names, data=data)
-        settings = settings.replace(extractor=str(Path(args.vae).expanduser().resolve()))
+        vae = Path(args.vae).expanduser()
+        check_vae_fits(vae, dataset.names, data=data)  # a missing file or another shape set: one error line
+        settings = settings.replace(extractor=str(vae.resolve()))
     out = check_results_dir(Path(args.out).expanduser())
     table, failed = run_sanity(dataset, out, levels=args.levels, split=args.split, kinds=kinds, settings=settings)
     counts = status_counts(table)

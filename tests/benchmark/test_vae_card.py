@@ -41,6 +41,8 @@ def test_a_vae_of_another_shape_set_is_refused_by_count_and_by_name(tmp_path):
     assert "python -m benchmark.features.train --data BUILD" in str(error.value)
     # without a card only the count can be checked
     check_vae_fits(_vae(tmp_path, 6, name="bare.pth"), swapped)
+    with pytest.raises(UserError, match=r"--vae .*none\.pth: no such file \(a VAE state dict"):
+        check_vae_fits(tmp_path / "none.pth", NAMES)
 
 
 def test_trained_on_a_build_the_vae_carries_that_builds_names(tmp_path, built_dataset):
