@@ -69,6 +69,24 @@ def _tree_allocation() -> tuple:
     return peak.peak_bytes - peak.start_bytes, interpreter
 
 
+def _forked_copy() -> tuple:
+    """The parent holds 300 MiB and forks a child that holds the same pages (copy on
+    write, untouched) while the block is measured."""
+    import os
+
+    from leaderboard.executors.memory import PeakRSS
+
+    block = b"w" * (300 * MIB)
+    with PeakRSS() as peak:
+        pid = os.fork()
+        if pid == 0:  # the child: keeps the parent's pages shared, over several samples
+            time.sleep(0.6)
+            os._exit(0)
+        os.waitpid(pid, 0)
+    del block
+    return peak.peak_bytes - peak.start_bytes, 0
+
+
 def _own_allocation() -> tuple:
     from leaderboard.executors.memory import PeakRSS
 
@@ -104,6 +122,14 @@ def test_the_peak_sums_the_tree_not_only_the_largest_process():
     mark, the largest waited child's) gives their sum; the sampled tree does."""
     added, interpreter = _measured_in_a_fresh_process("_tree_allocation")
     assert abs(added - (500 * MIB + interpreter)) < 50 * MIB, (added / MIB, interpreter / MIB)
+
+
+@pytest.mark.skipif(not hasattr(__import__("os"), "fork"), reason="needs os.fork")
+def test_pages_a_forked_worker_shares_with_its_parent_are_counted_once():
+    """A pool of forked workers is not a set of copies of its parent: a child sharing the
+    parent's 300 MiB adds only what it holds alone (the RSS sum counted 600 MiB)."""
+    added, _ = _measured_in_a_fresh_process("_forked_copy")
+    assert added < 60 * MIB, added / MIB
 
 
 def test_an_allocation_in_the_task_s_own_process_is_measured():
