@@ -652,7 +652,7 @@ def main(argv=None) -> int:
 
         print(timing_table(args.work))
         if any(r.get("peak_rss_gb") is not None for r in timing_records(args.work)):
-            print("\nPeak memory (RSS of the task's process and children, the highest over the seeds):\n")
+            print("\nPeak memory (the task's process's RSS and its children's unique memory, the highest over the seeds):\n")
             print(memory_table(timing_records(args.work)))
         if args.results is not None:
             print(f"\nFrom the result files in {args.results}:\n")

@@ -96,6 +96,18 @@ def test_committed_results_read_and_write_back_unchanged(tmp_path):
         assert write(tmp_path / path.name, result).read_text() == path.read_text()
 
 
+def test_every_result_the_tables_read_records_its_measured_lookahead():
+    """Protocol v4: each committed board file (not the archive) has a latency record whose
+    causality probe measured the look-ahead, reference rows included."""
+    paths = sorted((COMMITTED / "results").glob("*.json"))
+    assert len(paths) >= 20
+    for path in paths:
+        latency = read(path).latency
+        assert latency is not None and latency.rtf is not None, path.name
+        assert latency.lookahead_probe is not None and latency.lookahead_probe.note is None, path.name
+        assert latency.measured_lookahead_s is not None, path.name
+
+
 def test_seed_replicates_per_seed_else_the_metrics_own():
     assert [a.tolist() for a in seed_replicates("fd", [{"fd": [1.0, 2.0]}, {"fd": [3.0]}])] == [[1.0, 2.0], [3.0]]
     own = seed_replicates("fd", [{"fd": [1.0]}, {}], own=[5.0, 6.0])
