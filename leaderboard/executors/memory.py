@@ -14,8 +14,8 @@ plan's default.
 The peak is that of the task's process *and* its child processes (a build's worker
 pool, a plug-in's subprocess): the process's RSS plus what each descendant holds alone
 (its USS: pages a forked worker shares with its parent are counted once), sampled by a
-thread every :data:`SAMPLE_S` seconds (at least ten times as long as a reading took:
-reading a large child's USS walks its page tables), and two lower bounds that the sampling cannot miss:
+thread every :data:`SAMPLE_S` seconds (up to :data:`MAX_PAUSE_S` while reading the children's
+USS takes more than a tenth of that: it walks their page tables), and two lower bounds that the sampling cannot miss:
 the process's own high-water mark (``VmHWM``, reset at the task's start through
 ``/proc/self/clear_refs`` on Linux) and the largest waited-for child's peak
 (``getrusage(RUSAGE_CHILDREN)``, when it rose during the task; Linux counts in a
@@ -43,13 +43,15 @@ from blendvoca.errors import DataError
 from blendvoca.io.atomic import atomic_write
 from blendvoca.io.json_file import read_json
 
-__all__ = ["CONSTANT_GB", "MARGIN", "MEASURED_MEMORY", "SAMPLE_S", "PeakRSS", "declared_memory_gb",
+__all__ = ["CONSTANT_GB", "MARGIN", "MAX_PAUSE_S", "MEASURED_MEMORY", "SAMPLE_S", "PeakRSS", "declared_memory_gb",
            "machine_memory_gb", "measured_memory", "measured_peak_gb", "memory_table", "oversized",
            "peak_table", "write_measured_memory"]
 
 GIB = 2**30
 #: Seconds between two samples of the process tree's RSS.
 SAMPLE_S = 0.05
+#: The longest pause between two samples, however long reading the children's USS takes.
+MAX_PAUSE_S = 0.25
 #: Declared memory = MARGIN x measured peak + CONSTANT_GB (GiB), rounded up to ROUND_GB.
 #: The factor covers what changes a peak between runs of the same task: another seed
 #: (another batch order and sample draws), another executor (a fresh Ray worker, or the
@@ -68,7 +70,7 @@ MEASURED_MEMORY = Path(__file__).resolve().parents[1] / "measured-memory.json"
 
 def _rss_of_tree(process) -> tuple:
     """``(bytes, seconds)``: the memory ``process`` (a ``psutil.Process``) and its
-    descendants hold now, and what reading it took. The process counts its RSS; each
+    descendants hold now, and what reading the descendants' USS took. The process counts its RSS; each
     descendant only what it holds alone (its USS): a forked worker's pages shared with
     its parent (copy-on-write) and the libraries both map are in the parent's RSS
     already, and counting them again made a pool of forked workers look like copies of
@@ -78,12 +80,12 @@ def _rss_of_tree(process) -> tuple:
 
     import psutil
 
-    started = time.perf_counter()
     try:
         children = process.children(recursive=True)
         total = process.memory_info().rss
     except psutil.Error:
-        return 0, time.perf_counter() - started
+        return 0, 0.0
+    started = time.perf_counter()
     for child in children:
         try:
             total += child.memory_full_info().uss
@@ -152,7 +154,7 @@ class PeakRSS:
             self.peak_bytes = max(self.peak_bytes, used)
             # a child's USS walks its page tables (tens of ms for a large forked worker): the
             # pause keeps the sampling under about a tenth of a core
-            self._stop.wait(max(self.sample_s, 10 * took))
+            self._stop.wait(min(max(self.sample_s, 10 * took), MAX_PAUSE_S))
 
     def __enter__(self) -> PeakRSS:
         import psutil
