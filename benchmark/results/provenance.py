@@ -12,7 +12,7 @@ from pathlib import Path
 from blendvoca.runtime.version import blendvoca_version
 from blendvoca.format import blas_kernels
 
-__all__ = ["OUTPUT_FOLDERS", "VERSIONED_PACKAGES", "current_provenance", "git_revision", "hardware_info",
+__all__ = ["OUTPUT_FOLDERS", "VERSIONED_PACKAGES", "cpu_info", "current_provenance", "git_revision", "hardware_info",
            "package_versions"]
 
 #: Distributions whose versions are recorded when installed.
@@ -58,14 +58,20 @@ def git_revision(directory=None) -> dict:
         return {"revision": None, "dirty": None}
 
 
-def _cpu_name() -> str:
+def cpu_info(field: str) -> str | None:
+    """A field of the first CPU in /proc/cpuinfo (``"model name"``, ``"vendor_id"``); None
+    where the system has no such file or the CPU no such field."""
     try:
         for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
+            if line.split(":", 1)[0].strip() == field:
                 return line.split(":", 1)[1].strip()
     except OSError:
         pass
-    return platform.processor() or platform.machine()
+    return None
+
+
+def _cpu_name() -> str:
+    return cpu_info("model name") or platform.processor() or platform.machine()
 
 
 def hardware_info() -> dict:

@@ -10,7 +10,6 @@ with digests recorded from the six loops before the refactor (commit 6c360dd).
 
 import hashlib
 import os
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -18,6 +17,7 @@ import torch
 
 from benchmark.methods.base import Budget, TrainingRequest
 from benchmark.protocol.convergence import preserved_random_state
+from benchmark.results.provenance import cpu_info
 from benchmark.testing import FakeBlendVOCA
 from tests.methods.test_checkpoint_hook import CASES
 
@@ -41,13 +41,7 @@ RECORDED_ON = "AuthenticAMD"
 
 def _cpu_vendor() -> str:
     """This machine's CPU vendor (``vendor_id`` of /proc/cpuinfo; "unknown" where there is none)."""
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("vendor_id"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return "unknown"
+    return cpu_info("vendor_id") or "unknown"
 
 
 @pytest.fixture(autouse=True)
