@@ -14,8 +14,9 @@ plan's default.
 The peak is that of the task's process *and* its child processes (a build's worker
 pool, a plug-in's subprocess): the process's RSS plus what each descendant holds alone
 (its USS: pages a forked worker shares with its parent are counted once), sampled by a
-thread every :data:`SAMPLE_S` seconds (up to :data:`MAX_PAUSE_S` while reading the children's
-USS takes more than a tenth of that: it walks their page tables), and two lower bounds that the sampling cannot miss:
+thread every :data:`SAMPLE_S` seconds (up to :data:`MAX_PAUSE_S` while reading the
+children's USS, which walks their page tables, takes more than a tenth of that), and
+two lower bounds that the sampling cannot miss:
 the process's own high-water mark (``VmHWM``, reset at the task's start through
 ``/proc/self/clear_refs`` on Linux) and the largest waited-for child's peak
 (``getrusage(RUSAGE_CHILDREN)``, when it rose during the task; Linux counts in a
@@ -70,12 +71,13 @@ MEASURED_MEMORY = Path(__file__).resolve().parents[1] / "measured-memory.json"
 
 def _rss_of_tree(process) -> tuple:
     """``(bytes, seconds)``: the memory ``process`` (a ``psutil.Process``) and its
-    descendants hold now, and what reading the descendants' USS took. The process counts its RSS; each
-    descendant only what it holds alone (its USS): a forked worker's pages shared with
-    its parent (copy-on-write) and the libraries both map are in the parent's RSS
-    already, and counting them again made a pool of forked workers look like copies of
-    its parent (a FaceFormer training with two fit workers: 28 GiB "measured" on a
-    24 GiB machine). A process that ends while being read counts nothing."""
+    descendants hold now, and what reading the descendants' USS took. The process counts
+    its RSS, each descendant only what it holds alone (its USS): a forked worker's pages
+    shared with its parent (copy on write) and the libraries both map are in the
+    parent's RSS already, and counting them again made a pool of forked workers look like
+    copies of its parent (the synthetic board's mean row: 28.4 GiB "measured" on a
+    23.5 GiB machine, 2.5 GiB counted so). A process that ends while being read counts
+    nothing."""
     import time
 
     import psutil
