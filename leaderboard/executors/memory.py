@@ -27,7 +27,10 @@ memory monitor and the kernel's OOM killer count. So it depends a little on wher
 task ran: the sequential executor's process carries what earlier tasks left (imported
 libraries, caches), a Ray worker imports Ray and is reused for later tasks (one at a
 time); the same task measured on both differed by up to about 20 %, which the margin
-covers (docs/results/reproduce-memory-measurements.md).
+covers (docs/results/reproduce-memory-measurements.md), but not after a large stage: a
+FaceFormer row's store stage read 9.6 GiB in the sequential process that had just scored
+it, where SAiD's reads 0.9 on Ray (docs/results/leaderboard-measurements.md). The
+committed table is measured on Ray.
 
 Units are GiB (2**30 bytes) throughout, as ``Resources.memory_gb``.
 """
