@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import errno
+import os
 import pickle
 from pathlib import Path
 
@@ -82,11 +84,35 @@ class OfficialWriter:
         return self.root
 
 
+def reserved_npy(path: Path, dtype, shape: tuple) -> np.memmap:
+    """A new ``.npy`` file of ``shape`` mapped for writing (``open_memmap(mode="w+")``), its
+    blocks reserved on the disk first.
+
+    ``open_memmap`` makes a sparse file; filling its pages through the map on a disk that
+    runs out of space ends the process with SIGBUS, with no error to report. Reserving the
+    blocks (``posix_fallocate``) turns that into an ``OSError`` (ENOSPC, naming the file) here,
+    before anything is written; the new file is removed. File systems that cannot reserve
+    blocks (EINVAL, EOPNOTSUPP) keep the sparse file.
+    """
+    rows = np.lib.format.open_memmap(path, mode="w+", dtype=dtype, shape=shape)
+    try:
+        with open(path, "r+b") as f:
+            os.posix_fallocate(f.fileno(), 0, os.fstat(f.fileno()).st_size)
+    except OSError as error:
+        if error.errno in (errno.EINVAL, errno.EOPNOTSUPP):
+            return rows
+        del rows
+        Path(path).unlink(missing_ok=True)
+        raise OSError(error.errno, error.strerror, str(path)) from None
+    return rows
+
+
 class ProcessedWriter:
     """Write ``data_verts.npy`` and the three pickles of the processed layout.
 
-    ``data_verts.npy`` is pre-allocated for ``total_frames`` and filled in place, so
-    a VOCASET-size corpus is written without holding it in memory.
+    ``data_verts.npy`` is pre-allocated for ``total_frames`` (its blocks reserved on the disk,
+    :func:`reserved_npy`) and filled in place, so a VOCASET-size corpus is written without
+    holding it in memory, and a disk too small for it is an error before the first frame.
 
     Parameters
     ----------
@@ -103,8 +129,7 @@ class ProcessedWriter:
         self.root = Path(root)
         self.root.mkdir(parents=True, exist_ok=True)
         self.num_vertices = num_vertices
-        self._verts = np.lib.format.open_memmap(self.root / "data_verts.npy", mode="w+", dtype=dtype,
-                                                shape=(int(total_frames), num_vertices, 3))
+        self._verts = reserved_npy(self.root / "data_verts.npy", dtype, (int(total_frames), num_vertices, 3))
         self._posed = None
         self._cursor = 0
         self._index: dict = {}
@@ -130,8 +155,7 @@ class ProcessedWriter:
         (unposed) frames: added after :meth:`add_sentence`."""
         frames = _check_sentence(subject, sentence, frames, self.num_vertices)
         if self._posed is None:
-            self._posed = np.lib.format.open_memmap(self.root / POSED_FILE, mode="w+", dtype=self._verts.dtype,
-                                                    shape=self._verts.shape)
+            self._posed = reserved_npy(self.root / POSED_FILE, self._verts.dtype, self._verts.shape)
         first = self._index[subject][sentence][0]
         self._posed[first:first + len(frames)] = frames
 

@@ -26,7 +26,12 @@ def test_the_log_of_two_cheap_rows_on_ray_is_short(tmp_path):
     assert done.returncode == 0, done.stderr[-3000:]
     log = done.stdout + done.stderr
     lines = log.split("\n")
-    assert len(lines) < 50, log
+    # The driver's bar is cleared and redrawn around each task's line; how often it is also redrawn in
+    # between depends on timing (a run prints 45-55 lines in all), so the bound is per task.
+    bar = [line for line in lines if not line.strip() or line.lstrip("\r").startswith("tasks:")]
+    other = [line for line in lines if line not in bar]
+    assert len(bar) <= 5 * 8, log  # at most five bar lines per task (the bug printed 713 fragments)
+    assert len(other) < 25, log  # a line per task, the Ray banner, the files written
     worker_lines = [line for line in lines if " pid=" in line and "%|" in line.split(" pid=", 1)[1]]
     assert not worker_lines, worker_lines  # no worker's bar forwarded
     assert log.count(": done (") == 8  # a line per task: data, expert, mean, 2 x (train, score), store

@@ -120,3 +120,41 @@ def test_the_processed_writer_puts_posed_frames_in_the_rows_of_the_unposed_ones(
         posed = corpus.posed_frames(f"S{k}", "sentence01")
         assert np.array_equal(posed, (frames + 1.0).astype(np.float32).astype(np.float64))
         assert np.allclose(posed - 1.0, corpus.frames(f"S{k}", "sentence01"), atol=1e-6)  # float32 storage
+
+
+def test_the_processed_writer_reserves_the_disk_its_frames_need(tmp_path):
+    """A sparse ``data_verts.npy`` filled through its memory map on a full disk ends the process with
+    SIGBUS (a CI run crashed so); the writer reserves the file's blocks before the first frame."""
+    import os
+
+    from blendvoca.vocaset import ProcessedWriter
+
+    ProcessedWriter(tmp_path, 20000, num_vertices=5)  # 1.2 MB of frames
+    status = os.stat(tmp_path / "data_verts.npy")
+    assert status.st_blocks * 512 >= status.st_size > 1_000_000  # sparse, it would hold two blocks
+
+
+def test_a_disk_too_small_for_the_frames_is_an_error_before_the_first_frame(tmp_path, monkeypatch, capsys):
+    import errno
+    import os
+
+    from blendvoca.errors import ran_out_of
+    from blendvoca.synthetic.__main__ import main
+    from blendvoca.vocaset import ProcessedWriter
+
+    def full_disk(fd, offset, length):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(os, "posix_fallocate", full_disk)
+    with pytest.raises(OSError) as caught:
+        ProcessedWriter(tmp_path / "w", 20000, num_vertices=5)
+    assert caught.value.errno == errno.ENOSPC and caught.value.filename == str(tmp_path / "w" / "data_verts.npy")
+    assert ran_out_of(caught.value) == "disk space"
+    assert not (tmp_path / "w" / "data_verts.npy").exists()  # nothing half-written
+    # the command a user runs: one error line naming the file, exit 2, no corpus folder left
+    code = main(["--out", str(tmp_path / "c"), "--layout", "processed", "--speakers", "3", "--sentences", "1",
+                 "--min-duration", "1", "--max-duration", "1.1", "--quiet"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1, err
+    assert err[0].startswith("error:") and "data_verts.npy" in err[0] and "ran out of disk space" in err[0]
+    assert not (tmp_path / "c").exists()
